@@ -1,0 +1,42 @@
+// Calibration boards: definitions (calib/boards/*.json) and printable SVGs.
+//
+// A board's object points are in the board frame: origin at the first inner
+// corner, x along rows, y along columns, z = 0 on the board, metres.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/file.h"
+#include "core/json.h"
+
+namespace mr {
+
+struct BoardSpec {
+  std::string name;
+  std::string type = "chessboard";  // "chessboard" or "charuco"
+  int inner_x = 0, inner_y = 0;     // inner corners per row and per column
+  double square_m = 0;              // square side, metres
+  double marker_m = 0;              // ChArUco marker side, metres
+  std::string dictionary;           // ChArUco: OpenCV ArUco dictionary name
+  std::string detector = "mrgingham";  // "mrgingham" or "opencv"
+
+  int squares_x() const { return inner_x + 1; }
+  int squares_y() const { return inner_y + 1; }
+  // Inner-corner positions, row-major (x fastest), metres, z = 0.
+  std::vector<Eigen::Vector3d> ObjectPoints() const;
+};
+
+BoardSpec ParseBoard(const Json& j, const std::string& name);
+BoardSpec ReadBoard(const fs::path& path);
+Json BoardToJson(const BoardSpec& b);
+
+// An SVG of the board at its physical size (width/height in mm), with a white
+// quiet zone of `margin_m` around it and a caption giving the size to check
+// the print with a ruler.  Chessboards only; ChArUco boards are drawn by
+// mr-calibrate's OpenCV backend.
+std::string BoardSvg(const BoardSpec& b, double margin_m = 0.01);
+
+}  // namespace mr

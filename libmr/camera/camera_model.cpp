@@ -1,0 +1,231 @@
+#include "camera/camera_model.h"
+
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+
+extern "C" {
+#include <mrcal/mrcal.h>
+}
+
+#include "core/error.h"
+#include "core/math.h"
+
+namespace mr {
+
+struct CameraModel::Impl {
+  mrcal_lensmodel_t lensmodel;
+};
+
+namespace {
+
+mrcal_lensmodel_t ParseLensModel(const std::string& name) {
+  mrcal_lensmodel_t m;
+  if (!mrcal_lensmodel_from_name(&m, name.c_str()))
+    ThrowError("unknown or misconfigured lens model \"{}\"", name);
+  return m;
+}
+
+std::string LensModelName(const mrcal_lensmodel_t& m) {
+  char buf[256];
+  if (!mrcal_lensmodel_name(buf, sizeof(buf), &m)) ThrowError("lens model name too long");
+  return buf;
+}
+
+struct CameramodelDeleter {
+  void operator()(mrcal_cameramodel_t* p) const { mrcal_free_cameramodel(&p); }
+};
+
+CameraModel FromMrcal(const mrcal_cameramodel_t& cm) {
+  const int n = mrcal_lensmodel_num_params(&cm.lensmodel);
+  std::vector<double> intrinsics(cm.intrinsics, cm.intrinsics + n);
+  return CameraModel(LensModelName(cm.lensmodel), std::move(intrinsics),
+                     static_cast<int>(cm.imagersize[0]), static_cast<int>(cm.imagersize[1]),
+                     Rigid3::FromRt(cm.rt_cam_ref));
+}
+
+bool IsStereographicFamily(mrcal_lensmodel_type_t t) {
+  return t == MRCAL_LENSMODEL_STEREOGRAPHIC || t == MRCAL_LENSMODEL_SPLINED_STEREOGRAPHIC ||
+         t == MRCAL_LENSMODEL_LONLAT || t == MRCAL_LENSMODEL_LATLON;
+}
+
+}  // namespace
+
+CameraModel::CameraModel() = default;
+
+CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intrinsics, int width,
+                         int height, const Rigid3& cam_from_ref)
+    : intrinsics_(std::move(intrinsics)), width_(width), height_(height), cam_from_ref_(cam_from_ref) {
+  auto impl = std::make_shared<Impl>();
+  impl->lensmodel = ParseLensModel(lensmodel);
+  lensmodel_ = LensModelName(impl->lensmodel);
+  const int n = mrcal_lensmodel_num_params(&impl->lensmodel);
+  if (static_cast<int>(intrinsics_.size()) != n)
+    ThrowError("{} takes {} intrinsics, got {}", lensmodel_, n, intrinsics_.size());
+  if (!AllFinite(intrinsics_.begin(), intrinsics_.end()))
+    ThrowError("{}: intrinsics contain NaN or Inf", lensmodel_);
+  if (width <= 0 || height <= 0) ThrowError("image size {}x{} is not positive", width, height);
+  if (intrinsics_[0] <= 0 || intrinsics_[1] <= 0)
+    ThrowError("{}: focal lengths must be positive, got {} and {}", lensmodel_, intrinsics_[0],
+               intrinsics_[1]);
+  impl_ = std::move(impl);
+}
+
+CameraModel CameraModel::FromString(const std::string& text, const std::string& name) {
+  // libmrcal prints its parse diagnostics to stderr and returns NULL.
+  std::unique_ptr<mrcal_cameramodel_t, CameramodelDeleter> cm(
+      mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size())));
+  if (!cm)
+    ThrowErrorAt(FileLoc{name}, "not a valid mrcal .cameramodel (libmrcal's parser rejected it)");
+  try {
+    return FromMrcal(*cm);
+  } catch (const Error& e) {
+    ThrowErrorAt(FileLoc{name}, "{}", e.message());
+  }
+}
+
+CameraModel CameraModel::Read(const fs::path& path) {
+  return FromString(ReadTextFile(path), path.string());
+}
+
+void CameraModel::Write(const fs::path& path) const {
+  MR_CHECK(impl_);
+  const size_t bytes = sizeof(mrcal_cameramodel_t) + intrinsics_.size() * sizeof(double);
+  std::unique_ptr<mrcal_cameramodel_t, decltype(&std::free)> cm(
+      static_cast<mrcal_cameramodel_t*>(std::calloc(1, bytes)), &std::free);
+  cam_from_ref_.ToRt(cm->rt_cam_ref);
+  cm->imagersize[0] = static_cast<unsigned>(width_);
+  cm->imagersize[1] = static_cast<unsigned>(height_);
+  cm->lensmodel = impl_->lensmodel;
+  std::memcpy(cm->intrinsics, intrinsics_.data(), intrinsics_.size() * sizeof(double));
+  WriteAtomically(path, [&](const fs::path& tmp) {
+    if (!mrcal_write_cameramodel_file(tmp.c_str(), cm.get()))
+      ThrowErrorAt(FileLoc{path.string()}, "libmrcal could not write the camera model");
+  });
+}
+
+bool CameraModel::SeesBehind() const {
+  MR_CHECK(impl_);
+  return IsStereographicFamily(impl_->lensmodel.type);
+}
+
+Eigen::Vector4d CameraModel::Core() const {
+  return {intrinsics_[0], intrinsics_[1], intrinsics_[2], intrinsics_[3]};
+}
+
+bool CameraModel::Project(const Eigen::Vector3d& p, Eigen::Vector2d* q) const {
+  MR_CHECK(impl_);
+  if (!p.allFinite() || p.squaredNorm() == 0) return false;
+  const auto type = impl_->lensmodel.type;
+  if (!IsStereographicFamily(type) && p.z() <= 0) return false;
+  // The stereographic projection is singular straight backwards.
+  if (IsStereographicFamily(type) && p.z() < 0 && p.head<2>().norm() <= 1e-12 * -p.z())
+    return false;
+  mrcal_point3_t pm = {{p.x(), p.y(), p.z()}};
+  mrcal_point2_t qm;
+  if (!mrcal_project(&qm, nullptr, nullptr, &pm, 1, &impl_->lensmodel, intrinsics_.data()))
+    return false;
+  if (!std::isfinite(qm.x) || !std::isfinite(qm.y)) return false;
+  *q = Eigen::Vector2d(qm.x, qm.y);
+  return true;
+}
+
+void CameraModel::Project(const std::vector<Eigen::Vector3d>& p, std::vector<Eigen::Vector2d>* q,
+                          std::vector<char>* ok) const {
+  q->resize(p.size());
+  if (ok) ok->resize(p.size());
+  for (size_t i = 0; i < p.size(); ++i) {
+    bool good = Project(p[i], &(*q)[i]);
+    if (!good) (*q)[i].setConstant(std::numeric_limits<double>::quiet_NaN());
+    if (ok) (*ok)[i] = good;
+  }
+}
+
+bool CameraModel::Unproject(const Eigen::Vector2d& q, Eigen::Vector3d* dir) const {
+  MR_CHECK(impl_);
+  if (!q.allFinite()) return false;
+  Eigen::Vector3d v;
+  if (impl_->lensmodel.type == MRCAL_LENSMODEL_CAHVORE) {
+    // libmrcal cannot unproject CAHVORE: Gauss-Newton on the stereographic
+    // coordinates u of the direction, with a central-difference Jacobian,
+    // started from the pinhole core.
+    const Eigen::Vector4d c = Core();
+    auto dir_from_u = [](const Eigen::Vector2d& u) -> Eigen::Vector3d {
+      const double n2 = u.squaredNorm();
+      return Eigen::Vector3d(4 * u.x(), 4 * u.y(), 4 - n2) / (4 + n2);
+    };
+    Eigen::Vector2d pin((q.x() - c[2]) / c[0], (q.y() - c[3]) / c[1]);
+    Eigen::Vector3d d0 = Eigen::Vector3d(pin.x(), pin.y(), 1).normalized();
+    Eigen::Vector2d u = 2 * d0.head<2>() / (1 + d0.z());
+    bool converged = false;
+    for (int it = 0; it < 50 && !converged; ++it) {
+      Eigen::Vector2d q0;
+      if (!Project(dir_from_u(u), &q0)) return false;
+      Eigen::Vector2d r = q0 - q;
+      if (r.norm() < 1e-9) {
+        converged = true;
+        break;
+      }
+      Eigen::Matrix2d J;
+      const double h = 1e-6;
+      for (int k = 0; k < 2; ++k) {
+        Eigen::Vector2d up = u, um = u, qp, qm;
+        up[k] += h;
+        um[k] -= h;
+        if (!Project(dir_from_u(up), &qp) || !Project(dir_from_u(um), &qm)) return false;
+        J.col(k) = (qp - qm) / (2 * h);
+      }
+      if (std::abs(J.determinant()) < 1e-300) return false;
+      u -= J.inverse() * r;
+    }
+    v = dir_from_u(u);
+  } else {
+    mrcal_point2_t qm = {{q.x(), q.y()}};
+    mrcal_point3_t vm;
+    if (!mrcal_unproject(&vm, &qm, 1, &impl_->lensmodel, intrinsics_.data())) return false;
+    v = Eigen::Vector3d(vm.x, vm.y, vm.z);
+  }
+  if (!v.allFinite() || v.squaredNorm() == 0) return false;
+  v.normalize();
+  // Accept only a direction that projects back onto q (the solver can stall
+  // outside the model's domain and return an arbitrary vector).
+  Eigen::Vector2d back;
+  if (!Project(v, &back) || (back - q).norm() > 1e-3 * std::max(1.0, Core()[0] / 1000.0))
+    return false;
+  *dir = v;
+  return true;
+}
+
+namespace {
+double FovBetween(const CameraModel& m, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                  const Eigen::Vector2d& centre) {
+  Eigen::Vector3d da, db, dc;
+  if (!m.Unproject(a, &da) || !m.Unproject(b, &db)) return std::numeric_limits<double>::quiet_NaN();
+  // Through the centre: sum of the two half angles, so that > 180 deg works.
+  if (m.Unproject(centre, &dc)) return (AngleBetween(da, dc) + AngleBetween(dc, db)) * kRadToDeg;
+  return AngleBetween(da, db) * kRadToDeg;
+}
+}  // namespace
+
+double CameraModel::HorizontalFovDeg() const {
+  const double y = (height_ - 1) / 2.0;
+  return FovBetween(*this, {-0.5, y}, {width_ - 0.5, y}, {Core()[2], y});
+}
+
+double CameraModel::VerticalFovDeg() const {
+  const double x = (width_ - 1) / 2.0;
+  return FovBetween(*this, {x, -0.5}, {x, height_ - 0.5}, {x, Core()[3]});
+}
+
+std::string CameraModel::Describe() const {
+  return fmt::format("{} {}x{}, fov {:.1f} x {:.1f} deg", lensmodel_, width_, height_,
+                     HorizontalFovDeg(), VerticalFovDeg());
+}
+
+std::vector<std::string> SupportedLensModels() {
+  std::vector<std::string> names;
+  for (const char* const* p = mrcal_supported_lensmodel_names(); *p; ++p) names.emplace_back(*p);
+  return names;
+}
+
+}  // namespace mr

@@ -1,0 +1,204 @@
+// Image reading and writing through OpenImageIO (kept out of public headers).
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "core/math.h"
+#include "core/version.h"
+
+namespace mr {
+
+namespace {
+
+std::string PixelTypeName(OIIO::TypeDesc t) {
+  if (t == OIIO::TypeDesc::HALF) return "half";
+  if (t == OIIO::TypeDesc::FLOAT) return "float";
+  if (t == OIIO::TypeDesc::UINT8) return "uint8";
+  if (t == OIIO::TypeDesc::UINT16) return "uint16";
+  return t.c_str();
+}
+
+bool IsIntegerType(OIIO::TypeDesc t) {
+  return t.basetype != OIIO::TypeDesc::HALF && t.basetype != OIIO::TypeDesc::FLOAT &&
+         t.basetype != OIIO::TypeDesc::DOUBLE;
+}
+
+ImageFileInfo InfoFromSpec(const OIIO::ImageInput& in, const OIIO::ImageSpec& spec) {
+  ImageFileInfo info;
+  info.format = in.format_name();
+  info.pixel_type = PixelTypeName(spec.format);
+  for (const auto& p : spec.extra_attribs) {
+    std::string name = p.name().string();
+    if (name.rfind("mr:", 0) == 0 || name == "oiio:ColorSpace" || name == "Software" ||
+        name == "envmap" || name == "openexr:envmap" || name == "compression" ||
+        name == "ExposureTime" || name == "oiio:BitsPerSample")
+      info.attributes[name] = spec.get_string_attribute(name);
+  }
+  return info;
+}
+
+std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* spec) {
+  RequireFile(path, "image");
+  auto in = OIIO::ImageInput::open(path.string());
+  if (!in) {
+    std::string err = OIIO::geterror();
+    if (err.empty()) err = "not a readable image";
+    ThrowErrorAt(FileLoc{path.string()}, "cannot read image: {}", err);
+  }
+  *spec = in->spec();
+  return in;
+}
+
+}  // namespace
+
+ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height,
+                              std::vector<std::string>* channels) {
+  OIIO::ImageSpec spec;
+  auto in = Open(path, &spec);
+  ImageFileInfo info = InfoFromSpec(*in, spec);
+  int n = 0;
+  while (in->seek_subimage(n, 0)) ++n;
+  info.subimages = std::max(1, n);
+  if (width) *width = spec.width;
+  if (height) *height = spec.height;
+  if (channels) *channels = spec.channelnames;
+  return info;
+}
+
+Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFileInfo* info_out) {
+  OIIO::ImageSpec spec;
+  auto in = Open(path, &spec);
+  const FileLoc loc{path.string()};
+  ImageFileInfo info = InfoFromSpec(*in, spec);
+  if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
+    ThrowErrorAt(loc, "image has no pixels ({}x{}, {} channels)", spec.width, spec.height,
+                 spec.nchannels);
+  if (spec.depth > 1) ThrowErrorAt(loc, "volume images are not supported");
+  const int64_t pixels = static_cast<int64_t>(spec.width) * spec.height;
+  if (pixels > options.max_pixels)
+    ThrowErrorAt(loc, "image is {}x{} = {} pixels, more than the limit of {} (corrupt header?)",
+                 spec.width, spec.height, pixels, options.max_pixels);
+
+  std::vector<std::string> names = spec.channelnames;
+  for (size_t i = 0; i < names.size(); ++i)
+    if (names[i].empty()) names[i] = fmt::format("ch{}", i);
+  Image img(spec.width, spec.height, names);
+  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.data())) {
+    std::string err = in->geterror();
+    ThrowErrorAt(loc, "cannot read pixels (truncated or corrupt file?): {}",
+                 err.empty() ? "unknown error" : err);
+  }
+
+  if (IsIntegerType(spec.format)) {
+    info.decoded_from_ldr = true;
+    std::string cs = spec.get_string_attribute("oiio:ColorSpace");
+    Transfer t = options.default_ldr_transfer;
+    if (cs == "Linear" || cs == "linear") t = Transfer::kLinear;
+    else if (cs == "sRGB") t = Transfer::kSrgb;
+    info.transfer = t;
+    if (t == Transfer::kSrgb) {
+      const int alpha = spec.alpha_channel;
+      const int nc = img.channels();
+      for (int64_t p = 0; p < img.pixel_count(); ++p)
+        for (int c = 0; c < nc; ++c)
+          if (c != alpha) img.data()[p * nc + c] = SrgbToLinear(img.data()[p * nc + c]);
+    }
+  }
+
+  if (options.nonfinite == NonFinite::kReject) {
+    int64_t nan = 0, inf = 0, first = -1;
+    for (size_t i = 0; i < img.values().size(); ++i) {
+      float v = img.values()[i];
+      if (std::isfinite(v)) continue;
+      (std::isnan(v) ? nan : inf)++;
+      if (first < 0) first = static_cast<int64_t>(i);
+    }
+    if (first >= 0) {
+      const int nc = img.channels();
+      int64_t p = first / nc;
+      ThrowErrorAt(loc,
+                   "{} NaN and {} Inf values; the first at pixel ({}, {}) channel {}",
+                   nan, inf, p % img.width(), p / img.width(),
+                   img.channel_names()[static_cast<size_t>(first % nc)]);
+    }
+  }
+  if (info_out) *info_out = info;
+  return img;
+}
+
+ImageWriteResult WriteImage(const fs::path& path, const Image& img,
+                            const ImageWriteOptions& options) {
+  const FileLoc loc{path.string()};
+  if (img.empty()) ThrowErrorAt(loc, "refusing to write an empty image");
+  const std::string ext = LowerExtension(path);
+  PixelType type = options.pixel_type;
+  if (type == PixelType::kDefault) {
+    if (ext == ".exr" || ext == ".hdr") type = PixelType::kFloat;
+    else if (ext == ".tif" || ext == ".tiff") type = PixelType::kUint16;
+    else if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") type = PixelType::kUint8;
+    else ThrowErrorAt(loc, "unsupported image extension \"{}\" (use .exr .hdr .png .jpg .tif)", ext);
+  }
+  if ((ext == ".jpg" || ext == ".jpeg") && type != PixelType::kUint8)
+    ThrowErrorAt(loc, "JPEG stores 8-bit pixels only");
+  if (ext == ".png" && type != PixelType::kUint8 && type != PixelType::kUint16)
+    ThrowErrorAt(loc, "PNG stores 8- or 16-bit pixels only");
+  if (ext == ".hdr" && (type != PixelType::kFloat || img.channels() != 3))
+    ThrowErrorAt(loc, "Radiance HDR stores 3-channel float images only");
+
+  ImageWriteResult result;
+  std::vector<float> pixels = img.values();
+  OIIO::TypeDesc format = OIIO::TypeDesc::FLOAT;
+  if (type == PixelType::kHalf) {
+    format = OIIO::TypeDesc::HALF;
+    for (float& v : pixels) {
+      if (std::isfinite(v) && std::abs(v) > kHalfMax) {
+        ++result.clamped_half;
+        v = std::copysign(kHalfMax, v);
+      }
+    }
+    if (result.clamped_half > 0 && !options.clamp_half)
+      ThrowErrorAt(loc,
+                   "{} values exceed the half-float maximum 65504; write float32, or allow "
+                   "clamping (--clamp-half)",
+                   result.clamped_half);
+  } else if (type == PixelType::kUint8 || type == PixelType::kUint16) {
+    format = type == PixelType::kUint8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
+    const int nc = img.channels();
+    const int alpha = img.ChannelIndex("A");
+    for (size_t i = 0; i < pixels.size(); ++i) {
+      float v = pixels[i];
+      if (!std::isfinite(v)) ThrowErrorAt(loc, "cannot encode NaN/Inf as an integer pixel");
+      if (v < 0.0f || v > 1.0f) ++result.clipped_ldr;
+      v = Clamp(v, 0.0f, 1.0f);
+      if (options.ldr_transfer == Transfer::kSrgb && static_cast<int>(i % nc) != alpha)
+        v = LinearToSrgb(v);
+      pixels[i] = v;
+    }
+  }
+
+  OIIO::ImageSpec spec(img.width(), img.height(), img.channels(), format);
+  spec.channelnames = img.channel_names();
+  spec.alpha_channel = img.ChannelIndex("A");
+  if (!options.tool.empty()) spec.attribute("mr:tool", options.tool);
+  spec.attribute("mr:version", kVersion);
+  if (!options.command_line.empty()) spec.attribute("mr:command_line", options.command_line);
+  for (const auto& [k, v] : options.attributes) spec.attribute(k, v);
+  if (format == OIIO::TypeDesc::UINT8 || format == OIIO::TypeDesc::UINT16)
+    spec.attribute("oiio:ColorSpace", options.ldr_transfer == Transfer::kSrgb ? "sRGB" : "Linear");
+  if (ext == ".exr") spec.attribute("compression", "zip");
+  if (ext == ".jpg" || ext == ".jpeg") spec.attribute("Compression", fmt::format("jpeg:{}", options.jpeg_quality));
+
+  WriteAtomically(path, [&](const fs::path& tmp) {
+    auto out = OIIO::ImageOutput::create(tmp.string());
+    if (!out) ThrowErrorAt(loc, "cannot create image writer: {}", OIIO::geterror());
+    if (!out->open(tmp.string(), spec)) ThrowErrorAt(loc, "cannot open for writing: {}", out->geterror());
+    if (!out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()))
+      ThrowErrorAt(loc, "cannot write pixels: {}", out->geterror());
+    if (!out->close()) ThrowErrorAt(loc, "cannot finish writing: {}", out->geterror());
+  });
+  return result;
+}
+
+}  // namespace mr

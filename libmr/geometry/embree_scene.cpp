@@ -1,0 +1,262 @@
+#include "geometry/embree_scene.h"
+
+#include <embree3/rtcore.h>
+
+#include <cstring>
+#include <mutex>
+#include <string>
+
+#include "core/check.h"
+#include "core/error.h"
+
+namespace mr {
+
+namespace {
+
+void ErrorCallback(void* user, RTCError code, const char* str) {
+  auto* msg = static_cast<std::string*>(user);
+  if (code != RTC_ERROR_NONE && msg->empty()) *msg = str ? str : "unknown Embree error";
+}
+
+RTCGeometry MakeTriangleGeometry(RTCDevice device, const Mesh& mesh) {
+  mesh.Validate("mesh given to Embree");
+  RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                                                        3 * sizeof(float), mesh.positions.size()));
+  auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+      g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), mesh.triangles.size()));
+  MR_CHECK(v && idx);
+  for (size_t i = 0; i < mesh.positions.size(); ++i) std::memcpy(v + 3 * i, mesh.positions[i].data(), 12);
+  for (size_t i = 0; i < mesh.triangles.size(); ++i)
+    for (int k = 0; k < 3; ++k) idx[3 * i + k] = static_cast<uint32_t>(mesh.triangles[i][k]);
+  rtcCommitGeometry(g);
+  return g;
+}
+
+void ToRTC(const Ray& r, RTCRay* out) {
+  out->org_x = r.origin.x();
+  out->org_y = r.origin.y();
+  out->org_z = r.origin.z();
+  out->dir_x = r.direction.x();
+  out->dir_y = r.direction.y();
+  out->dir_z = r.direction.z();
+  out->tnear = r.tnear;
+  out->tfar = r.tfar;
+  out->time = 0;
+  out->mask = r.mask;
+  out->id = 0;
+  out->flags = 0;
+}
+
+}  // namespace
+
+struct EmbreeScene::Impl {
+  std::string error;
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  std::vector<RTCScene> prototypes;
+  std::vector<char> is_virtual;  // by geometry id
+  bool committed = false;
+
+  void Check(const char* what) {
+    if (!error.empty()) {
+      std::string e = std::move(error);
+      error.clear();
+      ThrowError("Embree: {}: {}", what, e);
+    }
+  }
+  void Record(uint32_t id, bool v) {
+    if (is_virtual.size() <= id) is_virtual.resize(id + 1, 0);
+    is_virtual[id] = v;
+  }
+  void Fill(const RTCRayHit& rh, Hit* hit) const {
+    *hit = Hit();
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return;
+    // For an instance, instID[0] is the geometry id in the top-level scene.
+    const uint32_t id = rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID ? rh.hit.instID[0] : rh.hit.geomID;
+    hit->t = rh.ray.tfar;
+    hit->uv = Eigen::Vector2f(rh.hit.u, rh.hit.v);
+    hit->geometric_normal = Eigen::Vector3f(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
+    hit->geometry_id = id;
+    hit->primitive_id = rh.hit.primID;
+    hit->is_virtual = id < is_virtual.size() && is_virtual[id];
+  }
+};
+
+EmbreeScene::EmbreeScene() : impl_(std::make_unique<Impl>()) {
+  impl_->device = rtcNewDevice(nullptr);
+  if (!impl_->device) ThrowError("Embree: cannot create a device");
+  rtcSetDeviceErrorFunction(impl_->device, ErrorCallback, &impl_->error);
+  if (!rtcGetDeviceProperty(impl_->device, RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED))
+    ThrowError("this Embree build lacks ray masks, which mr needs for real/virtual rays");
+  impl_->scene = rtcNewScene(impl_->device);
+  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
+  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+  impl_->Check("creating the scene");
+}
+
+EmbreeScene::~EmbreeScene() {
+  for (RTCScene s : impl_->prototypes) rtcReleaseScene(s);
+  if (impl_->scene) rtcReleaseScene(impl_->scene);
+  if (impl_->device) rtcReleaseDevice(impl_->device);
+}
+
+uint32_t EmbreeScene::AddMesh(const Mesh& mesh, bool is_virtual) {
+  MR_CHECK(!impl_->committed);
+  RTCGeometry g = MakeTriangleGeometry(impl_->device, mesh);
+  rtcSetGeometryMask(g, is_virtual ? kMaskVirtual : kMaskReal);
+  rtcCommitGeometry(g);
+  uint32_t id = rtcAttachGeometry(impl_->scene, g);
+  rtcReleaseGeometry(g);
+  impl_->Check("adding a mesh");
+  impl_->Record(id, is_virtual);
+  return id;
+}
+
+uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
+  RTCScene s = rtcNewScene(impl_->device);
+  rtcSetSceneFlags(s, RTC_SCENE_FLAG_ROBUST);
+  RTCGeometry g = MakeTriangleGeometry(impl_->device, mesh);
+  rtcAttachGeometry(s, g);
+  rtcReleaseGeometry(g);
+  rtcCommitScene(s);
+  impl_->Check("building a prototype");
+  impl_->prototypes.push_back(s);
+  return static_cast<uint32_t>(impl_->prototypes.size() - 1);
+}
+
+uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object,
+                                  bool is_virtual) {
+  MR_CHECK(!impl_->committed);
+  MR_CHECK_LT(prototype, impl_->prototypes.size());
+  if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
+  if (std::abs(world_from_object.linear().determinant()) < 1e-20f)
+    ThrowError("instance transform is singular");
+  RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+  rtcSetGeometryInstancedScene(g, impl_->prototypes[prototype]);
+  Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
+  // Column-major 3x4.
+  rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
+  rtcSetGeometryMask(g, is_virtual ? kMaskVirtual : kMaskReal);
+  rtcCommitGeometry(g);
+  uint32_t id = rtcAttachGeometry(impl_->scene, g);
+  rtcReleaseGeometry(g);
+  impl_->Check("adding an instance");
+  impl_->Record(id, is_virtual);
+  return id;
+}
+
+void EmbreeScene::Commit() {
+  rtcCommitScene(impl_->scene);
+  impl_->Check("building the scene");
+  impl_->committed = true;
+}
+
+bool EmbreeScene::IsVirtual(uint32_t id) const {
+  return id < impl_->is_virtual.size() && impl_->is_virtual[id];
+}
+
+size_t EmbreeScene::geometry_count() const { return impl_->is_virtual.size(); }
+
+bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {
+  MR_CHECK(impl_->committed);
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRayHit rh;
+  ToRTC(ray, &rh.ray);
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(impl_->scene, &ctx, &rh);
+  impl_->Fill(rh, hit);
+  return hit->valid();
+}
+
+bool EmbreeScene::Occluded(const Ray& ray) const {
+  MR_CHECK(impl_->committed);
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  RTCRay r;
+  ToRTC(ray, &r);
+  rtcOccluded1(impl_->scene, &ctx, &r);
+  return r.tfar < 0;  // Embree sets tfar = -inf on a hit
+}
+
+void EmbreeScene::Intersect(std::span<const Ray> rays, std::span<Hit> hits) const {
+  MR_CHECK(impl_->committed);
+  MR_CHECK_EQ(rays.size(), hits.size());
+  std::vector<RTCRayHit> rh(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) {
+    ToRTC(rays[i], &rh[i].ray);
+    rh[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  }
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  rtcIntersect1M(impl_->scene, &ctx, rh.data(), static_cast<unsigned>(rh.size()), sizeof(RTCRayHit));
+  for (size_t i = 0; i < rays.size(); ++i) impl_->Fill(rh[i], &hits[i]);
+}
+
+void EmbreeScene::Occluded(std::span<const Ray> rays, std::span<char> occluded) const {
+  MR_CHECK(impl_->committed);
+  MR_CHECK_EQ(rays.size(), occluded.size());
+  std::vector<RTCRay> r(rays.size());
+  for (size_t i = 0; i < rays.size(); ++i) ToRTC(rays[i], &r[i]);
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+  rtcOccluded1M(impl_->scene, &ctx, r.data(), static_cast<unsigned>(r.size()), sizeof(RTCRay));
+  for (size_t i = 0; i < rays.size(); ++i) occluded[i] = r[i].tfar < 0;
+}
+
+void EmbreeScene::IntersectPacket8(std::span<const Ray> rays, std::span<Hit> hits) const {
+  MR_CHECK(impl_->committed);
+  MR_CHECK(rays.size() <= 8 && rays.size() == hits.size());
+  alignas(32) int valid[8];
+  alignas(32) RTCRayHit8 rh;
+  std::memset(&rh, 0, sizeof(rh));
+  for (int i = 0; i < 8; ++i) {
+    const bool active = static_cast<size_t>(i) < rays.size();
+    valid[i] = active ? -1 : 0;
+    rh.hit.geomID[i] = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0][i] = RTC_INVALID_GEOMETRY_ID;
+    if (!active) continue;
+    const Ray& r = rays[static_cast<size_t>(i)];
+    rh.ray.org_x[i] = r.origin.x();
+    rh.ray.org_y[i] = r.origin.y();
+    rh.ray.org_z[i] = r.origin.z();
+    rh.ray.dir_x[i] = r.direction.x();
+    rh.ray.dir_y[i] = r.direction.y();
+    rh.ray.dir_z[i] = r.direction.z();
+    rh.ray.tnear[i] = r.tnear;
+    rh.ray.tfar[i] = r.tfar;
+    rh.ray.mask[i] = r.mask;
+  }
+  RTCIntersectContext ctx;
+  rtcInitIntersectContext(&ctx);
+  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
+  rtcIntersect8(valid, impl_->scene, &ctx, &rh);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    RTCRayHit one;
+    one.ray.tfar = rh.ray.tfar[i];
+    one.hit.u = rh.hit.u[i];
+    one.hit.v = rh.hit.v[i];
+    one.hit.Ng_x = rh.hit.Ng_x[i];
+    one.hit.Ng_y = rh.hit.Ng_y[i];
+    one.hit.Ng_z = rh.hit.Ng_z[i];
+    one.hit.geomID = rh.hit.geomID[i];
+    one.hit.primID = rh.hit.primID[i];
+    one.hit.instID[0] = rh.hit.instID[0][i];
+    impl_->Fill(one, &hits[i]);
+  }
+}
+
+Eigen::AlignedBox3f EmbreeScene::Bounds() const {
+  MR_CHECK(impl_->committed);
+  alignas(16) RTCBounds b;
+  rtcGetSceneBounds(impl_->scene, &b);
+  return Eigen::AlignedBox3f(Eigen::Vector3f(b.lower_x, b.lower_y, b.lower_z),
+                             Eigen::Vector3f(b.upper_x, b.upper_y, b.upper_z));
+}
+
+}  // namespace mr

@@ -1,0 +1,354 @@
+// Mesh reading through OpenMesh, with an ASCII-PLY pre-pass that OpenMesh
+// lacks: it finds non-standard comment lines inside element data (the
+// Stanford bunny res4 has two), non-finite coordinates and out-of-range face
+// indices, and reports each with its line number.
+#include <OpenMesh/Core/IO/MeshIO.hh>
+#include <OpenMesh/Core/IO/IOManager.hh>
+#include <OpenMesh/Core/IO/importer/BaseImporter.hh>
+
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/math.h"
+#include "geometry/mesh.h"
+
+namespace mr {
+
+namespace {
+
+// Collects vertices and polygons exactly as the file lists them.
+class SoupImporter : public OpenMesh::IO::BaseImporter {
+ public:
+  using VH = OpenMesh::VertexHandle;
+  using FH = OpenMesh::FaceHandle;
+  using HH = OpenMesh::HalfedgeHandle;
+  using EH = OpenMesh::EdgeHandle;
+  std::vector<Eigen::Vector3f> positions, normals, colors;
+  std::vector<Eigen::Vector2f> uvs;
+  std::vector<std::vector<int>> faces;
+  bool has_normals = false, has_colors = false, has_uvs = false;
+
+  VH add_vertex(const OpenMesh::Vec3f& p) override {
+    positions.emplace_back(p[0], p[1], p[2]);
+    return VH(static_cast<int>(positions.size() - 1));
+  }
+  VH add_vertex() override { return add_vertex(OpenMesh::Vec3f(0, 0, 0)); }
+  HH add_edge(VH, VH) override { return HH(); }
+  FH add_face(const VHandles& idx) override {
+    std::vector<int> f;
+    for (auto v : idx) f.push_back(v.idx());
+    faces.push_back(std::move(f));
+    return FH(static_cast<int>(faces.size() - 1));
+  }
+  FH add_face(HH) override { return FH(); }
+  void add_face_texcoords(FH, VH, const std::vector<OpenMesh::Vec2f>&) override {}
+  void add_face_texcoords(FH, VH, const std::vector<OpenMesh::Vec3f>&) override {}
+  void set_face_texindex(FH, int) override {}
+  void set_point(VH v, const OpenMesh::Vec3f& p) override { At(positions, v) = Eigen::Vector3f(p[0], p[1], p[2]); }
+  void set_halfedge(VH, HH) override {}
+  void set_normal(VH v, const OpenMesh::Vec3f& n) override {
+    has_normals = true;
+    At(normals, v) = Eigen::Vector3f(n[0], n[1], n[2]);
+  }
+  void set_normal(VH v, const OpenMesh::Vec3d& n) override { set_normal(v, OpenMesh::Vec3f(n)); }
+  void set_color(VH v, const OpenMesh::Vec3uc& c) override {
+    has_colors = true;
+    At(colors, v) = Eigen::Vector3f(c[0] / 255.0f, c[1] / 255.0f, c[2] / 255.0f);
+  }
+  void set_color(VH v, const OpenMesh::Vec4uc& c) override { set_color(v, OpenMesh::Vec3uc(c[0], c[1], c[2])); }
+  void set_color(VH v, const OpenMesh::Vec3f& c) override {
+    has_colors = true;
+    At(colors, v) = Eigen::Vector3f(c[0], c[1], c[2]);
+  }
+  void set_color(VH v, const OpenMesh::Vec4f& c) override { set_color(v, OpenMesh::Vec3f(c[0], c[1], c[2])); }
+  void set_texcoord(VH v, const OpenMesh::Vec2f& t) override {
+    has_uvs = true;
+    At(uvs, v) = Eigen::Vector2f(t[0], t[1]);
+  }
+  void set_status(VH, const OpenMesh::Attributes::StatusInfo&) override {}
+  void set_next(HH, HH) override {}
+  void set_face(HH, FH) override {}
+  void request_face_texcoords2D() override {}
+  void set_texcoord(HH, const OpenMesh::Vec2f&) override {}
+  void set_texcoord(VH v, const OpenMesh::Vec3f& t) override { set_texcoord(v, OpenMesh::Vec2f(t[0], t[1])); }
+  void set_texcoord(HH, const OpenMesh::Vec3f&) override {}
+  void set_status(HH, const OpenMesh::Attributes::StatusInfo&) override {}
+  void set_color(EH, const OpenMesh::Vec3uc&) override {}
+  void set_color(EH, const OpenMesh::Vec4uc&) override {}
+  void set_color(EH, const OpenMesh::Vec3f&) override {}
+  void set_color(EH, const OpenMesh::Vec4f&) override {}
+  void set_status(EH, const OpenMesh::Attributes::StatusInfo&) override {}
+  void set_normal(FH, const OpenMesh::Vec3f&) override {}
+  void set_normal(FH, const OpenMesh::Vec3d&) override {}
+  void set_color(FH, const OpenMesh::Vec3uc&) override {}
+  void set_color(FH, const OpenMesh::Vec4uc&) override {}
+  void set_color(FH, const OpenMesh::Vec3f&) override {}
+  void set_color(FH, const OpenMesh::Vec4f&) override {}
+  void set_status(FH, const OpenMesh::Attributes::StatusInfo&) override {}
+  void add_texture_information(int, std::string) override {}
+  size_t n_vertices() const override { return positions.size(); }
+  size_t n_faces() const override { return faces.size(); }
+  size_t n_edges() const override { return 0; }
+
+ private:
+  template <typename T>
+  T& At(std::vector<T>& v, VH h) {
+    const size_t i = static_cast<size_t>(h.idx());
+    if (v.size() <= i) v.resize(std::max(i + 1, positions.size()), T::Zero());
+    return v[i];
+  }
+};
+
+struct PlyHeader {
+  bool ascii = false;
+  bool binary = false;
+  int64_t vertices = -1, faces = -1;
+  std::vector<std::string> vertex_props;
+  int header_lines = 0;
+};
+
+// Parses the PLY header of `text`; returns false when it is not a PLY.
+bool ParsePlyHeader(const std::string& text, PlyHeader* h, const std::string& name) {
+  std::istringstream in(text);
+  std::string line;
+  if (!std::getline(in, line) || line.rfind("ply", 0) != 0) return false;
+  h->header_lines = 1;
+  std::string element;
+  while (std::getline(in, line)) {
+    ++h->header_lines;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    std::istringstream ls(line);
+    std::string kw;
+    ls >> kw;
+    if (kw == "format") {
+      std::string f;
+      ls >> f;
+      h->ascii = f == "ascii";
+      h->binary = !h->ascii;
+    } else if (kw == "element") {
+      int64_t n = -1;
+      ls >> element >> n;
+      if (n < 0) ThrowErrorAt(FileLoc{name, h->header_lines}, "bad element count");
+      if (element == "vertex") h->vertices = n;
+      if (element == "face") h->faces = n;
+    } else if (kw == "property" && element == "vertex") {
+      std::string type, prop;
+      ls >> type >> prop;
+      h->vertex_props.push_back(prop);
+    } else if (kw == "end_header") {
+      return true;
+    }
+  }
+  ThrowErrorAt(FileLoc{name}, "PLY header has no end_header (truncated file?)");
+}
+
+// Checks the ASCII element data and returns it without non-standard comment
+// lines.  Records what it found in `report`.
+std::string CleanAsciiPly(const std::string& text, const PlyHeader& h, const std::string& name,
+                          const MeshReadOptions& options, MeshReadReport* report,
+                          std::vector<char>* bad_vertex) {
+  std::istringstream in(text);
+  std::ostringstream out;
+  std::string line;
+  int lineno = 0;
+  for (int i = 0; i < h.header_lines; ++i) {
+    std::getline(in, line);
+    ++lineno;
+    out << line << '\n';
+  }
+  int xyz[3] = {-1, -1, -1};
+  for (size_t i = 0; i < h.vertex_props.size(); ++i) {
+    if (h.vertex_props[i] == "x") xyz[0] = static_cast<int>(i);
+    if (h.vertex_props[i] == "y") xyz[1] = static_cast<int>(i);
+    if (h.vertex_props[i] == "z") xyz[2] = static_cast<int>(i);
+  }
+  if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0)
+    ThrowErrorAt(FileLoc{name}, "PLY vertices lack x, y or z properties");
+  bad_vertex->assign(static_cast<size_t>(std::max<int64_t>(0, h.vertices)), 0);
+  int64_t v = 0, f = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    std::string trimmed = line;
+    if (!trimmed.empty() && trimmed.back() == '\r') trimmed.pop_back();
+    if (trimmed.rfind("comment", 0) == 0) {
+      ++report->comment_lines_skipped;
+      report->notes.push_back(fmt::format("{}:{}: skipped a non-standard comment line inside the "
+                                          "element data: \"{}\"", name, lineno, trimmed));
+      continue;
+    }
+    if (trimmed.find_first_not_of(" \t") == std::string::npos) continue;
+    std::istringstream ls(trimmed);
+    ls.imbue(std::locale::classic());
+    std::vector<std::string> tok;
+    std::string t;
+    while (ls >> t) tok.push_back(t);
+    if (v < h.vertices) {
+      if (tok.size() < h.vertex_props.size())
+        ThrowErrorAt(FileLoc{name, lineno}, "vertex {} has {} values, the header declares {}", v,
+                     tok.size(), h.vertex_props.size());
+      for (int k = 0; k < 3; ++k) {
+        const std::string& s = tok[static_cast<size_t>(xyz[k])];
+        char* end = nullptr;
+        double val = std::strtod(s.c_str(), &end);
+        if (end == s.c_str() || *end != '\0')
+          ThrowErrorAt(FileLoc{name, lineno}, "vertex {}: \"{}\" is not a number", v, s);
+        if (!std::isfinite(val)) {
+          if (options.nonfinite == BadVertices::kReject)
+            ThrowErrorAt(FileLoc{name, lineno}, "vertex {} has a non-finite coordinate ({})", v, s);
+          if (!(*bad_vertex)[static_cast<size_t>(v)]) ++report->nonfinite_vertices;
+          (*bad_vertex)[static_cast<size_t>(v)] = 1;
+          tok[static_cast<size_t>(xyz[k])] = "0";  // OpenMesh cannot parse "nan"; faces using it are dropped
+        }
+      }
+      for (size_t k = 0; k < tok.size(); ++k) out << (k ? " " : "") << tok[k];
+      out << '\n';
+      ++v;
+      continue;
+    }
+    if (f < h.faces) {
+      char* end = nullptr;
+      long n = std::strtol(tok[0].c_str(), &end, 10);
+      if (*end != '\0' || n < 3 || static_cast<size_t>(n) + 1 > tok.size())
+        ThrowErrorAt(FileLoc{name, lineno}, "face {}: bad vertex list \"{}\"", f, trimmed);
+      for (long k = 1; k <= n; ++k) {
+        long idx = std::strtol(tok[static_cast<size_t>(k)].c_str(), &end, 10);
+        if (*end != '\0' || idx < 0 || idx >= h.vertices)
+          ThrowErrorAt(FileLoc{name, lineno}, "face {} uses vertex \"{}\", but there are {} vertices",
+                       f, tok[static_cast<size_t>(k)], h.vertices);
+      }
+      ++f;
+    }
+    out << trimmed << '\n';
+  }
+  if (v < h.vertices || f < h.faces)
+    ThrowErrorAt(FileLoc{name}, "truncated: {} of {} vertices and {} of {} faces present", v,
+                 h.vertices, f, h.faces);
+  return out.str();
+}
+
+}  // namespace
+
+Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadReport* report_out) {
+  const std::string name = path.string();
+  const FileLoc loc{name};
+  RequireFile(path, "mesh");
+  const std::string ext = LowerExtension(path);
+  if (ext != ".ply" && ext != ".obj" && ext != ".off" && ext != ".stl")
+    ThrowErrorAt(loc, "unsupported mesh extension \"{}\" (use .ply .obj .off .stl)", ext);
+
+  MeshReadReport report;
+  report.format = ext.substr(1);
+  std::string text = ReadTextFile(path);
+  if (text.empty()) ThrowErrorAt(loc, "empty file");
+  std::vector<char> bad_vertex;
+  if (ext == ".ply") {
+    PlyHeader h;
+    if (!ParsePlyHeader(text, &h, name)) ThrowErrorAt(loc, "not a PLY file (no \"ply\" magic)");
+    report.declared_faces = h.faces;
+    if (h.vertices < 0) ThrowErrorAt(loc, "PLY has no vertex element");
+    report.format = h.ascii ? "ply (ascii)" : "ply (binary)";
+    if (h.ascii) text = CleanAsciiPly(text, h, name, options, &report, &bad_vertex);
+  }
+
+  // OpenMesh's parsers feed a soup importer: its halfedge meshes cannot hold
+  // the non-manifold vertices of real scans (the Stanford bunny has them) and
+  // would silently split vertices and refuse faces.
+  SoupImporter soup;
+  OpenMesh::IO::Options opt;
+  opt += OpenMesh::IO::Options::VertexNormal;
+  opt += OpenMesh::IO::Options::VertexColor;
+  opt += OpenMesh::IO::Options::VertexTexCoord;
+  if (ext == ".stl" && text.rfind("solid", 0) != 0) opt += OpenMesh::IO::Options::Binary;
+  std::istringstream in(text);
+  if (!OpenMesh::IO::IOManager().read(in, ext, soup, opt))
+    ThrowErrorAt(loc, "cannot parse {} (OpenMesh rejected it: corrupt or truncated?)", report.format);
+  if (soup.positions.empty()) ThrowErrorAt(loc, "mesh has no vertices");
+
+  Mesh mesh;
+  mesh.positions = std::move(soup.positions);
+  if (ext != ".ply") bad_vertex.assign(mesh.positions.size(), 0);
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    if (mesh.positions[i].allFinite()) continue;
+    if (options.nonfinite == BadVertices::kReject)
+      ThrowErrorAt(loc, "vertex {} has a non-finite coordinate", i);
+    if (!bad_vertex[i]) ++report.nonfinite_vertices;
+    bad_vertex[i] = 1;
+  }
+  const size_t nv = mesh.positions.size();
+  if (opt.check(OpenMesh::IO::Options::VertexNormal) && soup.has_normals) mesh.normals = std::move(soup.normals);
+  if (opt.check(OpenMesh::IO::Options::VertexColor) && soup.has_colors) mesh.colors = std::move(soup.colors);
+  if (opt.check(OpenMesh::IO::Options::VertexTexCoord) && soup.has_uvs) mesh.uvs = std::move(soup.uvs);
+  mesh.normals.resize(mesh.normals.empty() ? 0 : nv, Eigen::Vector3f::Zero());
+  mesh.colors.resize(mesh.colors.empty() ? 0 : nv, Eigen::Vector3f::Zero());
+  mesh.uvs.resize(mesh.uvs.empty() ? 0 : nv, Eigen::Vector2f::Zero());
+
+  for (const auto& poly : soup.faces) {
+    for (int v : poly)
+      if (v < 0 || static_cast<size_t>(v) >= nv)
+        ThrowErrorAt(loc, "a face uses vertex {}, but there are {} vertices", v, nv);
+    if (poly.size() > 3) ++report.polygons_triangulated;
+    for (size_t k = 1; k + 1 < poly.size(); ++k) {  // fan triangulation
+      Eigen::Vector3i tri(poly[0], poly[k], poly[k + 1]);
+      if (bad_vertex[static_cast<size_t>(tri[0])] || bad_vertex[static_cast<size_t>(tri[1])] ||
+          bad_vertex[static_cast<size_t>(tri[2])]) {
+        ++report.faces_dropped_for_nonfinite;
+        continue;
+      }
+      if (IsDegenerate(mesh, tri)) {
+        ++report.degenerate_faces_dropped;
+        continue;
+      }
+      mesh.triangles.push_back(tri);
+    }
+  }
+  if (report.declared_faces >= 0 && static_cast<int64_t>(soup.faces.size()) != report.declared_faces)
+    ThrowErrorAt(loc, "the header declares {} faces, the reader found {}", report.declared_faces, soup.faces.size());
+  if (report.polygons_triangulated)
+    report.notes.push_back(fmt::format("{}: triangulated {} polygons (fan)", name, report.polygons_triangulated));
+  if (report.degenerate_faces_dropped)
+    report.notes.push_back(fmt::format("{}: dropped {} degenerate faces (zero area or repeated corner)",
+                                       name, report.degenerate_faces_dropped));
+  if (report.nonfinite_vertices)
+    report.notes.push_back(fmt::format("{}: {} vertices have non-finite coordinates; dropped the {} faces using them",
+                                       name, report.nonfinite_vertices, report.faces_dropped_for_nonfinite));
+  if (mesh.triangles.empty()) ThrowErrorAt(loc, "mesh has no usable triangles");
+  if (report_out) *report_out = report;
+  return mesh;
+}
+
+void WritePly(const fs::path& path, const Mesh& mesh, const std::string& comment) {
+  mesh.Validate(path.string());
+  std::ostringstream out(std::ios::binary);
+  out << "ply\nformat binary_little_endian 1.0\n";
+  if (!comment.empty()) out << "comment " << comment << "\n";
+  out << "element vertex " << mesh.positions.size() << "\n"
+      << "property float x\nproperty float y\nproperty float z\n";
+  if (!mesh.normals.empty()) out << "property float nx\nproperty float ny\nproperty float nz\n";
+  if (!mesh.colors.empty()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (!mesh.uvs.empty()) out << "property float u\nproperty float v\n";
+  out << "element face " << mesh.triangles.size() << "\n"
+      << "property list uchar int vertex_indices\nend_header\n";
+  auto put = [&](const void* p, size_t n) { out.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); };
+  static_assert(std::endian::native == std::endian::little, "binary PLY writer assumes little-endian");
+  for (size_t i = 0; i < mesh.positions.size(); ++i) {
+    put(mesh.positions[i].data(), 12);
+    if (!mesh.normals.empty()) put(mesh.normals[i].data(), 12);
+    if (!mesh.colors.empty()) {
+      uint8_t c[3];
+      for (int k = 0; k < 3; ++k)
+        c[k] = static_cast<uint8_t>(std::lround(Clamp(mesh.colors[i][k], 0.0f, 1.0f) * 255.0f));
+      put(c, 3);
+    }
+    if (!mesh.uvs.empty()) put(mesh.uvs[i].data(), 8);
+  }
+  for (const auto& t : mesh.triangles) {
+    uint8_t n = 3;
+    put(&n, 1);
+    put(t.data(), 12);
+  }
+  WriteTextFile(path, out.str());
+}
+
+}  // namespace mr

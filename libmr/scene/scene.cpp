@@ -1,0 +1,331 @@
+#include "scene/scene.h"
+
+#include <set>
+
+#include "core/error.h"
+#include "core/math.h"
+
+namespace mr {
+
+const std::vector<std::string>& RenderMethods() {
+  static const std::vector<std::string> m = {"pt", "ic", "vpl", "vct", "prt"};
+  return m;
+}
+
+const std::vector<std::string>& OutputLayers() {
+  static const std::vector<std::string> l = {"composite", "mixed", "real", "mask", "difference", "photo"};
+  return l;
+}
+
+namespace {
+
+// Walks a JSON object, checking keys and types, remembering the key path.
+class Node {
+ public:
+  Node(const Json& j, std::string path, const std::string* file) : j_(j), path_(std::move(path)), file_(file) {}
+
+  [[noreturn]] void Fail(const std::string& what) const {
+    throw Error(FileLoc{*file_, 0, 0, path_}, what);
+  }
+  const std::string& path() const { return path_; }
+  const Json& json() const { return j_; }
+
+  // Requires an object whose keys are all in `allowed`.
+  void RequireObject(std::initializer_list<const char*> allowed) const {
+    if (!j_.is_object()) Fail(fmt::format("expected an object, got {}", TypeName()));
+    for (auto& [k, v] : j_.items()) {
+      bool ok = false;
+      for (const char* a : allowed) ok = ok || k == a;
+      if (!ok) {
+        std::string list;
+        for (const char* a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+        Child(k).Fail(fmt::format("unknown key (allowed here: {})", list));
+      }
+    }
+  }
+  bool Has(const char* key) const { return j_.contains(key); }
+  Node Child(const std::string& key) const {
+    return Node(j_.at(key), path_.empty() ? key : path_ + "." + key, file_);
+  }
+  Node Index(size_t i) const { return Node(j_.at(i), fmt::format("{}[{}]", path_, i), file_); }
+  Node Required(const char* key) const {
+    if (!j_.contains(key)) Node(Json(), path_.empty() ? key : path_ + "." + key, file_).Fail("missing required key");
+    return Child(key);
+  }
+
+  std::string TypeName() const {
+    if (j_.is_array()) return fmt::format("an array of {}", j_.size());
+    return j_.type_name();
+  }
+
+  std::string String() const {
+    if (!j_.is_string()) Fail(fmt::format("expected a string, got {}", TypeName()));
+    return j_.get<std::string>();
+  }
+  std::string OneOf(const std::vector<std::string>& options) const {
+    std::string s = String();
+    for (const auto& o : options)
+      if (s == o) return s;
+    std::string list;
+    for (const auto& o : options) list += (list.empty() ? "" : ", ") + o;
+    Fail(fmt::format("\"{}\" is not one of {}", s, list));
+  }
+  bool Bool() const {
+    if (!j_.is_boolean()) Fail(fmt::format("expected true or false, got {}", TypeName()));
+    return j_.get<bool>();
+  }
+  double Number(double lo, double hi) const {
+    if (!j_.is_number()) Fail(fmt::format("expected a number in [{}, {}], got {}", lo, hi, TypeName()));
+    double v = j_.get<double>();
+    if (!(v >= lo && v <= hi)) Fail(fmt::format("expected a number in [{}, {}], got {}", lo, hi, v));
+    return v;
+  }
+  int64_t Integer(int64_t lo, int64_t hi) const {
+    if (!j_.is_number_integer())
+      Fail(fmt::format("expected an integer in [{}, {}], got {}", lo, hi, j_.is_number() ? j_.dump() : TypeName()));
+    int64_t v = j_.get<int64_t>();
+    if (v < lo || v > hi) Fail(fmt::format("expected an integer in [{}, {}], got {}", lo, hi, v));
+    return v;
+  }
+  std::vector<double> Numbers(size_t n, double lo, double hi) const {
+    auto fail = [&](const std::string& got) {
+      Fail(fmt::format("expected {} numbers in [{},{}], got {}", n, lo, hi, got));
+    };
+    if (!j_.is_array()) fail(TypeName());
+    if (j_.size() != n) fail(std::to_string(j_.size()));
+    std::vector<double> v;
+    for (const auto& e : j_) {
+      if (!e.is_number()) fail(fmt::format("a {}", e.type_name()));
+      double x = e.get<double>();
+      if (!(x >= lo && x <= hi)) fail(fmt::format("{}", x));
+      v.push_back(x);
+    }
+    return v;
+  }
+  Eigen::Vector3d Vec3(double lo, double hi) const {
+    auto v = Numbers(3, lo, hi);
+    return {v[0], v[1], v[2]};
+  }
+
+ private:
+  const Json& j_;
+  std::string path_;
+  const std::string* file_;
+};
+
+constexpr double kHuge = 1e30;
+
+fs::path ResolveFile(const Node& n, const fs::path& base, bool check, const char* what) {
+  fs::path p = n.String();
+  if (p.empty()) n.Fail("empty path");
+  if (p.is_relative()) p = base / p;
+  if (check) {
+    std::error_code ec;
+    if (!fs::exists(p, ec)) n.Fail(fmt::format("{} {} does not exist", what, p.string()));
+  }
+  return p;
+}
+
+Material ParseMaterial(const Node& n) {
+  n.RequireObject({"albedo", "specular", "roughness", "emission", "albedo_from_vertex_colors"});
+  Material m;
+  if (n.Has("albedo")) m.albedo = n.Child("albedo").Vec3(0, 1);
+  if (n.Has("specular")) m.specular = n.Child("specular").Vec3(0, 1);
+  if (n.Has("roughness")) m.roughness = n.Child("roughness").Number(1e-3, 1);
+  if (n.Has("emission")) m.emission = n.Child("emission").Vec3(0, kHuge);
+  if (n.Has("albedo_from_vertex_colors")) m.albedo_from_vertex_colors = n.Child("albedo_from_vertex_colors").Bool();
+  for (int c = 0; c < 3; ++c)
+    if (m.albedo[c] + m.specular[c] > 1.0)
+      n.Fail(fmt::format("albedo + specular is {:.4g} in channel {}: a surface cannot reflect more than it receives",
+                         m.albedo[c] + m.specular[c], c));
+  return m;
+}
+
+Eigen::Affine3d ParseTransform(const Node& n) {
+  n.RequireObject({"matrix", "translation", "rotation_deg", "scale"});
+  if (n.Has("matrix")) {
+    if (n.Has("translation") || n.Has("rotation_deg") || n.Has("scale"))
+      n.Fail("give either matrix or translation/rotation_deg/scale, not both");
+    Node m = n.Child("matrix");
+    auto v = m.Numbers(16, -kHuge, kHuge);
+    Eigen::Matrix4d mat = Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(v.data());
+    if ((mat.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-12)
+      m.Fail("last row of a 4x4 affine matrix must be 0 0 0 1");
+    if (std::abs(mat.topLeftCorner<3, 3>().determinant()) < 1e-12) m.Fail("matrix is singular");
+    Eigen::Affine3d a;
+    a.matrix() = mat;
+    return a;
+  }
+  Eigen::Affine3d a = Eigen::Affine3d::Identity();
+  if (n.Has("translation")) a.translate(n.Child("translation").Vec3(-kHuge, kHuge));
+  if (n.Has("rotation_deg")) {
+    // Rotations about the world x, then y, then z axes: R = Rz * Ry * Rx.
+    Eigen::Vector3d r = n.Child("rotation_deg").Vec3(-360, 360) * kDegToRad;
+    a.rotate(Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
+             Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
+             Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()));
+  }
+  if (n.Has("scale")) {
+    Node s = n.Child("scale");
+    if (s.json().is_number()) a.scale(s.Number(1e-9, kHuge));
+    else a.scale(s.Vec3(1e-9, kHuge));
+  }
+  return a;
+}
+
+// "A:B" or "A:" -> [A, B); -1 for an open end.
+void ParseFrames(const Node& n, int* begin, int* end) {
+  std::string s = n.String();
+  auto colon = s.find(':');
+  auto parse = [&](const std::string& t, int dflt) {
+    if (t.empty()) return dflt;
+    char* e = nullptr;
+    long v = std::strtol(t.c_str(), &e, 10);
+    if (*e != '\0' || v < 0 || v > 100000000) n.Fail(fmt::format("\"{}\" is not of the form A:B with 0 <= A < B", s));
+    return static_cast<int>(v);
+  };
+  if (colon == std::string::npos) {
+    *begin = parse(s, 0);
+    *end = *begin + 1;
+  } else {
+    *begin = parse(s.substr(0, colon), 0);
+    *end = parse(s.substr(colon + 1), -1);
+  }
+  if (*end != -1 && *end <= *begin) n.Fail(fmt::format("\"{}\": the range is empty", s));
+}
+
+bool IsFramePattern(const std::string& s) { return s.find('%') != std::string::npos; }
+
+}  // namespace
+
+Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, bool check) {
+  Node root(j, "", &name);
+  root.RequireObject({"version", "camera", "lighting", "real", "virtual", "render", "output", "reference", "comment"});
+  Scene s;
+  s.file = name;
+  int64_t version = root.Required("version").Integer(1, 1000);
+  if (version != kSceneVersion)
+    root.Child("version").Fail(fmt::format("this mr reads scene version {}, the file is version {}", kSceneVersion, version));
+  if (root.Has("comment")) root.Child("comment").String();
+
+  Node cam = root.Required("camera");
+  cam.RequireObject({"model", "frames", "frames_transfer", "poses"});
+  s.camera.model = ResolveFile(cam.Required("model"), base, check, "camera model");
+  if (cam.Has("frames")) {
+    Node f = cam.Child("frames");
+    std::string v = f.String();
+    if (IsFramePattern(v)) {
+      // printf pattern with one integer conversion: check the folder only.
+      int conversions = 0;
+      for (size_t i = 0; i + 1 < v.size(); ++i)
+        if (v[i] == '%') {
+          if (v[i + 1] == '%') { ++i; continue; }
+          size_t k = i + 1;
+          while (k < v.size() && std::isdigit(static_cast<unsigned char>(v[k]))) ++k;
+          if (k >= v.size() || v[k] != 'd') f.Fail("frame pattern must use one %d-style conversion, e.g. frames/%05d.png");
+          ++conversions;
+        }
+      if (conversions != 1) f.Fail("frame pattern must use exactly one %d-style conversion");
+      fs::path p = v;
+      if (p.is_relative()) p = base / p;
+      if (check && !fs::is_directory(p.parent_path().empty() ? fs::path(".") : p.parent_path()))
+        f.Fail(fmt::format("frame folder {} does not exist", p.parent_path().string()));
+      s.camera.frames = p;
+    } else {
+      s.camera.frames = ResolveFile(f, base, check, "video");
+      s.camera.frames_are_video = true;
+    }
+  }
+  if (cam.Has("frames_transfer")) s.camera.frames_transfer = cam.Child("frames_transfer").OneOf({"srgb", "linear"});
+  if (cam.Has("poses")) {
+    Node p = cam.Child("poses");
+    p.RequireObject({"format", "path"});
+    std::string fmt_name = p.Required("format").OneOf({"tum", "7scenes", "colmap"});
+    s.camera.pose_format = fmt_name == "tum" ? PoseFormat::kTum : fmt_name == "7scenes" ? PoseFormat::k7Scenes : PoseFormat::kColmap;
+    s.camera.poses = ResolveFile(p.Required("path"), base, check, "poses");
+  }
+
+  if (root.Has("lighting")) {
+    Node l = root.Child("lighting");
+    l.RequireObject({"environment", "environment_scale", "environment_rotation_deg", "lights"});
+    if (l.Has("environment")) s.lighting.environment = ResolveFile(l.Child("environment"), base, check, "environment map");
+    if (l.Has("environment_scale")) s.lighting.environment_scale = l.Child("environment_scale").Number(0, kHuge);
+    if (l.Has("environment_rotation_deg")) {
+      double yaw = l.Child("environment_rotation_deg").Number(-360, 360) * kDegToRad;
+      s.lighting.world_from_env = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    }
+    if (l.Has("lights")) s.lighting.lights = ResolveFile(l.Child("lights"), base, check, "lights file");
+  }
+
+  if (root.Has("real")) {
+    Node r = root.Child("real");
+    r.RequireObject({"mesh", "material"});
+    SceneReal real;
+    real.mesh = ResolveFile(r.Required("mesh"), base, check, "mesh");
+    if (r.Has("material")) real.material = ParseMaterial(r.Child("material"));
+    s.real = real;
+  }
+
+  if (root.Has("virtual")) {
+    Node v = root.Child("virtual");
+    if (!v.json().is_array()) v.Fail(fmt::format("expected an array of objects, got {}", v.TypeName()));
+    std::set<std::string> names;
+    for (size_t i = 0; i < v.json().size(); ++i) {
+      Node o = v.Index(i);
+      o.RequireObject({"name", "mesh", "transform", "material", "formfactors"});
+      SceneVirtual sv;
+      sv.name = o.Has("name") ? o.Child("name").String() : fmt::format("object{}", i);
+      if (!names.insert(sv.name).second) o.Child("name").Fail(fmt::format("name \"{}\" is used twice", sv.name));
+      sv.mesh = ResolveFile(o.Required("mesh"), base, check, "mesh");
+      if (o.Has("transform")) sv.world_from_object = ParseTransform(o.Child("transform"));
+      if (o.Has("material")) sv.material = ParseMaterial(o.Child("material"));
+      if (o.Has("formfactors")) sv.formfactors = ResolveFile(o.Child("formfactors"), base, check, "form factors");
+      s.virtuals.push_back(sv);
+    }
+  }
+
+  if (root.Has("render")) {
+    Node r = root.Child("render");
+    r.RequireObject({"method", "spp", "max_depth", "seed", "frames", "time_budget_s"});
+    if (r.Has("method")) s.render.method = r.Child("method").OneOf(RenderMethods());
+    if (r.Has("spp")) s.render.spp = static_cast<int>(r.Child("spp").Integer(1, 1 << 24));
+    if (r.Has("max_depth")) s.render.max_depth = static_cast<int>(r.Child("max_depth").Integer(0, 1000));
+    if (r.Has("seed")) s.render.seed = static_cast<uint64_t>(r.Child("seed").Integer(0, INT64_MAX));
+    if (r.Has("frames")) ParseFrames(r.Child("frames"), &s.render.frame_begin, &s.render.frame_end);
+    if (r.Has("time_budget_s")) s.render.time_budget_s = r.Child("time_budget_s").Number(0, 1e9);
+  }
+
+  if (root.Has("output")) {
+    Node o = root.Child("output");
+    o.RequireObject({"dir", "png", "half", "layers"});
+    if (o.Has("dir")) {
+      fs::path d = o.Child("dir").String();
+      s.output.dir = d.is_relative() ? base / d : d;
+    } else {
+      s.output.dir = base / "out";
+    }
+    if (o.Has("png")) s.output.png = o.Child("png").Bool();
+    if (o.Has("half")) s.output.half = o.Child("half").Bool();
+    if (o.Has("layers")) {
+      Node l = o.Child("layers");
+      if (!l.json().is_array() || l.json().empty()) l.Fail("expected a non-empty array of layer names");
+      s.output.layers.clear();
+      for (size_t i = 0; i < l.json().size(); ++i) s.output.layers.push_back(l.Index(i).OneOf(OutputLayers()));
+    }
+  } else {
+    s.output.dir = base / "out";
+  }
+
+  if (root.Has("reference")) s.reference = ResolveFile(root.Child("reference"), base, check, "reference");
+  if (!s.real && s.virtuals.empty()) root.Fail("the scene has neither real nor virtual geometry");
+  return s;
+}
+
+Scene ReadScene(const fs::path& path, bool check_files) {
+  Json j = ReadJsonFile(path);
+  fs::path base = path.parent_path();
+  if (base.empty()) base = ".";
+  return ParseScene(j, base, path.string(), check_files);
+}
+
+}  // namespace mr

@@ -1,0 +1,102 @@
+// scene.json: what mr-render renders (docs/formats.md has the full schema).
+//
+// Validation is strict: unknown keys, wrong types, out-of-range values and
+// missing files are errors naming the key path and the file, e.g.
+//   scene.json: virtual[1].material.albedo: expected 3 numbers in [0,1], got 4
+// Relative paths resolve against the scene file's folder.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "core/file.h"
+#include "core/json.h"
+
+namespace mr {
+
+inline constexpr int kSceneVersion = 1;
+
+struct Material {
+  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.5);    // diffuse reflectance [0,1]
+  Eigen::Vector3d specular = Eigen::Vector3d::Zero();         // glossy reflectance [0,1]
+  double roughness = 0.5;                                     // GGX alpha in (0,1]
+  Eigen::Vector3d emission = Eigen::Vector3d::Zero();         // radiance, W/(sr m^2), >= 0
+  bool albedo_from_vertex_colors = false;
+  bool IsGlossy() const { return specular.maxCoeff() > 0; }
+  bool IsEmissive() const { return emission.maxCoeff() > 0; }
+};
+
+enum class PoseFormat { kTum, k7Scenes, kColmap };
+
+struct SceneCamera {
+  fs::path model;                   // .cameramodel
+  std::optional<fs::path> frames;   // video file or printf pattern ("frames/%05d.png")
+  bool frames_are_video = false;
+  std::string frames_transfer = "srgb";  // "srgb" or "linear"
+  std::optional<fs::path> poses;    // TUM file, 7-Scenes folder, or COLMAP text folder
+  PoseFormat pose_format = PoseFormat::kTum;
+};
+
+struct SceneLighting {
+  std::optional<fs::path> environment;  // lat-long EXR/HDR, OpenEXR envmap convention
+  double environment_scale = 1.0;
+  Eigen::Matrix3d world_from_env = Eigen::Matrix3d::Identity();
+  std::optional<fs::path> lights;       // lights.json from mr-lights
+};
+
+struct SceneReal {
+  fs::path mesh;
+  Material material;
+};
+
+struct SceneVirtual {
+  std::string name;
+  fs::path mesh;
+  Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();
+  Material material;
+  std::optional<fs::path> formfactors;  // .ffc from mr-formfactor
+};
+
+struct SceneRender {
+  std::string method = "pt";  // pt, ic, vpl, vct, prt
+  int spp = 64;
+  int max_depth = 5;
+  uint64_t seed = 0;
+  int frame_begin = 0, frame_end = -1;  // [begin, end); end -1 = all
+  double time_budget_s = 0;             // 0 = none
+};
+
+struct SceneOutput {
+  fs::path dir = "out";
+  bool png = true;
+  bool half = false;  // EXR layers as half floats (refused where values exceed 65504)
+  std::vector<std::string> layers = {"composite", "mixed", "real", "mask", "difference"};
+};
+
+struct Scene {
+  fs::path file;  // the scene file itself
+  SceneCamera camera;
+  SceneLighting lighting;
+  std::optional<SceneReal> real;
+  std::vector<SceneVirtual> virtuals;
+  SceneRender render;
+  SceneOutput output;
+  std::optional<fs::path> reference;  // ground truth (mr-synth)
+};
+
+// Reads and validates a scene file; `check_files` also requires every named
+// input file to exist.
+Scene ReadScene(const fs::path& path, bool check_files = true);
+// Validates JSON already parsed; `base` resolves relative paths; `name` is
+// the file name used in messages.
+Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, bool check_files);
+
+// The valid method names and layers.
+const std::vector<std::string>& RenderMethods();
+const std::vector<std::string>& OutputLayers();
+
+}  // namespace mr

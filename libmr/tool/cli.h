@@ -1,0 +1,33 @@
+// Conventions shared by every mr tool (docs/tools.md):
+//  - one strict CLI11 parser: unknown flags and unparsable numbers are errors;
+//  - --help prints the synopsis, a worked example, units and defaults, exit 0;
+//  - errors are caught once, in RunTool, and printed as
+//    "mr-TOOL: error: FILE: what is wrong";
+//  - exit codes: 0 success, 1 failure (bad data), 2 usage error.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+namespace mr {
+
+inline constexpr int kExitOk = 0;
+inline constexpr int kExitFailure = 1;
+inline constexpr int kExitUsage = 2;
+
+// The command line as one shell-quoted string (for provenance).
+std::string JoinCommandLine(int argc, char** argv);
+
+// Sets up `app` with mr's conventions: description with an example, the
+// common flags (--threads, --quiet, -v, --version).
+void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& description,
+                  const std::string& example);
+
+// Parses argv with `app`, then runs `body`; maps exceptions to messages and
+// exit codes.  `body` returns the exit code.
+int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv,
+            const std::function<int()>& body);
+
+}  // namespace mr

@@ -1,0 +1,43 @@
+// mr-board: a printable calibration board (SVG at physical size).
+#include <spdlog/spdlog.h>
+
+#include "calib/board.h"
+#include "core/error.h"
+#include "core/file.h"
+#include "tool/cli.h"
+
+int main(int argc, char** argv) {
+  CLI::App app;
+  std::string board_file, out;
+  int nx = 0, ny = 0;
+  double square_mm = 0, margin_mm = 10;
+  mr::ConfigureApp(
+      app, "mr-board",
+      "Writes a chessboard as an SVG at its physical size, to print at 100% scale.\n"
+      "Give a board definition (calib/boards/*.json) or --inner and --square-mm.",
+      "  mr-board calib/boards/mrgingham-10x10-30mm.json --out board.svg\n"
+      "  mr-board --inner-corners 9x6 --square-mm 24.23 --out board.svg");
+  app.add_option("board", board_file, "Board definition (JSON)")->check(CLI::ExistingFile);
+  app.add_option_function<std::string>(
+      "--inner-corners", [&](const std::string& s) {
+        if (std::sscanf(s.c_str(), "%dx%d", &nx, &ny) != 2) throw CLI::ValidationError("--inner-corners", "expected NxM");
+      },
+      "Inner corners, NxM (e.g. 10x10)");
+  app.add_option("--square-mm", square_mm, "Square side in millimetres")->check(CLI::PositiveNumber);
+  app.add_option("--margin-mm", margin_mm, "White margin around the board, millimetres")->default_val(10)->check(CLI::NonNegativeNumber);
+  app.add_option("--out", out, "Output SVG")->required();
+  return mr::RunTool("mr-board", app, argc, argv, [&] {
+    mr::BoardSpec b;
+    if (!board_file.empty()) {
+      b = mr::ReadBoard(board_file);
+    } else {
+      if (nx == 0 || square_mm == 0) throw mr::UsageError("give a board file, or --inner-corners and --square-mm");
+      mr::Json j = {{"name", fmt::format("chessboard-{}x{}-{}mm", nx, ny, square_mm)},
+                    {"inner_corners", {nx, ny}}, {"square_mm", square_mm}};
+      b = mr::ParseBoard(j, "command line");
+    }
+    mr::WriteTextFile(out, mr::BoardSvg(b, margin_mm / 1000.0));
+    spdlog::info("wrote {} ({} x {} inner corners, {} mm squares)", out, b.inner_x, b.inner_y, b.square_m * 1000);
+    return mr::kExitOk;
+  });
+}

@@ -88,20 +88,44 @@ CameraModel CameraModel::Read(const fs::path& path) {
   return FromString(ReadTextFile(path), path.string());
 }
 
-void CameraModel::Write(const fs::path& path) const {
+std::string CameraModel::ToString(const std::string& note) const {
+  // mrcal's .cameramodel text (a Python dict literal).  Written here rather
+  // than by libmrcal's writer, which prints 6 decimals and so loses the
+  // small coefficients of splined models (tested in camera_model_test).
+  std::string s;
+  if (!note.empty()) {
+    size_t start = 0;
+    while (start <= note.size()) {
+      size_t nl = note.find('\n', start);
+      s += "# " + note.substr(start, nl == std::string::npos ? std::string::npos : nl - start) + "\n";
+      if (nl == std::string::npos) break;
+      start = nl + 1;
+    }
+  }
+  double rt[6];
+  cam_from_ref_.ToRt(rt);
+  auto list = [](const double* v, size_t n) {
+    std::string out = "[";
+    for (size_t i = 0; i < n; ++i) out += fmt::format(" {:.17g},", v[i]);
+    return out + " ]";
+  };
+  s += "{\n";
+  s += fmt::format("    'lensmodel':  '{}',\n", lensmodel_);
+  s += "    # intrinsics are fx,fy,cx,cy,distortion0,distortion1,....\n";
+  s += fmt::format("    'intrinsics': {},\n", list(intrinsics_.data(), intrinsics_.size()));
+  s += "    # extrinsics are rt_fromref\n";
+  s += fmt::format("    'extrinsics': {},\n", list(rt, 6));
+  s += fmt::format("    'imagersize': [ {}, {}, ],\n", width_, height_);
+  s += "}\n";
+  return s;
+}
+
+void CameraModel::Write(const fs::path& path, const std::string& note) const {
   MR_CHECK(impl_);
-  const size_t bytes = sizeof(mrcal_cameramodel_t) + intrinsics_.size() * sizeof(double);
-  std::unique_ptr<mrcal_cameramodel_t, decltype(&std::free)> cm(
-      static_cast<mrcal_cameramodel_t*>(std::calloc(1, bytes)), &std::free);
-  cam_from_ref_.ToRt(cm->rt_cam_ref);
-  cm->imagersize[0] = static_cast<unsigned>(width_);
-  cm->imagersize[1] = static_cast<unsigned>(height_);
-  cm->lensmodel = impl_->lensmodel;
-  std::memcpy(cm->intrinsics, intrinsics_.data(), intrinsics_.size() * sizeof(double));
-  WriteAtomically(path, [&](const fs::path& tmp) {
-    if (!mrcal_write_cameramodel_file(tmp.c_str(), cm.get()))
-      ThrowErrorAt(FileLoc{path.string()}, "libmrcal could not write the camera model");
-  });
+  const std::string text = ToString(note);
+  // Check that libmrcal reads back what we wrote before replacing anything.
+  FromString(text, path.string());
+  WriteTextFile(path, text);
 }
 
 bool CameraModel::SeesBehind() const {

@@ -29,8 +29,10 @@ class CameraModel {
   static CameraModel Read(const fs::path& path);
   // `name` is used in error messages.
   static CameraModel FromString(const std::string& text, const std::string& name);
-  // Atomic write in mrcal's .cameramodel format.
-  void Write(const fs::path& path) const;
+  // Atomic write in mrcal's .cameramodel format; `note` becomes '#' comment
+  // lines (provenance).  Doubles are written with 17 significant digits.
+  void Write(const fs::path& path, const std::string& note = "") const;
+  std::string ToString(const std::string& note = "") const;
 
   const std::string& lensmodel() const { return lensmodel_; }
   const std::vector<double>& intrinsics() const { return intrinsics_; }

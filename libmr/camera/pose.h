@@ -33,7 +33,7 @@ struct Rigid3 {
   static Rigid3 FromMatrix(const Eigen::Matrix<double, 3, 4>& m, double* orthonormality_error = nullptr);
 
   // mrcal's rt: Rodrigues rotation vector r (3) then translation t (3);
-  // exact at r = 0 and near pi (through libmrcal's poseutils).
+  // exact at r = 0 and well conditioned up to pi.
   static Rigid3 FromRt(const double rt[6]);
   void ToRt(double rt[6]) const;
 

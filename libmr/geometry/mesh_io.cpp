@@ -233,10 +233,10 @@ std::string CleanAsciiPly(const std::string& text, const PlyHeader& h, const std
 Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadReport* report_out) {
   const std::string name = path.string();
   const FileLoc loc{name};
-  RequireFile(path, "mesh");
   const std::string ext = LowerExtension(path);
   if (ext != ".ply" && ext != ".obj" && ext != ".off" && ext != ".stl")
     ThrowErrorAt(loc, "unsupported mesh extension \"{}\" (use .ply .obj .off .stl)", ext);
+  RequireFile(path, "mesh");
 
   MeshReadReport report;
   report.format = ext.substr(1);
@@ -268,7 +268,7 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
 
   Mesh mesh;
   mesh.positions = std::move(soup.positions);
-  if (ext != ".ply") bad_vertex.assign(mesh.positions.size(), 0);
+  if (bad_vertex.size() != mesh.positions.size()) bad_vertex.assign(mesh.positions.size(), 0);
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     if (mesh.positions[i].allFinite()) continue;
     if (options.nonfinite == BadVertices::kReject)

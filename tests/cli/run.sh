@@ -1,0 +1,83 @@
+#!/usr/bin/env bash
+# End-to-end tests of the tools, run exactly as users run them.
+# Usage: run.sh BIN_DIR DATA_DIR
+set -u
+bin=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+pass=0
+fail=0
+
+check() {  # check NAME EXPECTED_RC NEEDLE -- COMMAND...
+  local name=$1 want=$2 needle=$3
+  shift 4
+  local out rc
+  out=$("$@" 2>&1)
+  rc=$?
+  if [ "$rc" -ne "$want" ]; then
+    echo "FAIL $name: exit $rc, expected $want"; echo "$out" | sed 's/^/    /'; fail=$((fail + 1)); return
+  fi
+  if [ -n "$needle" ] && ! grep -qF -- "$needle" <<<"$out"; then
+    echo "FAIL $name: output lacks '$needle'"; echo "$out" | sed 's/^/    /'; fail=$((fail + 1)); return
+  fi
+  echo "ok   $name"; pass=$((pass + 1))
+}
+
+# --help is the manual: synopsis, example, exit 0.
+check "mr-info --help" 0 "Example:" -- "$bin/mr-info" --help
+check "mr-board --help" 0 "Example:" -- "$bin/mr-board" --help
+# Usage errors exit 2.
+check "unknown flag" 2 "usage error" -- "$bin/mr-info" --no-such-flag x
+check "bad number" 2 "usage error" -- "$bin/mr-info" --threads abc x
+check "missing argument" 2 "usage error" -- "$bin/mr-info"
+
+# A corrupt EXR: exit 1, the message names the file.
+printf 'v/1\001\002\000\000garbage' > "$tmp/corrupt.exr"
+check "corrupt EXR" 1 "mr-info: error: $tmp/corrupt.exr: cannot read image" -- "$bin/mr-info" "$tmp/corrupt.exr"
+
+# A PLY with a NaN vertex.
+cat > "$tmp/nan.ply" <<'PLY'
+ply
+format ascii 1.0
+element vertex 3
+property float x
+property float y
+property float z
+element face 1
+property list uchar int vertex_indices
+end_header
+0 0 0
+1 nan 0
+0 1 0
+3 0 1 2
+PLY
+check "NaN PLY" 1 "mr-info: error: $tmp/nan.ply:11: vertex 1 has a non-finite coordinate (nan)" -- "$bin/mr-info" "$tmp/nan.ply"
+
+# A scene with an unknown key.
+touch "$tmp/cam.cameramodel" "$tmp/room.ply"
+cat > "$tmp/scene.json" <<'JSON'
+{"version": 1, "camera": {"model": "cam.cameramodel"}, "real": {"mesh": "room.ply", "colour": 1}}
+JSON
+check "scene unknown key" 1 "mr-info: error: $tmp/scene.json: real.colour: unknown key" -- "$bin/mr-info" "$tmp/scene.json"
+
+# mr-info leaves nothing behind; mr-board writes its SVG atomically.
+before=$(ls -A "$tmp" | wc -l)
+check "mr-board" 0 "" -- "$bin/mr-board" --inner-corners 10x10 --square-mm 30 --out "$tmp/board.svg"
+check "mr-board svg size" 0 'width="350mm"' -- cat "$tmp/board.svg"
+check "mr-board bad folder" 1 "does not exist" -- "$bin/mr-board" --inner-corners 10x10 --square-mm 30 --out "$tmp/no/board.svg"
+after=$(ls -A "$tmp" | wc -l)
+check "no stray files" 0 "" -- test "$after" -eq $((before + 1))
+
+# A good file: exit 0.
+cat > "$tmp/traj.txt" <<'TUM'
+# timestamp tx ty tz qx qy qz qw
+0.0 0 0 0 0 0 0 1
+0.5 0 0 1 0 0 0 1
+TUM
+check "TUM trajectory" 0 "2 poses, span 0.500 s, path length 1.0000 m" -- "$bin/mr-info" "$tmp/traj.txt"
+check "json output" 0 '"kind": "trajectory"' -- "$bin/mr-info" --json "$tmp/traj.txt"
+# One bad file among good ones: the rest is still described, exit 1.
+check "batch goes on" 1 "2 poses" -- "$bin/mr-info" "$tmp/nan.ply" "$tmp/traj.txt"
+
+echo "$pass passed, $fail failed"
+[ "$fail" -eq 0 ]

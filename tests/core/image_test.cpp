@@ -1,0 +1,189 @@
+#include "core/image.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "core/error.h"
+#include "test_util.h"
+
+namespace mr {
+namespace {
+
+using test::TempDir;
+
+Image Ramp(int w, int h, std::vector<std::string> names, float scale = 1.0f) {
+  Image img(w, h, std::move(names));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      for (int c = 0; c < img.channels(); ++c) img.at(x, y, c) = scale * (x + w * y + 0.25f * c) / (w * h);
+  return img;
+}
+
+TEST(Image, ExrFloatRoundTripWithLayersAndProvenance) {
+  TempDir dir;
+  Image img = Ramp(7, 5, {"R", "G", "B"}, 1e6f);  // beyond half range: float32 keeps it
+  Image both;
+  both.AppendLayer("composite", img);
+  both.AppendLayer("mixed", Ramp(7, 5, {"R", "G", "B"}, 1e-6f));
+  both.AppendLayer("mask", Image::Gray(7, 5, 0.5f));
+  ImageWriteOptions opt;
+  opt.tool = "mr-test";
+  opt.command_line = "mr-test --flag 'a b'";
+  WriteImage(dir / "a.exr", both, opt);
+  ImageFileInfo info;
+  Image back = ReadImage(dir / "a.exr", {}, &info);
+  ASSERT_EQ(back.channels(), 7);
+  // OpenEXR stores channels sorted by name, so layers come back alphabetically.
+  EXPECT_EQ(back.LayerNames(), (std::vector<std::string>{"composite", "mask", "mixed"}));
+  Image comp = back.Layer("composite");
+  for (size_t i = 0; i < img.values().size(); ++i) EXPECT_EQ(comp.values()[i], img.values()[i]);
+  EXPECT_EQ(back.Layer("mask").at(3, 2, 0), 0.5f);
+  EXPECT_EQ(back.Layer("mixed").channel_names(), (std::vector<std::string>{"R", "G", "B"}));
+  EXPECT_EQ(info.attributes["mr:tool"], "mr-test");
+  EXPECT_EQ(info.attributes["mr:command_line"], "mr-test --flag 'a b'");
+  EXPECT_EQ(info.pixel_type, "float");
+  EXPECT_EQ(dir.FileCount(), 1u);  // no temporary left behind
+}
+
+TEST(Image, HalfRefusesOverflowUnlessClamping) {
+  TempDir dir;
+  Image img = Image::Rgb(4, 4, 1.0f);
+  img.at(1, 1, 0) = 7e4f;   // > 65504
+  img.at(2, 2, 1) = -1e6f;
+  ImageWriteOptions opt;
+  opt.pixel_type = PixelType::kHalf;
+  try {
+    WriteImage(dir / "h.exr", img, opt);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("2 values exceed the half-float maximum"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(dir.FileCount(), 0u);  // nothing half-written
+  opt.clamp_half = true;
+  auto r = WriteImage(dir / "h.exr", img, opt);
+  EXPECT_EQ(r.clamped_half, 2);
+  ImageFileInfo info;
+  Image back = ReadImage(dir / "h.exr", {}, &info);
+  EXPECT_EQ(info.pixel_type, "half");
+  EXPECT_EQ(back.at(1, 1, 0), 65504.0f);
+  EXPECT_EQ(back.at(2, 2, 1), -65504.0f);
+  EXPECT_EQ(back.at(0, 0, 0), 1.0f);
+}
+
+TEST(Image, LdrRoundTripsThroughTheStatedTransfer) {
+  TempDir dir;
+  Image img = Ramp(16, 16, {"R", "G", "B"});
+  for (const char* name : {"a.png", "a.tif", "a.jpg"}) {
+    WriteImage(dir / name, img);
+    ImageFileInfo info;
+    Image back = ReadImage(dir / name, {}, &info);
+    EXPECT_TRUE(info.decoded_from_ldr);
+    EXPECT_EQ(info.transfer, Transfer::kSrgb);
+    // 8-bit sRGB: a code step is at most 1/255 * dlinear/dsrgb <= 12.92^-1... bounded by
+    // 0.0105 near 1; JPEG adds compression error, hence the looser bound.
+    const float tol = std::string(name) == "a.jpg" ? 0.06f : (std::string(name) == "a.tif" ? 1e-4f : 0.0105f);
+    for (size_t i = 0; i < img.values().size(); ++i) ASSERT_NEAR(back.values()[i], img.values()[i], tol) << name << i;
+  }
+  // Linear 16-bit PNG: stated as linear in the file and decoded as such.
+  ImageWriteOptions lin;
+  lin.pixel_type = PixelType::kUint16;
+  lin.ldr_transfer = Transfer::kLinear;
+  WriteImage(dir / "lin.png", img, lin);
+  ImageFileInfo info;
+  Image back = ReadImage(dir / "lin.png", {}, &info);
+  EXPECT_EQ(info.transfer, Transfer::kLinear);
+  for (size_t i = 0; i < img.values().size(); ++i) ASSERT_NEAR(back.values()[i], img.values()[i], 1.0 / 65535);
+}
+
+TEST(Image, RadianceHdrKeepsHighDynamicRange) {
+  TempDir dir;
+  Image img = Image::Rgb(8, 4, 1e-6f);
+  img.at(3, 1, 0) = 1e6f;  // a sun twelve orders of magnitude above the sky
+  WriteImage(dir / "a.hdr", img);
+  Image back = ReadImage(dir / "a.hdr");
+  // RGBE has an 8-bit mantissa: relative error < 2^-7.
+  EXPECT_NEAR(back.at(3, 1, 0), 1e6f, 1e6f / 128);
+  EXPECT_NEAR(back.at(0, 0, 1), 1e-6f, 1e-6f / 128);
+}
+
+TEST(Image, RejectsNonFinitePixelsByDefault) {
+  TempDir dir;
+  Image img = Image::Rgb(4, 3, 0.5f);
+  img.at(2, 1, 1) = std::numeric_limits<float>::quiet_NaN();
+  img.at(3, 2, 0) = std::numeric_limits<float>::infinity();
+  WriteImage(dir / "nan.exr", img);
+  try {
+    ReadImage(dir / "nan.exr");
+    FAIL();
+  } catch (const Error& e) {
+    std::string w = e.what();
+    EXPECT_NE(w.find("nan.exr"), std::string::npos);
+    EXPECT_NE(w.find("1 NaN and 1 Inf values; the first at pixel (2, 1) channel G"), std::string::npos) << w;
+  }
+  ImageReadOptions allow;
+  allow.nonfinite = NonFinite::kAllow;
+  Image back = ReadImage(dir / "nan.exr", allow);
+  EXPECT_EQ(CountNonFinite(back), 2);
+  auto stats = ComputeStats(back);
+  EXPECT_EQ(stats[1].nan_count, 1);
+  EXPECT_EQ(stats[0].inf_count, 1);
+  EXPECT_FLOAT_EQ(stats[0].max, 0.5f);
+}
+
+TEST(Image, BadFilesGiveOneClearError) {
+  TempDir dir;
+  auto expect_error = [](const fs::path& p, const std::string& needle) {
+    try {
+      ReadImage(p);
+      ADD_FAILURE() << "no error for " << p;
+    } catch (const Error& e) {
+      std::string w = e.what();
+      EXPECT_EQ(w.rfind(p.string(), 0), 0u) << w;  // starts with the file name
+      EXPECT_NE(w.find(needle), std::string::npos) << w;
+    }
+  };
+  expect_error(dir / "missing.exr", "does not exist");
+  { std::ofstream(dir / "empty.exr"); }
+  expect_error(dir / "empty.exr", "cannot read");
+  { std::ofstream(dir / "text.png") << "this is not a png"; }
+  expect_error(dir / "text.png", "cannot read");
+  // A truncated EXR: the header survives, the pixels do not.
+  Image img = Ramp(64, 64, {"R", "G", "B"});
+  WriteImage(dir / "full.exr", img);
+  std::string bytes;
+  {
+    std::ifstream in(dir / "full.exr", std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  { std::ofstream(dir / "trunc.exr", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2)); }
+  expect_error(dir / "trunc.exr", "");
+  // Huge dimensions claimed by a header are refused before allocation.
+  ImageReadOptions small;
+  small.max_pixels = 100;
+  try {
+    ReadImage(dir / "full.exr", small);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("more than the limit"), std::string::npos);
+  }
+}
+
+TEST(Image, WriterRejectsWhatAFormatCannotHold) {
+  TempDir dir;
+  Image rgba = Image::Rgba(2, 2, 0.5f);
+  EXPECT_THROW(WriteImage(dir / "a.hdr", rgba), Error);
+  EXPECT_THROW(WriteImage(dir / "a.bmpx", rgba), Error);
+  Image nan = Image::Rgb(2, 2, std::numeric_limits<float>::quiet_NaN());
+  EXPECT_THROW(WriteImage(dir / "a.png", nan), Error);
+  EXPECT_THROW(WriteImage(dir / "nofolder" / "a.exr", rgba), Error);
+  EXPECT_EQ(dir.FileCount(), 0u);
+}
+
+TEST(Image, SrgbTransferRoundTrips) {
+  for (float v = 0; v <= 1.0f; v += 1.0f / 64) EXPECT_NEAR(SrgbToLinear(LinearToSrgb(v)), v, 1e-6f);
+  EXPECT_NEAR(SrgbToLinear(0.5f), 0.21404f, 1e-5f);
+}
+
+}  // namespace
+}  // namespace mr

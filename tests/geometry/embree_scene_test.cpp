@@ -1,0 +1,128 @@
+#include "geometry/embree_scene.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/sampling.h"
+
+namespace mr {
+namespace {
+
+// An axis-aligned square in the plane z = z0, facing -z.
+Mesh Square(float z0, float half = 1.0f) {
+  Mesh m;
+  m.positions = {{-half, -half, z0}, {half, -half, z0}, {half, half, z0}, {-half, half, z0}};
+  m.triangles = {{0, 2, 1}, {0, 3, 2}};
+  return m;
+}
+
+Ray RayAlongZ(float x, float y, uint32_t mask) {
+  Ray r;
+  r.origin = {x, y, 0};
+  r.direction = {0, 0, 1};
+  r.mask = mask;
+  return r;
+}
+
+TEST(EmbreeScene, RealRaysIgnoreVirtualGeometry) {
+  EmbreeScene s;
+  uint32_t wall = s.AddMesh(Square(5), /*is_virtual=*/false);
+  uint32_t object = s.AddMesh(Square(2, 0.5f), /*is_virtual=*/true);
+  s.Commit();
+  Hit h;
+  ASSERT_TRUE(s.Intersect(RayAlongZ(0.1f, 0.1f, kMaskAll), &h));
+  EXPECT_EQ(h.geometry_id, object);
+  EXPECT_TRUE(h.is_virtual);
+  EXPECT_FLOAT_EQ(h.t, 2);
+  ASSERT_TRUE(s.Intersect(RayAlongZ(0.1f, 0.1f, kMaskReal), &h));
+  EXPECT_EQ(h.geometry_id, wall);
+  EXPECT_FALSE(h.is_virtual);
+  EXPECT_FLOAT_EQ(h.t, 5);
+  // Virtual-only rays (for the virtual object's own shadows).
+  ASSERT_TRUE(s.Intersect(RayAlongZ(0.9f, 0.9f, kMaskVirtual), &h) == false);
+  // Occlusion: st_r and st_v of Differential Instant Radiosity.
+  Ray shadow = RayAlongZ(0.1f, 0.1f, kMaskVirtual);
+  shadow.tfar = 3;
+  EXPECT_TRUE(s.Occluded(shadow));
+  shadow.mask = kMaskReal;
+  EXPECT_FALSE(s.Occluded(shadow));
+  EXPECT_FALSE(s.Intersect(RayAlongZ(3, 3, kMaskAll), &h));
+  EXPECT_FALSE(h.valid());
+}
+
+TEST(EmbreeScene, InstancesArePlacedByTheirTransform) {
+  EmbreeScene s;
+  uint32_t proto = s.AddPrototype(Square(0, 0.5f));
+  Eigen::Affine3f a = Eigen::Affine3f::Identity();
+  a.translate(Eigen::Vector3f(0, 0, 4));
+  a.scale(2.0f);
+  uint32_t inst = s.AddInstance(proto, a, true);
+  s.Commit();
+  Hit h;
+  ASSERT_TRUE(s.Intersect(RayAlongZ(0.9f, 0, kMaskAll), &h));  // inside the scaled square
+  EXPECT_EQ(h.geometry_id, inst);
+  EXPECT_TRUE(h.is_virtual);
+  EXPECT_NEAR(h.t, 4, 1e-5);
+  EXPECT_FALSE(s.Intersect(RayAlongZ(0.9f, 0, kMaskReal), &h));
+  EXPECT_FALSE(s.Intersect(RayAlongZ(1.1f, 0, kMaskAll), &h));
+  Eigen::Affine3f singular = Eigen::Affine3f::Identity();
+  singular.scale(Eigen::Vector3f(1, 0, 1));
+  EmbreeScene s2;
+  uint32_t p2 = s2.AddPrototype(Square(0));
+  EXPECT_THROW(s2.AddInstance(p2, singular, true), Error);
+}
+
+TEST(EmbreeScene, StreamsAndPacketsMatchSingleRays) {
+  EmbreeScene s;
+  s.AddMesh(Square(5, 2), false);
+  s.AddMesh(Square(3, 0.7f), true);
+  s.Commit();
+  std::vector<Ray> rays;
+  Pcg32 rng(9, 9);
+  for (int i = 0; i < 37; ++i) {
+    Ray r;
+    r.origin = {0, 0, 0};
+    r.direction = Eigen::Vector3f(rng.NextFloat() - 0.5f, rng.NextFloat() - 0.5f, 1.0f);
+    r.mask = i % 2 ? kMaskAll : kMaskReal;
+    rays.push_back(r);
+  }
+  std::vector<Hit> stream(rays.size());
+  s.Intersect(rays, stream);
+  std::vector<char> occ(rays.size());
+  s.Occluded(rays, occ);
+  for (size_t i = 0; i < rays.size(); ++i) {
+    Hit one;
+    bool hit = s.Intersect(rays[i], &one);
+    EXPECT_EQ(stream[i].geometry_id, one.geometry_id) << i;
+    EXPECT_EQ(stream[i].t, one.t) << i;
+    EXPECT_EQ(static_cast<bool>(occ[i]), hit) << i;
+  }
+  for (size_t i0 = 0; i0 < rays.size(); i0 += 8) {
+    size_t n = std::min<size_t>(8, rays.size() - i0);
+    std::vector<Hit> packet(n);
+    s.IntersectPacket8(std::span<const Ray>(rays).subspan(i0, n), packet);
+    for (size_t k = 0; k < n; ++k) {
+      EXPECT_EQ(packet[k].geometry_id, stream[i0 + k].geometry_id);
+      if (std::isinf(stream[i0 + k].t)) {
+        EXPECT_TRUE(std::isinf(packet[k].t));
+      } else {
+        EXPECT_NEAR(packet[k].t, stream[i0 + k].t, 1e-5f * stream[i0 + k].t);  // same kernel family; ulps
+      }
+    }
+  }
+  auto b = s.Bounds();
+  EXPECT_NEAR(b.max().z(), 5, 1e-6);
+}
+
+TEST(EmbreeScene, RefusesBadMeshes) {
+  EmbreeScene s;
+  Mesh m = Square(1);
+  m.triangles.push_back({0, 1, 7});
+  EXPECT_THROW(s.AddMesh(m, false), Error);
+  Mesh n = Square(1);
+  n.positions[0].x() = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_THROW(s.AddMesh(n, false), Error);
+}
+
+}  // namespace
+}  // namespace mr

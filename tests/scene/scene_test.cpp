@@ -1,0 +1,116 @@
+#include "scene/scene.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "test_util.h"
+
+namespace mr {
+namespace {
+
+class SceneFiles : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    WriteTextFile(dir_ / "cam.cameramodel", "x");
+    WriteTextFile(dir_ / "room.ply", "x");
+    WriteTextFile(dir_ / "bunny.ply", "x");
+    WriteTextFile(dir_ / "env.exr", "x");
+    WriteTextFile(dir_ / "traj.txt", "x");
+    fs::create_directories(dir_ / "frames");
+  }
+  Json Valid() const {
+    return ParseJsonStrict(R"({
+      "version": 1,
+      "camera": {"model": "cam.cameramodel", "frames": "frames/%05d.png",
+                 "poses": {"format": "tum", "path": "traj.txt"}},
+      "lighting": {"environment": "env.exr", "environment_scale": 2.0},
+      "real": {"mesh": "room.ply", "material": {"albedo": [0.8, 0.8, 0.8]}},
+      "virtual": [
+        {"name": "a", "mesh": "bunny.ply", "transform": {"translation": [0, 0, 1], "scale": 2},
+         "material": {"albedo": [0.5, 0.4, 0.3], "specular": [0.2, 0.2, 0.2], "roughness": 0.3}},
+        {"name": "b", "mesh": "bunny.ply", "material": {"albedo": [0.9, 0.9, 0.9]}}
+      ],
+      "render": {"method": "pt", "spp": 16, "frames": "0:3", "seed": 7},
+      "output": {"dir": "out", "layers": ["composite", "mask"]}
+    })", "scene.json");
+  }
+  std::string ErrorOf(const Json& j) const {
+    try {
+      ParseScene(j, dir_.path(), "scene.json", true);
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  }
+  test::TempDir dir_;
+};
+
+TEST_F(SceneFiles, ValidSceneParses) {
+  Scene s = ParseScene(Valid(), dir_.path(), "scene.json", true);
+  EXPECT_EQ(s.camera.model, dir_ / "cam.cameramodel");  // relative to the scene's folder
+  EXPECT_EQ(s.virtuals.size(), 2u);
+  EXPECT_TRUE(s.virtuals[0].material.IsGlossy());
+  EXPECT_FALSE(s.virtuals[1].material.IsGlossy());
+  EXPECT_EQ(s.virtuals[0].world_from_object * Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(2, 0, 1));
+  EXPECT_EQ(s.render.frame_begin, 0);
+  EXPECT_EQ(s.render.frame_end, 3);
+  EXPECT_EQ(s.render.seed, 7u);
+  EXPECT_EQ(s.lighting.environment_scale, 2.0);
+  EXPECT_EQ(s.output.layers.size(), 2u);
+}
+
+TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
+  Json j = Valid();
+  j["virtual"][1]["material"]["albedo"] = {0.1, 0.2, 0.3, 0.4};
+  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[1].material.albedo: expected 3 numbers in [0,1], got 4");
+  j = Valid();
+  j["virtual"][0]["material"]["albedo"] = {0.1, 1.5, 0.3};
+  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].material.albedo: expected 3 numbers in [0,1], got 1.5");
+  j = Valid();
+  j["virtual"][0]["colour"] = "red";
+  EXPECT_EQ(ErrorOf(j).rfind("scene.json: virtual[0].colour: unknown key (allowed here: name, mesh, transform, "
+                             "material, formfactors)", 0), 0u) << ErrorOf(j);
+  j = Valid();
+  j["render"]["spp"] = "many";
+  EXPECT_EQ(ErrorOf(j), "scene.json: render.spp: expected an integer in [1, 16777216], got string");
+  j = Valid();
+  j["render"]["method"] = "magic";
+  EXPECT_EQ(ErrorOf(j), "scene.json: render.method: \"magic\" is not one of pt, ic, vpl, vct, prt");
+  j = Valid();
+  j["real"]["mesh"] = "nowhere.ply";
+  EXPECT_EQ(ErrorOf(j), "scene.json: real.mesh: mesh " + (dir_ / "nowhere.ply").string() + " does not exist");
+  j = Valid();
+  j.erase("camera");
+  EXPECT_EQ(ErrorOf(j), "scene.json: camera: missing required key");
+  j = Valid();
+  j["version"] = 2;
+  EXPECT_EQ(ErrorOf(j), "scene.json: version: this mr reads scene version 1, the file is version 2");
+  j = Valid();
+  j["virtual"][0]["material"]["specular"] = {0.6, 0.6, 0.6};
+  EXPECT_NE(ErrorOf(j).find("albedo + specular"), std::string::npos);
+  j = Valid();
+  j["virtual"][1]["name"] = "a";
+  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[1].name: name \"a\" is used twice");
+  j = Valid();
+  j["render"]["frames"] = "5:2";
+  EXPECT_EQ(ErrorOf(j), "scene.json: render.frames: \"5:2\": the range is empty");
+  j = Valid();
+  j["camera"]["frames"] = "frames/%s.png";
+  EXPECT_NE(ErrorOf(j).find("camera.frames: frame pattern"), std::string::npos);
+  j = Valid();
+  j["virtual"][0]["transform"] = {{"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 2}}};
+  EXPECT_NE(ErrorOf(j).find("last row"), std::string::npos);
+}
+
+TEST_F(SceneFiles, ReadSceneReportsSyntaxErrorsWithLine) {
+  WriteTextFile(dir_ / "bad.json", "{\n \"version\": 1,\n \"camera\": {\n}\n");
+  try {
+    ReadScene(dir_ / "bad.json");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind((dir_ / "bad.json").string() + ":5:1: invalid JSON", 0), 0u) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace mr

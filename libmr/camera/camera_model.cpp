@@ -1,5 +1,6 @@
 #include "camera/camera_model.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -71,10 +72,105 @@ CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intri
   impl_ = std::move(impl);
 }
 
+namespace {
+
+// Checks that `text` is a well-formed .cameramodel dict literal before
+// libmrcal sees it: libmrcal 2.2's lexer reads past the buffer on an
+// unterminated string (found by fuzz/fuzz_cameramodel).  Grammar:
+//   model := '{' (string ':' value ','?)* '}'    value := string | number | list
+//   list  := '[' (value ','?)* ']'               comments run from '#' to the line end.
+class DictLiteralChecker {
+ public:
+  DictLiteralChecker(const std::string& t, const std::string& name) : t_(t), name_(name) {}
+  // Returns the text without comments and with a final newline: libmrcal
+  // 2.2 also reads past the end of a comment that ends the file.
+  std::string Check() {
+    Skip();
+    Expect('{');
+    for (;;) {
+      Skip();
+      if (Peek() == '}') break;
+      String();
+      Skip();
+      Expect(':');
+      Value(0);
+      Skip();
+      if (Peek() == ',') Take();
+    }
+    Take();
+    Skip();
+    if (i_ != t_.size()) Fail("trailing characters after the closing brace");
+    return clean_ + "\n";
+  }
+
+ private:
+  [[noreturn]] void Fail(const std::string& what) const {
+    int line = 1 + static_cast<int>(std::count(t_.begin(), t_.begin() + static_cast<long>(std::min(i_, t_.size())), '\n'));
+    throw Error(FileLoc{name_, line}, "not a valid .cameramodel: " + what);
+  }
+  void Take() { clean_ += t_[i_++]; }
+  char Peek() const { return i_ < t_.size() ? t_[i_] : '\0'; }
+  void Skip() {
+    while (i_ < t_.size()) {
+      if (std::isspace(static_cast<unsigned char>(t_[i_]))) {
+        clean_ += t_[i_++];
+      } else if (t_[i_] == '#') {
+        while (i_ < t_.size() && t_[i_] != '\n') ++i_;  // comments are dropped
+      } else {
+        break;
+      }
+    }
+  }
+  void Expect(char c) {
+    if (Peek() != c) Fail(fmt::format("expected '{}'", c));
+    Take();
+  }
+  void String() {
+    char q = Peek();
+    if (q != '\'' && q != '"') Fail("expected a quoted string");
+    for (Take(); i_ < t_.size() && t_[i_] != q; Take())
+      if (t_[i_] == '\n' || t_[i_] == '\\') Fail("unterminated or escaped string");
+    if (i_ >= t_.size()) Fail("unterminated string");
+    Take();
+  }
+  void Value(int depth) {
+    if (depth > 8) Fail("lists nested too deeply");
+    Skip();
+    char c = Peek();
+    if (c == '\'' || c == '"') return String();
+    if (c == '[') {
+      Take();
+      for (;;) {
+        Skip();
+        if (Peek() == ']') { Take(); return; }
+        Value(depth + 1);
+        Skip();
+        if (Peek() == ',') Take();
+        else if (Peek() != ']') Fail("expected ',' or ']'");
+      }
+    }
+    size_t start = i_;
+    while (i_ < t_.size() && (std::isalnum(static_cast<unsigned char>(t_[i_])) || t_[i_] == '.' || t_[i_] == '-' || t_[i_] == '+')) Take();
+    if (i_ == start) Fail("expected a string, a number or a list");
+  }
+  const std::string& t_;
+  const std::string& name_;
+  size_t i_ = 0;
+  std::string clean_;
+};
+
+}  // namespace
+
 CameraModel CameraModel::FromString(const std::string& text, const std::string& name) {
+  // A .cameramodel is text.  libmrcal 2.2's parser reads past the buffer on
+  // embedded NUL bytes (found by fuzz/fuzz_cameramodel), so refuse them here
+  // and hand it a NUL-terminated string.
+  if (const auto nul = text.find('\0'); nul != std::string::npos)
+    ThrowErrorAt(FileLoc{name}, "not a text file (NUL byte at offset {})", nul);
+  if (text.size() > (size_t{1} << 30)) ThrowErrorAt(FileLoc{name}, "file too large for a camera model");
+  const std::string clean = DictLiteralChecker(text, name).Check();
   // libmrcal prints its parse diagnostics to stderr and returns NULL.
-  std::unique_ptr<mrcal_cameramodel_t, CameramodelDeleter> cm(
-      mrcal_read_cameramodel_string(text.c_str(), static_cast<int>(text.size())));
+  std::unique_ptr<mrcal_cameramodel_t, CameramodelDeleter> cm(mrcal_read_cameramodel_string(clean.c_str(), 0));
   if (!cm)
     ThrowErrorAt(FileLoc{name}, "not a valid mrcal .cameramodel (libmrcal's parser rejected it)");
   try {

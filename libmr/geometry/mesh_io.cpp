@@ -247,6 +247,12 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
     PlyHeader h;
     if (!ParsePlyHeader(text, &h, name)) ThrowErrorAt(loc, "not a PLY file (no \"ply\" magic)");
     report.declared_faces = h.faces;
+    // Each vertex takes at least 3 bytes and each face 4, in any encoding:
+    // a header that claims more is corrupt (and would make us allocate or loop for nothing).
+    const double need = 3.0 * static_cast<double>(h.vertices) + 4.0 * static_cast<double>(std::max<int64_t>(0, h.faces));
+    if (need > static_cast<double>(text.size()))
+      ThrowErrorAt(loc, "header declares {} vertices and {} faces, more than a file of {} bytes can hold (corrupt header?)",
+                   h.vertices, h.faces, text.size());
     if (h.vertices < 0) ThrowErrorAt(loc, "PLY has no vertex element");
     report.format = h.ascii ? "ply (ascii)" : "ply (binary)";
     if (h.ascii) text = CleanAsciiPly(text, h, name, options, &report, &bad_vertex);

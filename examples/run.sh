@@ -13,7 +13,6 @@ out=${1:-out/example}
 mkdir -p "$out"
 "$bin/mr-board" calib/boards/mrgingham-10x10-30mm.json --out "$out/board.svg"
 cp examples/scene/* "$out/"
-"$bin/mr-info" "$out/board.svg" 2>/dev/null || true   # an SVG is not an mr file: mr-info says so
 "$bin/mr-info" "$out/scene.cameramodel" "$out/room.obj" "$out/cube.obj" "$out/trajectory.txt" "$out/scene.json" \
                calib/boards/mrgingham-10x10-30mm.json
 echo "example outputs in $out"

@@ -1,7 +1,6 @@
 // Fuzzes the PLY header parser and ASCII pre-pass through ReadMesh.
 #include <unistd.h>
 
-#include <algorithm>
 #include <cstdint>
 #include <fstream>
 #include <string>
@@ -10,12 +9,6 @@
 #include "geometry/mesh.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
-  // ASCII PLY only: mr's pre-pass validates those before OpenMesh sees them.
-  // OpenMesh 9's binary PLY reader can spin printing warnings on malformed
-  // input (docs/dependencies.md); that is not mr's parser to fuzz.
-  if (std::string(reinterpret_cast<const char*>(data), std::min<size_t>(size, 64)).find("format ascii") ==
-      std::string::npos)
-    return 0;
   static const std::string path = "/tmp/mr-fuzz-" + std::to_string(getpid()) + ".ply";
   {
     std::ofstream out(path, std::ios::binary);

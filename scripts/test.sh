@@ -30,9 +30,7 @@ case "$mode" in
     CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMR_FUZZ=ON \
           -DMR_BUILD_TESTS=OFF -DMR_BUILD_BENCHMARKS=OFF
     cmake --build build-fuzz -j "$jobs" --target mr_fuzzers
-    # fuzz_ply is built but not run here: OpenMesh 9's PLY reader can spin on
-    # malformed input (docs/dependencies.md, known problems).
-    for name in fuzz_scene fuzz_tum fuzz_sevenscenes fuzz_colmap fuzz_cameramodel; do
+    for name in fuzz_scene fuzz_tum fuzz_sevenscenes fuzz_colmap fuzz_cameramodel fuzz_ply; do
       f=build-fuzz/fuzz/$name
       corpus=fuzz/corpus/${name#fuzz_}
       work=$(mktemp -d)

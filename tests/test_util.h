@@ -6,7 +6,6 @@
 #include <unistd.h>
 
 #include <filesystem>
-#include <random>
 #include <string>
 
 #include "core/file.h"
@@ -49,9 +48,5 @@ inline std::filesystem::path SharedData(const std::string& sub) {
       GTEST_SKIP() << "shared test data " << ::mr::test::SharedData(sub)                 \
                    << " is absent (set MR_SHARED_DATA to ../shared/data)";               \
   } while (false)
-
-inline std::filesystem::path TestData(const std::string& name) {
-  return std::filesystem::path(MR_TEST_DATA) / name;
-}
 
 }  // namespace mr::test

@@ -36,7 +36,11 @@ int main(int argc, char** argv) {
                     {"inner_corners", {nx, ny}}, {"square_mm", square_mm}};
       b = mr::ParseBoard(j, "command line");
     }
+    if (!board_file.empty()) mr::ToolReport().AddInput(board_file);
     mr::WriteTextFile(out, mr::BoardSvg(b, margin_mm / 1000.0));
+    mr::ToolReport().AddOutput(out);
+    mr::ToolReport().SetMetric("board.inner_corners", {b.inner_x, b.inner_y});
+    mr::ToolReport().SetMetric("board.square_mm", b.square_m * 1000.0);
     spdlog::info("wrote {} ({} x {} inner corners, {} mm squares)", out, b.inner_x, b.inner_y, b.square_m * 1000);
     return mr::kExitOk;
   });

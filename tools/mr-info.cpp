@@ -19,7 +19,8 @@ int main(int argc, char** argv) {
       "COLMAP text models (a folder with cameras.txt and images.txt).\n"
       "Exit code 1 when any file is unreadable or unsound (NaN/Inf pixels, bad values).",
       "  mr-info scene.json room.ply env.exr scene.cameramodel\n"
-      "  mr-info --json render-report.json > summary.json");
+      "  mr-info --json render-report.json > summary.json\n"
+      "  mr-info --report info-report.json frames/*.exr");
   app.add_option("files", files, "Files or folders to describe")->required();
   app.add_flag("--json", json, "Print one JSON array on stdout instead of text");
   return mr::RunTool("mr-info", app, argc, argv, [&] {
@@ -28,6 +29,8 @@ int main(int argc, char** argv) {
     for (const auto& f : files) {
       mr::FileInfo fi = mr::DescribeFile(f);
       if (!fi.sound) ++unsound;
+      mr::ToolReport().AddInput(f);
+      for (const auto& p : fi.problems) mr::ToolReport().Warn(p);
       if (json) {
         all.push_back(fi.json);
         continue;
@@ -37,6 +40,8 @@ int main(int argc, char** argv) {
       for (const auto& p : fi.problems) std::fprintf(stderr, "mr-info: error: %s\n", p.c_str());
     }
     if (json) std::printf("%s\n", all.dump(2).c_str());
+    mr::ToolReport().SetMetric("files", static_cast<int64_t>(files.size()));
+    mr::ToolReport().SetMetric("unsound_files", unsound);
     return unsound ? mr::kExitFailure : mr::kExitOk;
   });
 }

@@ -64,10 +64,9 @@ Image Image::Layer(const std::string& layer) const {
 }
 
 void Image::AppendLayer(const std::string& layer, const Image& img) {
-  if (empty()) {
-    *this = Image(img.width(), img.height(), {"tmp"});
-    names_.clear();
-    data_.clear();
+  if (names_.empty()) {  // the first layer sets the size
+    width_ = img.width();
+    height_ = img.height();
   }
   MR_CHECK(img.width() == width_ && img.height() == height_);
   const int old_c = channels();

@@ -6,6 +6,7 @@
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
 
+#include <cerrno>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -110,35 +111,96 @@ struct PlyHeader {
 };
 
 // Parses the PLY header of `text`; returns false when it is not a PLY.
+// Bytes of a PLY scalar type, or 0 when the name is not one.
+int PlyTypeSize(const std::string& t) {
+  if (t == "char" || t == "uchar" || t == "int8" || t == "uint8") return 1;
+  if (t == "short" || t == "ushort" || t == "int16" || t == "uint16") return 2;
+  if (t == "int" || t == "uint" || t == "float" || t == "int32" || t == "uint32" || t == "float32") return 4;
+  if (t == "double" || t == "float64") return 8;
+  return 0;
+}
+
+// Parses the PLY header of `text` strictly (every line must be one of the
+// keywords of the PLY specification with well-formed arguments), so that
+// OpenMesh only ever sees well-formed headers.  Returns false when the file
+// does not start with the "ply" magic.
 bool ParsePlyHeader(const std::string& text, PlyHeader* h, const std::string& name) {
   std::istringstream in(text);
   std::string line;
-  if (!std::getline(in, line) || line.rfind("ply", 0) != 0) return false;
+  if (!std::getline(in, line) || (line != "ply" && line != "ply\r")) return false;
   h->header_lines = 1;
   std::string element;
+  bool has_format = false, face_has_indices = false;
+  int64_t vertex_bytes = 0;  // binary record size of a vertex
+  auto fail = [&](const std::string& what) { ThrowErrorAt(FileLoc{name, h->header_lines}, "PLY header: {}", what); };
   while (std::getline(in, line)) {
     ++h->header_lines;
     if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.find('\0') != std::string::npos) fail("NUL byte in the header");
     std::istringstream ls(line);
-    std::string kw;
-    ls >> kw;
+    std::vector<std::string> tok;
+    for (std::string t; ls >> t;) tok.push_back(t);
+    if (tok.empty()) fail("empty line");
+    const std::string& kw = tok[0];
+    if (kw == "comment" || kw == "obj_info") continue;
     if (kw == "format") {
-      std::string f;
-      ls >> f;
-      h->ascii = f == "ascii";
-      h->binary = !h->ascii;
+      if (has_format || tok.size() != 3 || tok[2] != "1.0") fail("expected \"format ascii|binary_little_endian|binary_big_endian 1.0\"");
+      if (tok[1] == "ascii") h->ascii = true;
+      else if (tok[1] == "binary_little_endian" || tok[1] == "binary_big_endian") h->binary = true;
+      else fail(fmt::format("unknown format \"{}\"", tok[1]));
+      has_format = true;
     } else if (kw == "element") {
-      int64_t n = -1;
-      ls >> element >> n;
-      if (n < 0) ThrowErrorAt(FileLoc{name, h->header_lines}, "bad element count");
-      if (element == "vertex") h->vertices = n;
-      if (element == "face") h->faces = n;
-    } else if (kw == "property" && element == "vertex") {
-      std::string type, prop;
-      ls >> type >> prop;
-      h->vertex_props.push_back(prop);
+      if (tok.size() != 3) fail("expected \"element NAME COUNT\"");
+      char* end = nullptr;
+      errno = 0;
+      long long n = std::strtoll(tok[2].c_str(), &end, 10);
+      if (end != tok[2].c_str() + tok[2].size() || tok[2].empty() || n < 0 || errno == ERANGE)
+        fail(fmt::format("bad element count \"{}\"", tok[2]));
+      element = tok[1];
+      if (element == "vertex") {
+        if (h->vertices >= 0) fail("two vertex elements");
+        h->vertices = n;
+      } else if (element == "face") {
+        if (h->faces >= 0) fail("two face elements");
+        h->faces = n;
+      } else {
+        fail(fmt::format("element \"{}\" is not supported (vertex and face only)", element));
+      }
+    } else if (kw == "property") {
+      if (element.empty()) fail("property before any element");
+      if (tok.size() == 3 && PlyTypeSize(tok[1]) > 0) {
+        if (element != "vertex") fail("scalar property outside the vertex element");
+        h->vertex_props.push_back(tok[2]);
+        vertex_bytes += PlyTypeSize(tok[1]);
+      } else if (tok.size() == 5 && tok[1] == "list" && PlyTypeSize(tok[2]) > 0 && PlyTypeSize(tok[3]) > 0 &&
+                 tok[2].find("float") == std::string::npos && tok[3].find("float") == std::string::npos &&
+                 tok[2] != "double" && tok[3] != "double") {
+        if (element != "face" || (tok[4] != "vertex_indices" && tok[4] != "vertex_index"))
+          fail("list properties are supported as face vertex_indices only");
+        if (face_has_indices) fail("two vertex index lists");
+        face_has_indices = true;
+      } else {
+        fail(fmt::format("malformed property \"{}\"", line));
+      }
     } else if (kw == "end_header") {
+      if (tok.size() != 1) fail("trailing words after end_header");
+      if (!has_format) fail("no format line");
+      if (h->vertices < 0) fail("no vertex element");
+      if (h->faces > 0 && !face_has_indices) fail("faces without a vertex_indices list");
+      const int64_t header_bytes = static_cast<int64_t>(in.tellg());
+      // A binary file must hold every vertex record and at least 4 bytes per
+      // face (count + 3 one-byte indices); ASCII at least 3 bytes per vertex
+      // and 4 per face.  A header that claims more is corrupt.
+      const double per_vertex = h->binary ? static_cast<double>(vertex_bytes) : 3.0;
+      const double need = per_vertex * static_cast<double>(h->vertices) +
+                          4.0 * static_cast<double>(std::max<int64_t>(0, h->faces));
+      if (header_bytes < 0 || need > static_cast<double>(text.size()) - static_cast<double>(header_bytes))
+        ThrowErrorAt(FileLoc{name}, "header declares {} vertices and {} faces, more than the {} bytes after it can hold "
+                     "(truncated file or corrupt header?)", h->vertices, std::max<int64_t>(0, h->faces),
+                     static_cast<int64_t>(text.size()) - std::max<int64_t>(0, header_bytes));
       return true;
+    } else {
+      fail(fmt::format("unknown keyword \"{}\"", kw));
     }
   }
   ThrowErrorAt(FileLoc{name}, "PLY header has no end_header (truncated file?)");
@@ -247,13 +309,6 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
     PlyHeader h;
     if (!ParsePlyHeader(text, &h, name)) ThrowErrorAt(loc, "not a PLY file (no \"ply\" magic)");
     report.declared_faces = h.faces;
-    // Each vertex takes at least 3 bytes and each face 4, in any encoding:
-    // a header that claims more is corrupt (and would make us allocate or loop for nothing).
-    const double need = 3.0 * static_cast<double>(h.vertices) + 4.0 * static_cast<double>(std::max<int64_t>(0, h.faces));
-    if (need > static_cast<double>(text.size()))
-      ThrowErrorAt(loc, "header declares {} vertices and {} faces, more than a file of {} bytes can hold (corrupt header?)",
-                   h.vertices, h.faces, text.size());
-    if (h.vertices < 0) ThrowErrorAt(loc, "PLY has no vertex element");
     report.format = h.ascii ? "ply (ascii)" : "ply (binary)";
     if (h.ascii) text = CleanAsciiPly(text, h, name, options, &report, &bad_vertex);
   }

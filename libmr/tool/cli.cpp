@@ -29,7 +29,11 @@ namespace {
 int g_threads = 0;
 bool g_quiet = false;
 int g_verbose = 0;
+std::string g_report_path;
+Report g_report;
 }  // namespace
+
+Report& ToolReport() { return g_report; }
 
 void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& description,
                   const std::string& example) {
@@ -41,6 +45,7 @@ void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& des
   app.add_option("--threads", g_threads, "Worker threads (0 = all cores); results do not depend on it")
       ->check(CLI::NonNegativeNumber)
       ->default_val(0);
+  app.add_option("--report", g_report_path, "Write a JSON report of the run (docs/formats.md) to this file");
   app.add_flag("-q,--quiet", g_quiet, "Print errors only");
   app.add_flag("-v,--verbose", g_verbose, "More log output (repeatable)");
   app.allow_extras(false);
@@ -66,8 +71,16 @@ int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv,
                                               : (g_verbose == 1 ? spdlog::level::debug : spdlog::level::info)));
   spdlog::default_logger()->set_pattern(tool + ": %l: %v");
   SetThreadCount(g_threads);
+  g_report = Report(tool, JoinCommandLine(argc, argv));
   try {
-    return body();
+    int rc;
+    {
+      ScopedTimer total(&g_report, "total");
+      rc = body();
+    }
+    g_report.SetMetric("exit_code", rc);
+    if (!g_report_path.empty()) g_report.Write(g_report_path);
+    return rc;
   } catch (const UsageError& e) {
     std::fprintf(stderr, "%s: usage error: %s\n", tool.c_str(), e.what());
     return kExitUsage;

@@ -11,6 +11,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "core/report.h"
+
 namespace mr {
 
 inline constexpr int kExitOk = 0;
@@ -24,6 +26,13 @@ std::string JoinCommandLine(int argc, char** argv);
 // common flags (--threads, --quiet, -v, --version).
 void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& description,
                   const std::string& example);
+
+// The run's report (docs/formats.md): the tool body adds inputs, outputs,
+// timings, skipped parts, warnings and metrics; RunTool fills in the tool,
+// version and command line, times the whole run ("total"), and writes it to
+// --report FILE when the body returns (not when it throws: no report of a
+// failed run is left behind).
+Report& ToolReport();
 
 // Parses argv with `app`, then runs `body`; maps exceptions to messages and
 // exit codes.  `body` returns the exit code.

@@ -150,7 +150,7 @@ TEST(CameraModel, BadModelsAreRefused) {
     CameraModel::FromString("{ 'lensmodel': 'LENSMODEL_PINHOLE', ", "bad.cameramodel");
     FAIL();
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()).rfind("bad.cameramodel: ", 0), 0u) << e.what();
+    EXPECT_EQ(std::string(e.what()).rfind("bad.cameramodel:1: not a valid .cameramodel", 0), 0u) << e.what();
   }
   EXPECT_THROW(CameraModel::Read("/nonexistent/x.cameramodel"), Error);
 }

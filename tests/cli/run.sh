@@ -68,6 +68,13 @@ check "mr-board bad folder" 1 "does not exist" -- "$bin/mr-board" --inner-corner
 after=$(ls -A "$tmp" | wc -l)
 check "no stray files" 0 "" -- test "$after" -eq $((before + 1))
 
+# --report writes the one report layout, which mr-info itself validates.
+check "report written" 0 "" -- "$bin/mr-board" --inner-corners 9x6 --square-mm 24.23 --out "$tmp/b2.svg" --report "$tmp/board-report.json"
+check "report is sound" 0 "report of mr-board" -- "$bin/mr-info" "$tmp/board-report.json"
+# No report is left behind by a failed run.
+check "no report on failure" 1 "" -- "$bin/mr-board" --inner-corners 9x6 --square-mm 1 --out "$tmp/no/b.svg" --report "$tmp/failed-report.json"
+check "failed report absent" 1 "" -- test -e "$tmp/failed-report.json"
+
 # A good file: exit 0.
 cat > "$tmp/traj.txt" <<'TUM'
 # timestamp tx ty tz qx qy qz qw

@@ -153,6 +153,19 @@ TEST(CameraModel, BadModelsAreRefused) {
     EXPECT_EQ(std::string(e.what()).rfind("bad.cameramodel:1: not a valid .cameramodel", 0), 0u) << e.what();
   }
   EXPECT_THROW(CameraModel::Read("/nonexistent/x.cameramodel"), Error);
+  // Inputs on which libmrcal 2.2's parser reads past its buffer (found by
+  // fuzz/fuzz_cameramodel): each must be a clean error, never a crash.
+  const std::string good = CameraModel("LENSMODEL_PINHOLE", {500, 500, 319.5, 239.5}, 640, 480).ToString();
+  const std::string with_nul = good.substr(0, 20) + std::string(1, '\0') + good.substr(20);
+  const std::string unterminated = "{\n 'lensmodel': 'LENSMODEL_OPENCV4',\n 'i40, 480, ],\n}\n";
+  for (const std::string& bad : {with_nul, unterminated}) {
+    EXPECT_THROW(CameraModel::FromString(bad, "bad.cameramodel"), Error) << bad;
+  }
+  // A comment ending the file without a newline is valid and must not crash libmrcal.
+  std::string trailing = good;
+  trailing.pop_back();  // drop the final newline after '}'
+  trailing += "\n# note";
+  EXPECT_EQ(CameraModel::FromString(trailing, "ok.cameramodel").width(), 640);
 }
 
 // python3-mrcal (Debian) is a test-time oracle: it must read mr's file and

@@ -71,6 +71,20 @@ TEST(Mesh, CorruptFilesGiveClearErrors) {
   oob.replace(oob.find("3 0 1 4"), 7, "3 0 1 9");
   Write(dir / "oob.ply", oob);
   EXPECT_NE(ErrorOf(dir / "oob.ply").find("face 2 uses vertex \"9\", but there are 5 vertices"), std::string::npos);
+  // A header claiming a billion vertices is refused before anything is allocated.
+  std::string huge = kQuadPly;
+  huge.replace(huge.find("element vertex 5"), 16, "element vertex 1000000000");
+  Write(dir / "huge.ply", huge);
+  EXPECT_NE(ErrorOf(dir / "huge.ply").find("header declares 1000000000 vertices"), std::string::npos) << ErrorOf(dir / "huge.ply");
+  // Malformed headers that made OpenMesh spin (found by fuzz/fuzz_ply).
+  std::string misspelt = kQuadPly;
+  misspelt.replace(misspelt.find("format"), 6, "formaM");
+  Write(dir / "misspelt.ply", misspelt);
+  EXPECT_EQ(ErrorOf(dir / "misspelt.ply"), (dir / "misspelt.ply").string() + ":2: PLY header: unknown keyword \"formaM\"");
+  std::string nul = kQuadPly;
+  nul.replace(nul.find("element face 3"), 14, std::string("element face \0" "3", 15));
+  Write(dir / "nul.ply", nul);
+  EXPECT_EQ(ErrorOf(dir / "nul.ply"), (dir / "nul.ply").string() + ":7: PLY header: NUL byte in the header");
   Write(dir / "x.ply", "not a ply\n");
   EXPECT_NE(ErrorOf(dir / "x.ply").find("not a PLY"), std::string::npos);
   EXPECT_NE(ErrorOf(dir / "none.ply").find("does not exist"), std::string::npos);

@@ -56,6 +56,12 @@ Json ParseJsonStrict(const std::string& text, const std::string& file) {
     if (pos != std::string::npos) what = what.substr(pos + 2);
     size_t byte = e.byte > 0 ? e.byte - 1 : 0;
     throw Error(LocAtByte(text, byte, file), "invalid JSON: " + what);
+  } catch (const Json::exception& e) {
+    // out_of_range.406: a number too large for a double (1e999); found by fuzz/fuzz_scene.
+    std::string what = e.what();
+    auto pos = what.find("] ");
+    if (pos != std::string::npos) what = what.substr(pos + 2);
+    ThrowErrorAt(FileLoc{file}, "invalid JSON: {}", what);
   }
 }
 

@@ -21,6 +21,8 @@ TEST(Json, SyntaxErrorsGiveLineAndColumn) {
   EXPECT_EQ(e.rfind("x.json:3:8: invalid JSON", 0), 0u) << e;
   EXPECT_NE(ErrorOf("{} trailing"), "");
   EXPECT_NE(ErrorOf(""), "");
+  // A number beyond the double range is an error, not std::terminate (found by fuzz_scene).
+  EXPECT_EQ(ErrorOf(R"({"a": 1e999})"), "x.json: invalid JSON: number overflow parsing '1e999'");
 }
 
 TEST(Json, DuplicateKeysAreRejected) {

@@ -57,6 +57,10 @@ if(NOT OpenMesh_FOUND AND NOT TARGET OpenMeshCore)
   mr_require(OpenMesh_FOUND libopenmesh-dev "OpenMesh")
 endif()
 
+# OpenCV stays in the .cpp files of the stages that use it (calib/charuco.cpp).
+find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs aruco)
+mr_require(OpenCV_FOUND "libopencv-dev libopencv-contrib-dev" "OpenCV 4 with the contrib aruco module")
+
 find_package(embree 3 QUIET CONFIG)
 mr_require(embree_FOUND libembree-dev "Embree 3")
 

@@ -13,9 +13,11 @@ int main(int argc, char** argv) {
   double square_mm = 0, margin_mm = 10;
   mr::ConfigureApp(
       app, "mr-board",
-      "Writes a chessboard as an SVG at its physical size, to print at 100% scale.\n"
-      "Give a board definition (calib/boards/*.json) or --inner and --square-mm.",
+      "Writes a calibration board as an SVG at its physical size, to print at 100% scale.\n"
+      "Give a board definition (calib/boards/*.json: chessboard or ChArUco) or\n"
+      "--inner-corners and --square-mm for a chessboard.",
       "  mr-board calib/boards/mrgingham-10x10-30mm.json --out board.svg\n"
+      "  mr-board calib/boards/charuco-8x11-A4.json --out charuco.svg\n"
       "  mr-board --inner-corners 9x6 --square-mm 24.23 --out board.svg");
   app.add_option("board", board_file, "Board definition (JSON)")->check(CLI::ExistingFile);
   app.add_option_function<std::string>(
@@ -25,6 +27,9 @@ int main(int argc, char** argv) {
       "Inner corners, NxM (e.g. 10x10)");
   app.add_option("--square-mm", square_mm, "Square side in millimetres")->check(CLI::PositiveNumber);
   app.add_option("--margin-mm", margin_mm, "White margin around the board, millimetres")->default_val(10)->check(CLI::NonNegativeNumber);
+  double ppmm = 20;
+  app.add_option("--charuco-ppmm", ppmm, "ChArUco raster resolution, pixels per millimetre")
+      ->default_val(20)->check(CLI::Range(1.0, 100.0));
   app.add_option("--out", out, "Output SVG")->required();
   return mr::RunTool("mr-board", app, argc, argv, [&] {
     mr::BoardSpec b;
@@ -37,7 +42,7 @@ int main(int argc, char** argv) {
       b = mr::ParseBoard(j, "command line");
     }
     if (!board_file.empty()) mr::ToolReport().AddInput(board_file);
-    mr::WriteTextFile(out, mr::BoardSvg(b, margin_mm / 1000.0));
+    mr::WriteTextFile(out, mr::BoardSvg(b, margin_mm / 1000.0, ppmm));
     mr::ToolReport().AddOutput(out);
     mr::ToolReport().SetMetric("board.inner_corners", {b.inner_x, b.inner_y});
     mr::ToolReport().SetMetric("board.square_mm", b.square_m * 1000.0);

@@ -66,14 +66,36 @@ Json BoardToJson(const BoardSpec& b) {
   return j;
 }
 
-std::string BoardSvg(const BoardSpec& b, double margin_m) {
-  if (b.type != "chessboard")
-    ThrowError("board \"{}\": SVG generation covers chessboards; ChArUco boards need OpenCV's ArUco "
-               "dictionaries (mr-calibrate)", b.name);
+namespace {
+
+std::string Base64(const std::string& in) {
+  static const char* k = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((in.size() + 2) / 3 * 4);
+  size_t i = 0;
+  for (; i + 2 < in.size(); i += 3) {
+    uint32_t v = (uint8_t(in[i]) << 16) | (uint8_t(in[i + 1]) << 8) | uint8_t(in[i + 2]);
+    for (int s = 18; s >= 0; s -= 6) out += k[(v >> s) & 63];
+  }
+  if (i < in.size()) {
+    uint32_t v = uint8_t(in[i]) << 16;
+    if (i + 1 < in.size()) v |= uint8_t(in[i + 1]) << 8;
+    out += k[(v >> 18) & 63];
+    out += k[(v >> 12) & 63];
+    out += i + 1 < in.size() ? k[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string BoardSvg(const BoardSpec& b, double margin_m, double charuco_pixels_per_mm) {
   const double sq = b.square_m * 1000.0, margin = margin_m * 1000.0;
-  const double w = b.squares_x() * sq + 2 * margin;
+  const double bw = b.squares_x() * sq, bh = b.squares_y() * sq;
+  const double w = bw + 2 * margin;
   const double caption = 6.0;
-  const double h = b.squares_y() * sq + 2 * margin + caption;
+  const double h = bh + 2 * margin + caption;
   std::ostringstream s;
   s.imbue(std::locale::classic());
   s << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
@@ -81,16 +103,26 @@ std::string BoardSvg(const BoardSpec& b, double margin_m) {
     << "mm\" viewBox=\"0 0 " << w << ' ' << h << "\">\n"
     << "<!-- mr board " << b.name << ": " << b.inner_x << "x" << b.inner_y << " inner corners, "
     << sq << " mm squares. Print at 100% (no scaling). -->\n"
-    << "<rect x=\"0\" y=\"0\" width=\"" << w << "\" height=\"" << h << "\" fill=\"white\"/>\n<g fill=\"black\">\n";
-  for (int y = 0; y < b.squares_y(); ++y)
-    for (int x = 0; x < b.squares_x(); ++x)
-      if ((x + y) % 2 == 0)
-        s << "<rect x=\"" << margin + x * sq << "\" y=\"" << margin + y * sq << "\" width=\"" << sq
-          << "\" height=\"" << sq << "\"/>\n";
-  s << "</g>\n<text x=\"" << margin << "\" y=\"" << h - 2
+    << "<rect x=\"0\" y=\"0\" width=\"" << w << "\" height=\"" << h << "\" fill=\"white\"/>\n";
+  if (b.type == "charuco") {
+    const std::string png = EncodePng8(CharucoImage(b, charuco_pixels_per_mm));
+    s << "<image x=\"" << margin << "\" y=\"" << margin << "\" width=\"" << bw << "\" height=\"" << bh
+      << "\" preserveAspectRatio=\"none\" style=\"image-rendering:pixelated\" href=\"data:image/png;base64,"
+      << Base64(png) << "\"/>\n";
+  } else {
+    s << "<g fill=\"black\">\n";
+    for (int y = 0; y < b.squares_y(); ++y)
+      for (int x = 0; x < b.squares_x(); ++x)
+        if ((x + y) % 2 == 0)
+          s << "<rect x=\"" << margin + x * sq << "\" y=\"" << margin + y * sq << "\" width=\"" << sq
+            << "\" height=\"" << sq << "\"/>\n";
+    s << "</g>\n";
+  }
+  s << "<text x=\"" << margin << "\" y=\"" << h - 2
     << "\" font-family=\"sans-serif\" font-size=\"3\">" << b.name << ": " << b.inner_x << "x"
-    << b.inner_y << " inner corners, squares " << sq << " mm; check: "
-    << b.squares_x() * sq << " mm across</text>\n</svg>\n";
+    << b.inner_y << " inner corners, squares " << sq << " mm";
+  if (b.type == "charuco") s << ", markers " << b.marker_m * 1000.0 << " mm " << b.dictionary;
+  s << "; check: " << bw << " mm across</text>\n</svg>\n";
   return s.str();
 }
 

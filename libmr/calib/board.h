@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "core/file.h"
+#include "core/image.h"
 #include "core/json.h"
 
 namespace mr {
@@ -35,8 +36,22 @@ Json BoardToJson(const BoardSpec& b);
 
 // An SVG of the board at its physical size (width/height in mm), with a white
 // quiet zone of `margin_m` around it and a caption giving the size to check
-// the print with a ruler.  Chessboards only; ChArUco boards are drawn by
-// mr-calibrate's OpenCV backend.
-std::string BoardSvg(const BoardSpec& b, double margin_m = 0.01);
+// the print with a ruler.  Chessboards are vector rectangles; ChArUco boards
+// embed OpenCV's drawing as a lossless PNG at `charuco_pixels_per_mm`,
+// placed at the board's exact size.
+std::string BoardSvg(const BoardSpec& b, double margin_m = 0.01, double charuco_pixels_per_mm = 20);
+
+// ChArUco through OpenCV's aruco module (calib/charuco.cpp): the board as
+// drawn by OpenCV (1 = white), the board's physical size at `pixels_per_mm`.
+Image CharucoImage(const BoardSpec& b, double pixels_per_mm);
+std::string EncodePng8(const Image& gray);
+
+struct CharucoDetection {
+  int markers = 0;                    // ArUco markers found
+  std::vector<int> ids;               // ChArUco corner ids found
+  std::vector<Eigen::Vector2d> corners;  // their pixels (mr convention)
+};
+// Detects the board's markers and interpolates its chessboard corners.
+CharucoDetection DetectCharuco(const BoardSpec& b, const Image& gray);
 
 }  // namespace mr

@@ -33,6 +33,40 @@ TEST(Board, ObjectPointsAndSvgSize) {
   EXPECT_EQ(rects, 44u + 1u);  // + the white background
 }
 
+// The generated ChArUco board is the one OpenCV detects: every marker and
+// every inner corner is found, each corner where the board geometry puts it.
+TEST(Board, CharucoBoardIsDetectedWithEveryCorner) {
+  BoardSpec b = ReadBoard(fs::path(MR_SOURCE_DIR) / "calib" / "boards" / "charuco-8x11-A4.json");
+  const double ppmm = 4.0;  // 96 px squares, 72 px markers: well above detection limits
+  Image img = CharucoImage(b, ppmm);
+  EXPECT_EQ(img.width(), 768);
+  EXPECT_EQ(img.height(), 1056);
+  // Detection wants a quiet zone around the board: pad with white.
+  const int pad = 40;
+  Image padded = Image::Gray(img.width() + 2 * pad, img.height() + 2 * pad, 1.0f);
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) padded.at(x + pad, y + pad, 0) = img.at(x, y, 0);
+  CharucoDetection d = DetectCharuco(b, padded);
+  EXPECT_EQ(d.markers, b.squares_x() * b.squares_y() / 2);  // 44 markers in the white squares
+  ASSERT_EQ(d.ids.size(), static_cast<size_t>(b.inner_x * b.inner_y));
+  // Corner id k sits at inner corner (k % inner_x, k / inner_x), one square in
+  // from the board's top-left, on the pixel edge (x.5 in mr's convention).
+  // OpenCV 4.6 reports these ideal step corners +0.49 px off in x and y (a
+  // half-pixel convention bias, measured here; mr-calibrate must correct it),
+  // so 0.75 px bounds the error: a wrong layout would be off by a square.
+  const double sq_px = b.square_m * 1000.0 * ppmm;
+  double worst = 0;
+  for (size_t i = 0; i < d.ids.size(); ++i) {
+    const int k = d.ids[i];
+    Eigen::Vector2d expected(pad - 0.5 + sq_px * (1 + k % b.inner_x), pad - 0.5 + sq_px * (1 + k / b.inner_x));
+    worst = std::max(worst, (d.corners[i] - expected).norm());
+  }
+  EXPECT_LT(worst, 0.75);
+  std::string svg = BoardSvg(b);
+  EXPECT_NE(svg.find("width=\"212mm\""), std::string::npos);  // 8 x 24 mm + 2 x 10 mm
+  EXPECT_NE(svg.find("data:image/png;base64,iVBORw0KGgo"), std::string::npos);  // PNG magic
+}
+
 TEST(Board, BadDefinitionsNameTheKey) {
   auto err = [](const char* text) {
     try {

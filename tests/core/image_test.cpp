@@ -46,6 +46,22 @@ TEST(Image, ExrFloatRoundTripWithLayersAndProvenance) {
   EXPECT_EQ(dir.FileCount(), 1u);  // no temporary left behind
 }
 
+TEST(Image, HeaderReadsSizeAndChannelsWithoutPixels) {
+  TempDir dir;
+  Image both;
+  both.AppendLayer("composite", Image::Rgb(9, 4, 1.0f));
+  both.AppendLayer("mask", Image::Gray(9, 4, 1.0f));
+  WriteImage(dir / "h.exr", both);
+  int w = 0, h = 0;
+  std::vector<std::string> names;
+  ImageFileInfo info = ReadImageHeader(dir / "h.exr", &w, &h, &names);
+  EXPECT_EQ(w, 9);
+  EXPECT_EQ(h, 4);
+  EXPECT_EQ(names.size(), 4u);
+  EXPECT_EQ(info.format, "openexr");
+  EXPECT_THROW(ReadImageHeader(dir / "none.exr", &w, &h, &names), Error);
+}
+
 TEST(Image, HalfRefusesOverflowUnlessClamping) {
   TempDir dir;
   Image img = Image::Rgb(4, 4, 1.0f);

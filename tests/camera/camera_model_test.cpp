@@ -102,8 +102,8 @@ TEST_P(LensModels, FileRoundTripIsExact) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllMrcalModels, LensModels, ::testing::ValuesIn(Cases()),
-                         [](const auto& info) {
-                           std::string n = info.param.lensmodel.substr(10);
+                         [](const auto& param_info) {
+                           std::string n = param_info.param.lensmodel.substr(10);
                            return n.substr(0, n.find('_'));
                          });
 

@@ -36,7 +36,7 @@ TEST(LatLong, MatchesOpenExrEnvmap) {
 }
 
 TEST(LatLong, RoundTripIncludingPoles) {
-  for (const Eigen::Vector3d d : {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(1e-9, 1, 0),
+  for (const Eigen::Vector3d& d : {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(1e-9, 1, 0),
                                   Eigen::Vector3d(0.3, -0.2, -0.9), Eigen::Vector3d(-1, 0, 0)}) {
     Eigen::Vector3d n = d.normalized();
     Eigen::Vector3d back = LatLongToDirection(DirectionToLatLong(n));
@@ -59,7 +59,7 @@ TEST(LatLong, SolidAnglesSumToFourPi) {
 }
 
 TEST(CoordinateSystem, IsOrthonormalIncludingNegativeZ) {
-  for (const Eigen::Vector3d n : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0),
+  for (const Eigen::Vector3d& n : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0),
                                   Eigen::Vector3d(0.6, 0.0, -0.8), Eigen::Vector3d(0, 1e-20, -1)}) {
     Eigen::Vector3d t, b;
     CoordinateSystem(n.normalized(), &t, &b);

@@ -1,0 +1,77 @@
+#include "render/bsdf.h"
+
+#include <cmath>
+
+#include "core/math.h"
+#include "core/sampling.h"
+
+namespace mr {
+
+namespace {
+double Lum(const Eigen::Vector3d& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
+}  // namespace
+
+Bsdf::Bsdf(const Material& m) : albedo_(m.albedo), specular_(m.specular), alpha_(m.roughness * m.roughness) {
+  alpha_ = std::max(alpha_, 1e-4);  // a perfect mirror is a delta; keep it a (very) sharp lobe
+  const double d = Lum(albedo_), g = Lum(specular_);
+  diffuse_weight_ = d + g > 0 ? d / (d + g) : 0;
+  glossy_weight_ = d + g > 0 ? g / (d + g) : 0;
+}
+
+double Bsdf::D(const Eigen::Vector3d& h) const {
+  if (h.z() <= 0) return 0;
+  const double a2 = alpha_ * alpha_;
+  const double c2 = h.z() * h.z();
+  const double t = c2 * (a2 - 1) + 1;
+  return a2 / (kPi * t * t);
+}
+
+double Bsdf::Lambda(const Eigen::Vector3d& w) const {
+  const double c2 = w.z() * w.z();
+  if (c2 >= 1) return 0;
+  const double t2 = (1 - c2) / c2;  // tan^2
+  return (std::sqrt(1 + alpha_ * alpha_ * t2) - 1) / 2;
+}
+
+Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
+  if (wo.z() <= 0 || wi.z() <= 0) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d f = albedo_ * kInvPi;
+  if (glossy_weight_ > 0) {
+    Eigen::Vector3d h = (wo + wi).normalized();
+    const double g = 1.0 / (1.0 + Lambda(wo) + Lambda(wi));  // height-correlated Smith
+    f += specular_ * (D(h) * g / (4 * wo.z() * wi.z()));
+  }
+  return f;
+}
+
+double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
+  if (wo.z() <= 0 || wi.z() <= 0) return 0;
+  double pdf = diffuse_weight_ * wi.z() * kInvPi;
+  if (glossy_weight_ > 0) {
+    Eigen::Vector3d h = (wo + wi).normalized();
+    // D(h) cos(theta_h) sampling of half vectors, mapped to wi: / (4 |wo . h|).
+    pdf += glossy_weight_ * D(h) * h.z() / (4 * std::abs(wo.dot(h)));
+  }
+  return pdf;
+}
+
+bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const {
+  if (wo.z() <= 0 || IsBlack()) return false;
+  if (u_lobe < diffuse_weight_) {
+    auto d = SampleCosineHemisphere(u0, u1);
+    s->wi = Eigen::Vector3d(d[0], d[1], d[2]);
+  } else {
+    // theta_h with tan^2 = a^2 u / (1 - u): the D(h) cos(theta_h) density.
+    const double t2 = alpha_ * alpha_ * u0 / std::max(1e-300, 1 - u0);
+    const double c = 1 / std::sqrt(1 + t2), sn = SafeSqrt(1 - c * c);
+    const double phi = kTwoPi * u1;
+    Eigen::Vector3d h(sn * std::cos(phi), sn * std::sin(phi), c);
+    s->wi = 2 * wo.dot(h) * h - wo;
+  }
+  if (s->wi.z() <= 0) return false;
+  s->f = Eval(wo, s->wi);
+  s->pdf = Pdf(wo, s->wi);
+  return s->pdf > 0;
+}
+
+}  // namespace mr

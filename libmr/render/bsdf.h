@@ -1,0 +1,38 @@
+// Reflection models of mr-render: Lambertian diffuse plus a GGX microfacet
+// lobe (Walter et al. 2007, Smith height-correlated masking), in a local
+// frame whose z axis is the shading normal.  `specular` scales the glossy
+// lobe (no Fresnel term: the captured materials are fitted as reflectances);
+// albedo + specular <= 1 keeps the model energy-conserving (tested).
+#pragma once
+
+#include <Eigen/Core>
+
+#include "scene/scene.h"
+
+namespace mr {
+
+struct BsdfSample {
+  Eigen::Vector3d wi;        // local frame
+  Eigen::Vector3d f;         // BSDF value
+  double pdf = 0;            // solid angle, of the combined (mixture) sampling
+};
+
+class Bsdf {
+ public:
+  explicit Bsdf(const Material& m);
+  // wo and wi in the local frame (z = normal), both pointing away from the surface.
+  Eigen::Vector3d Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
+  double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
+  // Returns false when no direction was produced (e.g. below the horizon).
+  bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const;
+  bool IsBlack() const { return diffuse_weight_ + glossy_weight_ <= 0; }
+
+ private:
+  double D(const Eigen::Vector3d& h) const;
+  double Lambda(const Eigen::Vector3d& w) const;
+  Eigen::Vector3d albedo_, specular_;
+  double alpha_;
+  double diffuse_weight_, glossy_weight_;  // lobe selection probabilities
+};
+
+}  // namespace mr

@@ -1,0 +1,81 @@
+// `pt`: differential path tracing, the unbiased reference of mr-render.
+//
+// I_m (real + virtual) and I_r (real only) come from the same paths: while a
+// path meets only real surfaces it is shared, and each next-event estimate
+// tests real and virtual blockers separately (I_r uses st_r, I_m uses
+// min(st_r, st_v)).  Where the shared path meets a virtual object the real
+// path continues alone along the same ray with a real-only ray, with a copy
+// of the random stream, as the mixed and real ray types of Differential
+// Irradiance Caching.  With no virtual object in a path, I_m and I_r are
+// bit-identical, so their difference has no noise there.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "camera/camera_model.h"
+#include "camera/pose.h"
+#include "core/image.h"
+#include "core/sampling.h"
+#include "render/render_scene.h"
+
+namespace mr {
+
+struct PathTracerSettings {
+  int max_depth = 64;       // bounces; Russian roulette ends most paths long before
+  int rr_depth = 3;         // Russian roulette from this bounce on
+  uint64_t seed = 0;
+  int frame = 0;
+};
+
+struct PathSample {
+  Eigen::Vector3d mixed = Eigen::Vector3d::Zero();
+  Eigen::Vector3d real = Eigen::Vector3d::Zero();
+  bool primary_virtual = false;  // the camera ray's first hit is virtual (mask M)
+};
+
+class DifferentialPathTracer {
+ public:
+  DifferentialPathTracer(const RenderScene& scene, const PathTracerSettings& settings)
+      : scene_(scene), settings_(settings) {}
+  PathSample Trace(const Ray& primary, Pcg32& rng) const;
+
+ private:
+  // One path seeing geometry through `mask`, from `ray` on.
+  Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth,
+                              Pcg32& rng) const;
+  const RenderScene& scene_;
+  PathTracerSettings settings_;
+};
+
+// Renders a frame progressively: each pass adds samples to every pixel with a
+// per-pixel random stream, so the result does not depend on the thread count
+// or on how the samples are split into passes.
+class FrameRenderer {
+ public:
+  FrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
+                const PathTracerSettings& settings);
+  void RenderPass(int spp);
+  int samples_per_pixel() const { return spp_; }
+  int64_t nonfinite_samples() const { return nonfinite_; }
+
+  Image Mixed() const;       // mean I_m, RGB
+  Image Real() const;        // mean I_r, RGB
+  Image Mask() const;        // fraction of camera samples whose first hit is virtual, "Y"
+  Image DifferenceVariance() const;  // variance of the mean of luminance(I_m - I_r), "Y"
+
+ private:
+  const RenderScene& scene_;
+  DifferentialPathTracer tracer_;
+  int width_, height_;
+  Rigid3 world_from_cam_;
+  std::vector<Eigen::Vector3d> corner_dirs_;  // (W+1) x (H+1) unprojected pixel corners
+  std::vector<char> corner_ok_;
+  std::vector<Pcg32> rng_;
+  std::vector<Eigen::Vector3d> sum_m_, sum_r_;
+  std::vector<double> sum_d_, sum_d2_, coverage_;
+  int spp_ = 0;
+  int64_t nonfinite_ = 0;
+};
+
+}  // namespace mr

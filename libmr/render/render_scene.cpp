@@ -1,0 +1,51 @@
+#include "render/render_scene.h"
+
+#include "core/error.h"
+
+namespace mr {
+
+RenderScene::RenderScene() : embree_(std::make_unique<EmbreeScene>()) {}
+
+uint32_t RenderScene::AddReal(const Mesh& mesh, const Material& material) {
+  uint32_t id = embree_->AddMesh(mesh, /*is_virtual=*/false);
+  if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
+  surfaces_[id] = Surface{material, Bsdf(material), Eigen::Matrix3d::Identity()};
+  return id;
+}
+
+uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material) {
+  uint32_t proto = embree_->AddPrototype(mesh);
+  uint32_t id = embree_->AddInstance(proto, world_from_object.cast<float>(), /*is_virtual=*/true);
+  if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
+  surfaces_[id] = Surface{material, Bsdf(material), world_from_object.linear().inverse().transpose()};
+  has_virtual_ = true;
+  return id;
+}
+
+void RenderScene::Commit() {
+  embree_->Commit();
+  auto b = embree_->Bounds();
+  const double extent = b.isEmpty() ? 1.0 : static_cast<double>((b.max() - b.min()).norm());
+  epsilon_ = std::max(1e-6, 1e-5 * extent);
+}
+
+Eigen::Vector3d RenderScene::WorldNormal(const Hit& hit) const {
+  Eigen::Vector3d n = surfaces_[hit.geometry_id].normal_to_world * hit.geometric_normal.cast<double>();
+  const double len = n.norm();
+  return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::UnitZ();
+}
+
+void LoadRenderScene(const Scene& scene, RenderScene* out) {
+  if (scene.real) out->AddReal(ReadMesh(scene.real->mesh), scene.real->material);
+  for (const auto& v : scene.virtuals) out->AddVirtual(ReadMesh(v.mesh), v.world_from_object, v.material);
+  if (scene.lighting.environment) {
+    const std::string name = scene.lighting.environment->string();
+    ImageReadOptions opt;
+    opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
+    out->SetEnvironment(EnvironmentMap(ReadImage(*scene.lighting.environment, opt), name,
+                                       scene.lighting.environment_scale, scene.lighting.world_from_env));
+  }
+  out->Commit();
+}
+
+}  // namespace mr

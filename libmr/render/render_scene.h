@@ -1,0 +1,58 @@
+// What the renderer sees: the Embree scene of real and virtual geometry, a
+// material and a normal transform per geometry, and the environment.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "geometry/embree_scene.h"
+#include "geometry/mesh.h"
+#include "render/bsdf.h"
+#include "render/environment.h"
+#include "scene/scene.h"
+
+namespace mr {
+
+class RenderScene {
+ public:
+  RenderScene();
+  // The captured room (or any real geometry), in world coordinates.
+  uint32_t AddReal(const Mesh& mesh, const Material& material);
+  // A virtual object: `mesh` in object coordinates, placed by world_from_object.
+  uint32_t AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material);
+  void SetEnvironment(EnvironmentMap env) { env_ = std::move(env); }
+  void Commit();
+
+  const EmbreeScene& embree() const { return *embree_; }
+  const EnvironmentMap& environment() const { return env_; }
+  const Material& material(uint32_t geometry_id) const { return surfaces_.at(geometry_id).material; }
+  const Bsdf& bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).bsdf; }
+  // Unit world-space geometric normal of a hit (Embree reports instance
+  // normals in object space).
+  Eigen::Vector3d WorldNormal(const Hit& hit) const;
+  bool has_virtual() const { return has_virtual_; }
+  // A length for ray-origin offsets: 1e-5 of the scene's extent.
+  double epsilon() const { return epsilon_; }
+  Eigen::AlignedBox3f bounds() const { return embree_->Bounds(); }
+
+ private:
+  struct Surface {
+    Material material;
+    Bsdf bsdf;
+    Eigen::Matrix3d normal_to_world;
+  };
+  std::unique_ptr<EmbreeScene> embree_;
+  std::vector<Surface> surfaces_;  // by geometry id
+  EnvironmentMap env_;
+  bool has_virtual_ = false;
+  double epsilon_ = 1e-5;
+};
+
+// Builds a RenderScene from a validated scene description: reads the meshes
+// and the environment map (NaN/Inf pixels are an error naming the file and pixel).
+void LoadRenderScene(const Scene& scene, RenderScene* out);
+
+}  // namespace mr

@@ -1,0 +1,193 @@
+#include "render/path_tracer.h"
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+
+#include "core/math.h"
+#include "core/parallel.h"
+#include "core/spherical.h"
+
+namespace mr {
+namespace {
+
+// A closed axis-aligned box [-h, h]^3 (two-sided shading, so the winding does not matter).
+Mesh Box(double h) {
+  Mesh m;
+  const float f = static_cast<float>(h);
+  m.positions = {{-f, -f, -f}, {f, -f, -f}, {f, f, -f}, {-f, f, -f}, {-f, -f, f}, {f, -f, f}, {f, f, f}, {-f, f, f}};
+  m.triangles = {{0, 2, 1}, {0, 3, 2}, {4, 5, 6}, {4, 6, 7}, {0, 1, 5}, {0, 5, 4},
+                 {2, 3, 7}, {2, 7, 6}, {1, 2, 6}, {1, 6, 5}, {0, 4, 7}, {0, 7, 3}};
+  return m;
+}
+
+Mesh Quad(double half, double y) {
+  Mesh m;
+  const float h = static_cast<float>(half), fy = static_cast<float>(y);
+  m.positions = {{-h, fy, -h}, {h, fy, -h}, {h, fy, h}, {-h, fy, h}};
+  m.triangles = {{0, 2, 1}, {0, 3, 2}};
+  return m;
+}
+
+CameraModel Pinhole(int w, int h, double f) {
+  return CameraModel("LENSMODEL_PINHOLE", {f, f, (w - 1) / 2.0, (h - 1) / 2.0}, w, h);
+}
+
+double MeanOf(const Image& img, int channel) {
+  CompensatedSum<double> s;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) s += img.at(x, y, channel);
+  return s.Value() / static_cast<double>(img.pixel_count());
+}
+
+// Furnace: inside a closed box of albedo a whose walls all emit Le, every
+// point sees L = Le / (1 - a) (the Neumann series of a constant).
+void Furnace(double albedo, int spp, double rel_tol) {
+  RenderScene scene;
+  Material m;
+  m.albedo = Eigen::Vector3d::Constant(albedo);
+  m.emission = Eigen::Vector3d(1.0, 0.5, 0.25);
+  scene.AddReal(Box(1.0), m);
+  scene.Commit();
+  PathTracerSettings st;
+  st.max_depth = 100000;  // Russian roulette ends the paths; no truncation bias
+  FrameRenderer r(scene, Pinhole(16, 12, 10), Rigid3(), st);
+  r.RenderPass(spp);
+  Image img = r.Mixed();
+  EXPECT_EQ(r.nonfinite_samples(), 0);
+  for (int c = 0; c < 3; ++c) {
+    const double expected = m.emission[c] / (1 - albedo);
+    EXPECT_NEAR(MeanOf(img, c), expected, rel_tol * expected) << "albedo " << albedo << " channel " << c;
+  }
+  EXPECT_EQ(CountNonFinite(img), 0);
+}
+
+// Tolerances: 5 standard errors of the image mean, measured from the
+// per-sample spread (about 0.6 L for a = 0.5 and 1.5 L for a = 0.99).
+TEST(PathTracer, FurnaceMatchesClosedForm) { Furnace(0.5, 64, 0.01); }
+TEST(PathTracer, FurnaceWithAlbedoNearOneStaysBoundedAndCorrect) { Furnace(0.99, 32, 0.06); }
+
+// An open ground plane under a sky with a sun 1e6 times brighter: the
+// plane's radiance is albedo / pi times the cosine-weighted integral of the
+// piecewise-constant map over the upper hemisphere, in closed form.
+TEST(PathTracer, SunAndSkyOverAGroundPlaneMatchTheClosedForm) {
+  const int W = 64, H = 33;
+  Image img = Image::Rgb(W, H, 1.0f);
+  const int sx = 20, sy = 6;  // the sun, about 57 degrees up
+  for (int c = 0; c < 3; ++c) img.at(sx, sy, c) = 1e6f;
+  double expected_e = 0;  // irradiance: sum of L * integral of sin(lat) over the cell's upper part
+  const double dlat = kPi / (H - 1), dlon = kTwoPi / (W - 1);
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double lat = kPi / 2 - y * dlat;
+      const double hi = std::min(kPi / 2, lat + dlat / 2), lo = std::max(0.0, lat - dlat / 2);
+      if (hi <= lo) continue;
+      const double w = (x == 0 || x == W - 1) ? dlon / 2 : dlon;
+      expected_e += img.at(x, y, 0) * w * (std::sin(hi) * std::sin(hi) - std::sin(lo) * std::sin(lo)) / 2;
+    }
+  RenderScene scene;
+  Material m;
+  m.albedo = Eigen::Vector3d::Constant(0.5);
+  scene.AddReal(Quad(1e4, 0.0), m);  // blocks the lower hemisphere as seen from near the origin
+  scene.SetEnvironment(EnvironmentMap(img, "sun.exr"));
+  scene.Commit();
+  PathTracerSettings st;
+  st.max_depth = 1;  // direct light only: the closed form has no interreflection (the plane sees no plane)
+  // Camera 1 m up, looking straight down (camera z = world -y).
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, 0, -1, 0, 1, 0;  // columns: cam x -> world x, cam y -> world -z, cam z -> world -y
+  FrameRenderer r(scene, Pinhole(8, 8, 20), Rigid3(Eigen::Quaterniond(R), Eigen::Vector3d(0, 1, 0)), st);
+  r.RenderPass(64);
+  const double expected_l = 0.5 / kPi * expected_e;
+  // Environment sampling puts nearly all samples on the sun, whose
+  // contribution is then nearly constant: 1% is many standard errors.
+  EXPECT_NEAR(MeanOf(r.Mixed(), 1), expected_l, 0.01 * expected_l);
+  EXPECT_EQ(r.nonfinite_samples(), 0);
+}
+
+struct TwoObjects {
+  RenderScene scene;
+  TwoObjects(bool with_virtual) {
+    Material wall;
+    wall.albedo = Eigen::Vector3d(0.6, 0.5, 0.4);
+    scene.AddReal(Quad(10, 0.0), wall);
+    if (with_virtual) {
+      Material red;
+      red.albedo = Eigen::Vector3d(0.8, 0.1, 0.1);
+      red.specular = Eigen::Vector3d::Constant(0.1);
+      red.roughness = 0.3;
+      Eigen::Affine3d t = Eigen::Affine3d::Identity();
+      t.translate(Eigen::Vector3d(0, 0.3, 0));
+      scene.AddVirtual(Box(0.25), t, red);
+    }
+    Image sky = Image::Rgb(32, 17, 0.5f);
+    for (int c = 0; c < 3; ++c) sky.at(12, 4, c) = 2000.0f;
+    scene.SetEnvironment(EnvironmentMap(sky, "sky"));
+    scene.Commit();
+  }
+};
+
+Rigid3 LookDownFrom(double height) {
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  return Rigid3(Eigen::Quaterniond(R), Eigen::Vector3d(0, height, 0));
+}
+
+TEST(PathTracer, WithoutVirtualObjectsMixedEqualsRealExactly) {
+  TwoObjects s(false);
+  FrameRenderer r(s.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
+  r.RenderPass(8);
+  EXPECT_EQ(r.Mixed().values(), r.Real().values());
+  EXPECT_EQ(MeanOf(r.Mask(), 0), 0.0);
+  EXPECT_EQ(MeanOf(r.DifferenceVariance(), 0), 0.0);
+}
+
+TEST(PathTracer, VirtualObjectCoversPixelsAndShadowsTheRealPlane) {
+  TwoObjects s(true);
+  FrameRenderer r(s.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
+  r.RenderPass(16);
+  Image m = r.Mixed(), rl = r.Real(), mask = r.Mask();
+  EXPECT_EQ(mask.at(12, 8, 0), 1.0f);  // the box is below the camera's centre
+  EXPECT_EQ(mask.at(0, 0, 0), 0.0f);
+  // The real image sees the plane through the object; the mixed image sees the red box.
+  EXPECT_GT(m.at(12, 8, 0), 1.5 * m.at(12, 8, 2));
+  EXPECT_NEAR(rl.at(12, 8, 0) / rl.at(12, 8, 2), 0.6 / 0.4, 0.2);
+  // Relighting of the real plane: less light reaches it with the box there.
+  double diff = 0;  // sum over pixels outside the object of luminance(I_m - I_r)
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 24; ++x)
+      if (mask.at(x, y, 0) == 0) {
+        Eigen::Vector3d d(m.at(x, y, 0) - rl.at(x, y, 0), m.at(x, y, 1) - rl.at(x, y, 1), m.at(x, y, 2) - rl.at(x, y, 2));
+        diff += Luminance(d);
+      }
+  EXPECT_LT(diff, 0.0);
+}
+
+TEST(PathTracer, ResultsDoNotDependOnThreadsOrPassSplits) {
+  TwoObjects s(true);
+  auto render = [&](int threads, std::vector<int> passes) {
+    SetThreadCount(threads);
+    FrameRenderer r(s.scene, Pinhole(20, 12, 10), LookDownFrom(2), PathTracerSettings());
+    for (int p : passes) r.RenderPass(p);
+    SetThreadCount(0);
+    return std::make_pair(r.Mixed().values(), r.Real().values());
+  };
+  auto a = render(1, {8});
+  auto b = render(2, {8});
+  auto c = render(2, {3, 5});
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(a, c);
+}
+
+TEST(PathTracer, VirtualObjectOutOfViewChangesOnlyLighting) {
+  TwoObjects s(true);
+  // Camera far to the side looking away from the box: the mask is empty.
+  FrameRenderer r(s.scene, Pinhole(16, 12, 10), Rigid3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 1, 5)),
+                  PathTracerSettings());
+  r.RenderPass(4);
+  EXPECT_EQ(MeanOf(r.Mask(), 0), 0.0);
+  EXPECT_EQ(CountNonFinite(r.Mixed()), 0);
+}
+
+}  // namespace
+}  // namespace mr

@@ -36,7 +36,7 @@ Eigen::Vector3d RenderScene::WorldNormal(const Hit& hit) const {
 }
 
 void LoadRenderScene(const Scene& scene, RenderScene* out) {
-  if (scene.real) out->AddReal(ReadMesh(scene.real->mesh), scene.real->material);
+  for (const auto& r : scene.reals) out->AddReal(ReadMesh(r.mesh), r.material);
   for (const auto& v : scene.virtuals) out->AddVirtual(ReadMesh(v.mesh), v.world_from_object, v.material);
   if (scene.lighting.environment) {
     const std::string name = scene.lighting.environment->string();

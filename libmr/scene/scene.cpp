@@ -196,6 +196,30 @@ void ParseFrames(const Node& n, int* begin, int* end) {
 
 bool IsFramePattern(const std::string& s) { return s.find('%') != std::string::npos; }
 
+// A printf pattern with exactly one %d-style conversion ("frames/%05d.png");
+// checks only that its folder exists.
+fs::path ResolvePattern(const Node& n, const fs::path& base, bool check) {
+  const std::string v = n.String();
+  int conversions = 0;
+  for (size_t i = 0; i + 1 < v.size(); ++i)
+    if (v[i] == '%') {
+      if (v[i + 1] == '%') {
+        ++i;
+        continue;
+      }
+      size_t k = i + 1;
+      while (k < v.size() && std::isdigit(static_cast<unsigned char>(v[k]))) ++k;
+      if (k >= v.size() || v[k] != 'd') n.Fail("frame pattern must use one %d-style conversion, e.g. frames/%05d.png");
+      ++conversions;
+    }
+  if (conversions != 1) n.Fail("frame pattern must use exactly one %d-style conversion");
+  fs::path p = v;
+  if (p.is_relative()) p = base / p;
+  const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
+  if (check && !fs::is_directory(dir)) n.Fail(fmt::format("frame folder {} does not exist", dir.string()));
+  return p;
+}
+
 }  // namespace
 
 Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, bool check) {
@@ -215,22 +239,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     Node f = cam.Child("frames");
     std::string v = f.String();
     if (IsFramePattern(v)) {
-      // printf pattern with one integer conversion: check the folder only.
-      int conversions = 0;
-      for (size_t i = 0; i + 1 < v.size(); ++i)
-        if (v[i] == '%') {
-          if (v[i + 1] == '%') { ++i; continue; }
-          size_t k = i + 1;
-          while (k < v.size() && std::isdigit(static_cast<unsigned char>(v[k]))) ++k;
-          if (k >= v.size() || v[k] != 'd') f.Fail("frame pattern must use one %d-style conversion, e.g. frames/%05d.png");
-          ++conversions;
-        }
-      if (conversions != 1) f.Fail("frame pattern must use exactly one %d-style conversion");
-      fs::path p = v;
-      if (p.is_relative()) p = base / p;
-      if (check && !fs::is_directory(p.parent_path().empty() ? fs::path(".") : p.parent_path()))
-        f.Fail(fmt::format("frame folder {} does not exist", p.parent_path().string()));
-      s.camera.frames = p;
+      s.camera.frames = ResolvePattern(f, base, check);
     } else {
       s.camera.frames = ResolveFile(f, base, check, "video");
       s.camera.frames_are_video = true;
@@ -258,12 +267,21 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   }
 
   if (root.Has("real")) {
+    // One {mesh, material} or a list of them (a room whose parts differ in material).
+    auto parse_real = [&](const Node& r) {
+      r.RequireObject({"mesh", "material"});
+      SceneReal real;
+      real.mesh = ResolveFile(r.Required("mesh"), base, check, "mesh");
+      if (r.Has("material")) real.material = ParseMaterial(r.Child("material"));
+      s.reals.push_back(real);
+    };
     Node r = root.Child("real");
-    r.RequireObject({"mesh", "material"});
-    SceneReal real;
-    real.mesh = ResolveFile(r.Required("mesh"), base, check, "mesh");
-    if (r.Has("material")) real.material = ParseMaterial(r.Child("material"));
-    s.real = real;
+    if (r.json().is_array()) {
+      if (r.json().empty()) r.Fail("expected at least one {mesh, material}");
+      for (size_t i = 0; i < r.json().size(); ++i) parse_real(r.Index(i));
+    } else {
+      parse_real(r);
+    }
   }
 
   if (root.Has("virtual")) {
@@ -316,8 +334,11 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     s.output.dir = base / "out";
   }
 
-  if (root.Has("reference")) s.reference = ResolveFile(root.Child("reference"), base, check, "reference");
-  if (!s.real && s.virtuals.empty()) root.Fail("the scene has neither real nor virtual geometry");
+  if (root.Has("reference")) {
+    Node r = root.Child("reference");
+    s.reference = IsFramePattern(r.String()) ? ResolvePattern(r, base, check) : ResolveFile(r, base, check, "reference");
+  }
+  if (s.reals.empty() && s.virtuals.empty()) root.Fail("the scene has neither real nor virtual geometry");
   return s;
 }
 

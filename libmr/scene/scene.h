@@ -81,7 +81,7 @@ struct Scene {
   fs::path file;  // the scene file itself
   SceneCamera camera;
   SceneLighting lighting;
-  std::optional<SceneReal> real;
+  std::vector<SceneReal> reals;  // "real": one {mesh, material} or a list
   std::vector<SceneVirtual> virtuals;
   SceneRender render;
   SceneOutput output;

@@ -110,7 +110,8 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     fs::path base = path.parent_path().empty() ? fs::path(".") : path.parent_path();
     Scene s = ParseScene(j, base, path.string(), true);
     fi->lines.push_back(fmt::format("scene: camera {}", s.camera.model.string()));
-    fi->lines.push_back(fmt::format("real geometry: {}", s.real ? s.real->mesh.string() : "none"));
+    fi->lines.push_back(fmt::format("real geometry: {} meshes", s.reals.size()));
+    for (const auto& r : s.reals) fi->lines.push_back(fmt::format("  {}", r.mesh.string()));
     fi->lines.push_back(fmt::format("virtual objects: {}", s.virtuals.size()));
     for (const auto& v : s.virtuals) fi->lines.push_back(fmt::format("  {}: {}", v.name, v.mesh.string()));
     fi->lines.push_back(fmt::format("render: method {}, {} spp, max depth {}, seed {}", s.render.method, s.render.spp,

@@ -1,0 +1,244 @@
+#include "render/render_job.h"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cstdio>
+
+#include "camera/camera_model.h"
+#include "camera/colmap_text.h"
+#include "camera/trajectory.h"
+#include "core/error.h"
+#include "core/image.h"
+#include "core/progress.h"
+#include "eval/metrics.h"
+#include "render/composite.h"
+#include "render/path_tracer.h"
+#include "render/render_scene.h"
+
+namespace mr {
+
+fs::path FramePath(const fs::path& pattern, int i) {
+  const std::string p = pattern.string();
+  if (p.find('%') == std::string::npos) return pattern;
+  std::vector<char> buf(p.size() + 32);
+  std::snprintf(buf.data(), buf.size(), p.c_str(), i);
+  return fs::path(buf.data());
+}
+
+namespace {
+
+std::vector<Rigid3> LoadPoses(const Scene& s) {
+  std::vector<Rigid3> world_from_cam;
+  if (!s.camera.poses) return {Rigid3()};
+  switch (s.camera.pose_format) {
+    case PoseFormat::kTum:
+      for (const auto& p : ReadTum(*s.camera.poses).poses) world_from_cam.push_back(p.world_from_cam);
+      break;
+    case PoseFormat::k7Scenes:
+      for (const auto& p : Read7ScenesFolder(*s.camera.poses).poses) world_from_cam.push_back(p.world_from_cam);
+      break;
+    case PoseFormat::kColmap: {
+      ColmapModel m = ReadColmapText(*s.camera.poses);
+      std::vector<std::pair<std::string, Rigid3>> byname;
+      for (const auto& [id, im] : m.images) byname.emplace_back(im.name, im.cam_from_world.Inverse());
+      std::sort(byname.begin(), byname.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+      for (auto& [n, p] : byname) world_from_cam.push_back(p);
+      break;
+    }
+  }
+  return world_from_cam;
+}
+
+Image RgbOf(const Image& img, const fs::path& name) {
+  const int r = img.ChannelIndex("R"), g = img.ChannelIndex("G"), b = img.ChannelIndex("B");
+  if (r < 0 || g < 0 || b < 0) ThrowErrorAt(FileLoc{name.string()}, "image has no R, G, B channels");
+  Image out = Image::Rgb(img.width(), img.height());
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) {
+      out.at(x, y, 0) = img.at(x, y, r);
+      out.at(x, y, 1) = img.at(x, y, g);
+      out.at(x, y, 2) = img.at(x, y, b);
+    }
+  return out;
+}
+
+// A reference may be a plain RGB image or an mr-render EXR: use its composite layer.
+Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer) {
+  ImageReadOptions opt;
+  opt.default_ldr_transfer = transfer;
+  Image img = ReadImage(path, opt);
+  if (img.width() != w || img.height() != h)
+    ThrowErrorAt(FileLoc{path.string()}, "image is {}x{}, the camera model says {}x{}", img.width(), img.height(), w, h);
+  if (img.ChannelIndex("R") < 0 && img.ChannelIndex("composite.R") >= 0) return RgbOf(img.Layer("composite"), path);
+  return RgbOf(img, path);
+}
+
+}  // namespace
+
+void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
+  const std::string method = o.method.empty() ? scene.render.method : o.method;
+  if (method != "pt")
+    throw UsageError(fmt::format("method \"{}\" is not available yet; this mr renders with \"pt\"", method));
+  const int spp = o.spp > 0 ? o.spp : scene.render.spp;
+  const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
+  const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (!fs::is_directory(out_dir)) ThrowErrorAt(FileLoc{out_dir.string()}, "cannot create the output folder");
+
+  RenderScene rs;
+  CameraModel camera;
+  std::vector<Rigid3> poses;
+  {
+    ScopedTimer t(report, "load");
+    camera = CameraModel::Read(scene.camera.model);
+    poses = LoadPoses(scene);
+    LoadRenderScene(scene, &rs);
+  }
+  report->AddInput(scene.file.string());
+  const int n_frames = static_cast<int>(poses.size());
+  int begin = o.frame_begin >= 0 ? o.frame_begin : scene.render.frame_begin;
+  int end = o.frame_end >= 0 ? o.frame_end : scene.render.frame_end;
+  if (end < 0 || end > n_frames) end = n_frames;
+  if (begin >= end) throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
+  const Transfer photo_transfer = scene.camera.frames_transfer == "linear" ? Transfer::kLinear : Transfer::kSrgb;
+  if (scene.camera.frames && scene.camera.frames_are_video)
+    throw UsageError("reading video frames is not supported yet: give the frames as an image sequence pattern");
+  if (!scene.camera.frames)
+    report->Skip("photograph", "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
+  if (!rs.has_virtual())
+    report->Skip("virtual objects", "the scene has none: the composite is the photograph");
+
+  PathTracerSettings st;
+  st.max_depth = scene.render.max_depth;
+  st.seed = scene.render.seed;
+  Json frames_json = Json::array();
+  std::vector<Json> curve_sum;
+  int64_t clamped = 0, nonfinite = 0;
+  double sum_rmse = 0, sum_relmse = 0, sum_region = 0;
+  int n_ref = 0;
+  for (int f = begin; f < end; ++f) {
+    st.frame = f;
+    const auto t0 = std::chrono::steady_clock::now();
+    FrameRenderer fr(rs, camera, poses[static_cast<size_t>(f)], st);
+    std::optional<Image> photo, ref;
+    if (scene.camera.frames) photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer);
+    if (reference) ref = ReadRgb(FramePath(*reference, f), camera.width(), camera.height(), Transfer::kLinear);
+    // The region the object changes: where the reference differs from the photograph.
+    std::optional<Image> region;
+    if (ref && photo) {
+      region = Image::Gray(camera.width(), camera.height());
+      for (int y = 0; y < camera.height(); ++y)
+        for (int x = 0; x < camera.width(); ++x)
+          for (int c = 0; c < 3; ++c)
+            if (ref->at(x, y, c) != photo->at(x, y, c)) region->at(x, y, 0) = 1;
+    }
+    auto composite_now = [&]() {
+      Image real = fr.Real();
+      return Composite(photo ? *photo : real, fr.Mixed(), real, fr.Mask());
+    };
+    Json curve = Json::array();
+    Progress progress(fmt::format("frame {}", f), spp);
+    int done = 0;
+    double seconds = 0;
+    while (done < spp) {
+      const int n = std::min(done == 0 ? 1 : done, spp - done);  // checkpoints at 1, 2, 4, 8, ... spp
+      {
+        ScopedTimer t(report, "render");
+        fr.RenderPass(n);
+      }
+      done += n;
+      progress.Update(done);
+      seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      if (ref) {
+        CompositeResult cr = composite_now();
+        ImageMetrics m = CompareImages(cr.composite, *ref);
+        double region_relmse = region ? CompareImages(cr.composite, *ref, &*region).relmse : m.relmse;
+        curve.push_back({{"seconds", seconds}, {"spp", done}, {"relmse", m.relmse}, {"region_relmse", region_relmse}});
+      }
+      if (budget > 0 && seconds >= budget) {
+        report->Warn(fmt::format("frame {}: time budget {} s reached at {} spp", f, budget, done));
+        break;
+      }
+    }
+    progress.Done();
+    CompositeResult cr;
+    {
+      ScopedTimer t(report, "composite");
+      cr = composite_now();
+    }
+    clamped += cr.clamped_negative;
+    nonfinite += fr.nonfinite_samples();
+    Json fj = {{"frame", f}, {"spp", done}, {"seconds", seconds}, {"clamped_negative", cr.clamped_negative},
+               {"nonfinite_samples", fr.nonfinite_samples()}};
+    if (ref) {
+      ImageMetrics m = CompareImages(cr.composite, *ref);
+      const double region_relmse = region ? CompareImages(cr.composite, *ref, &*region).relmse : m.relmse;
+      fj["rmse"] = m.rmse;
+      fj["relmse"] = m.relmse;
+      fj["region_relmse"] = region_relmse;
+      fj["curve"] = curve;
+      sum_rmse += m.rmse;
+      sum_relmse += m.relmse;
+      sum_region += region_relmse;
+      ++n_ref;
+      for (size_t k = 0; k < curve.size(); ++k) {
+        if (curve_sum.size() <= k) curve_sum.push_back({{"seconds", 0.0}, {"spp", curve[k]["spp"]}, {"relmse", 0.0}, {"region_relmse", 0.0}, {"frames", 0}});
+        for (const char* key : {"seconds", "relmse", "region_relmse"})
+          curve_sum[k][key] = curve_sum[k][key].get<double>() + curve[k][key].get<double>();
+        curve_sum[k]["frames"] = curve_sum[k]["frames"].get<int>() + 1;
+      }
+    }
+    frames_json.push_back(fj);
+    {
+      ScopedTimer t(report, "write");
+      Image layers;
+      Image real = fr.Real();
+      layers.AppendLayer("composite", cr.composite);
+      layers.AppendLayer("mixed", fr.Mixed());
+      layers.AppendLayer("real", real);
+      layers.AppendLayer("mask", fr.Mask());
+      layers.AppendLayer("difference", cr.difference);
+      layers.AppendLayer("variance", fr.DifferenceVariance());
+      layers.AppendLayer("samples", Image::Gray(camera.width(), camera.height(), static_cast<float>(done)));
+      if (photo) layers.AppendLayer("photo", *photo);
+      ImageWriteOptions wo;
+      wo.tool = o.tool;
+      wo.command_line = o.command_line;
+      wo.pixel_type = scene.output.half ? PixelType::kHalf : PixelType::kFloat;
+      const fs::path exr = out_dir / fmt::format("{:05d}.exr", f);
+      WriteImage(exr, layers, wo);
+      report->AddOutput(exr.string());
+      if (scene.output.png) {
+        const fs::path png = out_dir / fmt::format("{:05d}.png", f);
+        ImageWriteOptions po = wo;
+        po.pixel_type = PixelType::kUint8;
+        WriteImage(png, cr.composite, po);
+        report->AddOutput(png.string());
+      }
+    }
+    spdlog::info("frame {}: {} spp in {:.2f} s{}", f, done, seconds,
+                 ref ? fmt::format(", relMSE {:.3g}", fj["relmse"].get<double>()) : std::string());
+  }
+  report->SetMetric("method", method);
+  report->SetMetric("frames", frames_json);
+  report->SetMetric("clamped_negative", clamped);
+  report->SetMetric("nonfinite_samples", nonfinite);
+  if (clamped > 0) report->Warn(fmt::format("{} negative composite values clamped to 0", clamped));
+  if (n_ref > 0) {
+    report->SetMetric("rmse", sum_rmse / n_ref);
+    report->SetMetric("relmse", sum_relmse / n_ref);
+    report->SetMetric("region_relmse", sum_region / n_ref);
+    Json curve = Json::array();
+    for (auto& c : curve_sum) {
+      const int nf = c["frames"].get<int>();
+      curve.push_back({{"seconds", c["seconds"].get<double>() / nf}, {"spp", c["spp"]},
+                       {"relmse", c["relmse"].get<double>() / nf}, {"region_relmse", c["region_relmse"].get<double>() / nf}});
+    }
+    report->SetMetric("curve", curve);
+  }
+}
+
+}  // namespace mr

@@ -1,0 +1,274 @@
+#include "synth/synth.h"
+
+#include <spdlog/spdlog.h>
+
+#include "camera/camera_model.h"
+#include "camera/trajectory.h"
+#include "core/error.h"
+#include "core/image.h"
+#include "core/json.h"
+#include "core/math.h"
+#include "core/sampling.h"
+#include "core/spherical.h"
+#include "geometry/mesh.h"
+#include "render/path_tracer.h"
+#include "render/render_scene.h"
+
+namespace mr {
+
+SynthPreset GetSynthPreset(const std::string& name) {
+  if (name == "small") return {64, 48, 2, 256, 16, 1e4};
+  if (name == "room") return {640, 480, 4, 1024, 64, 1e6};
+  throw UsageError(fmt::format("unknown preset \"{}\" (small, room)", name));
+}
+
+namespace {
+
+Mesh Box(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
+  Mesh m;
+  for (int i = 0; i < 8; ++i)
+    m.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
+  // Outward-facing (counter-clockwise seen from outside).
+  m.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
+                 {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+  return m;
+}
+
+Mesh Quad(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c, const Eigen::Vector3f& d) {
+  Mesh m;
+  m.positions = {a, b, c, d};
+  m.triangles = {{0, 1, 2}, {0, 2, 3}};
+  return m;
+}
+
+Mesh Sphere(float r, int n) {
+  Mesh m;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= 2 * n; ++j) {
+      const double th = kPi * i / n, ph = kPi * j / n;
+      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)), static_cast<float>(r * std::cos(th)),
+                               static_cast<float>(r * std::sin(th) * std::sin(ph)));
+    }
+  const int row = 2 * n + 1;
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j < 2 * n; ++j) {
+      int a = i * row + j, b = a + row;
+      if (i > 0) m.triangles.push_back({a, a + 1, b});
+      if (i < n - 1) m.triangles.push_back({a + 1, b + 1, b});
+    }
+  return m;
+}
+
+// The sky: a vertical gradient, a dim ground below the horizon and a sun of
+// one pixel `sun_to_sky` times brighter than the sky at the zenith.
+Image SkyMap(int w, int h, double sun_to_sky, int* sun_x, int* sun_y) {
+  Image img = Image::Rgb(w, h);
+  for (int y = 0; y < h; ++y) {
+    const double lat = kPi / 2 - y * kPi / (h - 1);
+    for (int x = 0; x < w; ++x) {
+      Eigen::Vector3d c;
+      if (lat >= 0) c = Eigen::Vector3d(0.35, 0.5, 0.9) * (0.6 + 0.4 * std::sin(lat));
+      else c = Eigen::Vector3d(0.25, 0.22, 0.2);
+      for (int k = 0; k < 3; ++k) img.at(x, y, k) = static_cast<float>(c[k]);
+    }
+  }
+  *sun_x = w / 3;
+  *sun_y = h / 5;  // ~54 degrees up
+  const double zenith_sky = 0.9;
+  for (int k = 0; k < 3; ++k) img.at(*sun_x, *sun_y, k) = static_cast<float>(sun_to_sky * zenith_sky * (k == 2 ? 0.9 : 1.0));
+  return img;
+}
+
+Json MaterialJson(const Material& m) {
+  Json j = {{"albedo", {m.albedo.x(), m.albedo.y(), m.albedo.z()}}};
+  if (m.IsGlossy()) {
+    j["specular"] = {m.specular.x(), m.specular.y(), m.specular.z()};
+    j["roughness"] = m.roughness;
+  }
+  return j;
+}
+
+Material Diffuse(double r, double g, double b) {
+  Material m;
+  m.albedo = Eigen::Vector3d(r, g, b);
+  return m;
+}
+
+}  // namespace
+
+void RunSynth(const SynthOptions& o, Report* report) {
+  const SynthPreset p = GetSynthPreset(o.preset);
+  const int truth_spp = o.truth_spp > 0 ? o.truth_spp : p.truth_spp;
+  if (o.out.empty()) throw UsageError("--out is required");
+  std::error_code ec;
+  for (const char* sub : {"", "meshes", "photos", "truth"}) fs::create_directories(o.out / sub, ec);
+  if (!fs::is_directory(o.out / "truth")) ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the capture folder");
+  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
+
+  // The room: floor, back and left walls (open to the sky above, in front and to the right),
+  // a table with a glossy top, two boxes of known albedo.
+  struct Part {
+    std::string name;
+    Mesh mesh;
+    Material material;
+  };
+  Material glossy = Diffuse(0.15, 0.15, 0.18);
+  glossy.specular = Eigen::Vector3d::Constant(0.6);
+  glossy.roughness = 0.25;
+  std::vector<Part> parts = {
+      {"floor", Quad({-3, 0, -3}, {-3, 0, 3}, {3, 0, 3}, {3, 0, -3}), Diffuse(0.55, 0.5, 0.45)},
+      {"wall_back", Quad({-3, 0, 3}, {-3, 2.5f, 3}, {3, 2.5f, 3}, {3, 0, 3}), Diffuse(0.7, 0.7, 0.65)},
+      {"wall_left", Quad({-3, 0, -3}, {-3, 2.5f, -3}, {-3, 2.5f, 3}, {-3, 0, 3}), Diffuse(0.6, 0.25, 0.2)},
+      {"table_top", Box({-0.6f, 0.70f, -0.4f}, {0.6f, 0.75f, 0.4f}), glossy},
+      {"table_legs", Box({-0.55f, 0, -0.35f}, {-0.5f, 0.7f, -0.3f}), Diffuse(0.3, 0.2, 0.1)},
+      {"box_green", Box({1.2f, 0, 0.8f}, {1.7f, 0.5f, 1.3f}), Diffuse(0.2, 0.6, 0.25)},
+      {"box_blue", Box({-2.0f, 0, 1.0f}, {-1.5f, 0.35f, 1.5f}), Diffuse(0.15, 0.25, 0.7)},
+  };
+  for (int leg = 1; leg < 4; ++leg) {  // the other three legs
+    const float sx = leg & 1 ? 1.0f : -1.0f, sz = leg & 2 ? 1.0f : -1.0f;
+    Mesh l = Box({sx * 0.5f - 0.025f, 0, sz * 0.325f - 0.025f}, {sx * 0.5f + 0.025f, 0.7f, sz * 0.325f + 0.025f});
+    const int base = static_cast<int>(parts[4].mesh.positions.size());
+    for (auto& v : l.positions) parts[4].mesh.positions.push_back(v);
+    for (auto t : l.triangles) parts[4].mesh.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  }
+
+  // The virtual object, resting on the table.
+  Mesh object;
+  fs::path object_file;
+  if (o.object == "sphere") {
+    object = Sphere(0.15f, 24);
+  } else if (o.object == "box") {
+    object = Box({-0.12f, -0.12f, -0.12f}, {0.12f, 0.12f, 0.12f});
+  } else {
+    object_file = o.object;
+    object = ReadMesh(object_file);
+  }
+  const auto ob = object.Bounds();
+  const double size = static_cast<double>((ob.max() - ob.min()).maxCoeff());
+  const double scale = 0.3 / std::max(size, 1e-9);  // about 30 cm across
+  Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();
+  world_from_object.translate(Eigen::Vector3d(0.1, 0.75 - scale * ob.min().y(), 0.0));
+  world_from_object.rotate(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()));
+  world_from_object.scale(scale);
+  Eigen::Vector3d oc = 0.5 * (ob.min() + ob.max()).cast<double>();
+  world_from_object.translate(Eigen::Vector3d(-oc.x(), 0, -oc.z()));
+  Material object_material = Diffuse(0.8, 0.75, 0.7);
+
+  // Lighting, camera and path.
+  int sun_x, sun_y;
+  Image sky = SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y);
+  const double f = 0.9 * p.width;  // ~58 degree horizontal field of view
+  CameraModel camera("LENSMODEL_OPENCV4", {f, f, (p.width - 1) / 2.0, (p.height - 1) / 2.0, -0.02, 0.005, 0, 0},
+                     p.width, p.height);
+  Trajectory traj;
+  const Eigen::Vector3d target(0, 0.8, 0.2);
+  for (int i = 0; i < p.frames; ++i) {
+    const Eigen::Vector3d eye(-0.4 + 0.8 * i / std::max(1, p.frames - 1), 1.5, -2.2);
+    const Eigen::Vector3d z = (target - eye).normalized();
+    const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized() * -1.0;  // camera x to the right
+    const Eigen::Vector3d y = z.cross(x);  // camera y down
+    Eigen::Matrix3d R;
+    R.col(0) = x;
+    R.col(1) = y;
+    R.col(2) = z;
+    traj.poses.push_back({i / 30.0, Rigid3(Eigen::Quaterniond(R), eye)});
+  }
+
+  // Write the inputs.
+  {
+    ScopedTimer t(report, "write inputs");
+    Json reals = Json::array();
+    for (const auto& part : parts) {
+      const fs::path mesh_path = o.out / "meshes" / (part.name + ".ply");
+      WritePly(mesh_path, part.mesh, note);
+      reals.push_back({{"mesh", "meshes/" + part.name + ".ply"}, {"material", MaterialJson(part.material)}});
+      report->AddOutput(mesh_path.string());
+    }
+    WritePly(o.out / "meshes" / "object.ply", object, note);
+    camera.Write(o.out / "camera.cameramodel", note);
+    WriteTum(o.out / "trajectory.txt", traj);
+    ImageWriteOptions wo;
+    wo.tool = o.tool;
+    wo.command_line = o.command_line;
+    WriteImage(o.out / "env.exr", sky, wo);
+    Json scene = {
+        {"version", 1},
+        {"comment", "synthetic capture (" + note + ")"},
+        {"camera", {{"model", "camera.cameramodel"}, {"frames", "photos/%05d.exr"}, {"frames_transfer", "linear"},
+                    {"poses", {{"format", "tum"}, {"path", "trajectory.txt"}}}}},
+        {"lighting", {{"environment", "env.exr"}}},
+        {"real", reals},
+        {"virtual", Json::array({{{"name", "object"}, {"mesh", "meshes/object.ply"},
+                                  {"transform", {{"matrix", Json::array()}}},
+                                  {"material", MaterialJson(object_material)}}})},
+        {"render", {{"method", "pt"}, {"spp", p.render_spp}, {"max_depth", 8}, {"seed", o.seed}}},
+        {"output", {{"dir", "render"}, {"png", true}}},
+        {"reference", "truth/%05d.exr"}};
+    Json& mat = scene["virtual"][0]["transform"]["matrix"];
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) mat.push_back(world_from_object.matrix()(r, c));
+    WriteTextFile(o.out / "scene.json", scene.dump(2) + "\n");
+    for (const char* f2 : {"scene.json", "camera.cameramodel", "trajectory.txt", "env.exr", "meshes/object.ply"})
+      report->AddOutput((o.out / f2).string());
+  }
+
+  // Render the truth; its real-only paths are the photographs.
+  RenderScene rs;
+  for (const auto& part : parts) rs.AddReal(part.mesh, part.material);
+  rs.AddVirtual(object, world_from_object, object_material);
+  rs.SetEnvironment(EnvironmentMap(sky, (o.out / "env.exr").string()));
+  rs.Commit();
+  PathTracerSettings st;
+  st.max_depth = 8;
+  st.seed = HashCombine(o.seed, 0x7275746875ULL);  // independent of mr-render's seed
+  int64_t changed = 0;
+  for (int i = 0; i < p.frames; ++i) {
+    st.frame = i;
+    FrameRenderer fr(rs, camera, traj.poses[static_cast<size_t>(i)].world_from_cam, st);
+    {
+      ScopedTimer t(report, "render truth");
+      fr.RenderPass(truth_spp);
+    }
+    Image photo = fr.Real(), truth = fr.Mixed();
+    for (size_t k = 0; k < photo.values().size(); ++k) changed += photo.values()[k] != truth.values()[k];
+    ImageWriteOptions wo;
+    wo.tool = o.tool;
+    wo.command_line = o.command_line;
+    const fs::path photo_path = o.out / "photos" / fmt::format("{:05d}.exr", i);
+    const fs::path truth_path = o.out / "truth" / fmt::format("{:05d}.exr", i);
+    WriteImage(photo_path, photo, wo);
+    WriteImage(truth_path, truth, wo);
+    // 8-bit photographs through the documented camera response: exposure so
+    // that the 99th percentile maps to 0.9, the sRGB curve, Gaussian noise of
+    // sigma 1/255 before quantisation (seeded per pixel).
+    std::vector<float> lum;
+    for (int y = 0; y < photo.height(); ++y)
+      for (int x = 0; x < photo.width(); ++x)
+        lum.push_back(0.2126f * photo.at(x, y, 0) + 0.7152f * photo.at(x, y, 1) + 0.0722f * photo.at(x, y, 2));
+    std::nth_element(lum.begin(), lum.begin() + static_cast<long>(lum.size() * 99 / 100), lum.end());
+    const float exposure = 0.9f / std::max(1e-6f, lum[lum.size() * 99 / 100]);
+    Image ldr = Image::Rgb(photo.width(), photo.height());
+    for (int y = 0; y < photo.height(); ++y)
+      for (int x = 0; x < photo.width(); ++x) {
+        Pcg32 rng(HashCombine(o.seed, static_cast<uint64_t>(i)), static_cast<uint64_t>(y) * photo.width() + x);
+        for (int c = 0; c < 3; ++c) {
+          const double u1 = std::max(1e-12, rng.NextDouble()), u2 = rng.NextDouble();
+          const double gauss = std::sqrt(-2 * std::log(u1)) * std::cos(kTwoPi * u2);
+          const float v = LinearToSrgb(Clamp(photo.at(x, y, c) * exposure, 0.0f, 1.0f)) + static_cast<float>(gauss / 255.0);
+          ldr.at(x, y, c) = SrgbToLinear(Clamp(v, 0.0f, 1.0f));  // WriteImage re-encodes sRGB
+        }
+      }
+    WriteImage(o.out / "photos" / fmt::format("{:05d}.png", i), ldr, wo);
+    report->AddOutput(photo_path.string());
+    report->AddOutput(truth_path.string());
+    spdlog::info("frame {}: truth at {} spp", i, truth_spp);
+  }
+  report->SetMetric("frames", p.frames);
+  report->SetMetric("truth_spp", truth_spp);
+  report->SetMetric("size", {p.width, p.height});
+  report->SetMetric("sun_to_sky", p.sun_to_sky);
+  report->SetMetric("changed_values", changed);
+  report->Skip("video file", "mr-synth writes the frames as image sequences (photos/NNNNN.exr, .png); mp4 output is not built yet");
+}
+
+}  // namespace mr

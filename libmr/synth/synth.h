@@ -1,0 +1,38 @@
+// mr-synth: synthetic captures of a known "real" room with exact ground truth.
+//
+// A capture folder holds everything a real capture would (camera model,
+// trajectory, photographs I_c, room meshes with their albedos, an
+// environment map) plus the ground truth: a converged differential render
+// of room + virtual object per frame, named by scene.json's "reference".
+// The photographs are the real-only paths of that same render, so the
+// truth differs from the photograph exactly where the object changes the
+// image (docs/formats.md, "Synthetic captures").  Later stages add
+// chessboard, mirror-sphere and RGB-D generators beside these.
+#pragma once
+
+#include <string>
+
+#include "core/file.h"
+#include "core/report.h"
+
+namespace mr {
+
+struct SynthOptions {
+  std::string preset = "small";  // small | room
+  fs::path out;
+  uint64_t seed = 1;
+  std::string object = "sphere";  // sphere | box | a mesh file (OBJ/PLY/OFF/STL)
+  int truth_spp = 0;              // 0: the preset's
+  std::string tool = "mr-synth", command_line;
+};
+
+struct SynthPreset {
+  int width, height, frames, truth_spp, render_spp;
+  double sun_to_sky;  // sun radiance / sky radiance
+};
+SynthPreset GetSynthPreset(const std::string& name);
+
+// Writes the capture; fills `report`.
+void RunSynth(const SynthOptions& options, Report* report);
+
+}  // namespace mr

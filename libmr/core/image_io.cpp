@@ -184,6 +184,9 @@ ImageWriteResult WriteImage(const fs::path& path, const Image& img,
   if (!options.tool.empty()) spec.attribute("mr:tool", options.tool);
   spec.attribute("mr:version", kVersion);
   if (!options.command_line.empty()) spec.attribute("mr:command_line", options.command_line);
+  // OpenImageIO stamps the current time (EXR capDate) unless DateTime is set;
+  // an empty one keeps outputs byte-identical from run to run.
+  spec.attribute("DateTime", "");
   for (const auto& [k, v] : options.attributes) spec.attribute(k, v);
   if (format == OIIO::TypeDesc::UINT8 || format == OIIO::TypeDesc::UINT16)
     spec.attribute("oiio:ColorSpace", options.ldr_transfer == Transfer::kSrgb ? "sRGB" : "Linear");

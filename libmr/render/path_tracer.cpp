@@ -24,6 +24,13 @@ struct Frame {
   Eigen::Vector3d ToWorld(const Eigen::Vector3d& v) const { return v.x() * t + v.y() * b + v.z() * n; }
 };
 
+// Ray origins are offset along the normal by 64 float ulps of the hit
+// position: local, so the offset (and every path) does not depend on what
+// else is in the scene.
+double OffsetScale(const Eigen::Vector3d& p) {
+  return 64.0 * std::numeric_limits<float>::epsilon() * std::max(p.cwiseAbs().maxCoeff(), 1e-3);
+}
+
 Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, uint32_t mask, double tfar = INFINITY) {
   Ray r;
   r.origin = origin.cast<float>();
@@ -70,7 +77,7 @@ bool EnvironmentNee(const RenderScene& scene, const Vertex& v, Pcg32& rng, Eigen
   if (f.maxCoeff() <= 0) return false;
   const double w = PowerHeuristic(pdf_light, v.bsdf->Pdf(wo_l, wi_l));
   *contrib = f.cwiseProduct(le) * (wi_l.z() * w / pdf_light);
-  *shadow = MakeRay(v.p + v.frame.n * scene.epsilon(), wi, kMaskAll);
+  *shadow = MakeRay(v.p + v.frame.n * OffsetScale(v.p), wi, kMaskAll);
   return true;
 }
 
@@ -107,7 +114,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       if (rng.NextDouble() >= q) break;
       beta /= q;
     }
-    ray = MakeRay(v.p + v.frame.n * scene_.epsilon(), v.frame.ToWorld(s.wi), mask);
+    ray = MakeRay(v.p + v.frame.n * OffsetScale(v.p), v.frame.ToWorld(s.wi), mask);
   }
   return L;
 }
@@ -163,7 +170,7 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
       if (rng.NextDouble() >= q) return out;
       beta /= q;
     }
-    ray = MakeRay(v.p + v.frame.n * scene_.epsilon(), v.frame.ToWorld(s.wi), kMaskAll);
+    ray = MakeRay(v.p + v.frame.n * OffsetScale(v.p), v.frame.ToWorld(s.wi), kMaskAll);
   }
 }
 
@@ -185,9 +192,7 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
       corner_dirs_[i] = corner_ok_[i] ? d : Eigen::Vector3d::UnitZ();
     }
   });
-  const uint64_t frame_seed = HashCombine(settings.seed, static_cast<uint64_t>(settings.frame));
-  rng_.reserve(n);
-  for (size_t i = 0; i < n; ++i) rng_.emplace_back(frame_seed, i);
+  frame_seed_ = HashCombine(settings.seed, static_cast<uint64_t>(settings.frame));
   sum_m_.assign(n, Eigen::Vector3d::Zero());
   sum_r_.assign(n, Eigen::Vector3d::Zero());
   sum_d_.assign(n, 0);
@@ -205,8 +210,10 @@ void FrameRenderer::RenderPass(int spp) {
       const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1,
                    c11 = c01 + 1;
       if (!(corner_ok_[c00] && corner_ok_[c10] && corner_ok_[c01] && corner_ok_[c11])) continue;  // outside the lens
-      Pcg32& rng = rng_[i];
       for (int s = 0; s < spp; ++s) {
+        // One generator per (pixel, sample index): samples are independent
+        // of each other, of the thread count and of how passes split them.
+        Pcg32 rng(HashCombine(frame_seed_, static_cast<uint64_t>(spp_ + s)), i);
         const double fx = rng.NextDouble(), fy = rng.NextDouble();
         Eigen::Vector3d d = (1 - fy) * ((1 - fx) * corner_dirs_[c00] + fx * corner_dirs_[c10]) +
                             fy * ((1 - fx) * corner_dirs_[c01] + fx * corner_dirs_[c11]);

@@ -48,9 +48,10 @@ class DifferentialPathTracer {
   PathTracerSettings settings_;
 };
 
-// Renders a frame progressively: each pass adds samples to every pixel with a
-// per-pixel random stream, so the result does not depend on the thread count
-// or on how the samples are split into passes.
+// Renders a frame progressively: each pass adds samples to every pixel, each
+// sample with its own generator seeded by (seed, frame, sample index, pixel),
+// so the result does not depend on the thread count or on how the samples
+// are split into passes.
 class FrameRenderer {
  public:
   FrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
@@ -71,7 +72,7 @@ class FrameRenderer {
   Rigid3 world_from_cam_;
   std::vector<Eigen::Vector3d> corner_dirs_;  // (W+1) x (H+1) unprojected pixel corners
   std::vector<char> corner_ok_;
-  std::vector<Pcg32> rng_;
+  uint64_t frame_seed_ = 0;
   std::vector<Eigen::Vector3d> sum_m_, sum_r_;
   std::vector<double> sum_d_, sum_d2_, coverage_;
   int spp_ = 0;

@@ -1,0 +1,162 @@
+#include "render/render_job.h"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "core/parallel.h"
+#include "eval/metrics.h"
+#include "render/composite.h"
+#include "synth/synth.h"
+#include "test_util.h"
+
+namespace mr {
+namespace {
+
+std::string Bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// One small synthetic capture shared by the tests of this file.
+class Capture : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new test::TempDir();
+    SynthOptions o;
+    o.out = dir_->path() / "cap";
+    o.truth_spp = 1024;  // truth noise is 1/128 of the 8-spp estimate's: negligible below
+    Report r("mr-synth", "test");
+    RunSynth(o, &r);
+  }
+  static void TearDownTestSuite() { delete dir_; }
+  static fs::path Cap() { return dir_->path() / "cap"; }
+  static test::TempDir* dir_;
+
+  Report Render(int spp, const fs::path& out, int threads = 0) {
+    Scene s = ReadScene(Cap() / "scene.json");
+    RenderOptions o;
+    o.spp = spp;
+    o.frame_begin = 0;
+    o.frame_end = 1;
+    o.out_dir = out;
+    Report r("mr-render", "test");
+    SetThreadCount(threads);
+    RunRenderJob(s, o, &r);
+    SetThreadCount(0);
+    return r;
+  }
+};
+test::TempDir* Capture::dir_ = nullptr;
+
+// Unbiased: the composite's relMSE against the truth falls as 1/spp.  Over
+// three doublings (1 -> 8 spp) the ideal ratio is 8; 5 leaves room for noise
+// in the estimate of the error itself and the truth's own noise.
+TEST_F(Capture, RelativeErrorFallsAsOneOverSpp) {
+  Report r = Render(8, dir_->path() / "r8");
+  const Json& curve = r.metrics()["curve"];
+  ASSERT_EQ(curve.size(), 4u);  // checkpoints at 1, 2, 4, 8 spp
+  for (size_t k = 0; k < 4; ++k) EXPECT_EQ(curve[k]["spp"], 1 << k);
+  const double r1 = curve[0]["relmse"], r8 = curve[3]["relmse"];
+  EXPECT_GT(r1 / r8, 5.0) << r1 << " " << r8;
+  EXPECT_LT(r1 / r8, 12.0) << r1 << " " << r8;
+  for (size_t k = 1; k < 4; ++k) EXPECT_LT(curve[k]["relmse"].get<double>(), curve[k - 1]["relmse"].get<double>());
+  EXPECT_GT(r.metrics()["region_relmse"].get<double>(), 0.0);
+}
+
+TEST_F(Capture, SameCommandSameBytesForAnyThreadCount) {
+  Render(4, dir_->path() / "a", 1);
+  Render(4, dir_->path() / "b", 2);
+  Render(4, dir_->path() / "c", 2);
+  const std::string a = Bytes(dir_->path() / "a" / "00000.exr");
+  ASSERT_FALSE(a.empty());
+  // EXPECT_TRUE, not EXPECT_EQ: gtest would print a quarter megabyte of bytes.
+  EXPECT_TRUE(a == Bytes(dir_->path() / "b" / "00000.exr"));
+  EXPECT_TRUE(a == Bytes(dir_->path() / "c" / "00000.exr"));
+  EXPECT_TRUE(Bytes(dir_->path() / "a" / "00000.png") == Bytes(dir_->path() / "b" / "00000.png"));
+}
+
+TEST_F(Capture, TruthDiffersFromThePhotographOnlyWhereTheObjectActs) {
+  Image photo = ReadImage(Cap() / "photos" / "00000.exr"), truth = ReadImage(Cap() / "truth" / "00000.exr");
+  int64_t changed = 0;
+  for (size_t i = 0; i < photo.values().size(); ++i) changed += photo.values()[i] != truth.values()[i];
+  // The object, its shadow and its interreflections change pixels; every
+  // path that meets the object diverges, so many pixels change a little.
+  EXPECT_GT(changed, 30);
+}
+
+// Without virtual objects the composite is the photograph, bit for bit.
+TEST_F(Capture, NoVirtualObjectsGiveThePhotographExactly) {
+  Json j = ReadJsonFile(Cap() / "scene.json");
+  j.erase("virtual");
+  WriteTextFile(Cap() / "empty.json", j.dump());
+  Scene s = ReadScene(Cap() / "empty.json");
+  RenderOptions o;
+  o.spp = 2;
+  o.frame_end = 1;
+  o.out_dir = dir_->path() / "empty";
+  Report r("mr-render", "test");
+  RunRenderJob(s, o, &r);
+  Image out = ReadImage(dir_->path() / "empty" / "00000.exr");
+  Image photo = ReadImage(Cap() / "photos" / "00000.exr");
+  EXPECT_EQ(out.Layer("composite").values(), photo.values());
+  bool skipped = false;
+  for (const auto& sk : r.skipped()) skipped = skipped || sk["what"] == "virtual objects";
+  EXPECT_TRUE(skipped);
+}
+
+TEST_F(Capture, NanInTheEnvironmentMapIsAClearError) {
+  Image env = ReadImage(Cap() / "env.exr");
+  env.at(7, 3, 2) = std::numeric_limits<float>::quiet_NaN();
+  test::TempDir d;
+  fs::copy(Cap(), d.path() / "cap", fs::copy_options::recursive);
+  WriteImage(d.path() / "cap" / "env.exr", env);
+  Scene s = ReadScene(d.path() / "cap" / "scene.json");
+  RenderOptions o;
+  o.spp = 1;
+  o.out_dir = d.path() / "out";
+  Report r("mr-render", "test");
+  try {
+    RunRenderJob(s, o, &r);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("env.exr: pixel (7, 3) has non-finite radiance nan in channel B"),
+              std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(d.path() / "out" / "00000.exr"));
+}
+
+TEST(Composite, DifferentialFormulaAndNegativeClamp) {
+  Image photo = Image::Rgb(2, 1, 0.5f), mixed = Image::Rgb(2, 1, 0.2f), real = Image::Rgb(2, 1, 0.4f);
+  Image mask = Image::Gray(2, 1, 0.0f);
+  mask.at(0, 0, 0) = 0.25f;
+  mixed.at(1, 0, 0) = 0.0f;
+  real.at(1, 0, 0) = 1.0f;  // a shadow deeper than the photograph allows
+  CompositeResult c = Composite(photo, mixed, real, mask);
+  EXPECT_FLOAT_EQ(c.composite.at(0, 0, 1), 0.25f * 0.2f + 0.75f * (0.5f + 0.2f - 0.4f));
+  EXPECT_EQ(c.composite.at(1, 0, 0), 0.0f);
+  EXPECT_EQ(c.clamped_negative, 1);
+  EXPECT_FLOAT_EQ(c.difference.at(1, 0, 0), -1.0f);
+}
+
+TEST(Metrics, KnownValues) {
+  Image a = Image::Rgb(8, 8, 0.5f), b = Image::Rgb(8, 8, 0.5f);
+  ImageMetrics same = CompareImages(a, b);
+  EXPECT_EQ(same.rmse, 0.0);
+  EXPECT_NEAR(same.ssim, 1.0, 1e-12);
+  a.at(2, 3, 1) = 0.6f;  // one value off by 0.1 out of 192
+  ImageMetrics m = CompareImages(a, b);
+  EXPECT_NEAR(m.rmse, std::sqrt(0.01 / 192), 1e-7);
+  EXPECT_NEAR(m.relmse, 0.01 / (0.25 + kRelMseEpsilon) / 192, 1e-8);
+  EXPECT_NEAR(m.psnr, 10 * std::log10(1.0 / (0.01 / 192)), 1e-4);
+  EXPECT_LT(m.ssim, 1.0);
+  Image region = Image::Gray(8, 8, 0.0f);
+  region.at(2, 3, 0) = 1;
+  EXPECT_NEAR(CompareImages(a, b, &region).rmse, std::sqrt(0.01 / 3), 1e-7);
+  EXPECT_THROW(CompareImages(a, Image::Rgb(4, 4)), Error);
+}
+
+}  // namespace
+}  // namespace mr

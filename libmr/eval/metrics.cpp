@@ -83,6 +83,24 @@ ImageMetrics CompareImages(const Image& a, const Image& b, const Image* region) 
   return m;
 }
 
+Image ReadRgbForComparison(const fs::path& path, Transfer transfer) {
+  ImageReadOptions opt;
+  opt.default_ldr_transfer = transfer;
+  Image img = ReadImage(path, opt);
+  if (img.ChannelIndex("R") < 0 && img.ChannelIndex("composite.R") >= 0) img = img.Layer("composite");
+  if (img.ChannelIndex("R") < 0 || img.ChannelIndex("G") < 0 || img.ChannelIndex("B") < 0)
+    ThrowErrorAt(FileLoc{path.string()}, "image has neither R, G, B channels nor a composite layer");
+  Image out = Image::Rgb(img.width(), img.height());
+  const int r = img.ChannelIndex("R"), g = img.ChannelIndex("G"), b = img.ChannelIndex("B");
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) {
+      out.at(x, y, 0) = img.at(x, y, r);
+      out.at(x, y, 1) = img.at(x, y, g);
+      out.at(x, y, 2) = img.at(x, y, b);
+    }
+  return out;
+}
+
 Image ScaledDifference(const Image& a, const Image& b, double scale) {
   if (a.width() != b.width() || a.height() != b.height()) ThrowError("images differ in size");
   const auto ca = Rgb(a, "first"), cb = Rgb(b, "second");

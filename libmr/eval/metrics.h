@@ -24,6 +24,10 @@ inline constexpr double kRelMseEpsilon = 0.01;
 // R, G, B) of the same size.  `region` is null or a one-channel image.
 ImageMetrics CompareImages(const Image& a, const Image& b, const Image* region = nullptr);
 
+// Reads the RGB of an image for comparison: its R, G, B channels, or the
+// composite layer of an mr-render EXR.  Integer files decode with `transfer`.
+Image ReadRgbForComparison(const fs::path& path, Transfer transfer = Transfer::kLinear);
+
 // |a - b| * scale per channel, for comparison figures.
 Image ScaledDifference(const Image& a, const Image& b, double scale);
 

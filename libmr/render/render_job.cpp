@@ -50,28 +50,12 @@ std::vector<Rigid3> LoadPoses(const Scene& s) {
   return world_from_cam;
 }
 
-Image RgbOf(const Image& img, const fs::path& name) {
-  const int r = img.ChannelIndex("R"), g = img.ChannelIndex("G"), b = img.ChannelIndex("B");
-  if (r < 0 || g < 0 || b < 0) ThrowErrorAt(FileLoc{name.string()}, "image has no R, G, B channels");
-  Image out = Image::Rgb(img.width(), img.height());
-  for (int y = 0; y < img.height(); ++y)
-    for (int x = 0; x < img.width(); ++x) {
-      out.at(x, y, 0) = img.at(x, y, r);
-      out.at(x, y, 1) = img.at(x, y, g);
-      out.at(x, y, 2) = img.at(x, y, b);
-    }
-  return out;
-}
-
-// A reference may be a plain RGB image or an mr-render EXR: use its composite layer.
+// The photograph or reference of frame `path`, checked against the camera's size.
 Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer) {
-  ImageReadOptions opt;
-  opt.default_ldr_transfer = transfer;
-  Image img = ReadImage(path, opt);
+  Image img = ReadRgbForComparison(path, transfer);
   if (img.width() != w || img.height() != h)
     ThrowErrorAt(FileLoc{path.string()}, "image is {}x{}, the camera model says {}x{}", img.width(), img.height(), w, h);
-  if (img.ChannelIndex("R") < 0 && img.ChannelIndex("composite.R") >= 0) return RgbOf(img.Layer("composite"), path);
-  return RgbOf(img, path);
+  return img;
 }
 
 }  // namespace

@@ -86,5 +86,14 @@ check "json output" 0 '"kind": "trajectory"' -- "$bin/mr-info" --json "$tmp/traj
 # One bad file among good ones: the rest is still described, exit 1.
 check "batch goes on" 1 "2 poses" -- "$bin/mr-info" "$tmp/nan.ply" "$tmp/traj.txt"
 
+# The rendering pipeline end to end: capture, render, compare.
+check "mr-synth" 0 "" -- "$bin/mr-synth" --preset small --out "$tmp/cap" --truth-spp 16 -q
+check "mr-render" 0 "" -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/render" --spp 2 -q --report "$tmp/render.json"
+check "render report" 0 '"region_relmse"' -- cat "$tmp/render.json"
+check "render layers" 0 "composite" -- "$bin/mr-info" "$tmp/render/00001.exr"
+check "mr-eval compare" 0 "relmse" -- "$bin/mr-eval" compare "$tmp/render/00000.exr" "$tmp/cap/truth/00000.exr" --diff "$tmp/diff.png" --report "$tmp/cmp.json"
+check "unknown method" 2 'method "vct" is not available yet' -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/r2" --method vct
+check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

@@ -84,11 +84,12 @@ bool EnvironmentNee(const RenderScene& scene, const Vertex& v, Pcg32& rng, Eigen
 }  // namespace
 
 Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf,
-                                                    int depth, Pcg32& rng) const {
+                                                    int depth, Pcg32& rng, int* rays) const {
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
   for (;; ++depth) {
     Hit hit;
+    ++*rays;
     if (!scene_.embree().Intersect(ray, &hit)) {
       const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
       const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, scene_.environment().Pdf(d)) : 1.0;
@@ -102,6 +103,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     Ray shadow;
     if (EnvironmentNee(scene_, v, rng, &c, &shadow)) {
       shadow.mask = mask;
+      ++*rays;
       if (!scene_.embree().Occluded(shadow)) L += beta.cwiseProduct(c);
     }
     BsdfSample s;
@@ -121,12 +123,14 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
 
 PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
   PathSample out;
+  int* rays = &out.rays;
   Ray ray = primary;
   ray.mask = kMaskAll;
   Eigen::Vector3d beta = Eigen::Vector3d::Ones();
   double prev_pdf = 0;  // 0: the camera ray, seen directly (no MIS)
   for (int depth = 0;; ++depth) {
     Hit hit;
+    ++*rays;
     if (!scene_.embree().Intersect(ray, &hit)) {
       const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
       const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, scene_.environment().Pdf(d)) : 1.0;
@@ -140,8 +144,8 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
       // of the random stream, the mixed one goes on from the object.
       if (depth == 0) out.primary_virtual = true;
       Pcg32 real_rng = rng;
-      out.real += TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, real_rng);
-      out.mixed += TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng);
+      out.real += TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, real_rng, &out.rays);
+      out.mixed += TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, &out.rays);
       return out;
     }
     // A real vertex shared by both paths.
@@ -154,9 +158,11 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
     Ray shadow;
     if (EnvironmentNee(scene_, v, rng, &c, &shadow)) {
       shadow.mask = kMaskReal;
+      ++out.rays;
       if (!scene_.embree().Occluded(shadow)) {             // st_r
         out.real += beta.cwiseProduct(c);
         shadow.mask = kMaskVirtual;
+        ++out.rays;
         if (!scene_.embree().Occluded(shadow)) out.mixed += beta.cwiseProduct(c);  // st_rv = min(st_r, st_v)
       }
     }
@@ -201,10 +207,11 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
 }
 
 void FrameRenderer::RenderPass(int spp) {
-  std::atomic<int64_t> nonfinite{0};
+  std::atomic<int64_t> nonfinite{0}, rays{0};
   const Eigen::Matrix3d R = world_from_cam_.rotation.toRotationMatrix();
   const Eigen::Vector3d origin = world_from_cam_.translation;
   ParallelFor(0, height_, [&](int64_t y) {
+    int64_t row_rays = 0;
     for (int x = 0; x < width_; ++x) {
       const size_t i = static_cast<size_t>(y) * width_ + x;
       const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1,
@@ -219,6 +226,7 @@ void FrameRenderer::RenderPass(int spp) {
                             fy * ((1 - fx) * corner_dirs_[c01] + fx * corner_dirs_[c11]);
         Ray ray = MakeRay(origin, (R * d).normalized(), kMaskAll);
         PathSample ps = tracer_.Trace(ray, rng);
+        row_rays += ps.rays;
         if (!ps.mixed.allFinite() || !ps.real.allFinite()) {
           ++nonfinite;  // dropped and counted: never NaN in the image
           continue;
@@ -231,9 +239,11 @@ void FrameRenderer::RenderPass(int spp) {
         coverage_[i] += ps.primary_virtual ? 1 : 0;
       }
     }
+    rays += row_rays;
   });
   spp_ += spp;
   nonfinite_ += nonfinite.load();
+  rays_ += rays.load();
 }
 
 namespace {

@@ -32,6 +32,7 @@ struct PathSample {
   Eigen::Vector3d mixed = Eigen::Vector3d::Zero();
   Eigen::Vector3d real = Eigen::Vector3d::Zero();
   bool primary_virtual = false;  // the camera ray's first hit is virtual (mask M)
+  int rays = 0;                  // closest-hit and occlusion queries traced
 };
 
 class DifferentialPathTracer {
@@ -43,7 +44,7 @@ class DifferentialPathTracer {
  private:
   // One path seeing geometry through `mask`, from `ray` on.
   Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth,
-                              Pcg32& rng) const;
+                              Pcg32& rng, int* rays) const;
   const RenderScene& scene_;
   PathTracerSettings settings_;
 };
@@ -59,6 +60,7 @@ class FrameRenderer {
   void RenderPass(int spp);
   int samples_per_pixel() const { return spp_; }
   int64_t nonfinite_samples() const { return nonfinite_; }
+  int64_t rays_traced() const { return rays_; }
 
   Image Mixed() const;       // mean I_m, RGB
   Image Real() const;        // mean I_r, RGB
@@ -77,6 +79,7 @@ class FrameRenderer {
   std::vector<double> sum_d_, sum_d2_, coverage_;
   int spp_ = 0;
   int64_t nonfinite_ = 0;
+  int64_t rays_ = 0;
 };
 
 }  // namespace mr

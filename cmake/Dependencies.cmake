@@ -58,7 +58,7 @@ if(NOT OpenMesh_FOUND AND NOT TARGET OpenMeshCore)
 endif()
 
 # OpenCV stays in the .cpp files of the stages that use it (calib/charuco.cpp).
-find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs aruco)
+find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs videoio aruco)
 mr_require(OpenCV_FOUND "libopencv-dev libopencv-contrib-dev" "OpenCV 4 with the contrib aruco module")
 
 find_package(embree 3 QUIET CONFIG)

@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/progress.h"
+#include "core/video.h"
 #include "eval/metrics.h"
 #include "render/composite.h"
 #include "render/path_tracer.h"
@@ -88,8 +89,17 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (begin >= end) throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
   const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
   const Transfer photo_transfer = scene.camera.frames_transfer == "linear" ? Transfer::kLinear : Transfer::kSrgb;
-  if (scene.camera.frames && scene.camera.frames_are_video)
-    throw UsageError("reading video frames is not supported yet: give the frames as an image sequence pattern");
+  std::unique_ptr<VideoReader> video_in;
+  std::unique_ptr<VideoWriter> video_out;
+  if (scene.camera.frames && scene.camera.frames_are_video) {
+    video_in = std::make_unique<VideoReader>(*scene.camera.frames);
+    if (video_in->width() != camera.width() || video_in->height() != camera.height())
+      ThrowErrorAt(FileLoc{scene.camera.frames->string()}, "video is {}x{}, the camera model says {}x{}",
+                   video_in->width(), video_in->height(), camera.width(), camera.height());
+    const fs::path vpath = out_dir / "composite.mp4";
+    video_out = std::make_unique<VideoWriter>(vpath, camera.width(), camera.height(),
+                                              video_in->fps() > 0 ? video_in->fps() : 30.0);
+  }
   if (!scene.camera.frames)
     report->Skip("photograph", "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
   if (!rs.has_virtual())
@@ -108,7 +118,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     const auto t0 = std::chrono::steady_clock::now();
     FrameRenderer fr(rs, camera, poses[static_cast<size_t>(f)], st);
     std::optional<Image> photo, ref;
-    if (scene.camera.frames) photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer);
+    if (video_in) photo = video_in->Frame(f);
+    else if (scene.camera.frames) photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer);
     if (reference) ref = ReadRgb(FramePath(*reference, f), camera.width(), camera.height(), Transfer::kLinear);
     // The region the object changes: where the reference differs from the photograph.
     std::optional<Image> region;
@@ -195,6 +206,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       const fs::path exr = out_dir / fmt::format("{:05d}.exr", f);
       WriteImage(exr, layers, wo);
       report->AddOutput(exr.string());
+      if (video_out) video_out->Write(cr.composite);
       if (scene.output.png) {
         const fs::path png = out_dir / fmt::format("{:05d}.png", f);
         ImageWriteOptions po = wo;
@@ -205,6 +217,10 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     }
     spdlog::info("frame {}: {} spp in {:.2f} s{}", f, done, seconds,
                  ref ? fmt::format(", relMSE {:.3g}", fj["relmse"].get<double>()) : std::string());
+  }
+  if (video_out) {
+    video_out->Close();
+    report->AddOutput((out_dir / "composite.mp4").string());
   }
   report->SetMetric("method", method);
   report->SetMetric("frames", frames_json);

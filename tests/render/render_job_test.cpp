@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/parallel.h"
+#include "core/video.h"
 #include "eval/metrics.h"
 #include "render/composite.h"
 #include "synth/synth.h"
@@ -14,6 +15,12 @@
 
 namespace mr {
 namespace {
+
+double MeanOfValues(const Image& img) {
+  double s = 0;
+  for (float v : img.values()) s += v;
+  return s / static_cast<double>(img.values().size());
+}
 
 std::string Bytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
@@ -126,6 +133,30 @@ TEST_F(Capture, NanInTheEnvironmentMapIsAClearError) {
               std::string::npos) << e.what();
   }
   EXPECT_FALSE(fs::exists(d.path() / "out" / "00000.exr"));
+}
+
+// A video input gives a video output; frames decode from the mp4 mr-synth wrote.
+TEST_F(Capture, VideoInVideoOut) {
+  Json j = ReadJsonFile(Cap() / "scene.json");
+  j["camera"]["frames"] = "photos.mp4";
+  j["camera"]["frames_transfer"] = "srgb";
+  WriteTextFile(Cap() / "video.json", j.dump());
+  Scene s = ReadScene(Cap() / "video.json");
+  RenderOptions o;
+  o.spp = 1;
+  o.out_dir = dir_->path() / "video";
+  Report r("mr-render", "test");
+  RunRenderJob(s, o, &r);
+  ASSERT_TRUE(fs::exists(dir_->path() / "video" / "composite.mp4"));
+  VideoReader v(dir_->path() / "video" / "composite.mp4");
+  EXPECT_EQ(v.width(), 64);
+  EXPECT_EQ(v.height(), 48);
+  Image last = v.Frame(1);  // both frames are there
+  EXPECT_GT(MeanOfValues(last), 0.01);
+  // The photograph decoded from the mp4 is close to the PNG (lossy codec).
+  Image photo = ReadImage(dir_->path() / "video" / "00000.exr").Layer("photo");
+  Image png = ReadImage(Cap() / "photos" / "00000.png");
+  EXPECT_NEAR(MeanOfValues(photo), MeanOfValues(png), 0.02);
 }
 
 TEST(Composite, DifferentialFormulaAndNegativeClamp) {

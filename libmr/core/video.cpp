@@ -1,0 +1,112 @@
+#include "core/video.h"
+
+#include <opencv2/videoio.hpp>
+
+#include <atomic>
+#include <unistd.h>
+
+#include "core/error.h"
+#include "core/math.h"
+
+namespace mr {
+
+struct VideoReader::Impl {
+  fs::path path;
+  cv::VideoCapture cap;
+  int next = 0;
+  void Open() {
+    cap.release();
+    if (!cap.open(path.string(), cv::CAP_FFMPEG))
+      ThrowErrorAt(FileLoc{path.string()}, "cannot open video (not a video file, or a codec FFmpeg lacks)");
+    next = 0;
+  }
+};
+
+VideoReader::VideoReader(const fs::path& path) : impl_(std::make_unique<Impl>()) {
+  RequireFile(path, "video");
+  impl_->path = path;
+  impl_->Open();
+}
+VideoReader::~VideoReader() = default;
+
+int VideoReader::width() const { return static_cast<int>(impl_->cap.get(cv::CAP_PROP_FRAME_WIDTH)); }
+int VideoReader::height() const { return static_cast<int>(impl_->cap.get(cv::CAP_PROP_FRAME_HEIGHT)); }
+int VideoReader::frame_count() const { return static_cast<int>(impl_->cap.get(cv::CAP_PROP_FRAME_COUNT)); }
+double VideoReader::fps() const { return impl_->cap.get(cv::CAP_PROP_FPS); }
+
+Image VideoReader::Frame(int index) {
+  if (index < 0) ThrowErrorAt(FileLoc{impl_->path.string()}, "negative frame index {}", index);
+  if (index < impl_->next) impl_->Open();
+  cv::Mat m;
+  while (impl_->next <= index) {
+    if (!impl_->cap.read(m) || m.empty())
+      ThrowErrorAt(FileLoc{impl_->path.string()}, "the video has no frame {} (it ends after {} frames)", index, impl_->next);
+    ++impl_->next;
+  }
+  if (m.type() != CV_8UC3) ThrowErrorAt(FileLoc{impl_->path.string()}, "unsupported pixel format (expected 8-bit colour)");
+  Image img = Image::Rgb(m.cols, m.rows);
+  for (int y = 0; y < m.rows; ++y)
+    for (int x = 0; x < m.cols; ++x) {
+      const cv::Vec3b& p = m.at<cv::Vec3b>(y, x);  // OpenCV order: B, G, R
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = SrgbToLinear(p[2 - c] / 255.0f);
+    }
+  return img;
+}
+
+struct VideoWriter::Impl {
+  fs::path path, tmp;
+  cv::VideoWriter writer;
+  int width = 0, height = 0;
+  bool closed = false;
+};
+
+VideoWriter::VideoWriter(const fs::path& path, int width, int height, double fps) : impl_(std::make_unique<Impl>()) {
+  static std::atomic<unsigned> counter{0};
+  impl_->path = path;
+  impl_->width = width;
+  impl_->height = height;
+  impl_->tmp = path.parent_path() / fmt::format(".mr-tmp-{}-{}-{}", getpid(), counter++, path.filename().string());
+  const std::string ext = LowerExtension(path);
+  int fourcc;
+  if (ext == ".mp4") fourcc = cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+  else if (ext == ".avi") fourcc = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+  else ThrowErrorAt(FileLoc{path.string()}, "unsupported video extension \"{}\" (use .mp4 or .avi)", ext);
+  if (!impl_->writer.open(impl_->tmp.string(), cv::CAP_FFMPEG, fourcc, fps, cv::Size(width, height), true))
+    ThrowErrorAt(FileLoc{path.string()}, "cannot open a video writer (FFmpeg backend)");
+}
+
+VideoWriter::~VideoWriter() {
+  if (!impl_->closed) {
+    impl_->writer.release();
+    std::error_code ec;
+    fs::remove(impl_->tmp, ec);  // not closed: an error happened; leave nothing behind
+  }
+}
+
+void VideoWriter::Write(const Image& img) {
+  if (img.width() != impl_->width || img.height() != impl_->height || img.channels() < 3)
+    ThrowErrorAt(FileLoc{impl_->path.string()}, "frame is {}x{}, the video {}x{}", img.width(), img.height(),
+                 impl_->width, impl_->height);
+  cv::Mat m(img.height(), img.width(), CV_8UC3);
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) {
+      cv::Vec3b& p = m.at<cv::Vec3b>(y, x);
+      for (int c = 0; c < 3; ++c) {
+        float v = img.at(x, y, c);
+        if (!std::isfinite(v)) v = 0;
+        p[2 - c] = static_cast<uint8_t>(std::lround(LinearToSrgb(Clamp(v, 0.0f, 1.0f)) * 255.0f));
+      }
+    }
+  impl_->writer.write(m);
+}
+
+void VideoWriter::Close() {
+  if (impl_->closed) return;
+  impl_->writer.release();
+  std::error_code ec;
+  fs::rename(impl_->tmp, impl_->path, ec);
+  if (ec) ThrowErrorAt(FileLoc{impl_->path.string()}, "cannot write: {}", ec.message());
+  impl_->closed = true;
+}
+
+}  // namespace mr

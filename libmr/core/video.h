@@ -1,0 +1,43 @@
+// Video files through OpenCV's videoio (FFmpeg backend), kept out of public
+// headers.  Frames are 8-bit sRGB on disk and linear float RGB in memory.
+#pragma once
+
+#include <memory>
+
+#include "core/file.h"
+#include "core/image.h"
+
+namespace mr {
+
+class VideoReader {
+ public:
+  explicit VideoReader(const fs::path& path);
+  ~VideoReader();
+  int width() const;
+  int height() const;
+  int frame_count() const;  // as the container reports it (may be approximate)
+  double fps() const;
+  // Frame `index` (0-based), decoded as sRGB.  Sequential access is fastest;
+  // going backwards reopens the file.  Throws mr::Error past the end.
+  Image Frame(int index);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Writes frames to a temporary file beside `path` and renames it on Close():
+// an interrupted run leaves no half-written video.  mp4 (MPEG-4 part 2) or avi (MJPG).
+class VideoWriter {
+ public:
+  VideoWriter(const fs::path& path, int width, int height, double fps);
+  ~VideoWriter();
+  void Write(const Image& linear_rgb);  // encoded as sRGB 8-bit, clamped to [0,1]
+  void Close();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace mr

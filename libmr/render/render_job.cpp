@@ -102,8 +102,13 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   }
   if (!scene.camera.frames)
     report->Skip("photograph", "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
+  // With no virtual object nothing can differ from the photograph: frames are
+  // copied through without rendering (I_m - I_r = 0 exactly; tested).
+  const bool copy_through = !rs.has_virtual() && scene.camera.frames.has_value();
   if (!rs.has_virtual())
     report->Skip("virtual objects", "the scene has none: the composite is the photograph");
+  if (copy_through)
+    report->Skip("rendering", "no virtual object can change any frame: frames are copied through from the photographs");
 
   PathTracerSettings st;
   st.max_depth = scene.render.max_depth;
@@ -116,7 +121,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   for (int f = begin; f < end; ++f) {
     st.frame = f;
     const auto t0 = std::chrono::steady_clock::now();
-    FrameRenderer fr(rs, camera, poses[static_cast<size_t>(f)], st);
+    std::optional<FrameRenderer> fr;
+    if (!copy_through) fr.emplace(rs, camera, poses[static_cast<size_t>(f)], st);
     std::optional<Image> photo, ref;
     if (video_in) photo = video_in->Frame(f);
     else if (scene.camera.frames) photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer);
@@ -131,18 +137,18 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
             if (ref->at(x, y, c) != photo->at(x, y, c)) region->at(x, y, 0) = 1;
     }
     auto composite_now = [&]() {
-      Image real = fr.Real();
-      return Composite(photo ? *photo : real, fr.Mixed(), real, fr.Mask());
+      Image real = fr->Real();
+      return Composite(photo ? *photo : real, fr->Mixed(), real, fr->Mask());
     };
     Json curve = Json::array();
     Progress progress(fmt::format("frame {}", f), spp);
     int done = 0;
     double seconds = 0;
-    while (done < spp) {
+    while (fr && done < spp) {
       const int n = std::min(done == 0 ? 1 : done, spp - done);  // checkpoints at 1, 2, 4, 8, ... spp
       {
         ScopedTimer t(report, "render");
-        fr.RenderPass(n);
+        fr->RenderPass(n);
       }
       done += n;
       progress.Update(done);
@@ -160,14 +166,25 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     }
     progress.Done();
     CompositeResult cr;
-    {
+    Image mixed, real, mask, variance;
+    if (fr) {
       ScopedTimer t(report, "composite");
       cr = composite_now();
+      mixed = fr->Mixed();
+      real = fr->Real();
+      mask = fr->Mask();
+      variance = fr->DifferenceVariance();
+    } else {  // copied through
+      cr.composite = *photo;
+      cr.difference = Image::Rgb(camera.width(), camera.height());
+      mixed = real = *photo;
+      mask = variance = Image::Gray(camera.width(), camera.height());
     }
     clamped += cr.clamped_negative;
-    nonfinite += fr.nonfinite_samples();
+    const int64_t frame_nonfinite = fr ? fr->nonfinite_samples() : 0;
+    nonfinite += frame_nonfinite;
     Json fj = {{"frame", f}, {"spp", done}, {"seconds", seconds}, {"clamped_negative", cr.clamped_negative},
-               {"nonfinite_samples", fr.nonfinite_samples()}};
+               {"nonfinite_samples", frame_nonfinite}, {"copied_through", !fr}};
     if (ref) {
       ImageMetrics m = CompareImages(cr.composite, *ref);
       const double region_relmse = region ? CompareImages(cr.composite, *ref, &*region).relmse : m.relmse;
@@ -190,13 +207,12 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     {
       ScopedTimer t(report, "write");
       Image layers;
-      Image real = fr.Real();
       layers.AppendLayer("composite", cr.composite);
-      layers.AppendLayer("mixed", fr.Mixed());
+      layers.AppendLayer("mixed", mixed);
       layers.AppendLayer("real", real);
-      layers.AppendLayer("mask", fr.Mask());
+      layers.AppendLayer("mask", mask);
       layers.AppendLayer("difference", cr.difference);
-      layers.AppendLayer("variance", fr.DifferenceVariance());
+      layers.AppendLayer("variance", variance);
       layers.AppendLayer("samples", Image::Gray(camera.width(), camera.height(), static_cast<float>(done)));
       if (photo) layers.AppendLayer("photo", *photo);
       ImageWriteOptions wo;

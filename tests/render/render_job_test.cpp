@@ -110,8 +110,10 @@ TEST_F(Capture, NoVirtualObjectsGiveThePhotographExactly) {
   Image photo = ReadImage(Cap() / "photos" / "00000.exr");
   EXPECT_EQ(out.Layer("composite").values(), photo.values());
   bool skipped = false;
-  for (const auto& sk : r.skipped()) skipped = skipped || sk["what"] == "virtual objects";
+  for (const auto& sk : r.skipped()) skipped = skipped || sk["what"] == "rendering";
   EXPECT_TRUE(skipped);
+  EXPECT_FALSE(r.ToJson()["timings"].contains("render"));  // nothing was rendered
+  EXPECT_EQ(r.metrics()["frames"][0]["copied_through"], true);
 }
 
 TEST_F(Capture, NanInTheEnvironmentMapIsAClearError) {

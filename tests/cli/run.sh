@@ -93,6 +93,13 @@ check "render report" 0 '"region_relmse"' -- cat "$tmp/render.json"
 check "render layers" 0 "composite" -- "$bin/mr-info" "$tmp/render/00001.exr"
 check "mr-eval compare" 0 "relmse" -- "$bin/mr-eval" compare "$tmp/render/00000.exr" "$tmp/cap/truth/00000.exr" --diff "$tmp/diff.png" --report "$tmp/cmp.json"
 check "unknown method" 2 'method "vct" is not available yet' -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/r2" --method vct
+# Deterministic: the same command writes the same bytes (provenance names the
+# command line, so the command must be the same, output folder included).
+cp -r "$tmp/cap" "$tmp/cap.first"
+check "mr-synth again" 0 "" -- "$bin/mr-synth" --preset small --out "$tmp/cap" --truth-spp 16 -q
+for f in scene.json env.exr truth/00001.exr photos/00000.png photos.mp4 meshes/object.ply; do
+  check "same bytes: $f" 0 "" -- cmp "$tmp/cap.first/$f" "$tmp/cap/$f"
+done
 check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
 
 echo "$pass passed, $fail failed"

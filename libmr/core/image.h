@@ -77,6 +77,9 @@ enum class NonFinite { kReject, kAllow };
 struct ImageReadOptions {
   // Transfer assumed for 8/16-bit files that do not state theirs.
   Transfer default_ldr_transfer = Transfer::kSrgb;
+  // When false, integer pixels are decoded with default_ldr_transfer even
+  // when the file states another (kLinear then gives raw code values / max).
+  bool use_file_transfer = true;
   // kReject: NaN/Inf pixels are an error naming the file, the count and the
   // first offending pixel.  kAllow: kept as they are (mr-info counts them).
   NonFinite nonfinite = NonFinite::kReject;

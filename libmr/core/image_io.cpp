@@ -95,8 +95,8 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
     info.decoded_from_ldr = true;
     std::string cs = spec.get_string_attribute("oiio:ColorSpace");
     Transfer t = options.default_ldr_transfer;
-    if (cs == "Linear" || cs == "linear") t = Transfer::kLinear;
-    else if (cs == "sRGB") t = Transfer::kSrgb;
+    if (options.use_file_transfer && (cs == "Linear" || cs == "linear")) t = Transfer::kLinear;
+    else if (options.use_file_transfer && cs == "sRGB") t = Transfer::kSrgb;
     info.transfer = t;
     if (t == Transfer::kSrgb) {
       const int alpha = spec.alpha_channel;

@@ -83,9 +83,10 @@ ImageMetrics CompareImages(const Image& a, const Image& b, const Image* region) 
   return m;
 }
 
-Image ReadRgbForComparison(const fs::path& path, Transfer transfer) {
+Image ReadRgbForComparison(const fs::path& path, Transfer transfer, bool raw) {
   ImageReadOptions opt;
-  opt.default_ldr_transfer = transfer;
+  opt.default_ldr_transfer = raw ? Transfer::kLinear : transfer;
+  opt.use_file_transfer = !raw;
   Image img = ReadImage(path, opt);
   if (img.ChannelIndex("R") < 0 && img.ChannelIndex("composite.R") >= 0) img = img.Layer("composite");
   if (img.ChannelIndex("R") < 0 || img.ChannelIndex("G") < 0 || img.ChannelIndex("B") < 0)

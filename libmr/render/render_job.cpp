@@ -10,6 +10,7 @@
 #include "camera/trajectory.h"
 #include "core/error.h"
 #include "core/image.h"
+#include "core/math.h"
 #include "core/progress.h"
 #include "core/video.h"
 #include "eval/metrics.h"
@@ -52,8 +53,8 @@ std::vector<Rigid3> LoadPoses(const Scene& s) {
 }
 
 // The photograph or reference of frame `path`, checked against the camera's size.
-Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer) {
-  Image img = ReadRgbForComparison(path, transfer);
+Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool raw = false) {
+  Image img = ReadRgbForComparison(path, transfer, raw);
   if (img.width() != w || img.height() != h)
     ThrowErrorAt(FileLoc{path.string()}, "image is {}x{}, the camera model says {}x{}", img.width(), img.height(), w, h);
   return img;
@@ -88,7 +89,15 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (end < 0 || end > n_frames) end = n_frames;
   if (begin >= end) throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
   const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
-  const Transfer photo_transfer = scene.camera.frames_transfer == "linear" ? Transfer::kLinear : Transfer::kSrgb;
+  // "display": the camera response is unknown, so the photograph stays in
+  // display values and the renders are brought to display space by the tone
+  // map TM(L) = sRGB(clamp(exposure L)); the composite is
+  // M TM(I_m) + (1 - M)(I_c + TM(I_m) - TM(I_r)), stored back as radiance.
+  const bool display_space = scene.camera.frames && scene.camera.frames_transfer == "display";
+  const Transfer photo_transfer =
+      scene.camera.frames_transfer == "srgb" ? Transfer::kSrgb : Transfer::kLinear;  // display: raw code values
+  if (scene.camera.frames)
+    report->SetMetric("compositing", display_space ? "display space (camera response unknown)" : "linear radiance");
   std::unique_ptr<VideoReader> video_in;
   std::unique_ptr<VideoWriter> video_out;
   if (scene.camera.frames && scene.camera.frames_are_video) {
@@ -124,8 +133,13 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     std::optional<FrameRenderer> fr;
     if (!copy_through) fr.emplace(rs, camera, poses[static_cast<size_t>(f)], st);
     std::optional<Image> photo, ref;
-    if (video_in) photo = video_in->Frame(f);
-    else if (scene.camera.frames) photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer);
+    if (video_in) {
+      photo = video_in->Frame(f);  // decoded through sRGB
+      if (display_space)
+        for (float& v : photo->values()) v = LinearToSrgb(v);  // back to display values
+    } else if (scene.camera.frames) {
+      photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer, display_space);
+    }
     if (reference) ref = ReadRgb(FramePath(*reference, f), camera.width(), camera.height(), Transfer::kLinear);
     // The region the object changes: where the reference differs from the photograph.
     std::optional<Image> region;
@@ -137,8 +151,16 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
             if (ref->at(x, y, c) != photo->at(x, y, c)) region->at(x, y, 0) = 1;
     }
     auto composite_now = [&]() {
-      Image real = fr->Real();
-      return Composite(photo ? *photo : real, fr->Mixed(), real, fr->Mask());
+      Image real = fr->Real(), mixed = fr->Mixed();
+      if (!display_space) return Composite(photo ? *photo : real, mixed, real, fr->Mask());
+      const float e = static_cast<float>(scene.camera.exposure);
+      auto tm = [e](Image img) {
+        for (float& v : img.values()) v = LinearToSrgb(Clamp(v * e, 0.0f, 1.0f));
+        return img;
+      };
+      CompositeResult r = Composite(*photo, tm(mixed), tm(real), fr->Mask());
+      for (float& v : r.composite.values()) v = SrgbToLinear(Clamp(v, 0.0f, 1.0f)) / e;
+      return r;
     };
     Json curve = Json::array();
     Progress progress(fmt::format("frame {}", f), spp);
@@ -176,6 +198,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       variance = fr->DifferenceVariance();
     } else {  // copied through
       cr.composite = *photo;
+      if (display_space)
+        for (float& v : cr.composite.values()) v = SrgbToLinear(Clamp(v, 0.0f, 1.0f)) / static_cast<float>(scene.camera.exposure);
       cr.difference = Image::Rgb(camera.width(), camera.height());
       mixed = real = *photo;
       mask = variance = Image::Gray(camera.width(), camera.height());

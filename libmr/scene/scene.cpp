@@ -233,7 +233,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   if (root.Has("comment")) root.Child("comment").String();
 
   Node cam = root.Required("camera");
-  cam.RequireObject({"model", "frames", "frames_transfer", "poses"});
+  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "poses"});
   s.camera.model = ResolveFile(cam.Required("model"), base, check, "camera model");
   if (cam.Has("frames")) {
     Node f = cam.Child("frames");
@@ -245,7 +245,9 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
       s.camera.frames_are_video = true;
     }
   }
-  if (cam.Has("frames_transfer")) s.camera.frames_transfer = cam.Child("frames_transfer").OneOf({"srgb", "linear"});
+  if (cam.Has("frames_transfer"))
+    s.camera.frames_transfer = cam.Child("frames_transfer").OneOf({"srgb", "linear", "display"});
+  if (cam.Has("exposure")) s.camera.exposure = cam.Child("exposure").Number(1e-12, 1e12);
   if (cam.Has("poses")) {
     Node p = cam.Child("poses");
     p.RequireObject({"format", "path"});

@@ -36,7 +36,11 @@ struct SceneCamera {
   fs::path model;                   // .cameramodel
   std::optional<fs::path> frames;   // video file or printf pattern ("frames/%05d.png")
   bool frames_are_video = false;
-  std::string frames_transfer = "srgb";  // "srgb" or "linear"
+  // How the frames relate to radiance: "linear" (radiance), "srgb" (the sRGB
+  // curve is the camera response: decoded to radiance, composited linearly),
+  // "display" (response unknown: composited in display space, see mr-render).
+  std::string frames_transfer = "srgb";
+  double exposure = 1.0;  // "display": display value = sRGB(clamp(exposure x radiance))
   std::optional<fs::path> poses;    // TUM file, 7-Scenes folder, or COLMAP text folder
   PoseFormat pose_format = PoseFormat::kTum;
 };

@@ -223,6 +223,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
   st.max_depth = 8;
   st.seed = HashCombine(o.seed, 0x7275746875ULL);  // independent of mr-render's seed
   int64_t changed = 0;
+  float exposure = 0;  // one for the whole sequence, from frame 0
   VideoWriter video(o.out / "photos.mp4", p.width, p.height, 30.0);
   for (int i = 0; i < p.frames; ++i) {
     st.frame = i;
@@ -240,15 +241,15 @@ void RunSynth(const SynthOptions& o, Report* report) {
     const fs::path truth_path = o.out / "truth" / fmt::format("{:05d}.exr", i);
     WriteImage(photo_path, photo, wo);
     WriteImage(truth_path, truth, wo);
-    // 8-bit photographs through the documented camera response: exposure so
-    // that the 99th percentile maps to 0.9, the sRGB curve, Gaussian noise of
-    // sigma 1/255 before quantisation (seeded per pixel).
+    // 8-bit photographs through the documented camera response: one exposure
+    // for the sequence (frame 0's 99th percentile maps to 0.9), the sRGB
+    // curve, Gaussian noise of sigma 1/255 before quantisation (seeded per pixel).
     std::vector<float> lum;
     for (int y = 0; y < photo.height(); ++y)
       for (int x = 0; x < photo.width(); ++x)
         lum.push_back(0.2126f * photo.at(x, y, 0) + 0.7152f * photo.at(x, y, 1) + 0.0722f * photo.at(x, y, 2));
     std::nth_element(lum.begin(), lum.begin() + static_cast<long>(lum.size() * 99 / 100), lum.end());
-    const float exposure = 0.9f / std::max(1e-6f, lum[lum.size() * 99 / 100]);
+    if (i == 0) exposure = 0.9f / std::max(1e-6f, lum[lum.size() * 99 / 100]);
     Image ldr = Image::Rgb(photo.width(), photo.height());
     for (int y = 0; y < photo.height(); ++y)
       for (int x = 0; x < photo.width(); ++x) {
@@ -267,6 +268,17 @@ void RunSynth(const SynthOptions& o, Report* report) {
     spdlog::info("frame {}: truth at {} spp", i, truth_spp);
   }
   video.Close();
+  // The same capture seen through the 8-bit photographs, response unknown:
+  // mr-render composites it in display space with the capture's exposure.
+  {
+    Json ldr = ReadJsonFile(o.out / "scene.json");
+    ldr["camera"]["frames"] = "photos/%05d.png";
+    ldr["camera"]["frames_transfer"] = "display";
+    ldr["camera"]["exposure"] = exposure;
+    ldr["output"]["dir"] = "render-ldr";
+    WriteTextFile(o.out / "scene-ldr.json", ldr.dump(2) + "\n");
+    report->AddOutput((o.out / "scene-ldr.json").string());
+  }
   report->AddOutput((o.out / "photos.mp4").string());
   report->SetMetric("frames", p.frames);
   report->SetMetric("truth_spp", truth_spp);

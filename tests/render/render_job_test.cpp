@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/parallel.h"
+#include "core/math.h"
 #include "core/video.h"
 #include "eval/metrics.h"
 #include "render/composite.h"
@@ -159,6 +160,37 @@ TEST_F(Capture, VideoInVideoOut) {
   Image photo = ReadImage(dir_->path() / "video" / "00000.exr").Layer("photo");
   Image png = ReadImage(Cap() / "photos" / "00000.png");
   EXPECT_NEAR(MeanOfValues(photo), MeanOfValues(png), 0.02);
+}
+
+// The 8-bit photographs with the response unknown: display-space compositing.
+// Where the object changes nothing the composite is the photograph (within
+// float round trips); overall it approaches the truth up to the 8-bit
+// photograph's quantisation, noise and clipping.
+TEST_F(Capture, DisplaySpaceCompositingOfEightBitPhotographs) {
+  Scene s = ReadScene(Cap() / "scene-ldr.json");
+  EXPECT_EQ(s.camera.frames_transfer, "display");
+  RenderOptions o;
+  o.spp = 8;
+  o.frame_end = 1;
+  o.out_dir = dir_->path() / "ldr";
+  Report r("mr-render", "test");
+  RunRenderJob(s, o, &r);
+  EXPECT_EQ(r.metrics()["compositing"], "display space (camera response unknown)");
+  Image out = ReadImage(dir_->path() / "ldr" / "00000.exr");
+  Image comp = out.Layer("composite"), diff = out.Layer("difference"), photo = out.Layer("photo");
+  const float e = static_cast<float>(s.camera.exposure);
+  int64_t unchanged = 0, bad = 0;
+  for (int y = 0; y < comp.height(); ++y)
+    for (int x = 0; x < comp.width(); ++x)
+      for (int c = 0; c < 3; ++c)
+        if (diff.at(x, y, c) == 0.0f) {
+          ++unchanged;
+          const float expected = SrgbToLinear(photo.at(x, y, c)) / e;
+          bad += std::abs(comp.at(x, y, c) - expected) > 1e-5f * (1 + expected);
+        }
+  EXPECT_GT(unchanged, 0);
+  EXPECT_EQ(bad, 0);
+  EXPECT_LT(r.metrics()["relmse"].get<double>(), 0.1);
 }
 
 TEST(Composite, DifferentialFormulaAndNegativeClamp) {

@@ -3,6 +3,7 @@
 // efficiency ratio).  Results go into docs/benchmarks.md.
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <filesystem>
 
 #include "camera/camera_model.h"
@@ -88,6 +89,49 @@ void BM_BareIntersect(benchmark::State& state, const std::string& preset) {
 }
 BENCHMARK_CAPTURE(BM_BareIntersect, small, std::string("small"))->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_BareIntersect, room, std::string("room"))->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The efficiency ratio over the same rays: one single-threaded pass of `pt`
+// records every ray it traces; the bare loop replays them through
+// rtcIntersect1 / rtcOccluded1 on one thread.
+void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
+  Capture& c = Get(preset);
+  mr::SetThreadCount(1);
+  mr::RayLog log;
+  mr::PathTracerSettings st;
+  st.max_depth = 8;
+  {
+    st.ray_log = &log;
+    mr::FrameRenderer fr(c.scene, c.camera, c.pose, st);
+    fr.RenderPass(1);
+  }
+  st.ray_log = nullptr;
+  mr::FrameRenderer fr(c.scene, c.camera, c.pose, st);
+  double render_s = 0, bare_s = 0;
+  int64_t hits = 0;
+  for (auto _ : state) {
+    auto t0 = std::chrono::steady_clock::now();
+    fr.RenderPass(1);
+    auto t1 = std::chrono::steady_clock::now();
+    for (const auto& r : log.closest) {
+      mr::Hit h;
+      hits += c.scene.embree().Intersect(r, &h);
+    }
+    for (const auto& r : log.occlusion) hits += c.scene.embree().Occluded(r);
+    auto t2 = std::chrono::steady_clock::now();
+    render_s += std::chrono::duration<double>(t1 - t0).count();
+    bare_s += std::chrono::duration<double>(t2 - t1).count();
+  }
+  benchmark::DoNotOptimize(hits);
+  mr::SetThreadCount(0);
+  const double n = static_cast<double>(log.closest.size() + log.occlusion.size()) * static_cast<double>(state.iterations());
+  state.counters["render_rays_per_s"] = n / render_s;
+  state.counters["bare_rays_per_s"] = n / bare_s;
+  state.counters["efficiency"] = bare_s / render_s;
+  state.counters["occlusion_share"] = static_cast<double>(log.occlusion.size()) /
+                                      static_cast<double>(log.closest.size() + log.occlusion.size());
+}
+BENCHMARK_CAPTURE(BM_EfficiencyRatio, small, std::string("small"))->Unit(benchmark::kMillisecond)->Iterations(20);
+BENCHMARK_CAPTURE(BM_EfficiencyRatio, room, std::string("room"))->Unit(benchmark::kMillisecond)->Iterations(3);
 
 }  // namespace
 

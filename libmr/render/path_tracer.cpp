@@ -90,7 +90,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   for (;; ++depth) {
     Hit hit;
     ++*rays;
-    if (!scene_.embree().Intersect(ray, &hit)) {
+    if (!Intersect(ray, &hit)) {
       const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
       const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, scene_.environment().Pdf(d)) : 1.0;
       L += beta.cwiseProduct(scene_.environment().Eval(d)) * w;
@@ -104,7 +104,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     if (EnvironmentNee(scene_, v, rng, &c, &shadow)) {
       shadow.mask = mask;
       ++*rays;
-      if (!scene_.embree().Occluded(shadow)) L += beta.cwiseProduct(c);
+      if (!Occluded(shadow)) L += beta.cwiseProduct(c);
     }
     BsdfSample s;
     const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
@@ -131,7 +131,7 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
   for (int depth = 0;; ++depth) {
     Hit hit;
     ++*rays;
-    if (!scene_.embree().Intersect(ray, &hit)) {
+    if (!Intersect(ray, &hit)) {
       const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
       const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, scene_.environment().Pdf(d)) : 1.0;
       const Eigen::Vector3d c = beta.cwiseProduct(scene_.environment().Eval(d)) * w;
@@ -159,11 +159,11 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
     if (EnvironmentNee(scene_, v, rng, &c, &shadow)) {
       shadow.mask = kMaskReal;
       ++out.rays;
-      if (!scene_.embree().Occluded(shadow)) {             // st_r
+      if (!Occluded(shadow)) {             // st_r
         out.real += beta.cwiseProduct(c);
         shadow.mask = kMaskVirtual;
         ++out.rays;
-        if (!scene_.embree().Occluded(shadow)) out.mixed += beta.cwiseProduct(c);  // st_rv = min(st_r, st_v)
+        if (!Occluded(shadow)) out.mixed += beta.cwiseProduct(c);  // st_rv = min(st_r, st_v)
       }
     }
     BsdfSample s;

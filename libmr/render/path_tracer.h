@@ -21,11 +21,18 @@
 
 namespace mr {
 
+// Every ray a render traces, for benchmarks that replay them through a bare
+// Embree loop (single-threaded renders only: the log is not synchronised).
+struct RayLog {
+  std::vector<Ray> closest, occlusion;
+};
+
 struct PathTracerSettings {
   int max_depth = 64;       // bounces; Russian roulette ends most paths long before
   int rr_depth = 3;         // Russian roulette from this bounce on
   uint64_t seed = 0;
   int frame = 0;
+  RayLog* ray_log = nullptr;  // benchmarks only
 };
 
 struct PathSample {
@@ -45,6 +52,14 @@ class DifferentialPathTracer {
   // One path seeing geometry through `mask`, from `ray` on.
   Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth,
                               Pcg32& rng, int* rays) const;
+  bool Intersect(const Ray& ray, Hit* hit) const {
+    if (settings_.ray_log) settings_.ray_log->closest.push_back(ray);
+    return scene_.embree().Intersect(ray, hit);
+  }
+  bool Occluded(const Ray& ray) const {
+    if (settings_.ray_log) settings_.ray_log->occlusion.push_back(ray);
+    return scene_.embree().Occluded(ray);
+  }
   const RenderScene& scene_;
   PathTracerSettings settings_;
 };

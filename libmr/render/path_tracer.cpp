@@ -24,11 +24,15 @@ struct Frame {
   Eigen::Vector3d ToWorld(const Eigen::Vector3d& v) const { return v.x() * t + v.y() * b + v.z() * n; }
 };
 
-// Ray origins are offset along the normal by 64 float ulps of the hit
-// position: local, so the offset (and every path) does not depend on what
-// else is in the scene.
-double OffsetScale(const Eigen::Vector3d& p) {
-  return 64.0 * std::numeric_limits<float>::epsilon() * std::max(p.cwiseAbs().maxCoeff(), 1e-3);
+// Ray origins are offset along the normal by 64 float ulps of the largest
+// magnitude that entered the hit position: the position itself, the ray's
+// origin and the distance travelled (Embree's t carries an error relative to
+// those, so a hit near the world origin reached from 1 m away is uncertain
+// to ~1e-7 m, not to ulps of its own tiny coordinates).  Local, so the
+// offset (and every path) does not depend on what else is in the scene.
+double OffsetScale(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, double t) {
+  const double m = std::max({p.cwiseAbs().maxCoeff(), origin.cwiseAbs().maxCoeff(), t, 1e-3});
+  return 64.0 * std::numeric_limits<float>::epsilon() * m;
 }
 
 Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, uint32_t mask, double tfar = INFINITY) {
@@ -43,6 +47,7 @@ Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, uint32_t 
 // A surface vertex: position, shading frame facing the incoming ray, BSDF.
 struct Vertex {
   Eigen::Vector3d p, wo_world;
+  double offset = 0;  // along the normal, for rays leaving p
   Frame frame{Eigen::Vector3d::UnitZ()};
   const Bsdf* bsdf = nullptr;
   const Material* material = nullptr;
@@ -51,7 +56,9 @@ struct Vertex {
 Vertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit& hit) {
   Vertex v;
   const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
-  v.p = ray.origin.cast<double>() + static_cast<double>(hit.t) * ray.direction.cast<double>();
+  const Eigen::Vector3d o = ray.origin.cast<double>();
+  v.p = o + static_cast<double>(hit.t) * ray.direction.cast<double>();
+  v.offset = OffsetScale(v.p, o, static_cast<double>(hit.t) * ray.direction.cast<double>().norm());
   Eigen::Vector3d n = scene.WorldNormal(hit);
   if (n.dot(d) > 0) n = -n;  // two-sided: face the incoming ray
   v.frame = Frame(n);
@@ -61,24 +68,73 @@ Vertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit& hit) {
   return v;
 }
 
-// One environment next-event estimate at `v`.  Returns the unoccluded
-// contribution (times beta) and the shadow ray to test.
-bool EnvironmentNee(const RenderScene& scene, const Vertex& v, Pcg32& rng, Eigen::Vector3d* contrib, Ray* shadow) {
+// Which emitters a path sees: the environment and real lights exist in both
+// I_m and I_r, virtual lights only in I_m.
+enum LightSet : unsigned { kRealLights = 1, kVirtualLights = 2, kAllLights = 3 };
+
+unsigned LightBit(const LightSource& l) { return l.is_virtual() ? kVirtualLights : kRealLights; }
+
+// Radiance arriving along an escaped ray from the environment and the
+// distant disc lights in `which`, each MIS-weighted against the BSDF pdf
+// that chose the direction (prev_pdf 0: seen directly by the camera).
+Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pdf, unsigned which) {
+  Eigen::Vector3d L = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
   const EnvironmentMap& env = scene.environment();
-  const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble();
-  if (env.empty()) return false;
-  Eigen::Vector3d wi;
-  double pdf_light = 0;
-  Eigen::Vector3d le = env.Sample(u0, u1, u2, &wi, &pdf_light);
-  if (pdf_light <= 0) return false;
-  const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world), wi_l = v.frame.ToLocal(wi);
-  if (wi_l.z() <= 0) return false;
-  Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
-  if (f.maxCoeff() <= 0) return false;
-  const double w = PowerHeuristic(pdf_light, v.bsdf->Pdf(wo_l, wi_l));
-  *contrib = f.cwiseProduct(le) * (wi_l.z() * w / pdf_light);
-  *shadow = MakeRay(v.p + v.frame.n * OffsetScale(v.p), wi, kMaskAll);
-  return true;
+  if ((which & kRealLights) && !env.empty()) {
+    const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, env.Pdf(d)) : 1.0;
+    L += env.Eval(d) * w;
+  }
+  if (scene.has_distant_area_light())
+    for (const LightSource& l : scene.lights()) {
+      if (!(which & LightBit(l))) continue;
+      double pdf = 0;
+      const Eigen::Vector3d le = l.EvalDistant(d, &pdf);
+      if (pdf > 0) L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
+    }
+  return L;
+}
+
+// Next-event estimates at `v`: one environment sample and one sample of each
+// light.  Calls emit(contribution, shadow ray, is_virtual_light) for each
+// unoccluded contribution (times beta: the caller's) still to be tested.  The
+// random numbers drawn do not depend on outcomes, so that paths that part at
+// a virtual object keep their streams aligned.
+template <class Emit>
+void NextEvent(const RenderScene& scene, const Vertex& v, Pcg32& rng, Emit&& emit) {
+  const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
+  const Eigen::Vector3d origin = v.p + v.frame.n * v.offset;
+  const EnvironmentMap& env = scene.environment();
+  {
+    const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble();
+    Eigen::Vector3d wi;
+    double pdf_light = 0;
+    if (!env.empty()) {
+      const Eigen::Vector3d le = env.Sample(u0, u1, u2, &wi, &pdf_light);
+      const Eigen::Vector3d wi_l = v.frame.ToLocal(wi);
+      if (pdf_light > 0 && wi_l.z() > 0) {
+        const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
+        if (f.maxCoeff() > 0) {
+          const double w = PowerHeuristic(pdf_light, v.bsdf->Pdf(wo_l, wi_l));
+          emit(Eigen::Vector3d(f.cwiseProduct(le) * (wi_l.z() * w / pdf_light)), MakeRay(origin, wi, kMaskAll), false);
+        }
+      }
+    }
+  }
+  for (const LightSource& l : scene.lights()) {
+    const double u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    LightSample ls;
+    if (!l.Sample(v.p, u0, u1, &ls)) continue;
+    const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
+    if (wi_l.z() <= 0) continue;
+    const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
+    if (f.maxCoeff() <= 0) continue;
+    const double w = ls.delta ? 1.0 : PowerHeuristic(ls.pdf, v.bsdf->Pdf(wo_l, wi_l));
+    // A point light's shadow ray stops just short of it.
+    const double tfar = std::isinf(ls.distance) ? INFINITY : ls.distance * (1 - 1e-6);
+    emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / ls.pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),
+         l.is_virtual());
+  }
 }
 
 }  // namespace
@@ -87,25 +143,23 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
                                                     int depth, Pcg32& rng, int* rays) const {
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
+  const unsigned lights = mask == kMaskReal ? kRealLights : kAllLights;  // a real path sees no virtual light
   for (;; ++depth) {
     Hit hit;
     ++*rays;
     if (!Intersect(ray, &hit)) {
-      const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
-      const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, scene_.environment().Pdf(d)) : 1.0;
-      L += beta.cwiseProduct(scene_.environment().Eval(d)) * w;
+      L += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, lights));
       break;
     }
     Vertex v = MakeVertex(scene_, ray, hit);
     L += beta.cwiseProduct(v.material->emission);
     if (depth >= settings_.max_depth || v.bsdf->IsBlack()) break;
-    Eigen::Vector3d c;
-    Ray shadow;
-    if (EnvironmentNee(scene_, v, rng, &c, &shadow)) {
+    NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+      if (virtual_light && !(lights & kVirtualLights)) return;
       shadow.mask = mask;
       ++*rays;
       if (!Occluded(shadow)) L += beta.cwiseProduct(c);
-    }
+    });
     BsdfSample s;
     const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
     if (!v.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) break;
@@ -116,7 +170,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       if (rng.NextDouble() >= q) break;
       beta /= q;
     }
-    ray = MakeRay(v.p + v.frame.n * OffsetScale(v.p), v.frame.ToWorld(s.wi), mask);
+    ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), mask);
   }
   return L;
 }
@@ -132,11 +186,10 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
     Hit hit;
     ++*rays;
     if (!Intersect(ray, &hit)) {
-      const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
-      const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, scene_.environment().Pdf(d)) : 1.0;
-      const Eigen::Vector3d c = beta.cwiseProduct(scene_.environment().Eval(d)) * w;
+      const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
       out.mixed += c;
       out.real += c;
+      if (scene_.has_virtual()) out.mixed += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kVirtualLights));
       return out;
     }
     if (hit.is_virtual) {
@@ -154,18 +207,24 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
     out.mixed += e;
     out.real += e;
     if (depth >= settings_.max_depth || v.bsdf->IsBlack()) return out;
-    Eigen::Vector3d c;
-    Ray shadow;
-    if (EnvironmentNee(scene_, v, rng, &c, &shadow)) {
+    const bool virtual_geometry = scene_.has_virtual_geometry();
+    NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+      if (virtual_light) {  // lights I_m only, blocked by anything
+        ++out.rays;
+        if (!Occluded(shadow)) out.mixed += beta.cwiseProduct(c);
+        return;
+      }
       shadow.mask = kMaskReal;
       ++out.rays;
-      if (!Occluded(shadow)) {             // st_r
-        out.real += beta.cwiseProduct(c);
+      if (Occluded(shadow)) return;  // st_r
+      out.real += beta.cwiseProduct(c);
+      if (virtual_geometry) {
         shadow.mask = kMaskVirtual;
         ++out.rays;
-        if (!Occluded(shadow)) out.mixed += beta.cwiseProduct(c);  // st_rv = min(st_r, st_v)
+        if (Occluded(shadow)) return;  // st_rv = min(st_r, st_v)
       }
-    }
+      out.mixed += beta.cwiseProduct(c);
+    });
     BsdfSample s;
     const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
     if (!v.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return out;
@@ -176,7 +235,7 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
       if (rng.NextDouble() >= q) return out;
       beta /= q;
     }
-    ray = MakeRay(v.p + v.frame.n * OffsetScale(v.p), v.frame.ToWorld(s.wi), kMaskAll);
+    ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll);
   }
 }
 

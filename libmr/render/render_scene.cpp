@@ -18,8 +18,14 @@ uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_
   uint32_t id = embree_->AddInstance(proto, world_from_object.cast<float>(), /*is_virtual=*/true);
   if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
   surfaces_[id] = Surface{material, Bsdf(material), world_from_object.linear().inverse().transpose()};
-  has_virtual_ = true;
+  has_virtual_ = has_virtual_geometry_ = true;
   return id;
+}
+
+void RenderScene::AddLight(const Light& light) {
+  lights_.emplace_back(light);
+  has_virtual_ = has_virtual_ || light.is_virtual;
+  has_distant_area_light_ = has_distant_area_light_ || !light.IsDelta();
 }
 
 void RenderScene::Commit() {
@@ -45,6 +51,8 @@ void LoadRenderScene(const Scene& scene, RenderScene* out) {
     out->SetEnvironment(EnvironmentMap(ReadImage(*scene.lighting.environment, opt), name,
                                        scene.lighting.environment_scale, scene.lighting.world_from_env));
   }
+  if (scene.lighting.lights)
+    for (const Light& l : ReadLights(*scene.lighting.lights)) out->AddLight(l);
   out->Commit();
 }
 

@@ -12,6 +12,7 @@
 #include "geometry/mesh.h"
 #include "render/bsdf.h"
 #include "render/environment.h"
+#include "render/light_source.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -24,16 +25,22 @@ class RenderScene {
   // A virtual object: `mesh` in object coordinates, placed by world_from_object.
   uint32_t AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material);
   void SetEnvironment(EnvironmentMap env) { env_ = std::move(env); }
+  // A light of lights.json; a virtual light makes the scene differ from the real one.
+  void AddLight(const Light& light);
   void Commit();
 
   const EmbreeScene& embree() const { return *embree_; }
   const EnvironmentMap& environment() const { return env_; }
+  const std::vector<LightSource>& lights() const { return lights_; }
+  bool has_distant_area_light() const { return has_distant_area_light_; }
   const Material& material(uint32_t geometry_id) const { return surfaces_.at(geometry_id).material; }
   const Bsdf& bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).bsdf; }
   // Unit world-space geometric normal of a hit (Embree reports instance
   // normals in object space).
   Eigen::Vector3d WorldNormal(const Hit& hit) const;
+  // Whether anything virtual (geometry or light) exists: without it I_m = I_r.
   bool has_virtual() const { return has_virtual_; }
+  bool has_virtual_geometry() const { return has_virtual_geometry_; }
   // A length for ray-origin offsets: 1e-5 of the scene's extent.
   double epsilon() const { return epsilon_; }
   Eigen::AlignedBox3f bounds() const { return embree_->Bounds(); }
@@ -47,7 +54,8 @@ class RenderScene {
   std::unique_ptr<EmbreeScene> embree_;
   std::vector<Surface> surfaces_;  // by geometry id
   EnvironmentMap env_;
-  bool has_virtual_ = false;
+  std::vector<LightSource> lights_;
+  bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false;
   double epsilon_ = 1e-5;
 };
 

@@ -1,0 +1,48 @@
+// lights.json: light sources beside the environment map (written by
+// mr-lights, or by hand; docs/formats.md has the schema).
+//
+//   point:   position, intensity I (W/sr): irradiance I cos / d^2
+//   spot:    a point light shining along `direction`, full intensity inside
+//            `falloff_start_deg`, smoothly down to zero at `cone_deg`
+//   distant: a disc of angular radius `angular_radius_deg` around
+//            `direction` (pointing towards the light) that gives the
+//            irradiance `irradiance` (W/m^2) on a surface facing it; radius
+//            0 is a delta (directional) light.  The sun is 0.27 degrees.
+//
+// Every light is real or virtual: a virtual light (a lamp that is part of
+// the inserted object) lights I_m only; a real one lights both I_m and I_r.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/file.h"
+#include "core/json.h"
+
+namespace mr {
+
+enum class LightType { kPoint, kSpot, kDistant };
+
+struct Light {
+  std::string name;
+  LightType type = LightType::kPoint;
+  bool is_virtual = false;
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();     // point, spot
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitY();   // spot: where it shines; distant: towards the light
+  Eigen::Vector3d intensity = Eigen::Vector3d::Zero();    // point, spot: W/sr
+  double cone_deg = 30, falloff_start_deg = 25;           // spot
+  Eigen::Vector3d irradiance = Eigen::Vector3d::Zero();   // distant: W/m^2 at normal incidence
+  double angular_radius_deg = 0;                          // distant: 0 = delta
+
+  bool IsDelta() const { return type != LightType::kDistant || angular_radius_deg <= 0; }
+};
+
+// Parses and validates (unknown keys, ranges, zero-length directions are
+// errors naming `name` and the key path).
+std::vector<Light> ParseLights(const Json& j, const std::string& name);
+std::vector<Light> ReadLights(const fs::path& path);
+Json LightsToJson(const std::vector<Light>& lights, const std::string& comment = "");
+
+}  // namespace mr

@@ -1,0 +1,189 @@
+// Lights of lights.json in the path tracer: point, spot and distant lights
+// against closed forms, MIS with a wide disc, and virtual lights lighting
+// I_m only.
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "core/math.h"
+#include "render/path_tracer.h"
+#include "scene/lights.h"
+
+namespace mr {
+namespace {
+
+Mesh Plane(double half) {
+  Mesh m;
+  const float h = static_cast<float>(half);
+  m.positions = {{-h, 0, -h}, {h, 0, -h}, {h, 0, h}, {-h, 0, h}};
+  m.triangles = {{0, 2, 1}, {0, 3, 2}};
+  return m;
+}
+
+// A camera 1 m above the origin looking straight down, with a field of view
+// of about 0.1 degree: every pixel sees the plane within 1 mm of the origin.
+Rigid3 LookDown() {
+  Eigen::Matrix3d R;
+  R << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  return Rigid3(Eigen::Quaterniond(R), Eigen::Vector3d(0, 1, 0));
+}
+CameraModel Narrow() { return CameraModel("LENSMODEL_PINHOLE", {4000, 4000, 1.5, 1.5}, 4, 4); }
+
+double Mean(const Image& img, int c) {
+  double s = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) s += img.at(x, y, c);
+  return s / static_cast<double>(img.pixel_count());
+}
+
+// Radiance of the plane (albedo 0.5, direct light only) lit by `lights`.
+Image RenderPlane(const std::vector<Light>& lights, int spp, Image* real = nullptr, int max_depth = 1) {
+  RenderScene scene;
+  Material m;
+  m.albedo = Eigen::Vector3d::Constant(0.5);
+  scene.AddReal(Plane(100), m);
+  for (const Light& l : lights) scene.AddLight(l);
+  scene.Commit();
+  PathTracerSettings st;
+  st.max_depth = max_depth;
+  FrameRenderer r(scene, Narrow(), LookDown(), st);
+  r.RenderPass(spp);
+  EXPECT_EQ(r.nonfinite_samples(), 0);
+  if (real) *real = r.Real();
+  return r.Mixed();
+}
+
+// L = albedo / pi * I cos(theta) / d^2 at the origin.  The footprint spans
+// 1 mm, so the closed form holds to ~1e-6; the estimate has no noise (a delta
+// light, and the plane sees nothing else), so the tolerance is float rounding.
+TEST(Lights, PointLightMatchesInverseSquareLaw) {
+  Light l;
+  l.type = LightType::kPoint;
+  l.position = Eigen::Vector3d(1.5, 2.0, 0);
+  l.intensity = Eigen::Vector3d(100, 50, 1e6);  // a dynamic range of 1e6 between channels
+  const double d2 = l.position.squaredNorm(), cos_t = 2.0 / std::sqrt(d2);
+  Image img = RenderPlane({l}, 2);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(Mean(img, c), 0.5 / kPi * l.intensity[c] * cos_t / d2, 1e-4 * Mean(img, c));
+}
+
+TEST(Lights, SpotLightConeAndSmoothFalloff) {
+  Light l;
+  l.type = LightType::kSpot;
+  l.intensity = Eigen::Vector3d::Constant(10);
+  l.position = Eigen::Vector3d(0, 2, 0);
+  l.cone_deg = 30;
+  l.falloff_start_deg = 20;
+  const double full = 0.5 / kPi * 10 / 4;  // straight below: full intensity
+  auto at_angle = [&](double deg) {       // the spot's axis tilted `deg` away from the origin
+    l.direction = Eigen::Vector3d(std::sin(deg * kDegToRad), -std::cos(deg * kDegToRad), 0);
+    return Mean(RenderPlane({l}, 1), 1);
+  };
+  EXPECT_NEAR(at_angle(0), full, 1e-4 * full);
+  EXPECT_NEAR(at_angle(19), full, 1e-4 * full);
+  EXPECT_EQ(at_angle(31), 0.0);
+  const double c = std::cos(25 * kDegToRad), c0 = std::cos(30 * kDegToRad), c1 = std::cos(20 * kDegToRad);
+  const double x = (c - c0) / (c1 - c0);
+  EXPECT_NEAR(at_angle(25), full * x * x * (3 - 2 * x), 1e-3 * full);
+}
+
+TEST(Lights, DirectionalLightGivesIrradianceTimesCosine) {
+  Light l;
+  l.type = LightType::kDistant;
+  l.direction = Eigen::Vector3d(std::sin(0.6), std::cos(0.6), 0);
+  l.irradiance = Eigen::Vector3d(3, 2, 1);
+  Image img = RenderPlane({l}, 1);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(Mean(img, c), 0.5 / kPi * l.irradiance[c] * std::cos(0.6), 1e-5);
+}
+
+// A uniform disc wholly above the horizon gives E cos(tilt) exactly (the
+// cosine integrates linearly over the cap).  With a 60-degree disc both
+// light sampling and BSDF sampling carry much of the MIS weight, so a wrong
+// weight or pdf on either side would bias the result.  Tolerance: 5 standard
+// errors of the mean over 16 pixels x 256 samples (measured spread).
+TEST(Lights, WideDiscLightWithMisMatchesTheClosedForm) {
+  Light l;
+  l.type = LightType::kDistant;
+  const double tilt = 20 * kDegToRad;
+  l.direction = Eigen::Vector3d(std::sin(tilt), std::cos(tilt), 0);
+  l.irradiance = Eigen::Vector3d::Constant(2);
+  l.angular_radius_deg = 60;
+  Image img = RenderPlane({l}, 256, nullptr, 2);
+  const double expected = 0.5 / kPi * 2 * std::cos(tilt);
+  double sq = 0;
+  const double mean = Mean(img, 0);
+  for (float v : img.values()) sq += (v - mean) * (v - mean);
+  const double se = std::sqrt(sq / 3 / (img.values().size() - 1) / 16);
+  EXPECT_NEAR(mean, expected, std::max(5 * se, 1e-6 * expected)) << "standard error " << se;
+  EXPECT_LT(se, 0.01 * expected);
+}
+
+// The sun: 0.27 degrees, 1e5 W/m^2.  Narrow cones are where 1 - cos loses
+// its digits; the result must still be E cos.
+TEST(Lights, SunSizedDiscIsStable) {
+  Light l;
+  l.type = LightType::kDistant;
+  l.direction = Eigen::Vector3d(0, 1, 0);
+  l.irradiance = Eigen::Vector3d::Constant(1e5);
+  l.angular_radius_deg = 0.27;
+  Image img = RenderPlane({l}, 16);
+  EXPECT_NEAR(Mean(img, 0), 0.5 / kPi * 1e5, 1e-3 * 0.5 / kPi * 1e5);
+}
+
+TEST(Lights, VirtualLightLightsMixedOnly) {
+  Light sun;
+  sun.type = LightType::kDistant;
+  sun.irradiance = Eigen::Vector3d::Constant(1);
+  Light lamp;
+  lamp.type = LightType::kPoint;
+  lamp.position = Eigen::Vector3d(0, 1, 0);
+  lamp.intensity = Eigen::Vector3d::Constant(5);
+  lamp.is_virtual = true;
+  Image real;
+  Image mixed = RenderPlane({sun, lamp}, 2, &real, 4);
+  Image alone = RenderPlane({sun}, 2, nullptr, 4);
+  EXPECT_EQ(real.values(), alone.values());  // I_r: the lamp does not exist
+  EXPECT_NEAR(Mean(mixed, 0) - Mean(real, 0), 0.5 / kPi * 5, 1e-4);
+}
+
+TEST(LightsFile, RoundTripsAndRejectsBadInput) {
+  Light spot;
+  spot.name = "lamp";
+  spot.type = LightType::kSpot;
+  spot.position = Eigen::Vector3d(1, 2, 3);
+  spot.direction = Eigen::Vector3d(0, -1, 0);
+  spot.intensity = Eigen::Vector3d(1, 2, 3);
+  spot.is_virtual = true;
+  Light sun;
+  sun.name = "sun";
+  sun.type = LightType::kDistant;
+  sun.irradiance = Eigen::Vector3d(1e5, 9e4, 8e4);
+  sun.angular_radius_deg = 0.27;
+  auto back = ParseLights(LightsToJson({spot, sun}, "test"), "lights.json");
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].type, LightType::kSpot);
+  EXPECT_TRUE(back[0].is_virtual);
+  EXPECT_EQ(back[0].position, spot.position);
+  EXPECT_EQ(back[1].irradiance, sun.irradiance);
+  EXPECT_EQ(back[1].angular_radius_deg, 0.27);
+
+  auto fails_with = [](const char* text, const char* message) {
+    try {
+      ParseLights(ParseJsonStrict(text, "lights.json"), "lights.json");
+      ADD_FAILURE() << "accepted " << text;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(message), std::string::npos) << e.what();
+    }
+  };
+  fails_with(R"({"version":1,"lights":[{"type":"point","position":[0,0,0],"intensity":[1,1,1],"colour":1}]})",
+             "lights[0].colour: unknown key");
+  fails_with(R"({"version":1,"lights":[{"type":"area"}]})", "lights[0].type");
+  fails_with(R"({"version":1,"lights":[{"type":"distant","direction":[0,0,0],"irradiance":[1,1,1]}]})",
+             "non-zero");
+  fails_with(R"({"version":1,"lights":[{"type":"spot","position":[0,0,0],"intensity":[1,1,1],"direction":[0,-1,0],"cone_deg":10,"falloff_start_deg":20}]})",
+             "must not exceed cone_deg");
+  fails_with(R"({"version":1,"lights":[{"type":"point","position":[0,0,0],"intensity":[-1,1,1]}]})",
+             "lights[0].intensity");
+  fails_with(R"({"version":2,"lights":[]})", "version");
+}
+
+}  // namespace
+}  // namespace mr

@@ -14,6 +14,7 @@
 #include "geometry/mesh.h"
 #include "render/path_tracer.h"
 #include "render/render_scene.h"
+#include "scene/lights.h"
 
 namespace mr {
 
@@ -158,6 +159,19 @@ void RunSynth(const SynthOptions& o, Report* report) {
   // Lighting, camera and path.
   int sun_x, sun_y;
   Image sky = SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y);
+  std::vector<Light> lights;
+  if (o.spot_light) {  // a warm lamp up and to the right, aimed at the table
+    Light spot;
+    spot.name = "spot";
+    spot.type = LightType::kSpot;
+    spot.position = Eigen::Vector3d(1.6, 2.4, -0.6);
+    spot.direction = (Eigen::Vector3d(0.1, 0.75, 0.0) - spot.position).normalized();
+    spot.cone_deg = 35;
+    spot.falloff_start_deg = 25;
+    // About 10x the sky's irradiance on the table top.
+    spot.intensity = Eigen::Vector3d(1.0, 0.85, 0.6) * 60.0;
+    lights.push_back(spot);
+  }
   const double f = 0.9 * p.width;  // ~58 degree horizontal field of view
   CameraModel camera("LENSMODEL_OPENCV4", {f, f, (p.width - 1) / 2.0, (p.height - 1) / 2.0, -0.02, 0.005, 0, 0},
                      p.width, p.height);
@@ -192,6 +206,10 @@ void RunSynth(const SynthOptions& o, Report* report) {
     wo.tool = o.tool;
     wo.command_line = o.command_line;
     WriteImage(o.out / "env.exr", sky, wo);
+    if (!lights.empty()) {
+      WriteTextFile(o.out / "lights.json", LightsToJson(lights, note).dump(2) + "\n");
+      report->AddOutput((o.out / "lights.json").string());
+    }
     Json scene = {
         {"version", 1},
         {"comment", "synthetic capture (" + note + ")"},
@@ -205,6 +223,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
         {"render", {{"method", "pt"}, {"spp", p.render_spp}, {"max_depth", 8}, {"seed", o.seed}}},
         {"output", {{"dir", "render"}, {"png", true}}},
         {"reference", "truth/%05d.exr"}};
+    if (!lights.empty()) scene["lighting"]["lights"] = "lights.json";
     Json& mat = scene["virtual"][0]["transform"]["matrix"];
     for (int r = 0; r < 4; ++r)
       for (int c = 0; c < 4; ++c) mat.push_back(world_from_object.matrix()(r, c));
@@ -218,6 +237,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
   for (const auto& part : parts) rs.AddReal(part.mesh, part.material);
   rs.AddVirtual(object, world_from_object, object_material);
   rs.SetEnvironment(EnvironmentMap(sky, (o.out / "env.exr").string()));
+  for (const Light& l : lights) rs.AddLight(l);
   rs.Commit();
   PathTracerSettings st;
   st.max_depth = 8;

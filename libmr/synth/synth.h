@@ -23,6 +23,7 @@ struct SynthOptions {
   uint64_t seed = 1;
   std::string object = "sphere";  // sphere | box | a mesh file (OBJ/PLY/OFF/STL)
   int truth_spp = 0;              // 0: the preset's
+  bool spot_light = false;        // a real spot light above the table (lights.json)
   std::string tool = "mr-synth", command_line;
 };
 

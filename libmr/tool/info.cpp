@@ -8,6 +8,7 @@
 #include "core/image.h"
 #include "core/report.h"
 #include "geometry/mesh.h"
+#include "scene/lights.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -105,6 +106,17 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     fi->lines.push_back(fmt::format("{} {}: {} x {} inner corners, {} mm squares, detector {}", b.type, b.name,
                                     b.inner_x, b.inner_y, b.square_m * 1000, b.detector));
     fi->json = BoardToJson(b);
+  } else if (j.is_object() && j.contains("lights")) {
+    fi->kind = "lights";
+    const std::vector<Light> lights = ParseLights(j, path.string());
+    int n_virtual = 0;
+    for (const Light& l : lights) {
+      static const char* kTypes[] = {"point", "spot", "distant"};
+      n_virtual += l.is_virtual;
+      fi->lines.push_back(fmt::format("  {}: {} {}", l.name, l.is_virtual ? "virtual" : "real", kTypes[static_cast<int>(l.type)]));
+    }
+    fi->lines.insert(fi->lines.begin(), fmt::format("lights: {} ({} virtual)", lights.size(), n_virtual));
+    fi->json = {{"lights", lights.size()}, {"virtual", n_virtual}};
   } else {
     fi->kind = "scene";
     fs::path base = path.parent_path().empty() ? fs::path(".") : path.parent_path();

@@ -100,6 +100,11 @@ check "mr-synth again" 0 "" -- "$bin/mr-synth" --preset small --out "$tmp/cap" -
 for f in scene.json env.exr truth/00001.exr photos/00000.png photos.mp4 meshes/object.ply; do
   check "same bytes: $f" 0 "" -- cmp "$tmp/cap.first/$f" "$tmp/cap/$f"
 done
+# A real spot light: lights.json is written, named by scene.json, and rendered.
+check "mr-synth spot" 0 "" -- "$bin/mr-synth" --preset small --out "$tmp/spot" --truth-spp 4 --spot-light -q
+check "scene names lights" 0 '"lights": "lights.json"' -- cat "$tmp/spot/scene.json"
+check "lights file" 0 "lights: 1 (0 virtual)" -- "$bin/mr-info" "$tmp/spot/lights.json"
+check "mr-render spot" 0 "" -- "$bin/mr-render" "$tmp/spot/scene.json" --out "$tmp/spot/r" --spp 1 -q
 check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
 
 echo "$pass passed, $fail failed"

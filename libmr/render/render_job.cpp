@@ -131,7 +131,12 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     st.frame = f;
     const auto t0 = std::chrono::steady_clock::now();
     std::optional<FrameRenderer> fr;
-    if (!copy_through) fr.emplace(rs, camera, poses[static_cast<size_t>(f)], st);
+    std::string enclosed;
+    const bool frame_copy =
+        copy_through || (scene.camera.frames && rs.VirtualEnclosedAwayFrom(poses[static_cast<size_t>(f)].translation, &enclosed));
+    if (frame_copy && !copy_through)
+      report->Skip(fmt::format("rendering frame {}", f), enclosed + ": I_m - I_r = 0 exactly, the photograph is copied through");
+    if (!frame_copy) fr.emplace(rs, camera, poses[static_cast<size_t>(f)], st);
     std::optional<Image> photo, ref;
     if (video_in) {
       photo = video_in->Frame(f);  // decoded through sRGB

@@ -1,5 +1,7 @@
 #include "render/render_scene.h"
 
+#include <algorithm>
+
 #include "core/error.h"
 
 namespace mr {
@@ -8,6 +10,8 @@ RenderScene::RenderScene() : embree_(std::make_unique<EmbreeScene>()) {}
 
 uint32_t RenderScene::AddReal(const Mesh& mesh, const Material& material) {
   uint32_t id = embree_->AddMesh(mesh, /*is_virtual=*/false);
+  closed_.Add(mesh);
+  geometry_bounds_.push_back(mesh.Bounds().cast<double>());
   if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
   surfaces_[id] = Surface{material, Bsdf(material), Eigen::Matrix3d::Identity()};
   return id;
@@ -16,6 +20,11 @@ uint32_t RenderScene::AddReal(const Mesh& mesh, const Material& material) {
 uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material) {
   uint32_t proto = embree_->AddPrototype(mesh);
   uint32_t id = embree_->AddInstance(proto, world_from_object.cast<float>(), /*is_virtual=*/true);
+  const Eigen::AlignedBox3d ob = mesh.Bounds().cast<double>();
+  Eigen::AlignedBox3d wb;
+  for (int k = 0; k < 8; ++k) wb.extend(world_from_object * ob.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
+  geometry_bounds_.push_back(wb);
+  virtual_bounds_.push_back(wb);
   if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
   surfaces_[id] = Surface{material, Bsdf(material), world_from_object.linear().inverse().transpose()};
   has_virtual_ = has_virtual_geometry_ = true;
@@ -30,9 +39,36 @@ void RenderScene::AddLight(const Light& light) {
 
 void RenderScene::Commit() {
   embree_->Commit();
+  closed_.Build();
   auto b = embree_->Bounds();
   const double extent = b.isEmpty() ? 1.0 : static_cast<double>((b.max() - b.min()).norm());
   epsilon_ = std::max(1e-6, 1e-5 * extent);
+}
+
+bool RenderScene::VirtualEnclosedAwayFrom(const Eigen::Vector3d& eye, std::string* why) const {
+  if (!has_virtual_ || closed_.count() == 0) return false;
+  std::vector<int> surfaces;
+  auto separated = [&](const Eigen::AlignedBox3d& b) {
+    int which = -1;
+    if (!closed_.Separates(eye, b, &which)) return false;
+    surfaces.push_back(which);
+    return true;
+  };
+  for (const auto& b : virtual_bounds_)
+    if (!separated(b)) return false;
+  for (const LightSource& l : lights_) {
+    if (!l.is_virtual()) continue;
+    Eigen::AlignedBox3d b;  // empty: a distant light, at infinity
+    if (l.light().type != LightType::kDistant) b.extend(l.light().position);
+    if (!separated(b)) return false;
+  }
+  if (why) {
+    std::sort(surfaces.begin(), surfaces.end());
+    surfaces.erase(std::unique(surfaces.begin(), surfaces.end()), surfaces.end());
+    *why = fmt::format("every virtual object and light is on the other side of a closed real surface ({} of {}) from the camera",
+                       surfaces.size(), closed_.count());
+  }
+  return true;
 }
 
 Eigen::Vector3d RenderScene::WorldNormal(const Hit& hit) const {

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 
 #include "geometry/embree_scene.h"
+#include "geometry/enclosure.h"
 #include "geometry/mesh.h"
 #include "render/bsdf.h"
 #include "render/environment.h"
@@ -44,6 +45,12 @@ class RenderScene {
   // A length for ray-origin offsets: 1e-5 of the scene's extent.
   double epsilon() const { return epsilon_; }
   Eigen::AlignedBox3f bounds() const { return embree_->Bounds(); }
+  // World bounds of each piece of geometry, real and virtual (after Commit).
+  const std::vector<Eigen::AlignedBox3d>& geometry_bounds() const { return geometry_bounds_; }
+  // Whether a closed real surface provably keeps every virtual object and
+  // light away from a camera at `eye` (geometry/enclosure.h); `why` says which.
+  bool VirtualEnclosedAwayFrom(const Eigen::Vector3d& eye, std::string* why) const;
+  const ClosedSurfaces& closed_surfaces() const { return closed_; }
 
  private:
   struct Surface {
@@ -55,6 +62,8 @@ class RenderScene {
   std::vector<Surface> surfaces_;  // by geometry id
   EnvironmentMap env_;
   std::vector<LightSource> lights_;
+  ClosedSurfaces closed_;
+  std::vector<Eigen::AlignedBox3d> geometry_bounds_, virtual_bounds_;
   bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false;
   double epsilon_ = 1e-5;
 };

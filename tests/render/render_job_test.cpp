@@ -10,6 +10,7 @@
 #include "core/math.h"
 #include "core/video.h"
 #include "eval/metrics.h"
+#include "geometry/mesh.h"
 #include "render/composite.h"
 #include "synth/synth.h"
 #include "test_util.h"
@@ -115,6 +116,34 @@ TEST_F(Capture, NoVirtualObjectsGiveThePhotographExactly) {
   EXPECT_TRUE(skipped);
   EXPECT_FALSE(r.ToJson()["timings"].contains("render"));  // nothing was rendered
   EXPECT_EQ(r.metrics()["frames"][0]["copied_through"], true);
+}
+
+// The object shut in a closed real cupboard: no path from the camera can
+// reach it, so each frame is the photograph, copied through and reported.
+TEST_F(Capture, ObjectInAClosedCupboardLeavesThePhotograph) {
+  Mesh cupboard;
+  const Eigen::Vector3f lo(-0.35f, 0.6f, -0.45f), hi(0.55f, 1.35f, 0.45f);
+  for (int i = 0; i < 8; ++i)
+    cupboard.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
+  cupboard.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
+                        {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
+  WritePly(Cap() / "meshes" / "cupboard.ply", cupboard);
+  Json j = ReadJsonFile(Cap() / "scene.json");
+  j["real"].push_back({{"mesh", "meshes/cupboard.ply"}});
+  WriteTextFile(Cap() / "cupboard.json", j.dump());
+  RenderOptions o;
+  o.spp = 2;
+  o.frame_end = 1;
+  o.out_dir = dir_->path() / "cupboard";
+  Report r("mr-render", "test");
+  RunRenderJob(ReadScene(Cap() / "cupboard.json"), o, &r);
+  bool skipped = false;
+  for (const auto& sk : r.skipped()) skipped = skipped || sk["what"] == "rendering frame 0";
+  EXPECT_TRUE(skipped) << r.ToJson().dump();
+  EXPECT_EQ(r.metrics()["frames"][0]["copied_through"], true);
+  // The photograph here is of the room without the cupboard; what matters is
+  // that it is passed through untouched.
+  EXPECT_EQ(ReadImage(o.out_dir / "00000.exr").Layer("composite").values(), ReadImage(Cap() / "photos" / "00000.exr").values());
 }
 
 TEST_F(Capture, NanInTheEnvironmentMapIsAClearError) {

@@ -239,6 +239,43 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
   }
 }
 
+namespace {
+
+// Whether the pyramid from `o` through the unit corner directions c[0..3]
+// (in order around the pixel), up to distance `far`, provably misses `box`:
+// a separating axis among the pyramid's side normals, the box's axes and
+// their edge cross products.  Testing only some axes can miss a separation
+// but never invent one, so a "true" is a proof.
+bool PyramidMissesBox(const Eigen::Vector3d& o, const Eigen::Vector3d c[4], double far, const Eigen::AlignedBox3d& box) {
+  if (box.contains(o)) return false;
+  const Eigen::Vector3d centre = box.center(), half = 0.5 * box.sizes();
+  Eigen::Vector3d pts[5] = {o, o + far * c[0], o + far * c[1], o + far * c[2], o + far * c[3]};
+  const double margin = 1e-5 * far;  // float rays deviate from these directions by ~1e-7
+  auto separated = [&](const Eigen::Vector3d& a) {
+    const double n = a.norm();
+    if (!(n > 1e-12)) return false;
+    double lo = INFINITY, hi = -INFINITY;
+    for (const auto& p : pts) {
+      const double d = p.dot(a);
+      lo = std::min(lo, d);
+      hi = std::max(hi, d);
+    }
+    const double bc = centre.dot(a), br = half.dot(a.cwiseAbs());
+    return lo > bc + br + margin * n || hi < bc - br - margin * n;
+  };
+  for (int i = 0; i < 4; ++i)
+    if (separated(c[i].cross(c[(i + 1) % 4]))) return true;
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d e = Eigen::Vector3d::Unit(k);
+    if (separated(e)) return true;
+    for (int i = 0; i < 4; ++i)
+      if (separated(e.cross(c[i])) || separated(e.cross(c[(i + 1) % 4] - c[i]))) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
                              const PathTracerSettings& settings)
     : scene_(scene),
@@ -258,6 +295,38 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
     }
   });
   frame_seed_ = HashCombine(settings.seed, static_cast<uint64_t>(settings.frame));
+  count_.assign(n, 0);
+  // Pixels whose camera rays provably meet no geometry see only the
+  // environment, identically in I_m and I_r: their difference is exactly
+  // zero, and after the first pass they are not sampled further.
+  skip_.assign(n, 0);
+  bool virtual_disc = false;  // a virtual sun seen directly differs between I_m and I_r
+  for (const LightSource& l : scene.lights()) virtual_disc = virtual_disc || (l.is_virtual() && !l.light().IsDelta());
+  if (settings.skip_environment_pixels && scene.has_virtual() && !virtual_disc) {
+    const Eigen::Matrix3d R = world_from_cam.rotation.toRotationMatrix();
+    const Eigen::Vector3d o = world_from_cam.translation;
+    double far = 1;
+    for (const auto& b : scene.geometry_bounds())
+      for (int k = 0; k < 8; ++k)
+        far = std::max(far, (b.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)) - o).norm());
+    far = 2 * far + 1;  // the hull of the apex and the far corners covers the pyramid out to far/2
+    ParallelFor(0, height_, [&](int64_t y) {
+      for (int x = 0; x < width_; ++x) {
+        const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1, c11 = c01 + 1;
+        if (!(corner_ok_[c00] && corner_ok_[c10] && corner_ok_[c01] && corner_ok_[c11])) continue;
+        Eigen::Vector3d c[4] = {(R * corner_dirs_[c00]).normalized(), (R * corner_dirs_[c10]).normalized(),
+                                (R * corner_dirs_[c11]).normalized(), (R * corner_dirs_[c01]).normalized()};
+        const Eigen::Vector3d axis = (c[0] + c[1] + c[2] + c[3]).normalized();
+        bool narrow = true;
+        for (const auto& ci : c) narrow = narrow && ci.dot(axis) > 0.9;
+        if (!narrow) continue;
+        bool misses = true;
+        for (const auto& b : scene.geometry_bounds()) misses = misses && PyramidMissesBox(o, c, far, b);
+        skip_[static_cast<size_t>(y) * width_ + x] = misses;
+      }
+    });
+    for (char k : skip_) skipped_pixels_ += k;
+  }
   sum_m_.assign(n, Eigen::Vector3d::Zero());
   sum_r_.assign(n, Eigen::Vector3d::Zero());
   sum_d_.assign(n, 0);
@@ -276,6 +345,8 @@ void FrameRenderer::RenderPass(int spp) {
       const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1,
                    c11 = c01 + 1;
       if (!(corner_ok_[c00] && corner_ok_[c10] && corner_ok_[c01] && corner_ok_[c11])) continue;  // outside the lens
+      if (skip_[i] && count_[i] > 0) continue;  // provably no difference: sampled once is enough
+      count_[i] += spp;
       for (int s = 0; s < spp; ++s) {
         // One generator per (pixel, sample index): samples are independent
         // of each other, of the thread count and of how passes split them.
@@ -306,34 +377,42 @@ void FrameRenderer::RenderPass(int spp) {
 }
 
 namespace {
-Image MeanImage(const std::vector<Eigen::Vector3d>& sum, int w, int h, int spp) {
+Image MeanImage(const std::vector<Eigen::Vector3d>& sum, int w, int h, const std::vector<int>& count) {
   Image img = Image::Rgb(w, h);
-  const double inv = spp > 0 ? 1.0 / spp : 0.0;
   for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      for (int c = 0; c < 3; ++c)
-        img.at(x, y, c) = static_cast<float>(sum[static_cast<size_t>(y) * w + x][c] * inv);
+    for (int x = 0; x < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      const double inv = count[i] > 0 ? 1.0 / count[i] : 0.0;
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) = static_cast<float>(sum[i][c] * inv);
+    }
   return img;
 }
 }  // namespace
 
-Image FrameRenderer::Mixed() const { return MeanImage(sum_m_, width_, height_, spp_); }
-Image FrameRenderer::Real() const { return MeanImage(sum_r_, width_, height_, spp_); }
+Image FrameRenderer::Mixed() const { return MeanImage(sum_m_, width_, height_, count_); }
+Image FrameRenderer::Real() const { return MeanImage(sum_r_, width_, height_, count_); }
 
 Image FrameRenderer::Mask() const {
   Image img = Image::Gray(width_, height_);
-  for (size_t i = 0; i < coverage_.size(); ++i) img.values()[i] = spp_ > 0 ? static_cast<float>(coverage_[i] / spp_) : 0.f;
+  for (size_t i = 0; i < coverage_.size(); ++i) img.values()[i] = count_[i] > 0 ? static_cast<float>(coverage_[i] / count_[i]) : 0.f;
   return img;
 }
 
 Image FrameRenderer::DifferenceVariance() const {
   Image img = Image::Gray(width_, height_);
-  if (spp_ < 2) return img;
   for (size_t i = 0; i < sum_d_.size(); ++i) {
-    const double mean = sum_d_[i] / spp_;
-    const double var = std::max(0.0, (sum_d2_[i] / spp_ - mean * mean)) * spp_ / (spp_ - 1);
-    img.values()[i] = static_cast<float>(var / spp_);  // variance of the mean
+    const double n = count_[i];
+    if (n < 2) continue;
+    const double mean = sum_d_[i] / n;
+    const double var = std::max(0.0, (sum_d2_[i] / n - mean * mean)) * n / (n - 1);
+    img.values()[i] = static_cast<float>(var / n);  // variance of the mean
   }
+  return img;
+}
+
+Image FrameRenderer::SampleCount() const {
+  Image img = Image::Gray(width_, height_);
+  for (size_t i = 0; i < count_.size(); ++i) img.values()[i] = static_cast<float>(count_[i]);
   return img;
 }
 

@@ -33,6 +33,9 @@ struct PathTracerSettings {
   uint64_t seed = 0;
   int frame = 0;
   RayLog* ray_log = nullptr;  // benchmarks only
+  // Pixels whose camera rays provably meet no geometry are sampled in the
+  // first pass only (their I_m - I_r is exactly zero).
+  bool skip_environment_pixels = true;
 };
 
 struct PathSample {
@@ -76,11 +79,14 @@ class FrameRenderer {
   int samples_per_pixel() const { return spp_; }
   int64_t nonfinite_samples() const { return nonfinite_; }
   int64_t rays_traced() const { return rays_; }
+  // Pixels sampled in the first pass only, their difference provably zero.
+  int64_t skipped_pixels() const { return skipped_pixels_; }
 
   Image Mixed() const;       // mean I_m, RGB
   Image Real() const;        // mean I_r, RGB
   Image Mask() const;        // fraction of camera samples whose first hit is virtual, "Y"
   Image DifferenceVariance() const;  // variance of the mean of luminance(I_m - I_r), "Y"
+  Image SampleCount() const;         // samples per pixel, "Y"
 
  private:
   const RenderScene& scene_;
@@ -92,6 +98,9 @@ class FrameRenderer {
   uint64_t frame_seed_ = 0;
   std::vector<Eigen::Vector3d> sum_m_, sum_r_;
   std::vector<double> sum_d_, sum_d2_, coverage_;
+  std::vector<int> count_;   // samples per pixel
+  std::vector<char> skip_;   // provably zero difference
+  int64_t skipped_pixels_ = 0;
   int spp_ = 0;
   int64_t nonfinite_ = 0;
   int64_t rays_ = 0;

@@ -212,8 +212,12 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     clamped += cr.clamped_negative;
     const int64_t frame_nonfinite = fr ? fr->nonfinite_samples() : 0;
     nonfinite += frame_nonfinite;
+    const int64_t env_pixels = fr ? fr->skipped_pixels() : 0;
     Json fj = {{"frame", f}, {"spp", done}, {"seconds", seconds}, {"clamped_negative", cr.clamped_negative},
-               {"nonfinite_samples", frame_nonfinite}, {"copied_through", !fr}};
+               {"nonfinite_samples", frame_nonfinite}, {"copied_through", !fr}, {"environment_pixels_sampled_once", env_pixels}};
+    if (env_pixels > 0 && done > 1)
+      report->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
+                   "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");
     if (ref) {
       ImageMetrics m = CompareImages(cr.composite, *ref);
       const double region_relmse = region ? CompareImages(cr.composite, *ref, &*region).relmse : m.relmse;
@@ -242,7 +246,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       layers.AppendLayer("mask", mask);
       layers.AppendLayer("difference", cr.difference);
       layers.AppendLayer("variance", variance);
-      layers.AppendLayer("samples", Image::Gray(camera.width(), camera.height(), static_cast<float>(done)));
+      layers.AppendLayer("samples", fr ? fr->SampleCount() : Image::Gray(camera.width(), camera.height()));
       if (photo) layers.AppendLayer("photo", *photo);
       ImageWriteOptions wo;
       wo.tool = o.tool;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <memory>
 
 #include "core/math.h"
 #include "core/parallel.h"
@@ -254,6 +255,43 @@ TEST(PathTracer, ObjectsOutsideAClosedRoomCannotChangeIt) {
       EXPECT_NE(r.Mixed().values(), r.Real().values());
     }
   }
+}
+
+// An open scene (a ground plane under the sky) seen towards the horizon:
+// pixels whose camera rays provably miss all geometry are sampled once, and
+// the difference I_m - I_r, hence the composite, is bit-identical to a render
+// that samples them all.
+TEST(PathTracer, EnvironmentPixelsAreSampledOnceAndChangeNothing) {
+  TwoObjects s(true);
+  Eigen::Matrix3d R;  // camera z = world +z, camera y = world -y, slightly tilted down
+  R = Eigen::AngleAxisd(0.15, Eigen::Vector3d::UnitX()) * Eigen::Matrix3d(Eigen::Vector3d(1, -1, 1).asDiagonal());
+  const Rigid3 pose(Eigen::Quaterniond(R), Eigen::Vector3d(0, 1, -4));
+  auto render = [&](bool skip) {
+    PathTracerSettings st;
+    st.skip_environment_pixels = skip;
+    auto r = std::make_unique<FrameRenderer>(s.scene, Pinhole(32, 24, 20), pose, st);
+    for (int p : {1, 1, 2, 4}) r->RenderPass(p);
+    return r;
+  };
+  auto on = render(true), off = render(false);
+  EXPECT_GT(on->skipped_pixels(), 32 * 4);   // the upper rows see only sky
+  EXPECT_LT(on->skipped_pixels(), 32 * 20);  // the plane fills the lower rows
+  EXPECT_EQ(off->skipped_pixels(), 0);
+  auto difference = [](const FrameRenderer& r) {
+    Image m = r.Mixed(), re = r.Real();
+    std::vector<float> d(m.values().size());
+    for (size_t i = 0; i < d.size(); ++i) d[i] = m.values()[i] - re.values()[i];
+    return d;
+  };
+  EXPECT_EQ(difference(*on), difference(*off));
+  const Image count = on->SampleCount();
+  int ones = 0;
+  for (float c : count.values()) {
+    EXPECT_TRUE(c == 1 || c == 8) << c;
+    ones += c == 1;
+  }
+  EXPECT_EQ(ones, on->skipped_pixels());
+  EXPECT_LT(on->rays_traced(), off->rays_traced());
 }
 
 }  // namespace

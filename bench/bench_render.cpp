@@ -99,6 +99,7 @@ void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
   mr::RayLog log;
   mr::PathTracerSettings st;
   st.max_depth = 8;
+  st.skip_environment_pixels = false;  // every pass traces the rays of the recorded one
   {
     st.ray_log = &log;
     mr::FrameRenderer fr(c.scene, c.camera, c.pose, st);

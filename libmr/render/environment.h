@@ -8,6 +8,7 @@
 // inside it: Eval, Sample and Pdf are exactly consistent, which the tests check.
 #pragma once
 
+#include <cstdint>
 #include <vector>
 
 #include <Eigen/Core>
@@ -35,6 +36,8 @@ class EnvironmentMap {
   // Samples a world direction; returns the radiance and sets the solid-angle pdf.
   Eigen::Vector3d Sample(double u0, double u1, double u2, Eigen::Vector3d* dir, double* pdf) const;
   double Pdf(const Eigen::Vector3d& dir) const;
+  // Eval and Pdf with one lookup (what an escaped path needs).
+  Eigen::Vector3d EvalWithPdf(const Eigen::Vector3d& dir, double* pdf) const;
   // Total power proxy: integral of luminance over the sphere.
   double LuminanceIntegral() const { return total_; }
 
@@ -44,6 +47,11 @@ class EnvironmentMap {
   std::vector<Eigen::Vector3f> radiance_;  // per pixel, scaled
   std::vector<double> cdf_;                 // over cells, luminance x solid angle
   std::vector<double> solid_angle_;
+  std::vector<double> pdf_;           // per cell, solid angle
+  std::vector<double> row_sin_;       // sin(latitude) of the row edges
+  std::vector<double> alias_prob_;    // Vose alias table
+  std::vector<uint32_t> alias_;
+  uint32_t FirstPositiveCell() const;
   double total_ = 0;
   Eigen::Matrix3d world_from_env_ = Eigen::Matrix3d::Identity();
 };

@@ -82,8 +82,9 @@ Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pd
   const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
   const EnvironmentMap& env = scene.environment();
   if ((which & kRealLights) && !env.empty()) {
-    const double w = prev_pdf > 0 ? PowerHeuristic(prev_pdf, env.Pdf(d)) : 1.0;
-    L += env.Eval(d) * w;
+    double pdf = 0;
+    const Eigen::Vector3d le = env.EvalWithPdf(d, &pdf);
+    L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
   }
   if (scene.has_distant_area_light())
     for (const LightSource& l : scene.lights()) {

@@ -41,6 +41,30 @@ TEST(EnvironmentMap, SamplingIsExactlyProportionalToLuminance) {
   EXPECT_GT(sun_hits, 19990);  // the sun holds all but ~1e-9 of the power
 }
 
+// The alias table picks cells with exactly their weights and never a cell
+// of zero weight: a black map with two lit pixels whose weights are 1 : 3
+// (equal solid angle, luminance 1 : 3).  200 000 draws: the share's standard
+// deviation is 0.001, the tolerance 0.005.
+TEST(EnvironmentMap, AliasTableMatchesWeightsAndSkipsBlackCells) {
+  Image img = Image::Rgb(32, 17, 0.0f);
+  for (int c = 0; c < 3; ++c) {
+    img.at(7, 8, c) = 1.0f;
+    img.at(20, 8, c) = 3.0f;
+  }
+  EnvironmentMap env(img, "two.exr");
+  Pcg32 rng(3, 4);
+  int bright = 0;
+  const int n = 200000;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d dir;
+    double pdf = 0;
+    Eigen::Vector3d le = env.Sample(rng.NextDouble(), rng.NextDouble(), rng.NextDouble(), &dir, &pdf);
+    ASSERT_GT(le.x(), 0.5);  // never a black cell
+    bright += le.x() > 2;
+  }
+  EXPECT_NEAR(static_cast<double>(bright) / n, 0.75, 0.005);
+}
+
 TEST(EnvironmentMap, PdfIntegratesToOne) {
   Image img = SkyWithSun(16, 9, 1.0f, 50.0f, 3, 1);
   EnvironmentMap env(img, "e.exr");

@@ -50,6 +50,13 @@ class DifferentialPathTracer {
   DifferentialPathTracer(const RenderScene& scene, const PathTracerSettings& settings)
       : scene_(scene), settings_(settings) {}
   PathSample Trace(const Ray& primary, Pcg32& rng) const;
+  // Radiance arriving along `ray` in the scene with everything in it
+  // (virtual included); `prev_pdf` is the solid-angle pdf that chose the
+  // direction (0: no MIS against lights on escape).
+  Eigen::Vector3d Radiance(const Ray& ray, double prev_pdf, Pcg32& rng) const {
+    int rays = 0;
+    return TraceSingle(ray, kMaskAll, Eigen::Vector3d::Ones(), prev_pdf, 0, rng, &rays);
+  }
 
  private:
   // One path seeing geometry through `mask`, from `ray` on.

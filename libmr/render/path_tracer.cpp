@@ -277,14 +277,11 @@ bool PyramidMissesBox(const Eigen::Vector3d& o, const Eigen::Vector3d c[4], doub
 
 }  // namespace
 
-FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
-                             const PathTracerSettings& settings)
-    : scene_(scene),
-      tracer_(scene, settings),
-      width_(camera.width()),
+CameraSampler::CameraSampler(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
+    : width_(camera.width()),
       height_(camera.height()),
-      world_from_cam_(world_from_cam) {
-  const size_t n = static_cast<size_t>(width_) * height_;
+      world_from_cam_(world_from_cam),
+      R_(world_from_cam.rotation.toRotationMatrix()) {
   corner_dirs_.resize(static_cast<size_t>(width_ + 1) * (height_ + 1));
   corner_ok_.resize(corner_dirs_.size());
   ParallelFor(0, height_ + 1, [&](int64_t y) {
@@ -295,7 +292,43 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
       corner_dirs_[i] = corner_ok_[i] ? d : Eigen::Vector3d::UnitZ();
     }
   });
-  frame_seed_ = HashCombine(settings.seed, static_cast<uint64_t>(settings.frame));
+  frame_seed_ = HashCombine(seed, static_cast<uint64_t>(frame));
+}
+
+bool CameraSampler::PixelValid(int x, int y) const {
+  const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1, c11 = c01 + 1;
+  return corner_ok_[c00] && corner_ok_[c10] && corner_ok_[c01] && corner_ok_[c11];
+}
+
+Pcg32 CameraSampler::Sample(int x, int y, int s, Ray* ray) const {
+  const size_t i = static_cast<size_t>(y) * width_ + x;
+  const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1, c11 = c01 + 1;
+  // One generator per (pixel, sample index): samples are independent of
+  // each other, of the thread count and of how passes split them.
+  Pcg32 rng(HashCombine(frame_seed_, static_cast<uint64_t>(s)), i);
+  const double fx = rng.NextDouble(), fy = rng.NextDouble();
+  const Eigen::Vector3d d = (1 - fy) * ((1 - fx) * corner_dirs_[c00] + fx * corner_dirs_[c10]) +
+                            fy * ((1 - fx) * corner_dirs_[c01] + fx * corner_dirs_[c11]);
+  *ray = MakeRay(world_from_cam_.translation, (R_ * d).normalized(), kMaskAll);
+  return rng;
+}
+
+void CameraSampler::CornerDirections(int x, int y, Eigen::Vector3d c[4]) const {
+  const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1, c11 = c01 + 1;
+  c[0] = (R_ * corner_dirs_[c00]).normalized();
+  c[1] = (R_ * corner_dirs_[c10]).normalized();
+  c[2] = (R_ * corner_dirs_[c11]).normalized();
+  c[3] = (R_ * corner_dirs_[c01]).normalized();
+}
+
+FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
+                             const PathTracerSettings& settings)
+    : scene_(scene),
+      tracer_(scene, settings),
+      sampler_(camera, world_from_cam, settings.seed, settings.frame),
+      width_(camera.width()),
+      height_(camera.height()) {
+  const size_t n = static_cast<size_t>(width_) * height_;
   count_.assign(n, 0);
   // Pixels whose camera rays provably meet no geometry see only the
   // environment, identically in I_m and I_r: their difference is exactly
@@ -304,7 +337,6 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
   bool virtual_disc = false;  // a virtual sun seen directly differs between I_m and I_r
   for (const LightSource& l : scene.lights()) virtual_disc = virtual_disc || (l.is_virtual() && !l.light().IsDelta());
   if (settings.skip_environment_pixels && scene.has_virtual() && !virtual_disc) {
-    const Eigen::Matrix3d R = world_from_cam.rotation.toRotationMatrix();
     const Eigen::Vector3d o = world_from_cam.translation;
     double far = 1;
     for (const auto& b : scene.geometry_bounds())
@@ -313,10 +345,9 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
     far = 2 * far + 1;  // the hull of the apex and the far corners covers the pyramid out to far/2
     ParallelFor(0, height_, [&](int64_t y) {
       for (int x = 0; x < width_; ++x) {
-        const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1, c11 = c01 + 1;
-        if (!(corner_ok_[c00] && corner_ok_[c10] && corner_ok_[c01] && corner_ok_[c11])) continue;
-        Eigen::Vector3d c[4] = {(R * corner_dirs_[c00]).normalized(), (R * corner_dirs_[c10]).normalized(),
-                                (R * corner_dirs_[c11]).normalized(), (R * corner_dirs_[c01]).normalized()};
+        if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
+        Eigen::Vector3d c[4];
+        sampler_.CornerDirections(x, static_cast<int>(y), c);
         const Eigen::Vector3d axis = (c[0] + c[1] + c[2] + c[3]).normalized();
         bool narrow = true;
         for (const auto& ci : c) narrow = narrow && ci.dot(axis) > 0.9;
@@ -337,25 +368,16 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
 
 void FrameRenderer::RenderPass(int spp) {
   std::atomic<int64_t> nonfinite{0}, rays{0};
-  const Eigen::Matrix3d R = world_from_cam_.rotation.toRotationMatrix();
-  const Eigen::Vector3d origin = world_from_cam_.translation;
   ParallelFor(0, height_, [&](int64_t y) {
     int64_t row_rays = 0;
     for (int x = 0; x < width_; ++x) {
       const size_t i = static_cast<size_t>(y) * width_ + x;
-      const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1,
-                   c11 = c01 + 1;
-      if (!(corner_ok_[c00] && corner_ok_[c10] && corner_ok_[c01] && corner_ok_[c11])) continue;  // outside the lens
+      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;  // outside the lens
       if (skip_[i] && count_[i] > 0) continue;  // provably no difference: sampled once is enough
       count_[i] += spp;
       for (int s = 0; s < spp; ++s) {
-        // One generator per (pixel, sample index): samples are independent
-        // of each other, of the thread count and of how passes split them.
-        Pcg32 rng(HashCombine(frame_seed_, static_cast<uint64_t>(spp_ + s)), i);
-        const double fx = rng.NextDouble(), fy = rng.NextDouble();
-        Eigen::Vector3d d = (1 - fy) * ((1 - fx) * corner_dirs_[c00] + fx * corner_dirs_[c10]) +
-                            fy * ((1 - fx) * corner_dirs_[c01] + fx * corner_dirs_[c11]);
-        Ray ray = MakeRay(origin, (R * d).normalized(), kMaskAll);
+        Ray ray;
+        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), spp_ + s, &ray);
         PathSample ps = tracer_.Trace(ray, rng);
         row_rays += ps.rays;
         if (!ps.mixed.allFinite() || !ps.real.allFinite()) {

@@ -16,6 +16,7 @@
 #include "eval/metrics.h"
 #include "render/composite.h"
 #include "render/path_tracer.h"
+#include "render/prt.h"
 #include "render/render_scene.h"
 
 namespace mr {
@@ -28,9 +29,7 @@ fs::path FramePath(const fs::path& pattern, int i) {
   return fs::path(buf.data());
 }
 
-namespace {
-
-std::vector<Rigid3> LoadPoses(const Scene& s) {
+std::vector<Rigid3> LoadScenePoses(const Scene& s) {
   std::vector<Rigid3> world_from_cam;
   if (!s.camera.poses) return {Rigid3()};
   switch (s.camera.pose_format) {
@@ -52,6 +51,8 @@ std::vector<Rigid3> LoadPoses(const Scene& s) {
   return world_from_cam;
 }
 
+namespace {
+
 // The photograph or reference of frame `path`, checked against the camera's size.
 Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool raw = false) {
   Image img = ReadRgbForComparison(path, transfer, raw);
@@ -64,8 +65,8 @@ Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool 
 
 void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const std::string method = o.method.empty() ? scene.render.method : o.method;
-  if (method != "pt")
-    throw UsageError(fmt::format("method \"{}\" is not available yet; this mr renders with \"pt\"", method));
+  if (method != "pt" && method != "prt")
+    throw UsageError(fmt::format("method \"{}\" is not available yet; this mr renders with \"pt\" and \"prt\"", method));
   const int spp = o.spp > 0 ? o.spp : scene.render.spp;
   const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
   const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
@@ -79,7 +80,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   {
     ScopedTimer t(report, "load");
     camera = CameraModel::Read(scene.camera.model);
-    poses = LoadPoses(scene);
+    poses = LoadScenePoses(scene);
     LoadRenderScene(scene, &rs);
   }
   report->AddInput(scene.file.string());
@@ -119,6 +120,13 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (copy_through)
     report->Skip("rendering", "no virtual object can change any frame: frames are copied through from the photographs");
 
+  std::map<uint32_t, PrtObject> prt_objects;
+  if (method == "prt" && !copy_through) {
+    ScopedTimer t(report, "prepare prt");
+    prt_objects = PreparePrt(scene, rs, spp, report);
+    if (!scene.camera.frames)
+      report->Skip("background", "the scene names no camera frames: prt composites the objects over black");
+  }
   PathTracerSettings st;
   st.max_depth = scene.render.max_depth;
   st.seed = scene.render.seed;
@@ -130,13 +138,12 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   for (int f = begin; f < end; ++f) {
     st.frame = f;
     const auto t0 = std::chrono::steady_clock::now();
-    std::optional<FrameRenderer> fr;
+    std::unique_ptr<FrameMethod> fr;
     std::string enclosed;
     const bool frame_copy =
         copy_through || (scene.camera.frames && rs.VirtualEnclosedAwayFrom(poses[static_cast<size_t>(f)].translation, &enclosed));
     if (frame_copy && !copy_through)
       report->Skip(fmt::format("rendering frame {}", f), enclosed + ": I_m - I_r = 0 exactly, the photograph is copied through");
-    if (!frame_copy) fr.emplace(rs, camera, poses[static_cast<size_t>(f)], st);
     std::optional<Image> photo, ref;
     if (video_in) {
       photo = video_in->Frame(f);  // decoded through sRGB
@@ -146,6 +153,21 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer, display_space);
     }
     if (reference) ref = ReadRgb(FramePath(*reference, f), camera.width(), camera.height(), Transfer::kLinear);
+    if (!frame_copy) {
+      if (method == "prt") {
+        std::optional<Image> background;  // the photograph as radiance
+        if (photo) {
+          background = *photo;
+          if (display_space)
+            for (float& v : background->values())
+              v = SrgbToLinear(Clamp(v, 0.0f, 1.0f)) / static_cast<float>(scene.camera.exposure);
+        }
+        fr = std::make_unique<PrtFrameRenderer>(rs, prt_objects, camera, poses[static_cast<size_t>(f)], st.seed, f,
+                                                background ? &*background : nullptr);
+      } else {
+        fr = std::make_unique<FrameRenderer>(rs, camera, poses[static_cast<size_t>(f)], st);
+      }
+    }
     // The region the object changes: where the reference differs from the photograph.
     std::optional<Image> region;
     if (ref && photo) {

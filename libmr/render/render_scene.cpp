@@ -25,6 +25,7 @@ uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_
   for (int k = 0; k < 8; ++k) wb.extend(world_from_object * ob.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
   geometry_bounds_.push_back(wb);
   virtual_bounds_.push_back(wb);
+  virtual_ids_.push_back(id);
   if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
   surfaces_[id] = Surface{material, Bsdf(material), world_from_object.linear().inverse().transpose()};
   has_virtual_ = has_virtual_geometry_ = true;

@@ -42,6 +42,8 @@ class RenderScene {
   // Whether anything virtual (geometry or light) exists: without it I_m = I_r.
   bool has_virtual() const { return has_virtual_; }
   bool has_virtual_geometry() const { return has_virtual_geometry_; }
+  // Geometry ids of the virtual objects, in the order they were added.
+  const std::vector<uint32_t>& virtual_ids() const { return virtual_ids_; }
   // A length for ray-origin offsets: 1e-5 of the scene's extent.
   double epsilon() const { return epsilon_; }
   Eigen::AlignedBox3f bounds() const { return embree_->Bounds(); }
@@ -64,6 +66,7 @@ class RenderScene {
   std::vector<LightSource> lights_;
   ClosedSurfaces closed_;
   std::vector<Eigen::AlignedBox3d> geometry_bounds_, virtual_bounds_;
+  std::vector<uint32_t> virtual_ids_;
   bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false;
   double epsilon_ = 1e-5;
 };

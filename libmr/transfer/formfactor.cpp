@@ -338,6 +338,7 @@ void WriteTransfer(const fs::path& path, const VertexTransfer& t) {
   Put<uint32_t>(&head, 36, static_cast<uint32_t>(h.coefficients));
   Put<uint64_t>(&head, 40, static_cast<uint64_t>(h.vertex_count));
   Put<uint64_t>(&head, 48, h.mesh_hash);
+  Put<uint32_t>(&head, 56, static_cast<uint32_t>(h.valid_spp));
   WriteAtomically(path, [&](const fs::path& tmp) {
     std::ofstream f(tmp, std::ios::binary);
     f.write(head.data(), static_cast<std::streamsize>(head.size()));
@@ -368,6 +369,7 @@ VertexTransfer ReadTransfer(const fs::path& path) {
   h.coefficients = static_cast<int>(Get<uint32_t>(head.data(), 36));
   h.vertex_count = static_cast<int64_t>(Get<uint64_t>(head.data(), 40));
   h.mesh_hash = Get<uint64_t>(head.data(), 48);
+  h.valid_spp = static_cast<int>(Get<uint32_t>(head.data(), 56));
   const int expected = h.basis == TransferBasis::kCube ? 6 * h.resolution * h.resolution : h.order * h.order;
   if (h.resolution < 1 || h.resolution > 256 || (h.basis == TransferBasis::kSh && (h.order < 1 || h.order > kMaxShOrder)) ||
       h.coefficients != expected)
@@ -443,14 +445,15 @@ EnvironmentCoefficients ProjectEnvironment(const Image& env, const std::string& 
 
 std::vector<Eigen::Vector3d> ShadeVertices(const VertexTransfer& t, const EnvironmentCoefficients& env,
                                            const Eigen::Vector3d& albedo, int64_t* clamped, double* most_negative) {
-  MR_CHECK(static_cast<int>(env.rgb.size()) == t.header.coefficients);
+  MR_CHECK(static_cast<int>(env.rgb.size()) <= t.header.coefficients);  // fewer: a truncated SH order
+  const int used = static_cast<int>(env.rgb.size());
   std::vector<Eigen::Vector3d> out(static_cast<size_t>(t.header.vertex_count));
   std::atomic<int64_t> neg{0};
   std::vector<double> lowest(out.size(), 0.0);
   ParallelFor(0, t.header.vertex_count, [&](int64_t v) {
     const float* c = t.vertex(v);
     Eigen::Vector3d s = Eigen::Vector3d::Zero();
-    for (int k = 0; k < t.header.coefficients; ++k) s += env.rgb[static_cast<size_t>(k)] * static_cast<double>(c[k]);
+    for (int k = 0; k < used; ++k) s += env.rgb[static_cast<size_t>(k)] * static_cast<double>(c[k]);
     s = s.cwiseProduct(albedo);
     lowest[static_cast<size_t>(v)] = std::min(0.0, s.minCoeff());
     for (int k = 0; k < 3; ++k)

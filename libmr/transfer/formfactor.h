@@ -66,6 +66,10 @@ struct TransferHeader {
   int coefficients = 0;       // per vertex
   int64_t vertex_count = 0;
   uint64_t mesh_hash = 0;
+  // 0: every vertex computed.  Otherwise only the vertices that a render of
+  // up to this many samples per pixel can see (mr-formfactor --scene); the
+  // others hold zero.
+  int valid_spp = 0;
 };
 
 struct VertexTransfer {

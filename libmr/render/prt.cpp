@@ -1,0 +1,192 @@
+#include "render/prt.h"
+
+#include <Eigen/SVD>
+
+#include "core/error.h"
+#include "core/parallel.h"
+#include "render/render_job.h"
+#include "render/render_scene.h"
+#include <atomic>
+#include "geometry/mesh.h"
+#include "transfer/formfactor.h"
+#include "transfer/sh.h"
+
+namespace mr {
+
+std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report) {
+  if (!scene.lighting.environment)
+    throw UsageError("method prt shades objects by the environment map, and the scene names none (lighting.environment)");
+  ImageReadOptions ro;
+  ro.nonfinite = NonFinite::kAllow;  // ProjectEnvironment names a bad pixel itself
+  const std::string env_name = scene.lighting.environment->string();
+  const Image env = ReadImage(*scene.lighting.environment, ro);
+  std::map<uint32_t, PrtObject> out;
+  for (size_t i = 0; i < scene.virtuals.size(); ++i) {
+    const SceneVirtual& v = scene.virtuals[i];
+    if (!v.formfactors)
+      throw UsageError(fmt::format("method prt needs form factors for virtual object \"{}\": run mr-formfactor on {} and "
+                                   "name the .ffc in virtual[{}].formfactors",
+                                   v.name, v.mesh.string(), i));
+    const Mesh mesh = ReadMesh(v.mesh);
+    const VertexTransfer t = ReadTransfer(*v.formfactors);
+    CheckTransferMatches(t, mesh, v.formfactors->string(), v.mesh.string());
+    if (t.header.valid_spp > 0 && spp > t.header.valid_spp)
+      ThrowErrorAt(FileLoc{v.formfactors->string()},
+                   "holds only the vertices a render of up to {} samples per pixel sees, and this render takes {}: "
+                   "run mr-formfactor --scene with --spp {} or more, or without --scene",
+                   t.header.valid_spp, spp, spp);
+    // The environment in the object's frame: the rotation of the object's
+    // transform (its polar factor), so that a scaled object sees the same sky.
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(v.world_from_object.linear(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::Matrix3d world_from_object_rot = svd.matrixU() * svd.matrixV().transpose();
+    if (world_from_object_rot.determinant() < 0) world_from_object_rot = -world_from_object_rot;
+    const Eigen::Vector3d sv = svd.singularValues();
+    if (sv.maxCoeff() > sv.minCoeff() * (1 + 1e-6))
+      report->Warn(fmt::format("virtual object \"{}\" is scaled non-uniformly: its form factors were computed for the "
+                               "unscaled mesh", v.name));
+    const Eigen::Matrix3d object_from_env = world_from_object_rot.transpose() * scene.lighting.world_from_env;
+    EnvironmentCoefficients ec =
+        ProjectEnvironment(env, env_name, t.header, object_from_env, scene.lighting.environment_scale);
+    if (t.header.basis == TransferBasis::kSh) {
+      // Bands that hold (almost) none of the environment's energy change nothing: dropped.
+      std::vector<double> band(static_cast<size_t>(t.header.order), 0.0);
+      double total = 0;
+      for (int l = 0; l < t.header.order; ++l)
+        for (int m = -l; m <= l; ++m) band[static_cast<size_t>(l)] += ec.rgb[static_cast<size_t>(l * (l + 1) + m)].squaredNorm();
+      for (double b : band) total += b;
+      int keep = t.header.order;
+      double tail = 0;
+      while (keep > 1 && (tail + band[static_cast<size_t>(keep - 1)]) <= 1e-12 * total) tail += band[static_cast<size_t>(--keep)];
+      if (keep < t.header.order) {
+        ec.rgb.resize(static_cast<size_t>(ShCount(keep)));
+        report->Skip(fmt::format("SH bands {}..{} of \"{}\"", keep, t.header.order - 1, v.name),
+                     "the environment holds less than 1e-12 of its energy there: shaded at order " + std::to_string(keep));
+      }
+    }
+    int64_t clamped = 0;
+    PrtObject po;
+    po.vertex_radiance = ShadeVertices(t, ec, v.material.albedo, &clamped);
+    po.triangles = mesh.triangles;
+    po.emission = v.material.emission;
+    if (clamped > 0)
+      report->Warn(fmt::format("virtual object \"{}\": {} negative vertex values (SH ringing) clamped to 0", v.name, clamped));
+    out[rs.virtual_ids().at(i)] = std::move(po);
+  }
+  report->Skip("relighting of the real scene", "method prt shades the virtual objects only (no shadows or light on the "
+                                               "room); pt renders their effect on the room");
+  if (!rs.lights().empty())
+    report->Skip(fmt::format("{} lights of lights.json", rs.lights().size()),
+                 "method prt shades with the environment map only");
+  return out;
+}
+
+std::vector<char> VerticesSeenByCamera(const Scene& scene, const std::string& object, int spp, int64_t* frames_seen) {
+  size_t index = scene.virtuals.size();
+  for (size_t i = 0; i < scene.virtuals.size(); ++i)
+    if (scene.virtuals[i].name == object) index = i;
+  if (index == scene.virtuals.size())
+    throw UsageError(fmt::format("{}: no virtual object is named \"{}\"", scene.file.string(), object));
+  RenderScene rs;
+  LoadRenderScene(scene, &rs);
+  const uint32_t id = rs.virtual_ids().at(index);
+  const Mesh mesh = ReadMesh(scene.virtuals[index].mesh);
+  const CameraModel camera = CameraModel::Read(scene.camera.model);
+  const std::vector<Rigid3> poses = LoadScenePoses(scene);
+  const int end = scene.render.frame_end < 0 ? static_cast<int>(poses.size()) : std::min<int>(scene.render.frame_end, static_cast<int>(poses.size()));
+  std::vector<std::atomic<char>> seen(mesh.positions.size());
+  *frames_seen = 0;
+  for (int f = scene.render.frame_begin; f < end; ++f) {
+    CameraSampler sampler(camera, poses[static_cast<size_t>(f)], scene.render.seed, f);
+    std::atomic<bool> any{false};
+    ParallelFor(0, sampler.height(), [&](int64_t y) {
+      for (int x = 0; x < sampler.width(); ++x) {
+        if (!sampler.PixelValid(x, static_cast<int>(y))) continue;
+        for (int s = 0; s < spp; ++s) {
+          Ray ray;
+          sampler.Sample(x, static_cast<int>(y), s, &ray);
+          Hit hit;
+          if (!rs.embree().Intersect(ray, &hit) || hit.geometry_id != id) continue;
+          any = true;
+          for (int k = 0; k < 3; ++k) seen[static_cast<size_t>(mesh.triangles[hit.primitive_id][k])] = 1;
+        }
+      }
+    });
+    *frames_seen += any.load();
+  }
+  std::vector<char> out(seen.size());
+  for (size_t i = 0; i < seen.size(); ++i) out[i] = seen[i].load();
+  return out;
+}
+
+PrtFrameRenderer::PrtFrameRenderer(const RenderScene& scene, const std::map<uint32_t, PrtObject>& objects,
+                                   const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
+                                   const Image* background)
+    : scene_(scene),
+      objects_(objects),
+      sampler_(camera, world_from_cam, seed, frame),
+      width_(camera.width()),
+      height_(camera.height()),
+      background_(background ? *background : Image::Rgb(camera.width(), camera.height())) {
+  const size_t n = static_cast<size_t>(width_) * height_;
+  sum_object_.assign(n, Eigen::Vector3d::Zero());
+  count_.assign(n, 0);
+  coverage_.assign(n, 0);
+}
+
+void PrtFrameRenderer::RenderPass(int spp) {
+  ParallelFor(0, height_, [&](int64_t y) {
+    for (int x = 0; x < width_; ++x) {
+      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      count_[i] += spp;
+      for (int s = 0; s < spp; ++s) {
+        Ray ray;
+        sampler_.Sample(x, static_cast<int>(y), spp_ + s, &ray);
+        Hit hit;
+        if (!scene_.embree().Intersect(ray, &hit) || !hit.is_virtual) continue;
+        const auto it = objects_.find(hit.geometry_id);
+        if (it == objects_.end()) continue;
+        const PrtObject& o = it->second;
+        const Eigen::Vector3i& t = o.triangles[hit.primitive_id];
+        const double u = hit.uv.x(), v = hit.uv.y();
+        sum_object_[i] += (1 - u - v) * o.vertex_radiance[static_cast<size_t>(t[0])] +
+                          u * o.vertex_radiance[static_cast<size_t>(t[1])] +
+                          v * o.vertex_radiance[static_cast<size_t>(t[2])] + o.emission;
+        ++coverage_[i];
+      }
+    }
+  });
+  spp_ += spp;
+}
+
+Image PrtFrameRenderer::Mixed() const {
+  Image img = Image::Rgb(width_, height_);
+  for (int y = 0; y < height_; ++y)
+    for (int x = 0; x < width_; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      const double n = count_[i];
+      for (int c = 0; c < 3; ++c)
+        img.at(x, y, c) = n > 0 ? static_cast<float>((sum_object_[i][c] + (n - coverage_[i]) * background_.at(x, y, c)) / n)
+                                : background_.at(x, y, c);
+    }
+  return img;
+}
+
+Image PrtFrameRenderer::Real() const { return background_; }
+
+Image PrtFrameRenderer::Mask() const {
+  Image img = Image::Gray(width_, height_);
+  for (size_t i = 0; i < count_.size(); ++i)
+    img.values()[i] = count_[i] > 0 ? static_cast<float>(static_cast<double>(coverage_[i]) / count_[i]) : 0.0f;
+  return img;
+}
+
+Image PrtFrameRenderer::DifferenceVariance() const { return Image::Gray(width_, height_); }
+
+Image PrtFrameRenderer::SampleCount() const {
+  Image img = Image::Gray(width_, height_);
+  for (size_t i = 0; i < count_.size(); ++i) img.values()[i] = static_cast<float>(count_[i]);
+  return img;
+}
+
+}  // namespace mr

@@ -1,0 +1,64 @@
+// `prt`: virtual objects shaded from their precomputed form-factor transfer
+// (mr-formfactor, transfer/formfactor.h) and the environment map.
+//
+// Each vertex's outgoing radiance is albedo x (transfer . environment), with
+// the environment projected into the object's frame; camera samples that hit
+// an object take the barycentric blend of its triangle's vertices.  prt
+// shades the objects only: their shadows and light on the real room are not
+// rendered (I_m = I_r = the photograph outside the objects), and lights.json
+// lights are not included.  The report says so.
+#pragma once
+
+#include <map>
+#include <vector>
+
+#include "core/report.h"
+#include "render/path_tracer.h"
+#include "scene/scene.h"
+
+namespace mr {
+
+struct PrtObject {
+  std::vector<Eigen::Vector3d> vertex_radiance;
+  std::vector<Eigen::Vector3i> triangles;
+  Eigen::Vector3d emission = Eigen::Vector3d::Zero();
+};
+
+// Loads every virtual object's .ffc (refusing a missing one or one computed
+// for another mesh), projects the environment and shades the vertices.
+// Keyed by the objects' geometry ids in `rs`.
+// `spp`: the samples per pixel the render will take (an .ffc computed for
+// fewer, with unseen vertices left out, is refused).
+std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report);
+
+// The vertices of virtual object `object` that mr-render's camera samples
+// (the scene's frames, seed and `spp`) can see: the corners of every
+// triangle a camera sample hits.  With bounces 0 the others' transfer can
+// change no pixel, so mr-formfactor --scene skips them.
+std::vector<char> VerticesSeenByCamera(const Scene& scene, const std::string& object, int spp, int64_t* frames_seen);
+
+class PrtFrameRenderer : public FrameMethod {
+ public:
+  // `background`: what the camera sees where no object is (the photograph
+  // as radiance); null for black.
+  PrtFrameRenderer(const RenderScene& scene, const std::map<uint32_t, PrtObject>& objects, const CameraModel& camera,
+                   const Rigid3& world_from_cam, uint64_t seed, int frame, const Image* background);
+  void RenderPass(int spp) override;
+  Image Mixed() const override;
+  Image Real() const override;
+  Image Mask() const override;
+  Image DifferenceVariance() const override;
+  Image SampleCount() const override;
+
+ private:
+  const RenderScene& scene_;
+  const std::map<uint32_t, PrtObject>& objects_;
+  CameraSampler sampler_;
+  int width_, height_;
+  Image background_;
+  std::vector<Eigen::Vector3d> sum_object_;
+  std::vector<int> count_, coverage_;
+  int spp_ = 0;
+};
+
+}  // namespace mr

@@ -9,6 +9,7 @@
 #include "core/report.h"
 #include "geometry/mesh.h"
 #include "scene/lights.h"
+#include "transfer/formfactor.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -156,6 +157,22 @@ void Describe(const fs::path& path, FileInfo* fi) {
     return DescribeImage(path, fi);
   if (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl") return DescribeMesh(path, fi);
   if (ext == ".json") return DescribeJson(path, fi);
+  if (ext == ".ffc") {
+    fi->kind = "form factors";
+    const VertexTransfer t = ReadTransfer(path);
+    const TransferHeader& h = t.header;
+    const std::string basis = h.basis == TransferBasis::kCube ? fmt::format("cube {}x{}x6", h.resolution, h.resolution)
+                                                              : fmt::format("SH order {}", h.order);
+    fi->lines.push_back(fmt::format("form factors: {}, {} coefficients per vertex, {} vertices", basis, h.coefficients,
+                                    h.vertex_count));
+    fi->lines.push_back(fmt::format("supersample {}, bounces {} (albedo {}), mesh hash {:016x}{}", h.supersample, h.bounces,
+                                    h.albedo, h.mesh_hash,
+                                    h.valid_spp > 0 ? fmt::format(", seen vertices only (up to {} spp)", h.valid_spp) : ""));
+    fi->json = {{"basis", h.basis == TransferBasis::kCube ? "cube" : "sh"}, {"resolution", h.resolution},
+                {"order", h.order}, {"coefficients", h.coefficients}, {"vertices", h.vertex_count},
+                {"bounces", h.bounces}, {"valid_spp", h.valid_spp}};
+    return;
+  }
   if (fname == "cameras.txt" || fname == "images.txt" || fname == "points3D.txt") {
     fi->kind = "COLMAP " + fname;
     std::string text = ReadTextFile(path);

@@ -105,6 +105,13 @@ check "mr-synth spot" 0 "" -- "$bin/mr-synth" --preset small --out "$tmp/spot" -
 check "scene names lights" 0 '"lights": "lights.json"' -- cat "$tmp/spot/scene.json"
 check "lights file" 0 "lights: 1 (0 virtual)" -- "$bin/mr-info" "$tmp/spot/lights.json"
 check "mr-render spot" 0 "" -- "$bin/mr-render" "$tmp/spot/scene.json" --out "$tmp/spot/r" --spp 1 -q
+# Form factors: compute, describe, shade with a reference; a changed mesh is refused.
+check "mr-formfactor" 0 "" -- "$bin/mr-formfactor" "$tmp/cap/meshes/object.ply" --resolution 4 --out "$tmp/o.ffc" -q
+check "ffc info" 0 "cube 4x4x6, 96 coefficients per vertex" -- "$bin/mr-info" "$tmp/o.ffc"
+check "mr-formfactor shade" 0 "" -- "$bin/mr-formfactor" "$tmp/cap/meshes/object.ply" --ffc "$tmp/o.ffc" --shade "$tmp/cap/env.exr" --out "$tmp/lit.ply" --reference-rays 16 -q --report "$tmp/ff.json"
+check "shade report" 0 '"vertex_relative_rms"' -- cat "$tmp/ff.json"
+check "ffc for another mesh" 1 "was computed for another mesh" -- "$bin/mr-formfactor" "$tmp/cap/meshes/floor.ply" --ffc "$tmp/o.ffc" --shade "$tmp/cap/env.exr" --out "$tmp/x.ply"
+check "bad order" 2 "--order 9 is outside 1..8" -- "$bin/mr-formfactor" "$tmp/cap/meshes/object.ply" --basis sh --order 9 --out "$tmp/x.ffc"
 check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
 
 echo "$pass passed, $fail failed"

@@ -12,7 +12,9 @@
 #include "eval/metrics.h"
 #include "geometry/mesh.h"
 #include "render/composite.h"
+#include "render/prt.h"
 #include "synth/synth.h"
+#include "transfer/formfactor.h"
 #include "test_util.h"
 
 namespace mr {
@@ -144,6 +146,97 @@ TEST_F(Capture, ObjectInAClosedCupboardLeavesThePhotograph) {
   // The photograph here is of the room without the cupboard; what matters is
   // that it is passed through untouched.
   EXPECT_EQ(ReadImage(o.out_dir / "00000.exr").Layer("composite").values(), ReadImage(Cap() / "photos" / "00000.exr").values());
+}
+
+// prt: the object shaded from its transfer; outside the object the
+// composite is the photograph, bit for bit (prt does not relight the room,
+// and says so).
+TEST_F(Capture, PrtShadesTheObjectAndLeavesTheRoom) {
+  const Mesh object = ReadMesh(Cap() / "meshes" / "object.ply");
+  TransferOptions to;
+  TransferStats ts;
+  WriteTransfer(Cap() / "object.ffc", ComputeTransfer(object, to, &ts));
+  Json j = ReadJsonFile(Cap() / "scene.json");
+  j["virtual"][0]["formfactors"] = "object.ffc";
+  WriteTextFile(Cap() / "prt.json", j.dump());
+  RenderOptions o;
+  o.method = "prt";
+  o.spp = 4;
+  o.frame_end = 1;
+  o.out_dir = dir_->path() / "prt";
+  Report r("mr-render", "test");
+  RunRenderJob(ReadScene(Cap() / "prt.json"), o, &r);
+  const Image out = ReadImage(o.out_dir / "00000.exr");
+  const Image photo = ReadImage(Cap() / "photos" / "00000.exr");
+  const Image comp = out.Layer("composite"), mask = out.Layer("mask");
+  int object_pixels = 0;
+  for (int y = 0; y < photo.height(); ++y)
+    for (int x = 0; x < photo.width(); ++x) {
+      if (mask.at(x, y, 0) == 0) {
+        for (int c = 0; c < 3; ++c) ASSERT_EQ(comp.at(x, y, c), photo.at(x, y, c));
+      } else {
+        ++object_pixels;
+        EXPECT_GT(comp.at(x, y, 1), 0.0f);
+      }
+    }
+  EXPECT_GT(object_pixels, 10);
+  bool said = false;
+  for (const auto& sk : r.skipped()) said = said || sk["what"] == "relighting of the real scene";
+  EXPECT_TRUE(said);
+  // Against the truth (which has the object's shadow on the table) prt is
+  // worse than pt in the region the object changes, but not wildly so.
+  EXPECT_LT(r.metrics()["region_relmse"].get<double>(), 0.5);
+
+  // Without form factors: a usage error naming the object.
+  j["virtual"][0].erase("formfactors");
+  WriteTextFile(Cap() / "prt-none.json", j.dump());
+  Report r2("mr-render", "test");
+  try {
+    RunRenderJob(ReadScene(Cap() / "prt-none.json"), o, &r2);
+    ADD_FAILURE() << "prt without form factors was accepted";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("needs form factors for virtual object \"object\""), std::string::npos) << e.what();
+  }
+}
+
+// mr-formfactor --scene: vertices no camera sample sees are left out, and
+// the prt render is bit-identical to one with every vertex computed.  A
+// render that takes more samples than the .ffc was made for is refused.
+TEST_F(Capture, PrtVertexSkippingChangesNothing) {
+  const Mesh object = ReadMesh(Cap() / "meshes" / "object.ply");
+  Json j = ReadJsonFile(Cap() / "scene.json");
+  j["virtual"][0]["formfactors"] = "object-seen.ffc";
+  j["render"]["frames"] = "0:1";
+  WriteTextFile(Cap() / "prt-seen.json", j.dump());
+  const Scene scene = ReadScene(Cap() / "prt-seen.json", false);
+  int64_t frames = 0;
+  const std::vector<char> seen = VerticesSeenByCamera(scene, "object", 4, &frames);
+  EXPECT_EQ(frames, 1);
+  int64_t n_seen = 0;
+  for (char c : seen) n_seen += c;
+  EXPECT_GT(n_seen, 10);
+  EXPECT_LT(n_seen, static_cast<int64_t>(seen.size()) * 3 / 4);  // the far side is hidden
+  TransferOptions to;
+  TransferStats ts;
+  VertexTransfer part = ComputeTransfer(object, to, &ts, &seen);
+  EXPECT_EQ(ts.skipped_vertices, static_cast<int64_t>(seen.size()) - n_seen);
+  part.header.valid_spp = 4;
+  WriteTransfer(Cap() / "object-seen.ffc", part);
+  WriteTransfer(Cap() / "object-all.ffc", ComputeTransfer(object, to, &ts));
+  auto render = [&](const std::string& ffc, int spp, const std::string& out) {
+    Json k = j;
+    k["virtual"][0]["formfactors"] = ffc;
+    WriteTextFile(Cap() / "prt-k.json", k.dump());
+    RenderOptions o;
+    o.method = "prt";
+    o.spp = spp;
+    o.out_dir = dir_->path() / out;
+    Report r("mr-render", "test");
+    RunRenderJob(ReadScene(Cap() / "prt-k.json"), o, &r);
+    return ReadImage(o.out_dir / "00000.exr").Layer("composite").values();
+  };
+  EXPECT_EQ(render("object-seen.ffc", 4, "seen"), render("object-all.ffc", 4, "all"));
+  EXPECT_THROW(render("object-seen.ffc", 8, "more"), Error);
 }
 
 TEST_F(Capture, NanInTheEnvironmentMapIsAClearError) {

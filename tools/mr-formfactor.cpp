@@ -141,14 +141,13 @@ int main(int argc, char** argv) {
     }
     mr::TransferStats st;
     auto t0 = std::chrono::steady_clock::now();
-    mr::VertexTransfer t = mr::ComputeTransfer(mesh, o, &st, needed.empty() ? nullptr : &needed);
+    const mr::TransferHeader header =
+        mr::ComputeTransferToFile(mesh, o, out, &st, needed.empty() ? nullptr : &needed, valid_spp);
     const double seconds = Seconds(t0);
     report.AddTiming("transfer", seconds);
-    t.header.valid_spp = valid_spp;
-    mr::WriteTransfer(out, t);
     report.AddOutput(out);
     report.SetMetric("vertices", st.vertices);
-    report.SetMetric("coefficients", t.header.coefficients);
+    report.SetMetric("coefficients", header.coefficients);
     report.SetMetric("rays", st.rays);
     report.SetMetric("rays_per_second", seconds > 0 ? static_cast<double>(st.rays) / seconds : 0.0);
     report.SetMetric("normals_computed", st.normals_computed);
@@ -164,7 +163,7 @@ int main(int argc, char** argv) {
     if (st.fully_occluded > 0)
       report.Warn(fmt::format("{} vertices see nothing but the object (inside closed geometry?): transfer zero", st.fully_occluded));
     if (st.nonmanifold_edges > 0) report.Warn(fmt::format("{} non-manifold edges", st.nonmanifold_edges));
-    spdlog::info("{} vertices x {} coefficients, {} rays in {:.3f} s ({:.3g} rays/s)", st.vertices, t.header.coefficients,
+    spdlog::info("{} vertices x {} coefficients, {} rays in {:.3f} s ({:.3g} rays/s)", st.vertices, header.coefficients,
                  st.rays, seconds, seconds > 0 ? static_cast<double>(st.rays) / seconds : 0.0);
     return mr::kExitOk;
   });

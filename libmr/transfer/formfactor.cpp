@@ -170,8 +170,14 @@ void CheckOptions(const TransferOptions& o) {
 
 }  // namespace
 
-VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& o, TransferStats* stats,
-                         const std::vector<char>* needed) {
+namespace {
+using ChunkSink = std::function<void(const float* data, int64_t vertices)>;
+
+// With a sink and no bounces, the vertices are computed o.chunk at a time
+// and handed to the sink in order (out.data stays empty): memory is bounded
+// by the chunk, not the mesh.
+VertexTransfer ComputeTransferImpl(const Mesh& mesh, const TransferOptions& o, TransferStats* stats,
+                                   const std::vector<char>* needed, const ChunkSink* sink) {
   CheckOptions(o);
   mesh.Validate("mesh");
   VertexTransfer out;
@@ -190,7 +196,8 @@ VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& o, Trans
   const Quadrature q = MakeQuadrature(o);
   const int C = h.coefficients;
   const size_t V = static_cast<size_t>(h.vertex_count);
-  out.data.assign(V * static_cast<size_t>(C), 0.0f);
+  const bool streaming = sink && o.bounces == 0;
+  if (!streaming) out.data.assign(V * static_cast<size_t>(C), 0.0f);
   if (V == 0) return out;
 
   EmbreeScene scene;
@@ -227,34 +234,48 @@ VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& o, Trans
     }
   };
 
-  // Bounce 0: direct transfer, one occlusion ray per quadrature direction.
-  std::vector<int64_t> rays_per_chunk;
+  // Bounce 0: direct transfer, one occlusion ray per quadrature direction,
+  // for vertices [v0, v1) into dst.
   std::atomic<int64_t> rays_total{0}, occluded_all{0};
-  ParallelForChunks(0, static_cast<int64_t>(V), 64, [&](int64_t begin, int64_t end) {
-    std::vector<Ray> rays;
-    std::vector<int> dirs;
-    std::vector<char> occ;
-    std::vector<double> acc(static_cast<size_t>(C));
-    for (int64_t v = begin; v < end; ++v) {
-      rays_of(static_cast<size_t>(v), &rays, &dirs);
-      if (rays.empty()) continue;
-      occ.assign(rays.size(), 0);
-      scene.Occluded(rays, occ);
-      rays_total += static_cast<int64_t>(rays.size());
-      std::fill(acc.begin(), acc.end(), 0.0);
-      bool any = false;
-      const Eigen::Vector3d& n = normals[static_cast<size_t>(v)];
-      for (size_t r = 0; r < rays.size(); ++r) {
-        if (occ[r]) continue;
-        any = true;
-        const int d = dirs[r];
-        add(acc.data(), d, CosineWeightedSolidAngle(q, static_cast<size_t>(d), n));
+  auto direct = [&](int64_t v0, int64_t v1, float* dst_base) {
+    ParallelForChunks(v0, v1, 64, [&](int64_t begin, int64_t end) {
+      std::vector<Ray> rays;
+      std::vector<int> dirs;
+      std::vector<char> occ;
+      std::vector<double> acc(static_cast<size_t>(C));
+      for (int64_t v = begin; v < end; ++v) {
+        rays_of(static_cast<size_t>(v), &rays, &dirs);
+        if (rays.empty()) continue;
+        occ.assign(rays.size(), 0);
+        scene.Occluded(rays, occ);
+        rays_total += static_cast<int64_t>(rays.size());
+        std::fill(acc.begin(), acc.end(), 0.0);
+        bool any = false;
+        const Eigen::Vector3d& n = normals[static_cast<size_t>(v)];
+        for (size_t r = 0; r < rays.size(); ++r) {
+          if (occ[r]) continue;
+          any = true;
+          const int d = dirs[r];
+          add(acc.data(), d, CosineWeightedSolidAngle(q, static_cast<size_t>(d), n));
+        }
+        if (!any) ++occluded_all;
+        float* dst = dst_base + static_cast<size_t>(v - v0) * C;
+        for (int k = 0; k < C; ++k) dst[k] = static_cast<float>(acc[static_cast<size_t>(k)]);
       }
-      if (!any) ++occluded_all;
-      float* dst = out.data.data() + static_cast<size_t>(v) * C;
-      for (int k = 0; k < C; ++k) dst[k] = static_cast<float>(acc[static_cast<size_t>(k)]);
+    });
+  };
+  if (streaming) {
+    std::vector<float> buf;
+    const int64_t chunk = std::max<int64_t>(1, o.chunk);
+    for (int64_t v0 = 0; v0 < static_cast<int64_t>(V); v0 += chunk) {
+      const int64_t v1 = std::min<int64_t>(static_cast<int64_t>(V), v0 + chunk);
+      buf.assign(static_cast<size_t>(v1 - v0) * C, 0.0f);
+      direct(v0, v1, buf.data());
+      (*sink)(buf.data(), v1 - v0);
     }
-  });
+  } else {
+    direct(0, static_cast<int64_t>(V), out.data.data());
+  }
   stats->rays += rays_total.load();
   stats->fully_occluded = occluded_all.load();
   if (needed)
@@ -263,7 +284,7 @@ VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& o, Trans
   // Bounces: T_b(v) = T_0(v) + albedo sum over rays that hit the object's
   // outside of (cos dw / pi) T_{b-1}(hit), interpolated at the hit.
   if (o.bounces > 0) {
-    const std::vector<float> direct = out.data;
+    const std::vector<float> direct_transfer = out.data;
     std::vector<float> prev = out.data;
     for (int b = 0; b < o.bounces; ++b) {
       std::atomic<int64_t> brays{0};
@@ -295,7 +316,7 @@ VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& o, Trans
             for (int k = 0; k < C; ++k) acc[static_cast<size_t>(k)] += f * (a * p0[k] + u * p1[k] + w * p2[k]);
           }
           float* dst = out.data.data() + static_cast<size_t>(v) * C;
-          const float* d0 = direct.data() + static_cast<size_t>(v) * C;
+          const float* d0 = direct_transfer.data() + static_cast<size_t>(v) * C;
           for (int k = 0; k < C; ++k) dst[k] = static_cast<float>(d0[k] + acc[static_cast<size_t>(k)]);
         }
       });
@@ -304,6 +325,13 @@ VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& o, Trans
     }
   }
   return out;
+}
+
+}  // namespace
+
+VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& options, TransferStats* stats,
+                               const std::vector<char>* needed) {
+  return ComputeTransferImpl(mesh, options, stats, needed, nullptr);
 }
 
 namespace {
@@ -323,9 +351,8 @@ T Get(const char* b, size_t at) {
 }
 }  // namespace
 
-void WriteTransfer(const fs::path& path, const VertexTransfer& t) {
-  const TransferHeader& h = t.header;
-  MR_CHECK(static_cast<int64_t>(t.data.size()) == h.vertex_count * h.coefficients);
+namespace {
+std::vector<char> EncodeHeader(const TransferHeader& h) {
   std::vector<char> head(kHeaderSize, 0);
   std::memcpy(head.data(), kMagic, 8);
   Put<uint32_t>(&head, 8, kVersion);
@@ -339,12 +366,42 @@ void WriteTransfer(const fs::path& path, const VertexTransfer& t) {
   Put<uint64_t>(&head, 40, static_cast<uint64_t>(h.vertex_count));
   Put<uint64_t>(&head, 48, h.mesh_hash);
   Put<uint32_t>(&head, 56, static_cast<uint32_t>(h.valid_spp));
+  return head;
+}
+}  // namespace
+
+void WriteTransfer(const fs::path& path, const VertexTransfer& t) {
+  const TransferHeader& h = t.header;
+  MR_CHECK(static_cast<int64_t>(t.data.size()) == h.vertex_count * h.coefficients);
+  const std::vector<char> head = EncodeHeader(h);
   WriteAtomically(path, [&](const fs::path& tmp) {
     std::ofstream f(tmp, std::ios::binary);
     f.write(head.data(), static_cast<std::streamsize>(head.size()));
     f.write(reinterpret_cast<const char*>(t.data.data()), static_cast<std::streamsize>(t.data.size() * sizeof(float)));
     if (!f) ThrowErrorAt(FileLoc{path.string()}, "write failed");
   });
+}
+
+TransferHeader ComputeTransferToFile(const Mesh& mesh, const TransferOptions& options, const fs::path& path,
+                                     TransferStats* stats, const std::vector<char>* needed, int valid_spp) {
+  TransferHeader header;
+  WriteAtomically(path, [&](const fs::path& tmp) {
+    std::ofstream f(tmp, std::ios::binary);
+    f.write(std::vector<char>(kHeaderSize, 0).data(), kHeaderSize);  // the header once its fields are known
+    const ChunkSink sink = [&](const float* data, int64_t vertices) {
+      f.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(vertices * TransferCoefficients(options) * 4));
+    };
+    VertexTransfer t = ComputeTransferImpl(mesh, options, stats, needed, &sink);
+    t.header.valid_spp = valid_spp;
+    header = t.header;
+    if (!t.data.empty())  // not streamed (bounces)
+      f.write(reinterpret_cast<const char*>(t.data.data()), static_cast<std::streamsize>(t.data.size() * sizeof(float)));
+    const std::vector<char> head = EncodeHeader(header);
+    f.seekp(0);
+    f.write(head.data(), static_cast<std::streamsize>(head.size()));
+    if (!f) ThrowErrorAt(FileLoc{path.string()}, "write failed");
+  });
+  return header;
 }
 
 VertexTransfer ReadTransfer(const fs::path& path) {

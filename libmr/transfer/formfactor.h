@@ -92,6 +92,11 @@ VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& options,
 // The .ffc file (docs/formats.md): a 64-byte little-endian header, then
 // float32 coefficients vertex by vertex.  Writing is atomic.
 void WriteTransfer(const fs::path& path, const VertexTransfer& t);
+// ComputeTransfer straight into an .ffc, options.chunk vertices at a time:
+// with no bounces, memory stays bounded by the chunk whatever the mesh's
+// size (with bounces every vertex's transfer must stay in memory).
+TransferHeader ComputeTransferToFile(const Mesh& mesh, const TransferOptions& options, const fs::path& path,
+                                     TransferStats* stats, const std::vector<char>* needed = nullptr, int valid_spp = 0);
 VertexTransfer ReadTransfer(const fs::path& path);
 // Throws, naming the file, when `t` was computed for another mesh.
 void CheckTransferMatches(const VertexTransfer& t, const Mesh& mesh, const std::string& ffc_name, const std::string& mesh_name);

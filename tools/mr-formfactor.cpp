@@ -88,8 +88,11 @@ int main(int argc, char** argv) {
       report.SetMetric("clamped_negative", clamped);
       if (reference_rays > 0) {
         t0 = std::chrono::steady_clock::now();
-        const auto ref = mr::ReferenceVertexRadiance(mesh, env, shade, world_from_env, 1.0, t.header.bounces,
-                                                     reference_rays, 1);
+        // The reference's surfaces have the albedo the bounces were computed
+        // with; its vertex radiance is rescaled to the shading colour.
+        const double a = t.header.bounces > 0 ? t.header.albedo : 1.0;
+        auto ref = mr::ReferenceVertexRadiance(mesh, env, shade, world_from_env, a, t.header.bounces, reference_rays, 1);
+        for (auto& r : ref) r /= a;
         report.AddTiming("reference", Seconds(t0));
         double num = 0, den = 0, rel = 0;
         for (size_t v = 0; v < ref.size(); ++v) {

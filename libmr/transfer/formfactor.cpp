@@ -247,6 +247,7 @@ VertexTransfer ComputeTransferImpl(const Mesh& mesh, const TransferOptions& o, T
         rays_of(static_cast<size_t>(v), &rays, &dirs);
         if (rays.empty()) continue;
         occ.assign(rays.size(), 0);
+        if (o.ray_log) o.ray_log->insert(o.ray_log->end(), rays.begin(), rays.end());
         scene.Occluded(rays, occ);
         rays_total += static_cast<int64_t>(rays.size());
         std::fill(acc.begin(), acc.end(), 0.0);
@@ -495,7 +496,7 @@ EnvironmentCoefficients ProjectEnvironment(const Image& env, const std::string& 
       if (cell_weight[c] > 0) out.rgb[c] /= cell_weight[c];
   } else if (window) {
     for (int l = 0; l < h.order; ++l)
-      for (int m = -l; m <= l; ++m) out.rgb[static_cast<size_t>(l * (l + 1) + m)] *= ShHanningWindow(l, h.order) * ShHanningWindow(l, h.order);
+      for (int m = -l; m <= l; ++m) out.rgb[static_cast<size_t>(l * (l + 1) + m)] *= ShLanczosWindow(l, h.order);
   }
   return out;
 }

@@ -211,7 +211,7 @@ TEST(Transfer, NormalsFlippedMissingAndDegenerateFacesAreReported) {
 }
 
 // A sun 1e6 times the sky in SH of order 8: the truncated series rings to
-// negative values on the far side; the Hanning window damps that, and what
+// negative values on the far side; the Lanczos window damps that, and what
 // stays negative is clamped to zero and counted.
 TEST(Transfer, ShRingingUnderASunIsWindowedAndClamped) {
   Mesh sphere = Sphere(0.5f, 16);

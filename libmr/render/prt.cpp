@@ -49,18 +49,13 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
         ProjectEnvironment(env, env_name, t.header, object_from_env, scene.lighting.environment_scale);
     if (t.header.basis == TransferBasis::kSh) {
       // Bands that hold (almost) none of the environment's energy change nothing: dropped.
-      std::vector<double> band(static_cast<size_t>(t.header.order), 0.0);
-      double total = 0;
-      for (int l = 0; l < t.header.order; ++l)
-        for (int m = -l; m <= l; ++m) band[static_cast<size_t>(l)] += ec.rgb[static_cast<size_t>(l * (l + 1) + m)].squaredNorm();
-      for (double b : band) total += b;
-      int keep = t.header.order;
-      double tail = 0;
-      while (keep > 1 && (tail + band[static_cast<size_t>(keep - 1)]) <= 1e-12 * total) tail += band[static_cast<size_t>(--keep)];
+      // The dropped bands change a vertex by at most sqrt(1e-5) |T| |L| (Cauchy-Schwarz): 0.3%.
+      const int keep = EffectiveShOrder(ec, t.header.order, 1e-5);
       if (keep < t.header.order) {
         ec.rgb.resize(static_cast<size_t>(ShCount(keep)));
         report->Skip(fmt::format("SH bands {}..{} of \"{}\"", keep, t.header.order - 1, v.name),
-                     "the environment holds less than 1e-12 of its energy there: shaded at order " + std::to_string(keep));
+                     "the environment holds less than 1e-5 of its energy there (a change of at most 0.3%): shaded at "
+                     "order " + std::to_string(keep));
       }
     }
     int64_t clamped = 0;

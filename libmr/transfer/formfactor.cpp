@@ -501,6 +501,18 @@ EnvironmentCoefficients ProjectEnvironment(const Image& env, const std::string& 
   return out;
 }
 
+int EffectiveShOrder(const EnvironmentCoefficients& env, int order, double tolerance) {
+  std::vector<double> band(static_cast<size_t>(order), 0.0);
+  double total = 0;
+  for (int l = 0; l < order; ++l)
+    for (int m = -l; m <= l; ++m) band[static_cast<size_t>(l)] += env.rgb.at(static_cast<size_t>(l * (l + 1) + m)).squaredNorm();
+  for (double b : band) total += b;
+  int keep = order;
+  double tail = 0;
+  while (keep > 1 && tail + band[static_cast<size_t>(keep - 1)] <= tolerance * total) tail += band[static_cast<size_t>(--keep)];
+  return keep;
+}
+
 std::vector<Eigen::Vector3d> ShadeVertices(const VertexTransfer& t, const EnvironmentCoefficients& env,
                                            const Eigen::Vector3d& albedo, int64_t* clamped, double* most_negative) {
   MR_CHECK(static_cast<int>(env.rgb.size()) <= t.header.coefficients);  // fewer: a truncated SH order

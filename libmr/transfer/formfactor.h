@@ -121,6 +121,12 @@ EnvironmentCoefficients ProjectEnvironment(const Image& env, const std::string& 
                                            const Eigen::Matrix3d& object_from_world, double scale = 1.0,
                                            bool window = true);
 
+// The SH order the environment needs: the smallest L' <= order such that the
+// bands L'..order-1 hold at most `tolerance` of its energy (sum of squared
+// coefficients).  Shading with env.rgb truncated to L'^2 coefficients then
+// changes the result by at most that share.
+int EffectiveShOrder(const EnvironmentCoefficients& env, int order, double tolerance);
+
 // L_out per vertex: albedo * (transfer . environment).  Negative values (SH
 // ringing) are clamped to zero and counted in *clamped; *most_negative gets
 // the lowest value before clamping.

@@ -235,6 +235,21 @@ TEST(Transfer, ShRingingUnderASunIsWindowedAndClamped) {
   for (const auto& v : l_win) EXPECT_TRUE(v.allFinite() && v.minCoeff() >= 0);
 }
 
+// A constant sky is band 0 only: order 1 suffices (the lat-long quadrature
+// leaves ~1e-6 of its energy in higher bands, below the 1e-5 tolerance).  A
+// sky with a sun needs every band.
+TEST(Transfer, EffectiveShOrderFollowsTheEnvironmentsContent) {
+  TransferHeader h;
+  h.basis = TransferBasis::kSh;
+  h.order = 8;
+  h.resolution = 8;
+  h.coefficients = 64;
+  EXPECT_EQ(EffectiveShOrder(ProjectEnvironment(ConstantEnv(3.0f), "c", h, Eigen::Matrix3d::Identity()), 8, 1e-5), 1);
+  Image sun = ConstantEnv(0.1f);
+  for (int c = 0; c < 3; ++c) sun.at(20, 10, c) = 1e4f;
+  EXPECT_EQ(EffectiveShOrder(ProjectEnvironment(sun, "s", h, Eigen::Matrix3d::Identity()), 8, 1e-5), 8);
+}
+
 TEST(FfcFile, RoundTripAndRefusals) {
   test::TempDir dir;
   Mesh m = Sphere(1.0f, 6);

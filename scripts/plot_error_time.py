@@ -19,14 +19,19 @@ def main():
         sys.exit(__doc__)
     rows = list(csv.DictReader(open(sys.argv[1])))
     panels = sorted({(r["mesh"], r["environment"]) for r in rows})
-    fig, axes = plt.subplots(1, len(panels), figsize=(4 * len(panels), 3.6), squeeze=False)
-    for ax, (mesh, env) in zip(axes[0], panels):
+    cols = min(3, len(panels))
+    nrows = (len(panels) + cols - 1) // cols
+    fig, axes = plt.subplots(nrows, cols, figsize=(4.2 * cols, 3.6 * nrows), squeeze=False)
+    flat = [a for row in axes for a in row]
+    for ax in flat[len(panels):]:
+        ax.axis("off")
+    for ax, (mesh, env) in zip(flat, panels):
         lines = defaultdict(list)
         for r in rows:
             if (r["mesh"], r["environment"]) == (mesh, env):
                 lines[(r["basis"], r["bounces"])].append((float(r["precompute_s"]), float(r["relative_rms"]), r["size"]))
         for (basis, bounces), pts in sorted(lines.items()):
-            pts.sort()
+            # in the CSV's order: increasing resolution or order
             style = "-" if bounces == "0" else "--"
             ax.plot([p[0] for p in pts], [p[1] for p in pts], style, marker="o" if basis == "cube" else "s",
                     label=f"{basis}, {bounces} bounces")
@@ -38,8 +43,9 @@ def main():
         ax.set_title(f"{mesh}\n{env}", fontsize=9)
         ax.set_xlabel("precomputation (s, 2 threads)")
         ax.grid(True, which="both", lw=0.3)
-    axes[0][0].set_ylabel("relative RMS error of vertex radiance")
-    axes[0][-1].legend(fontsize=7)
+    for row in axes:
+        row[0].set_ylabel("relative RMS error of vertex radiance")
+    flat[0].legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(sys.argv[2])
 

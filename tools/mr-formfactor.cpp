@@ -58,6 +58,8 @@ int main(int argc, char** argv) {
   app.add_option("--color", color, "Albedo R G B for shading")->expected(3);
   app.add_option("--env-rotation-deg", env_rotation, "Rotation of the map about +y (as scene.json)");
   app.add_flag("--no-window", no_window, "Do not window SH coefficients");
+  bool vertex_albedo = false;
+  app.add_flag("--vertex-albedo", vertex_albedo, "Shade with the mesh's vertex colours as albedo");
   app.add_option("--reference-rays", reference_rays, "Path-traced reference with K rays per vertex; reports the error");
   return mr::RunTool("mr-formfactor", app, argc, argv, [&] {
     mr::Report& report = mr::ToolReport();
@@ -82,7 +84,10 @@ int main(int argc, char** argv) {
       t0 = std::chrono::steady_clock::now();
       int64_t clamped = 0;
       const Eigen::Vector3d albedo(color[0], color[1], color[2]);
-      const auto radiance = mr::ShadeVertices(t, ec, albedo, &clamped);
+      if (vertex_albedo && mesh.colors.size() != mesh.positions.size())
+        throw mr::Error(mr::FileLoc{mesh_file}, "--vertex-albedo: the mesh has no vertex colours");
+      const std::vector<Eigen::Vector3f> colours = mesh.colors;
+      const auto radiance = mr::ShadeVertices(t, ec, albedo, &clamped, nullptr, vertex_albedo ? &colours : nullptr);
       report.AddTiming("shade", Seconds(t0));
       if (clamped > 0) report.Warn(fmt::format("{} negative vertex values (SH ringing) clamped to 0", clamped));
       report.SetMetric("clamped_negative", clamped);
@@ -96,7 +101,7 @@ int main(int argc, char** argv) {
         report.AddTiming("reference", Seconds(t0));
         double num = 0, den = 0, rel = 0;
         for (size_t v = 0; v < ref.size(); ++v) {
-          const Eigen::Vector3d r = ref[v].cwiseProduct(albedo);
+          const Eigen::Vector3d r = ref[v].cwiseProduct(vertex_albedo ? colours[v].cast<double>() : albedo);
           num += (radiance[v] - r).squaredNorm();
           den += r.squaredNorm();
           for (int c = 0; c < 3; ++c) rel += (radiance[v][c] - r[c]) * (radiance[v][c] - r[c]) / (r[c] * r[c] + 0.01);

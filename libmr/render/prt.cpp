@@ -60,7 +60,10 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
     }
     int64_t clamped = 0;
     PrtObject po;
-    po.vertex_radiance = ShadeVertices(t, ec, v.material.albedo, &clamped);
+    if (v.material.albedo_from_vertex_colors && mesh.colors.size() != mesh.positions.size())
+      ThrowErrorAt(FileLoc{v.mesh.string()}, "material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
+    po.vertex_radiance = ShadeVertices(t, ec, v.material.albedo, &clamped, nullptr,
+                                       v.material.albedo_from_vertex_colors ? &mesh.colors : nullptr);
     po.triangles = mesh.triangles;
     po.emission = v.material.emission;
     if (clamped > 0)

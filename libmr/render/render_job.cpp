@@ -120,6 +120,13 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (copy_through)
     report->Skip("rendering", "no virtual object can change any frame: frames are copied through from the photographs");
 
+  if (method == "pt") {
+    bool vertex_albedo = false;
+    for (const auto& r : scene.reals) vertex_albedo = vertex_albedo || r.material.albedo_from_vertex_colors;
+    for (const auto& v : scene.virtuals) vertex_albedo = vertex_albedo || v.material.albedo_from_vertex_colors;
+    if (vertex_albedo)
+      report->Warn("material.albedo_from_vertex_colors is not used by pt yet: the materials' albedo is used instead");
+  }
   std::map<uint32_t, PrtObject> prt_objects;
   if (method == "prt" && !copy_through) {
     ScopedTimer t(report, "prepare prt");

@@ -514,7 +514,9 @@ int EffectiveShOrder(const EnvironmentCoefficients& env, int order, double toler
 }
 
 std::vector<Eigen::Vector3d> ShadeVertices(const VertexTransfer& t, const EnvironmentCoefficients& env,
-                                           const Eigen::Vector3d& albedo, int64_t* clamped, double* most_negative) {
+                                           const Eigen::Vector3d& albedo, int64_t* clamped, double* most_negative,
+                                           const std::vector<Eigen::Vector3f>* vertex_albedo) {
+  MR_CHECK(!vertex_albedo || static_cast<int64_t>(vertex_albedo->size()) == t.header.vertex_count);
   MR_CHECK(static_cast<int>(env.rgb.size()) <= t.header.coefficients);  // fewer: a truncated SH order
   const int used = static_cast<int>(env.rgb.size());
   std::vector<Eigen::Vector3d> out(static_cast<size_t>(t.header.vertex_count));
@@ -524,7 +526,7 @@ std::vector<Eigen::Vector3d> ShadeVertices(const VertexTransfer& t, const Enviro
     const float* c = t.vertex(v);
     Eigen::Vector3d s = Eigen::Vector3d::Zero();
     for (int k = 0; k < used; ++k) s += env.rgb[static_cast<size_t>(k)] * static_cast<double>(c[k]);
-    s = s.cwiseProduct(albedo);
+    s = s.cwiseProduct(vertex_albedo ? (*vertex_albedo)[static_cast<size_t>(v)].cast<double>() : albedo);
     lowest[static_cast<size_t>(v)] = std::min(0.0, s.minCoeff());
     for (int k = 0; k < 3; ++k)
       if (s[k] < 0) {

@@ -127,12 +127,14 @@ EnvironmentCoefficients ProjectEnvironment(const Image& env, const std::string& 
 // changes the result by at most that share.
 int EffectiveShOrder(const EnvironmentCoefficients& env, int order, double tolerance);
 
-// L_out per vertex: albedo * (transfer . environment).  Negative values (SH
-// ringing) are clamped to zero and counted in *clamped; *most_negative gets
-// the lowest value before clamping.
+// L_out per vertex: albedo * (transfer . environment), the albedo per vertex
+// when `vertex_albedo` is given (e.g. the mesh's vertex colours).  Negative
+// values (SH ringing) are clamped to zero and counted in *clamped;
+// *most_negative gets the lowest value before clamping.
 std::vector<Eigen::Vector3d> ShadeVertices(const VertexTransfer& t, const EnvironmentCoefficients& env,
                                            const Eigen::Vector3d& albedo, int64_t* clamped,
-                                           double* most_negative = nullptr);
+                                           double* most_negative = nullptr,
+                                           const std::vector<Eigen::Vector3f>* vertex_albedo = nullptr);
 
 // The reference: L_out per vertex by path tracing the object alone in the
 // environment (`rays` samples per vertex, environment and cosine sampling

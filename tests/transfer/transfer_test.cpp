@@ -106,6 +106,11 @@ TEST(Transfer, UnoccludedVertexUnderConstantSkyIsAlbedoTimesSky) {
       EXPECT_NEAR(v.y(), 0.5, 0.0025);
       EXPECT_NEAR(v.z(), 2.0, 0.01);
     }
+    // Per-vertex albedo (vertex colours): each vertex its own.
+    const std::vector<Eigen::Vector3f> colours = {{0.1f, 0.2f, 0.3f}, {1, 1, 1}, {0, 0, 0}, {0.5f, 0.5f, 0.5f}};
+    auto lv = ShadeVertices(t, env, Eigen::Vector3d::Ones(), nullptr, nullptr, &colours);
+    for (size_t k = 0; k < 4; ++k)
+      for (int c = 0; c < 3; ++c) EXPECT_NEAR(lv[k][c], 2.0 * colours[k][c], 0.01);
   }
 }
 

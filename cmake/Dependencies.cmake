@@ -58,7 +58,7 @@ if(NOT OpenMesh_FOUND AND NOT TARGET OpenMeshCore)
 endif()
 
 # OpenCV stays in the .cpp files of the stages that use it (calib/charuco.cpp).
-find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs videoio aruco)
+find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs videoio calib3d aruco)
 mr_require(OpenCV_FOUND "libopencv-dev libopencv-contrib-dev" "OpenCV 4 with the contrib aruco module")
 
 find_package(embree 3 QUIET CONFIG)
@@ -72,6 +72,15 @@ mr_require(MRCAL_LIBRARY libmrcal-dev "libmrcal (libmrcal.so)")
 add_library(mr::mrcal UNKNOWN IMPORTED)
 set_target_properties(mr::mrcal PROPERTIES IMPORTED_LOCATION ${MRCAL_LIBRARY}
                       INTERFACE_INCLUDE_DIRECTORIES ${MRCAL_INCLUDE_DIR})
+
+# mrgingham (chessboard corners) ships only a header and a shared library.
+find_path(MRGINGHAM_INCLUDE_DIR mrgingham/mrgingham.hh)
+find_library(MRGINGHAM_LIBRARY mrgingham)
+mr_require(MRGINGHAM_INCLUDE_DIR libmrgingham-dev "mrgingham (mrgingham/mrgingham.hh)")
+mr_require(MRGINGHAM_LIBRARY libmrgingham-dev "mrgingham (libmrgingham.so)")
+add_library(mr::mrgingham UNKNOWN IMPORTED)
+set_target_properties(mr::mrgingham PROPERTIES IMPORTED_LOCATION ${MRGINGHAM_LIBRARY}
+                      INTERFACE_INCLUDE_DIRECTORIES ${MRGINGHAM_INCLUDE_DIR})
 
 if(MR_BUILD_TESTS)
   find_package(GTest QUIET CONFIG)

@@ -37,7 +37,8 @@ struct CalibrationView {
 struct CalibrationResult {
   CameraModel model;
   std::vector<CalibrationView> views;
-  double rms_px = 0;          // over all inlier corners
+  double rms_px = 0;          // over all inlier corners, of the residual's length (mrcal's own
+                              // figure is per coordinate: sqrt(2) smaller)
   double worst_px = 0;        // largest inlier residual
   int corners = 0, outliers = 0;
   std::vector<std::string> stages;  // what was solved, with its RMS

@@ -86,6 +86,31 @@ int main(int argc, char** argv) {
     report.SetMetric("corners", r.corners);
     report.SetMetric("outliers", r.outliers);
     report.SetMetric("stages", r.stages);
+    report.SetMetric("noise_px", r.noise_px);
+    // Projection uncertainty (worst-direction 1-sigma, px, at infinity) at
+    // the centre, the corners and on a 9 x 7 grid; the valid region is where
+    // it is below 1 px.
+    {
+      mr::ScopedTimer t(&report, "uncertainty");
+      auto sigma = [&](double x, double y) { return r.uncertainty->StdevPx(Eigen::Vector2d(x, y), r.model); };
+      const double W = width - 1, H = height - 1;
+      nlohmann::json grid = nlohmann::json::array();
+      int valid = 0, total = 0;
+      for (int j = 0; j < 7; ++j)
+        for (int i = 0; i < 9; ++i) {
+          const double x = W * i / 8, y = H * j / 6, s = sigma(x, y);
+          grid.push_back({{"x", x}, {"y", y}, {"sigma_px", std::isfinite(s) ? nlohmann::json(s) : nlohmann::json(nullptr)}});
+          valid += std::isfinite(s) && s < 1.0;
+          ++total;
+        }
+      report.SetMetric("uncertainty_px", {{"centre", sigma(0.5 * W, 0.5 * H)},
+                                          {"corners", {sigma(0, 0), sigma(W, 0), sigma(0, H), sigma(W, H)}},
+                                          {"grid", grid},
+                                          {"valid_fraction_below_1px", static_cast<double>(valid) / total}});
+      spdlog::info("projection uncertainty (1 sigma): {:.3f} px at the centre, {:.3f} px at the top-left corner; "
+                   "below 1 px over {:.0f}% of a 9x7 grid",
+                   sigma(0.5 * W, 0.5 * H), sigma(0, 0), 100.0 * valid / total);
+    }
     report.SetMetric("views", views);
     int used = 0;
     for (const auto& v : r.views) used += v.used;

@@ -1,8 +1,14 @@
 #include "calib/calibrate.h"
 
+#include <suitesparse/cholmod.h>
 extern "C" {
 #include <mrcal/mrcal.h>
+#include <mrcal/mrcal-internal.h>
 }
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <opencv2/calib3d.hpp>
 
 #include <cmath>
@@ -51,7 +57,129 @@ mrcal_stats_t Solve(Problem* p, const mrcal_lensmodel_t& lens, std::vector<doubl
                         0, p->pool.data(), &lens, imagersize, sel, &constants, p->spacing, p->nx, p->ny, false, false);
 }
 
+mrcal_problem_selections_t FullSelections() {
+  mrcal_problem_selections_t sel{};
+  sel.do_optimize_intrinsics_core = true;
+  sel.do_optimize_intrinsics_distortions = true;
+  sel.do_optimize_extrinsics = false;
+  sel.do_optimize_frames = true;
+  sel.do_optimize_calobject_warp = false;
+  sel.do_apply_regularization = true;
+  sel.do_apply_outlier_rejection = false;
+  return sel;
+}
+
+Eigen::Matrix3d Rodrigues(const Eigen::Vector3d& r) {
+  const double a = r.norm();
+  return a > 0 ? Eigen::AngleAxisd(a, r / a).toRotationMatrix() : Eigen::Matrix3d::Identity();
+}
+
+// Var(state) of the solved problem in physical units (intrinsics, then 6 per frame).
+Eigen::MatrixXd StateCovariance(Problem* p, const mrcal_lensmodel_t& lens, std::vector<double>* intrinsics, int w, int h,
+                                double* noise) {
+  const mrcal_problem_selections_t sel = FullSelections();
+  const int F = static_cast<int>(p->frames.size()), N = static_cast<int>(p->obs.size());
+  const int n_state = mrcal_num_states(1, 0, F, 0, 0, N, sel, &lens);
+  const int n_meas = mrcal_num_measurements(N, 0, p->nx, p->ny, 1, 0, F, 0, 0, sel, &lens);
+  const int nnz = _mrcal_num_j_nonzero(N, 0, p->nx, p->ny, 1, 0, F, 0, 0, p->obs.data(), nullptr, sel, &lens);
+  std::vector<int> jp(static_cast<size_t>(n_meas) + 1), ji(static_cast<size_t>(nnz));
+  std::vector<double> jx(static_cast<size_t>(nnz)), b(static_cast<size_t>(n_state)), x(static_cast<size_t>(n_meas));
+  cholmod_sparse jt{};
+  jt.nrow = static_cast<size_t>(n_state);
+  jt.ncol = static_cast<size_t>(n_meas);
+  jt.nzmax = static_cast<size_t>(nnz);
+  jt.p = jp.data();
+  jt.i = ji.data();
+  jt.x = jx.data();
+  jt.stype = 0;
+  jt.itype = CHOLMOD_INT;
+  jt.xtype = CHOLMOD_REAL;
+  jt.dtype = CHOLMOD_DOUBLE;
+  jt.sorted = 1;
+  jt.packed = 1;
+  mrcal_problem_constants_t constants{};
+  constants.point_min_range = -1;
+  constants.point_max_range = -1;
+  const int imagersize[2] = {w, h};
+  if (!mrcal_optimizer_callback(b.data(), n_state * static_cast<int>(sizeof(double)), x.data(),
+                                n_meas * static_cast<int>(sizeof(double)), &jt, intrinsics->data(), nullptr,
+                                p->frames.data(), nullptr, nullptr, 1, 0, F, 0, 0, p->obs.data(), nullptr, N, 0,
+                                p->pool.data(), &lens, imagersize, sel, &constants, p->spacing, p->nx, p->ny, false))
+    ThrowError("mrcal could not evaluate the solution's Jacobian");
+  Eigen::MatrixXd J = Eigen::MatrixXd::Zero(n_meas, n_state);
+  for (int c = 0; c < n_meas; ++c)
+    for (int k = jp[static_cast<size_t>(c)]; k < jp[static_cast<size_t>(c) + 1]; ++k)
+      J(c, ji[static_cast<size_t>(k)]) = jx[static_cast<size_t>(k)];
+  const int n_obs = mrcal_num_measurements_boards(N, p->nx, p->ny);
+  // Observation noise: per coordinate, over the inlier corners.
+  double sum2 = 0;
+  int coords = 0;
+  for (size_t i = 0; i < p->pool.size(); ++i)
+    if (p->pool[i].z > 0) {
+      sum2 += x[2 * i] * x[2 * i] + x[2 * i + 1] * x[2 * i + 1];
+      coords += 2;
+    }
+  *noise = coords > 0 ? std::sqrt(sum2 / coords) : 0;
+  const Eigen::MatrixXd JtJ = J.transpose() * J;
+  const Eigen::MatrixXd Jo = J.topRows(n_obs);
+  const Eigen::LDLT<Eigen::MatrixXd> ldlt(JtJ);
+  const Eigen::MatrixXd A = ldlt.solve(Eigen::MatrixXd::Identity(n_state, n_state));
+  Eigen::MatrixXd var = (*noise) * (*noise) * A * (Jo.transpose() * Jo) * A;
+  // Packed (unitless) state to physical units: unpacking scales each element.
+  std::vector<double> scale(static_cast<size_t>(n_state), 1.0);
+  mrcal_unpack_solver_state_vector(scale.data(), 1, 0, F, 0, 0, sel, &lens);
+  for (int i = 0; i < n_state; ++i)
+    for (int j = 0; j < n_state; ++j) var(i, j) *= scale[static_cast<size_t>(i)] * scale[static_cast<size_t>(j)];
+  return var;
+}
+
 }  // namespace
+
+ProjectionUncertainty::ProjectionUncertainty(std::string lensmodel, std::vector<double> intrinsics,
+                                             std::vector<double> frames_rt, Eigen::MatrixXd var_state)
+    : lensmodel_(std::move(lensmodel)), intrinsics_(std::move(intrinsics)), frames_rt_(std::move(frames_rt)),
+      var_(std::move(var_state)) {}
+
+Eigen::Vector2d ProjectionUncertainty::ProjectPerturbed(const Eigen::Vector3d& dir_cam, const Eigen::VectorXd& state) const {
+  const size_t n = intrinsics_.size(), F = frames_rt_.size() / 6;
+  // The direction in each board's frame (solution), back through the
+  // perturbed pose, averaged: mrcal's mean-frames reference (rotations only
+  // for a point at infinity).
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (size_t f = 0; f < F; ++f) {
+    const Eigen::Vector3d r0(frames_rt_[6 * f], frames_rt_[6 * f + 1], frames_rt_[6 * f + 2]);
+    const Eigen::Vector3d r1(state[static_cast<Eigen::Index>(n + 6 * f)], state[static_cast<Eigen::Index>(n + 6 * f + 1)],
+                             state[static_cast<Eigen::Index>(n + 6 * f + 2)]);
+    mean += Rodrigues(r1) * (Rodrigues(r0).transpose() * dir_cam);
+  }
+  std::vector<double> k(n);
+  for (size_t i = 0; i < n; ++i) k[i] = state[static_cast<Eigen::Index>(i)];
+  const CameraModel m(lensmodel_, k, 1, 1);
+  Eigen::Vector2d q(NAN, NAN);
+  m.Project(mean / static_cast<double>(F), &q);
+  return q;
+}
+
+double ProjectionUncertainty::StdevPx(const Eigen::Vector2d& q, const CameraModel& model) const {
+  Eigen::Vector3d d;
+  if (!model.Unproject(q, &d)) return NAN;
+  d.normalize();
+  const Eigen::Index n = static_cast<Eigen::Index>(intrinsics_.size() + frames_rt_.size());
+  Eigen::VectorXd s0(n);
+  for (size_t i = 0; i < intrinsics_.size(); ++i) s0[static_cast<Eigen::Index>(i)] = intrinsics_[i];
+  for (size_t i = 0; i < frames_rt_.size(); ++i) s0[static_cast<Eigen::Index>(intrinsics_.size() + i)] = frames_rt_[i];
+  Eigen::MatrixXd G(2, n);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    const double h = 1e-6 * std::max(1.0, std::abs(s0[i]));
+    Eigen::VectorXd a = s0, b = s0;
+    a[i] += h;
+    b[i] -= h;
+    G.col(i) = (ProjectPerturbed(d, a) - ProjectPerturbed(d, b)) / (2 * h);
+  }
+  const Eigen::Matrix2d var = G * var_.topLeftCorner(n, n) * G.transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> es(var);
+  return std::sqrt(std::max(0.0, es.eigenvalues().maxCoeff()));
+}
 
 CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDetection> detections, int width,
                                   int height, const CalibrationOptions& o) {
@@ -144,6 +272,15 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
   for (double v : intrinsics)
     if (!std::isfinite(v)) ThrowError("the solve diverged (non-finite intrinsics); try --focal closer to the lens's focal length in pixels");
   r.model = CameraModel(o.lensmodel, intrinsics, width, height);
+  {
+    const Eigen::MatrixXd var = StateCovariance(&p, target, &intrinsics, width, height, &r.noise_px);
+    std::vector<double> rt;  // the state's layout: r then t per frame (t does not act at infinity)
+    for (const auto& f : p.frames) {
+      for (int k = 0; k < 3; ++k) rt.push_back(f.r.xyz[k]);
+      for (int k = 0; k < 3; ++k) rt.push_back(f.t.xyz[k]);
+    }
+    r.uncertainty = std::make_shared<ProjectionUncertainty>(o.lensmodel, intrinsics, rt, var);
+  }
 
   // Residuals per view, from the solution.
   double sum2 = 0;

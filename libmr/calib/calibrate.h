@@ -11,8 +11,11 @@
 //     with mrcal's regularisation and outlier rejection.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include "calib/board.h"
 #include "calib/corners.h"
@@ -24,6 +27,30 @@ struct CalibrationOptions {
   std::string lensmodel = "LENSMODEL_OPENCV8";  // any mrcal model with an intrinsics core
   double focal_px = 0;                           // seed; 0: half the image width
   int min_views = 3;                             // refuse with fewer usable views
+};
+
+// The projection uncertainty of a solved camera, as mrcal computes it: the
+// observation noise (the inlier residuals' RMS per coordinate) propagated
+// through the solve's Jacobian to the intrinsics and the board poses,
+// Var(b) = s^2 (J'J)^-1 J_obs' J_obs (J'J)^-1, and from them to the
+// projection of a fixed point: a point given in the camera frame is carried
+// into each board's frame with the solution, back with perturbed poses, and
+// averaged (mrcal's "mean frames" reference), then projected with perturbed
+// intrinsics.  Points at infinity (directions); derivatives by central
+// differences.
+class ProjectionUncertainty {
+ public:
+  ProjectionUncertainty(std::string lensmodel, std::vector<double> intrinsics, std::vector<double> frames_rt,
+                        Eigen::MatrixXd var_state);
+  // The worst-direction standard deviation (px) of the projection of the
+  // direction that pixel q sees.
+  double StdevPx(const Eigen::Vector2d& q, const CameraModel& model) const;
+
+ private:
+  Eigen::Vector2d ProjectPerturbed(const Eigen::Vector3d& dir_cam, const Eigen::VectorXd& state) const;
+  std::string lensmodel_;
+  std::vector<double> intrinsics_, frames_rt_;
+  Eigen::MatrixXd var_;
 };
 
 struct CalibrationView {
@@ -42,6 +69,8 @@ struct CalibrationResult {
   double worst_px = 0;        // largest inlier residual
   int corners = 0, outliers = 0;
   std::vector<std::string> stages;  // what was solved, with its RMS
+  double noise_px = 0;              // the observation noise assumed by the uncertainty (per coordinate)
+  std::shared_ptr<const ProjectionUncertainty> uncertainty;
 };
 
 // `detections`: one per photograph, in order (DetectCorners).  Throws

@@ -73,6 +73,10 @@ add_library(mr::mrcal UNKNOWN IMPORTED)
 set_target_properties(mr::mrcal PROPERTIES IMPORTED_LOCATION ${MRCAL_LIBRARY}
                       INTERFACE_INCLUDE_DIRECTORIES ${MRCAL_INCLUDE_DIR})
 
+# CHOLMOD's header, for the sparse Jacobian mrcal hands back (calib/calibrate.cpp).
+find_path(CHOLMOD_INCLUDE_DIR suitesparse/cholmod.h)
+mr_require(CHOLMOD_INCLUDE_DIR libsuitesparse-dev "CHOLMOD (suitesparse/cholmod.h)")
+
 # mrgingham (chessboard corners) ships only a header and a shared library.
 find_path(MRGINGHAM_INCLUDE_DIR mrgingham/mrgingham.hh)
 find_library(MRGINGHAM_LIBRARY mrgingham)

@@ -12,7 +12,7 @@ packages=(
   libopenimageio-dev openimageio-tools libopenexr-dev libeigen3-dev libtbb-dev
   nlohmann-json3-dev libspdlog-dev libfmt-dev libcli11-dev
   # cameras and calibration (OpenCV's aruco module is in contrib)
-  libmrcal-dev python3-mrcal python3-numpy libmrgingham-dev libopencv-dev libopencv-contrib-dev
+  libmrcal-dev python3-mrcal python3-numpy libmrgingham-dev libsuitesparse-dev libopencv-dev libopencv-contrib-dev
   # geometry and ray tracing
   libopenmesh-dev libembree-dev
   # tests and benchmarks

@@ -3,6 +3,7 @@
 # Usage: run.sh BIN_DIR DATA_DIR
 set -u
 bin=$1
+src=$(cd "$(dirname "$0")/../.." && pwd)
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 pass=0
@@ -112,6 +113,9 @@ check "mr-formfactor shade" 0 "" -- "$bin/mr-formfactor" "$tmp/cap/meshes/object
 check "shade report" 0 '"vertex_relative_rms"' -- cat "$tmp/ff.json"
 check "ffc for another mesh" 1 "was computed for another mesh" -- "$bin/mr-formfactor" "$tmp/cap/meshes/floor.ply" --ffc "$tmp/o.ffc" --shade "$tmp/cap/env.exr" --out "$tmp/x.ply"
 check "bad order" 2 "--order 9 is outside 1..8" -- "$bin/mr-formfactor" "$tmp/cap/meshes/object.ply" --basis sh --order 9 --out "$tmp/x.ffc"
+# mr-calibrate refuses what it cannot use, naming it.
+check "calibrate without images" 2 "images is required" -- "$bin/mr-calibrate" camera --board "$src/calib/boards/chessboard-8x6.json" --out "$tmp/c.cameramodel"
+check "calibrate unknown model" 2 'unknown lens model "LENSMODEL_NOPE"' -- "$bin/mr-calibrate" camera --board "$src/calib/boards/chessboard-8x6.json" --lensmodel LENSMODEL_NOPE --out "$tmp/c.cameramodel" "$tmp/cap/photos/00000.png"
 check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
 
 echo "$pass passed, $fail failed"

@@ -16,9 +16,22 @@ mkdir -p "$out"
 "$bin/mr-info" "$out/capture/scene.json" "$out/capture/camera.cameramodel" "$out/capture/trajectory.txt" >/dev/null
 "$bin/mr-render" "$out/capture/scene.json" --out "$out/render" --report "$out/render-report.json"
 "$bin/mr-board" calib/boards/mrgingham-10x10-30mm.json --out "$out/board.svg" -q
+# The same object by precomputed form factors (prt): the transfer, then a
+# render of the scene with the method prt.
+"$bin/mr-formfactor" "$out/capture/meshes/object.ply" --resolution 8 --out "$out/capture/object.ffc" -q \
+  --report "$out/formfactor-report.json"
+/usr/bin/python3 - "$out/capture/scene.json" "$out/capture/scene-prt.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["virtual"][0]["formfactors"] = "object.ffc"
+s["output"]["dir"] = "render-prt"
+json.dump(s, open(sys.argv[2], "w"), indent=2)
+PY
+"$bin/mr-render" "$out/capture/scene-prt.json" --method prt --out "$out/render-prt" --report "$out/render-prt-report.json" -q
 echo
 echo "composites:     $out/render/*.png (layers in $out/render/*.exr)"
 echo "render report:  $out/render-report.json"
+echo "prt composites: $out/render-prt/*.png (report $out/render-prt-report.json)"
 echo "error vs time:  metrics.curve in $out/render-report.json:"
 /usr/bin/python3 - "$out/render-report.json" <<'PY' || true
 import json, sys
@@ -26,4 +39,6 @@ m = json.load(open(sys.argv[1]))["metrics"]
 print("  %8s %6s %12s %14s" % ("seconds", "spp", "relMSE", "region relMSE"))
 for c in m.get("curve", []):
     print("  %8.3f %6d %12.4g %14.4g" % (c["seconds"], c["spp"], c["relmse"], c["region_relmse"]))
+p = json.load(open(sys.argv[1].replace("render-report", "render-prt-report")))["metrics"]
+print("  prt: relMSE %.4g, region relMSE %.4g (the object only: no shadows on the room)" % (p["relmse"], p["region_relmse"]))
 PY

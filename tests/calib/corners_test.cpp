@@ -157,5 +157,27 @@ TEST(Corners, OverExposedAndBlurryImagesAreRejectedWithAReason) {
       << blurry.reason;
 }
 
+// A board at a grazing angle: either found with corners that match the
+// truth, or refused with a reason; never a wrong grid.  Measured: at 70
+// degrees it is found, 0.55 px RMS from the truth (squares 4 px wide along
+// the tilt: the detector's accuracy drops, which the calibration's outlier
+// rejection and uncertainty then see); at 80 degrees it is not found.
+TEST(Corners, GrazingBoardIsFoundRightOrRefused) {
+  const BoardSpec b = Synthetic86();
+  const CameraModel pinhole("LENSMODEL_PINHOLE", {400, 400, 319.5, 239.5}, 640, 480);
+  for (double tilt_deg : {70.0, 80.0}) {
+    const Rigid3 pose = BoardPose(b, 0.05, tilt_deg * kDegToRad, 0.3);
+    const CornerDetection d = DetectCorners(RenderBoardView(b, pinhole, pose), b, "grazing");
+    std::vector<int> identity(48);
+    for (int i = 0; i < 48; ++i) identity[static_cast<size_t>(i)] = i;
+    if (d.found) {
+      EXPECT_LT(RmsAgainstTruth(d, b, pinhole, pose, identity), 1.0) << tilt_deg;
+    } else {
+      EXPECT_FALSE(d.reason.empty());
+    }
+    std::printf("tilt %.0f: %s\n", tilt_deg, d.found ? "found" : d.reason.c_str());
+  }
+}
+
 }  // namespace
 }  // namespace mr

@@ -179,5 +179,18 @@ TEST(Corners, GrazingBoardIsFoundRightOrRefused) {
   }
 }
 
+// A board partly out of the frame shows a smaller grid of complete
+// squares; it must not be taken for the whole board (its corners would be
+// given the wrong indices): refused with a reason.
+TEST(Corners, PartlyVisibleBoardIsNotMistakenForTheWhole) {
+  const BoardSpec b = Synthetic86();
+  const CameraModel pinhole("LENSMODEL_PINHOLE", {400, 400, 319.5, 239.5}, 640, 480);
+  Rigid3 pose = BoardPose(b, 0.0, 0.2, 0.3);
+  pose.translation.x() += 0.14;  // about three columns past the right edge
+  const CornerDetection d = DetectCorners(RenderBoardView(b, pinhole, pose), b, "partial");
+  EXPECT_FALSE(d.found);
+  EXPECT_NE(d.reason.find("no 8x6 board found"), std::string::npos) << d.reason;
+}
+
 }  // namespace
 }  // namespace mr

@@ -280,6 +280,11 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
       for (int k = 0; k < 3; ++k) rt.push_back(f.t.xyz[k]);
     }
     r.uncertainty = std::make_shared<ProjectionUncertainty>(o.lensmodel, intrinsics, rt, var);
+    Json obs = Json::array();
+    for (const auto& q : p.pool) obs.push_back({q.x, q.y, q.z});
+    r.problem = {{"lensmodel", o.lensmodel}, {"imagersize", {width, height}}, {"intrinsics", intrinsics},
+                 {"frames_rt_toref", rt}, {"observations_board", obs}, {"spacing", p.spacing},
+                 {"nx", p.nx}, {"ny", p.ny}, {"noise_px", r.noise_px}};
   }
 
   // Residuals per view, from the solution.

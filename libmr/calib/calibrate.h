@@ -20,6 +20,7 @@
 #include "calib/board.h"
 #include "calib/corners.h"
 #include "camera/camera_model.h"
+#include "core/json.h"
 
 namespace mr {
 
@@ -70,6 +71,10 @@ struct CalibrationResult {
   int corners = 0, outliers = 0;
   std::vector<std::string> stages;  // what was solved, with its RMS
   double noise_px = 0;              // the observation noise assumed by the uncertainty (per coordinate)
+  // The solved problem in mrcal's terms (lensmodel, imagersize, intrinsics,
+  // frames_rt_toref, observations_board (N x ny x nx x 3, weight < 0 for
+  // outliers), spacing): what python3-mrcal needs to check the solution.
+  Json problem;
   std::shared_ptr<const ProjectionUncertainty> uncertainty;
 };
 

@@ -2,10 +2,14 @@
 
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <sstream>
+
 #include <Eigen/SVD>
 
 #include "calib/corners.h"
 #include "core/error.h"
+#include "core/file.h"
 #include "core/image.h"
 #include "core/math.h"
 #include "synth/board_view.h"
@@ -128,6 +132,31 @@ TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
   const double corner = r.uncertainty->StdevPx(Eigen::Vector2d(5, 5), r.model);
   std::printf("sigma at the centre %.4f px, at the corner %.4f px\n", centre, corner);
   EXPECT_GT(corner, centre);  // the boards were seen near the centre
+
+  // python3-mrcal, the oracle: the same residuals at mr's solution, and the
+  // same projection uncertainty (mrcal's own implementation) at the centre,
+  // the corner and two more pixels, with the same observation noise.
+  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "python3-mrcal is not installed";
+  test::TempDir dir;
+  Json problem = r.problem;
+  const std::vector<Eigen::Vector2d> pixels = {{240, 180}, {5, 5}, {120, 90}, {400, 300}};
+  for (const auto& q : pixels) problem["pixels"].push_back({q.x(), q.y()});
+  WriteTextFile(dir.path() / "problem.json", problem.dump());
+  const std::string cmd = "/usr/bin/python3 " + std::string(MR_SOURCE_DIR) + "/tests/calib/mrcal_oracle.py " +
+                          (dir.path() / "problem.json").string() + " > " + (dir.path() / "out.txt").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::istringstream out(ReadTextFile(dir.path() / "out.txt"));
+  std::string word;
+  double mrcal_rms = 0;
+  out >> word >> mrcal_rms;
+  EXPECT_NEAR(mrcal_rms, r.noise_px, 1e-3 * r.noise_px);
+  for (const auto& q : pixels) {
+    double x = 0, y = 0, s = 0;
+    out >> x >> y >> s;
+    const double mine = r.uncertainty->StdevPx(q, r.model);
+    std::printf("pixel (%.0f, %.0f): mr %.4f px, mrcal %.4f px\n", q.x(), q.y(), mine, s);
+    EXPECT_NEAR(mine, s, 0.01 * s);  // measured: equal to 4 digits
+  }
   EXPECT_LT(std::sqrt(sum2 / n), 0.1);
   EXPECT_LT(worst, 0.3);
 }

@@ -161,6 +161,25 @@ TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
   EXPECT_LT(worst, 0.3);
 }
 
+// A view with too few corners to place the board (e.g. a ChArUco board
+// mostly hidden) is left out with the reason; with too few views left the
+// solve is refused, saying what is missing.
+TEST(Calibrate, ViewsWithTooFewCornersAreLeftOutWithAReason) {
+  const BoardSpec b = Board86();
+  CornerDetection few;
+  few.image = "few.png";
+  few.found = true;
+  few.pixels = {{100, 100}, {120, 100}, {100, 120}};
+  few.ids = {0, 1, 8};
+  try {
+    CalibrateCamera(b, {few, few, few}, 640, 480, CalibrationOptions());
+    ADD_FAILURE() << "accepted";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("0 usable views of the board (3 photographs, the board found in 3)"), std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(Calibrate, TooFewViewsIsAClearRefusal) {
   const BoardSpec b = Board86();
   CornerDetection missing;

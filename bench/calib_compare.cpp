@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 
 #include "calib/calibrate.h"
@@ -32,7 +33,7 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
   });
   int found = 0;
   for (const auto& d : det) found += d.found;
-  std::printf("\n%s: %zu photographs, board found in %d\n\n| solver | model | fx | fy | cx | cy | RMS px | worst px | outliers | time s |\n|---|---|---|---|---|---|---|---|---|---|\n",
+  std::printf("\n%s: %zu photographs, board found in %d\n\n| solver | model | fx | fy | cx | cy | RMS px | worst px | outliers | time s | sigma centre px | sigma corner px | grid < 1 px |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
               name.c_str(), files.size(), found);
   for (const auto& m : models) {
     mr::CalibrationOptions o;
@@ -41,8 +42,16 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
     const mr::CalibrationResult r = mr::CalibrateCamera(b, det, w, h, o);
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     const auto& k = r.model.intrinsics();
-    std::printf("| mr (mrcal) | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %d | %.2f |\n", m.c_str(), k[0], k[1], k[2], k[3],
-                r.rms_px, r.worst_px, r.outliers, s);
+    int valid = 0;
+    for (int j = 0; j < 7; ++j)
+      for (int i = 0; i < 9; ++i) {
+        const double sg = r.uncertainty->StdevPx(Eigen::Vector2d((w - 1) * i / 8.0, (h - 1) * j / 6.0), r.model);
+        valid += std::isfinite(sg) && sg < 1.0;
+      }
+    std::printf("| mr (mrcal) | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %d | %.2f | %.3f | %.2f | %d%% |\n", m.c_str(),
+                k[0], k[1], k[2], k[3], r.rms_px, r.worst_px, r.outliers, s,
+                r.uncertainty->StdevPx(Eigen::Vector2d(0.5 * (w - 1), 0.5 * (h - 1)), r.model),
+                r.uncertainty->StdevPx(Eigen::Vector2d(0, 0), r.model), 100 * valid / 63);
   }
   // OpenCV's fisheye model (Kannala-Brandt k1..k4) on the same corners.
   std::vector<std::vector<cv::Point3d>> obj;
@@ -81,7 +90,7 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
       ++n;
     }
   }
-  std::printf("| OpenCV cv::fisheye | Kannala-Brandt k1..k4 | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | (none) | %.2f |\n",
+  std::printf("| OpenCV cv::fisheye | Kannala-Brandt k1..k4 | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | (none) | %.2f | | | |\n",
               K(0, 0), K(1, 1), K(0, 2), K(1, 2), std::sqrt(sum2 / static_cast<double>(n)), worst, s);
   (void)rms;
 }
@@ -90,8 +99,13 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
 
 int main() {
   const std::string data = MR_SHARED_DATA, boards = std::string(MR_SOURCE_DIR) + "/calib/boards/";
+  // The lens-model complexity table: the same corners, models from 4 to hundreds of parameters.
   Run("fisheye-mono-ros", data + "/fisheye-mono-ros/calibrationdata", "left-", boards + "chessboard-8x6.json",
-      {"LENSMODEL_OPENCV8", "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=10_fov_x_deg=200"});
+      {"LENSMODEL_OPENCV4", "LENSMODEL_OPENCV5", "LENSMODEL_OPENCV8", "LENSMODEL_OPENCV12",
+       "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=8_Ny=5_fov_x_deg=200",
+       "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=12_Ny=8_fov_x_deg=200",
+       "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=10_fov_x_deg=200",
+       "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=24_Ny=16_fov_x_deg=200"});
   Run("fisheye-stereo, left camera", data + "/fisheye-stereo/imgs", "left", boards + "chessboard-9x6-24.23mm.json",
       {"LENSMODEL_OPENCV8", "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=10_fov_x_deg=200"});
   return 0;

@@ -10,34 +10,17 @@
 #include "core/math.h"
 #include "geometry/embree_scene.h"
 #include "transfer/formfactor.h"
+#include "bench_meshes.h"
 
 namespace {
 
-// A bumpy sphere of (n+1) x 2n vertices: self-occlusion in its folds.
-mr::Mesh Bumpy(int n) {
-  mr::Mesh m;
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; j < 2 * n; ++j) {
-      const double th = mr::kPi * i / n, ph = mr::kPi * j / n;
-      const double r = 1 + 0.15 * std::sin(6 * th) * std::cos(5 * ph);
-      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)), static_cast<float>(r * std::cos(th)),
-                               static_cast<float>(r * std::sin(th) * std::sin(ph)));
-    }
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < 2 * n; ++j) {
-      const int a = i * 2 * n + j, b = i * 2 * n + (j + 1) % (2 * n), c = a + 2 * n, d = b + 2 * n;
-      if (i > 0) m.triangles.push_back({a, b, c});
-      if (i < n - 1) m.triangles.push_back({b, d, c});
-    }
-  return m;
-}
 
 const mr::Mesh& Dragon() {
   static const mr::Mesh m = mr::ReadMesh(std::string(MR_SHARED_DATA) + "/meshes/dragon_vrip_res3.ply");
   return m;
 }
 const mr::Mesh& Bumpy30k() {
-  static const mr::Mesh m = Bumpy(122);  // 123 x 244 = 30 012 vertices
+  static const mr::Mesh m = mr::bench::Bumpy(122);  // 123 x 244 = 30 012 vertices
   return m;
 }
 

@@ -12,29 +12,13 @@
 #include "core/image.h"
 #include "core/math.h"
 #include "transfer/formfactor.h"
+#include "bench_meshes.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-mr::Mesh Bumpy(int n) {
-  mr::Mesh m;
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; j < 2 * n; ++j) {
-      const double th = mr::kPi * i / n, ph = mr::kPi * j / n;
-      const double r = 1 + 0.15 * std::sin(6 * th) * std::cos(5 * ph);
-      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)), static_cast<float>(r * std::cos(th)),
-                               static_cast<float>(r * std::sin(th) * std::sin(ph)));
-    }
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < 2 * n; ++j) {
-      const int a = i * 2 * n + j, b = i * 2 * n + (j + 1) % (2 * n), c = a + 2 * n, d = b + 2 * n;
-      if (i > 0) m.triangles.push_back({a, b, c});
-      if (i < n - 1) m.triangles.push_back({b, d, c});
-    }
-  return m;
-}
 
 double RelativeRms(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
   double num = 0, den = 0;
@@ -59,7 +43,7 @@ int main(int argc, char** argv) {
   };
   std::vector<NamedMesh> meshes = {{"bunny (1889 v)", mr::ReadMesh(data + "/meshes/bun_zipper_res3.ply")},
                                    {"dragon (5205 v)", mr::ReadMesh(data + "/meshes/dragon_vrip_res4.ply")},
-                                   {"bumpy sphere (3280 v)", Bumpy(40)}};
+                                   {"bumpy sphere (3280 v)", mr::bench::Bumpy(40)}};
   mr::Image sun = mr::Image::Rgb(256, 129, 0.2f);  // a dim sky and a sun 1e5 x brighter, 40 degrees up
   for (int c = 0; c < 3; ++c) sun.at(100, 36, c) = 2e4f;
   struct NamedEnv {

@@ -14,7 +14,6 @@
 
 namespace {
 
-
 const mr::Mesh& Dragon() {
   static const mr::Mesh m = mr::ReadMesh(std::string(MR_SHARED_DATA) + "/meshes/dragon_vrip_res3.ply");
   return m;

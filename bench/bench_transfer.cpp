@@ -10,7 +10,7 @@
 #include "core/math.h"
 #include "geometry/embree_scene.h"
 #include "transfer/formfactor.h"
-#include "bench_meshes.h"
+#include "geometry/primitives.h"
 
 namespace {
 
@@ -19,7 +19,7 @@ const mr::Mesh& Dragon() {
   return m;
 }
 const mr::Mesh& Bumpy30k() {
-  static const mr::Mesh m = mr::bench::Bumpy(122);  // 123 x 244 = 30 012 vertices
+  static const mr::Mesh m = mr::BumpySphere(122);  // 123 x 244 = 30 012 vertices
   return m;
 }
 

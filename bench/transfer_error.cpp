@@ -12,7 +12,7 @@
 #include "core/image.h"
 #include "core/math.h"
 #include "transfer/formfactor.h"
-#include "bench_meshes.h"
+#include "geometry/primitives.h"
 
 namespace {
 
@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
   };
   std::vector<NamedMesh> meshes = {{"bunny (1889 v)", mr::ReadMesh(data + "/meshes/bun_zipper_res3.ply")},
                                    {"dragon (5205 v)", mr::ReadMesh(data + "/meshes/dragon_vrip_res4.ply")},
-                                   {"bumpy sphere (3280 v)", mr::bench::Bumpy(40)}};
+                                   {"bumpy sphere (3280 v)", mr::BumpySphere(40)}};
   mr::Image sun = mr::Image::Rgb(256, 129, 0.2f);  // a dim sky and a sun 1e5 x brighter, 40 degrees up
   for (int c = 0; c < 3; ++c) sun.at(100, 36, c) = 2e4f;
   struct NamedEnv {

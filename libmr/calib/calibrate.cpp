@@ -38,8 +38,9 @@ struct Problem {
   std::vector<int> view_of_obs;
 };
 
-mrcal_stats_t Solve(Problem* p, const mrcal_lensmodel_t& lens, std::vector<double>* intrinsics, int w, int h,
-                    bool core, bool distortions, bool regularize, bool outliers) {
+// What a stage solves: the board poses always, the camera fixed at the
+// reference (one camera, no extrinsics), the board flat.
+mrcal_problem_selections_t Selections(bool core, bool distortions, bool regularize, bool outliers) {
   mrcal_problem_selections_t sel{};
   sel.do_optimize_intrinsics_core = core;
   sel.do_optimize_intrinsics_distortions = distortions;
@@ -48,25 +49,24 @@ mrcal_stats_t Solve(Problem* p, const mrcal_lensmodel_t& lens, std::vector<doubl
   sel.do_optimize_calobject_warp = false;
   sel.do_apply_regularization = regularize;
   sel.do_apply_outlier_rejection = outliers;
-  mrcal_problem_constants_t constants{};
-  constants.point_min_range = -1;
-  constants.point_max_range = -1;
+  return sel;
+}
+
+// No discrete points: their range limits are unused.
+mrcal_problem_constants_t Constants() {
+  mrcal_problem_constants_t c{};
+  c.point_min_range = -1;
+  c.point_max_range = -1;
+  return c;
+}
+
+mrcal_stats_t Solve(Problem* p, const mrcal_lensmodel_t& lens, std::vector<double>* intrinsics, int w, int h,
+                    const mrcal_problem_selections_t& sel) {
+  const mrcal_problem_constants_t constants = Constants();
   const int imagersize[2] = {w, h};
   return mrcal_optimize(nullptr, 0, nullptr, 0, intrinsics->data(), nullptr, p->frames.data(), nullptr, nullptr, 1, 0,
                         static_cast<int>(p->frames.size()), 0, 0, p->obs.data(), nullptr, static_cast<int>(p->obs.size()),
                         0, p->pool.data(), &lens, imagersize, sel, &constants, p->spacing, p->nx, p->ny, false, false);
-}
-
-mrcal_problem_selections_t FullSelections() {
-  mrcal_problem_selections_t sel{};
-  sel.do_optimize_intrinsics_core = true;
-  sel.do_optimize_intrinsics_distortions = true;
-  sel.do_optimize_extrinsics = false;
-  sel.do_optimize_frames = true;
-  sel.do_optimize_calobject_warp = false;
-  sel.do_apply_regularization = true;
-  sel.do_apply_outlier_rejection = false;
-  return sel;
 }
 
 Eigen::Matrix3d Rodrigues(const Eigen::Vector3d& r) {
@@ -77,7 +77,7 @@ Eigen::Matrix3d Rodrigues(const Eigen::Vector3d& r) {
 // Var(state) of the solved problem in physical units (intrinsics, then 6 per frame).
 Eigen::MatrixXd StateCovariance(Problem* p, const mrcal_lensmodel_t& lens, std::vector<double>* intrinsics, int w, int h,
                                 double* noise) {
-  const mrcal_problem_selections_t sel = FullSelections();
+  const mrcal_problem_selections_t sel = Selections(true, true, true, false);
   const int F = static_cast<int>(p->frames.size()), N = static_cast<int>(p->obs.size());
   const int n_state = mrcal_num_states(1, 0, F, 0, 0, N, sel, &lens);
   const int n_meas = mrcal_num_measurements(N, 0, p->nx, p->ny, 1, 0, F, 0, 0, sel, &lens);
@@ -97,9 +97,7 @@ Eigen::MatrixXd StateCovariance(Problem* p, const mrcal_lensmodel_t& lens, std::
   jt.dtype = CHOLMOD_DOUBLE;
   jt.sorted = 1;
   jt.packed = 1;
-  mrcal_problem_constants_t constants{};
-  constants.point_min_range = -1;
-  constants.point_max_range = -1;
+  const mrcal_problem_constants_t constants = Constants();
   const int imagersize[2] = {w, h};
   if (!mrcal_optimizer_callback(b.data(), n_state * static_cast<int>(sizeof(double)), x.data(),
                                 n_meas * static_cast<int>(sizeof(double)), &jt, intrinsics->data(), nullptr,
@@ -256,17 +254,17 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
 
   // Stage 1: the stereographic seed's core and the board poses.
   std::vector<double> core = {f0, f0, cx, cy};
-  mrcal_stats_t s = Solve(&p, stereo, &core, width, height, true, false, false, false);
+  mrcal_stats_t s = Solve(&p, stereo, &core, width, height, Selections(true, false, false, false));
   r.stages.push_back(fmt::format("stereographic core and board poses: RMS {:.3f} px", s.rms_reproj_error__pixels));
   // Stage 2: the target model, its distortions at zero (for the splined
   // stereographic models, zero is the stereographic lens itself).
   const int n_params = mrcal_lensmodel_num_params(&target);
   std::vector<double> intrinsics(static_cast<size_t>(n_params), 0.0);
   for (int k = 0; k < 4; ++k) intrinsics[static_cast<size_t>(k)] = core[static_cast<size_t>(k)];
-  s = Solve(&p, target, &intrinsics, width, height, true, false, false, false);
+  s = Solve(&p, target, &intrinsics, width, height, Selections(true, false, false, false));
   r.stages.push_back(fmt::format("{} core, no distortion: RMS {:.3f} px", o.lensmodel, s.rms_reproj_error__pixels));
   // Stage 3: everything, with regularisation and outlier rejection.
-  s = Solve(&p, target, &intrinsics, width, height, true, true, true, true);
+  s = Solve(&p, target, &intrinsics, width, height, Selections(true, true, true, true));
   r.stages.push_back(fmt::format("{} in full, regularised, outliers rejected: RMS {:.3f} px, {} outliers",
                                  o.lensmodel, s.rms_reproj_error__pixels, s.Noutliers));
   for (double v : intrinsics)
@@ -292,9 +290,8 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
   for (size_t k = 0; k < p.obs.size(); ++k) {
     CalibrationView& view = r.views[static_cast<size_t>(p.view_of_obs[k])];
     const mrcal_pose_t& f = p.frames[k];
-    const Eigen::Vector3d rv(f.r.x, f.r.y, f.r.z), t(f.t.x, f.t.y, f.t.z);
-    const double angle = rv.norm();
-    const Eigen::Matrix3d R = angle > 0 ? Eigen::AngleAxisd(angle, rv / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+    const Eigen::Vector3d t(f.t.x, f.t.y, f.t.z);
+    const Eigen::Matrix3d R = Rodrigues(Eigen::Vector3d(f.r.x, f.r.y, f.r.z));
     double view2 = 0;
     int n = 0;
     for (int i = 0; i < p.nx * p.ny; ++i) {

@@ -12,6 +12,7 @@
 #include "core/spherical.h"
 #include "core/video.h"
 #include "geometry/mesh.h"
+#include "geometry/primitives.h"
 #include "render/path_tracer.h"
 #include "render/render_scene.h"
 #include "scene/lights.h"
@@ -25,23 +26,6 @@ SynthPreset GetSynthPreset(const std::string& name) {
 }
 
 namespace {
-
-Mesh Box(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
-  Mesh m;
-  for (int i = 0; i < 8; ++i)
-    m.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
-  // Outward-facing (counter-clockwise seen from outside).
-  m.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
-                 {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
-  return m;
-}
-
-Mesh Quad(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector3f& c, const Eigen::Vector3f& d) {
-  Mesh m;
-  m.positions = {a, b, c, d};
-  m.triangles = {{0, 1, 2}, {0, 2, 3}};
-  return m;
-}
 
 Mesh Sphere(float r, int n) {
   Mesh m;

@@ -13,20 +13,11 @@
 #include "core/image.h"
 #include "core/math.h"
 #include "synth/board_view.h"
+#include "synthetic_board.h"
 #include "test_util.h"
 
 namespace mr {
 namespace {
-
-BoardSpec Board86() {
-  BoardSpec b;
-  b.name = "synthetic 8x6";
-  b.inner_x = 8;
-  b.inner_y = 6;
-  b.square_m = 0.03;
-  b.detector = "opencv";
-  return b;
-}
 
 // Board poses that look at it from around, at 0.3-0.5 m, turned and tilted,
 // its centre spread over the field of view.
@@ -54,7 +45,7 @@ std::vector<Rigid3> Poses(const BoardSpec& b, int n) {
 // 0.6 worst, with the same 0.045 px fit): the projection uncertainty that
 // mr-calibrate is to report is what tells those apart.
 TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
-  const BoardSpec b = Board86();
+  const BoardSpec b = test::SyntheticBoard86();
   const CameraModel truth("LENSMODEL_OPENCV8", {330, 332, 241, 178, 0.08, -0.05, 0.001, -0.0015, 0, 0, 0, 0}, 480, 360);
   std::vector<CornerDetection> detections;
   BoardViewOptions vo;
@@ -165,7 +156,7 @@ TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
 // mostly hidden) is left out with the reason; with too few views left the
 // solve is refused, saying what is missing.
 TEST(Calibrate, ViewsWithTooFewCornersAreLeftOutWithAReason) {
-  const BoardSpec b = Board86();
+  const BoardSpec b = test::SyntheticBoard86();
   CornerDetection few;
   few.image = "few.png";
   few.found = true;
@@ -181,7 +172,7 @@ TEST(Calibrate, ViewsWithTooFewCornersAreLeftOutWithAReason) {
 }
 
 TEST(Calibrate, TooFewViewsIsAClearRefusal) {
-  const BoardSpec b = Board86();
+  const BoardSpec b = test::SyntheticBoard86();
   CornerDetection missing;
   missing.image = "a.png";
   missing.reason = "no 8x6 board found";

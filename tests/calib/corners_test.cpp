@@ -7,6 +7,7 @@
 #include "core/image.h"
 #include "core/math.h"
 #include "synth/board_view.h"
+#include "synthetic_board.h"
 #include "test_util.h"
 
 namespace mr {
@@ -80,16 +81,6 @@ TEST(Corners, RealStereoPhotographs) {
   EXPECT_GE(found, total * 3 / 4);
 }
 
-BoardSpec Synthetic86() {
-  BoardSpec b;
-  b.name = "synthetic 8x6";
-  b.inner_x = 8;
-  b.inner_y = 6;
-  b.square_m = 0.03;
-  b.detector = "opencv";
-  return b;
-}
-
 // cam_from_board: the board 0.45 m ahead, its centre on the axis, turned by
 // `roll` about the optical axis and tilted by `tilt` about its x axis.
 Rigid3 BoardPose(const BoardSpec& b, double roll, double tilt, double distance = 0.45) {
@@ -114,7 +105,7 @@ double RmsAgainstTruth(const CornerDetection& d, const BoardSpec& b, const Camer
 // better than 0.1 px (box-filtered edges, no noise); a board turned upside
 // down gets the half-turned order, as documented.
 TEST(Corners, SyntheticBoardsThroughKnownLenses) {
-  const BoardSpec b = Synthetic86();
+  const BoardSpec b = test::SyntheticBoard86();
   const CameraModel pinhole("LENSMODEL_PINHOLE", {400, 400, 319.5, 239.5}, 640, 480);
   std::vector<int> identity(48), half(48);
   for (int i = 0; i < 48; ++i) {
@@ -142,7 +133,7 @@ TEST(Corners, SyntheticBoardsThroughKnownLenses) {
 // Over-exposed and blurred photographs are rejected with the reason; a
 // batch goes on past them (the caller sees found == false, no exception).
 TEST(Corners, OverExposedAndBlurryImagesAreRejectedWithAReason) {
-  const BoardSpec b = Synthetic86();
+  const BoardSpec b = test::SyntheticBoard86();
   const CameraModel pinhole("LENSMODEL_PINHOLE", {400, 400, 319.5, 239.5}, 640, 480);
   BoardViewOptions bright;
   bright.exposure = 20;  // paper and background clip; the ink at 1.0 too
@@ -163,7 +154,7 @@ TEST(Corners, OverExposedAndBlurryImagesAreRejectedWithAReason) {
 // the tilt: the detector's accuracy drops, which the calibration's outlier
 // rejection and uncertainty then see); at 80 degrees it is not found.
 TEST(Corners, GrazingBoardIsFoundRightOrRefused) {
-  const BoardSpec b = Synthetic86();
+  const BoardSpec b = test::SyntheticBoard86();
   const CameraModel pinhole("LENSMODEL_PINHOLE", {400, 400, 319.5, 239.5}, 640, 480);
   for (double tilt_deg : {70.0, 80.0}) {
     const Rigid3 pose = BoardPose(b, 0.05, tilt_deg * kDegToRad, 0.3);
@@ -183,7 +174,7 @@ TEST(Corners, GrazingBoardIsFoundRightOrRefused) {
 // squares; it must not be taken for the whole board (its corners would be
 // given the wrong indices): refused with a reason.
 TEST(Corners, PartlyVisibleBoardIsNotMistakenForTheWhole) {
-  const BoardSpec b = Synthetic86();
+  const BoardSpec b = test::SyntheticBoard86();
   const CameraModel pinhole("LENSMODEL_PINHOLE", {400, 400, 319.5, 239.5}, 640, 480);
   Rigid3 pose = BoardPose(b, 0.0, 0.2, 0.3);
   pose.translation.x() += 0.14;  // about three columns past the right edge

@@ -1,18 +1,10 @@
 #include "geometry/enclosure.h"
+#include "geometry/primitives.h"
 
 #include <gtest/gtest.h>
 
 namespace mr {
 namespace {
-
-Mesh Box(const Eigen::Vector3f& lo, const Eigen::Vector3f& hi) {
-  Mesh m;
-  for (int i = 0; i < 8; ++i)
-    m.positions.emplace_back(i & 1 ? hi.x() : lo.x(), i & 2 ? hi.y() : lo.y(), i & 4 ? hi.z() : lo.z());
-  m.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
-                 {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
-  return m;
-}
 
 Eigen::AlignedBox3d PointBox(double x, double y, double z) {
   Eigen::AlignedBox3d b;

@@ -2,6 +2,8 @@
 // against a path-traced reference, the .ffc file, and the stiff cases.
 #include "transfer/formfactor.h"
 
+#include "geometry/primitives.h"
+
 #include <gtest/gtest.h>
 
 #include "core/error.h"
@@ -20,30 +22,8 @@ Mesh Quad() {
   return m;
 }
 
-Mesh Sphere(float r, int n) {
-  Mesh m;
-  for (int i = 0; i <= n; ++i)
-    for (int j = 0; j < 2 * n; ++j) {
-      const double th = kPi * i / n, ph = kPi * j / n;
-      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)), static_cast<float>(r * std::cos(th)),
-                               static_cast<float>(r * std::sin(th) * std::sin(ph)));
-    }
-  for (int i = 0; i < n; ++i)
-    for (int j = 0; j < 2 * n; ++j) {
-      const int a = i * 2 * n + j, b = i * 2 * n + (j + 1) % (2 * n), c = a + 2 * n, d = b + 2 * n;
-      if (i > 0) m.triangles.push_back({a, b, c});
-      if (i < n - 1) m.triangles.push_back({b, d, c});
-    }
-  return m;
-}
-
-Mesh Box(float h) {
-  Mesh m;
-  for (int i = 0; i < 8; ++i) m.positions.emplace_back(i & 1 ? h : -h, i & 2 ? h : -h, i & 4 ? h : -h);
-  m.triangles = {{0, 2, 3}, {0, 3, 1}, {4, 5, 7}, {4, 7, 6}, {0, 1, 5}, {0, 5, 4},
-                 {2, 6, 7}, {2, 7, 3}, {0, 4, 6}, {0, 6, 2}, {1, 3, 7}, {1, 7, 5}};
-  return m;
-}
+Mesh Sphere(float r, int n) { return UvSphere(r, n); }
+Mesh Box(float h) { return mr::Box(Eigen::Vector3f::Constant(-h), Eigen::Vector3f::Constant(h)); }
 
 Image ConstantEnv(float v) { return Image::Rgb(64, 33, v); }
 

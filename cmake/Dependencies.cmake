@@ -11,6 +11,9 @@ endmacro()
 
 find_package(Threads REQUIRED)
 
+find_package(ZLIB QUIET)
+mr_require(ZLIB_FOUND zlib1g-dev "zlib (mrcal's optimisation inputs are a deflated .npz)")
+
 find_package(Eigen3 3.4 QUIET NO_MODULE)
 mr_require(Eigen3_FOUND libeigen3-dev "Eigen 3.4")
 

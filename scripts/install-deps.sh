@@ -10,7 +10,7 @@ packages=(
   clang libclang-rt-14-dev            # libFuzzer targets and sanitizer runtimes
   # core: images, maths, threading, JSON, logging, command lines
   libopenimageio-dev openimageio-tools libopenexr-dev libeigen3-dev libtbb-dev
-  nlohmann-json3-dev libspdlog-dev libfmt-dev libcli11-dev
+  nlohmann-json3-dev libspdlog-dev libfmt-dev libcli11-dev zlib1g-dev
   # cameras and calibration (OpenCV's aruco module is in contrib)
   libmrcal-dev python3-mrcal python3-numpy libmrgingham-dev libsuitesparse-dev libopencv-dev libopencv-contrib-dev
   # geometry and ray tracing

@@ -20,7 +20,7 @@
 #include "calib/board.h"
 #include "calib/corners.h"
 #include "camera/camera_model.h"
-#include "core/json.h"
+#include "camera/pose.h"
 
 namespace mr {
 
@@ -32,17 +32,23 @@ struct CalibrationOptions {
 
 // The projection uncertainty of a solved camera, as mrcal computes it: the
 // observation noise (the inlier residuals' RMS per coordinate) propagated
-// through the solve's Jacobian to the intrinsics and the board poses,
-// Var(b) = s^2 (J'J)^-1 J_obs' J_obs (J'J)^-1, and from them to the
-// projection of a fixed point: a point given in the camera frame is carried
-// into each board's frame with the solution, back with perturbed poses, and
-// averaged (mrcal's "mean frames" reference), then projected with perturbed
+// through the solve's Jacobian to the intrinsics, the extrinsics and the
+// board poses, Var(b) = s^2 (J'J)^-1 J_obs' J_obs (J'J)^-1, and from them to
+// the projection of a fixed point: a point given in the camera frame is
+// carried into the reference frame and each board's frame with the solution,
+// back with perturbed poses and averaged (mrcal's "mean frames" reference),
+// then into the camera with perturbed extrinsics and projected with perturbed
 // intrinsics.  Points at infinity (directions); derivatives by central
 // differences.
 class ProjectionUncertainty {
  public:
-  ProjectionUncertainty(std::string lensmodel, std::vector<double> intrinsics, std::vector<double> frames_rt,
-                        Eigen::MatrixXd var_state);
+  // `state`: the solution in physical units, laid out as mrcal's state
+  // vector; `var`: its covariance.  The offsets locate this camera's
+  // intrinsics, its extrinsics (-1: the reference camera) and the F frames.
+  struct Layout {
+    int intrinsics = 0, n_intrinsics = 0, extrinsics = -1, frames = 0, n_frames = 0;
+  };
+  ProjectionUncertainty(std::string lensmodel, Eigen::VectorXd state, Eigen::MatrixXd var, Layout layout);
   // The worst-direction standard deviation (px) of the projection of the
   // direction that pixel q sees.
   double StdevPx(const Eigen::Vector2d& q, const CameraModel& model) const;
@@ -50,8 +56,10 @@ class ProjectionUncertainty {
  private:
   Eigen::Vector2d ProjectPerturbed(const Eigen::Vector3d& dir_cam, const Eigen::VectorXd& state) const;
   std::string lensmodel_;
-  std::vector<double> intrinsics_, frames_rt_;
+  Eigen::VectorXd state_;
   Eigen::MatrixXd var_;
+  Layout layout_;
+  std::vector<Eigen::Index> used_;  // the state elements the projection depends on
 };
 
 struct CalibrationView {
@@ -60,9 +68,14 @@ struct CalibrationView {
   std::string reason;         // why not used
   double rms_px = 0;          // after the solve, over its inlier corners
   int outliers = 0;
+  Rigid3 cam_from_board;      // solved pose, for used views
 };
 
 struct CalibrationResult {
+  // The camera; in a rig, with its extrinsics (cam_from_ref, the reference
+  // being camera 0).  It carries mrcal's optimisation inputs, so that
+  // mrcal's tools (mrcal-show-residuals, mrcal-show-projection-uncertainty)
+  // accept the written file.
   CameraModel model;
   std::vector<CalibrationView> views;
   double rms_px = 0;          // over all inlier corners, of the residual's length (mrcal's own
@@ -71,10 +84,6 @@ struct CalibrationResult {
   int corners = 0, outliers = 0;
   std::vector<std::string> stages;  // what was solved, with its RMS
   double noise_px = 0;              // the observation noise assumed by the uncertainty (per coordinate)
-  // The solved problem in mrcal's terms (lensmodel, imagersize, intrinsics,
-  // frames_rt_toref, observations_board (N x ny x nx x 3, weight < 0 for
-  // outliers), spacing): what python3-mrcal needs to check the solution.
-  Json problem;
   std::shared_ptr<const ProjectionUncertainty> uncertainty;
 };
 
@@ -82,5 +91,26 @@ struct CalibrationResult {
 // mr::Error (UsageError for too few views) with a message saying what is missing.
 CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDetection> detections, int width,
                                   int height, const CalibrationOptions& options);
+
+struct RigCalibrationResult {
+  std::vector<CalibrationResult> cameras;  // camera 0 is the reference
+  // Per camera, Var(rt_cam_fromref) (mrcal's extrinsics: Rodrigues r then
+  // t, metres) from the joint solve; zero for camera 0.
+  std::vector<Eigen::Matrix<double, 6, 6>> extrinsics_covariance;
+  std::vector<std::string> stages;
+  int instants = 0;         // instants at which at least one camera saw the board
+  int shared_instants = 0;  // ... at least two
+  double rms_px = 0, noise_px = 0;
+};
+
+// Two or more cameras photographing the board at the same instants:
+// detections[c][i] is camera c's photograph at instant i (every camera has
+// the same number).  One lens model for every camera (mrcal's restriction).
+// Each camera is first calibrated alone (CalibrateCamera); the extrinsics are
+// seeded from the board poses of the instants both cameras saw; then mrcal
+// solves the intrinsics, the extrinsics and the board poses jointly.
+// Refused, with the reason, when a camera shares no instant with camera 0.
+RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vector<CornerDetection>> detections,
+                                  const std::vector<Eigen::Vector2i>& sizes, const CalibrationOptions& options);
 
 }  // namespace mr

@@ -138,6 +138,10 @@ class DictLiteralChecker {
     Skip();
     char c = Peek();
     if (c == '\'' || c == '"') return String();
+    if (c == 'b' && i_ + 1 < t_.size() && (t_[i_ + 1] == '\'' || t_[i_ + 1] == '"')) {  // Python bytes: mrcal's optimization_inputs
+      Take();
+      return String();
+    }
     if (c == '[') {
       Take();
       for (;;) {
@@ -212,6 +216,11 @@ std::string CameraModel::ToString(const std::string& note) const {
   s += "    # extrinsics are rt_fromref\n";
   s += fmt::format("    'extrinsics': {},\n", list(rt, 6));
   s += fmt::format("    'imagersize': [ {}, {}, ],\n", width_, height_);
+  if (!optimization_inputs_.empty()) {
+    s += fmt::format("    'icam_intrinsics': {},\n", icam_intrinsics_);
+    s += "    # mrcal's optimisation inputs: every observation of the solve, as a base-85 .npz\n";
+    s += fmt::format("    'optimization_inputs': b'{}',\n", optimization_inputs_);
+  }
   s += "}\n";
   return s;
 }

@@ -41,6 +41,15 @@ class CameraModel {
   // Extrinsics: the camera from the reference (rig or world) frame.
   const Rigid3& cam_from_ref() const { return cam_from_ref_; }
   void set_cam_from_ref(const Rigid3& r) { cam_from_ref_ = r; }
+  // mrcal's optimisation inputs (a base-85 .npz, as mrcal writes them; see
+  // calib/calibrate.h) and this camera's index among their intrinsics:
+  // written with the model so that mrcal's tools can recompute residuals and
+  // uncertainties.  Not read back (libmrcal ignores them too).
+  void set_optimization_inputs(std::string base85_npz, int icam_intrinsics) {
+    optimization_inputs_ = std::move(base85_npz);
+    icam_intrinsics_ = icam_intrinsics;
+  }
+  bool has_optimization_inputs() const { return !optimization_inputs_.empty(); }
 
   // Whether the model can see points behind the camera plane (z <= 0):
   // the stereographic and lon/lat families.
@@ -76,6 +85,8 @@ class CameraModel {
   std::vector<double> intrinsics_;
   int width_ = 0, height_ = 0;
   Rigid3 cam_from_ref_;
+  std::string optimization_inputs_;
+  int icam_intrinsics_ = -1;
 };
 
 // All lens-model names libmrcal knows (unconfigured, with "..." for config).

@@ -64,6 +64,9 @@ endif()
 find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs videoio calib3d aruco)
 mr_require(OpenCV_FOUND "libopencv-dev libopencv-contrib-dev" "OpenCV 4 with the contrib aruco module")
 
+find_package(Ceres QUIET CONFIG)
+mr_require(Ceres_FOUND libceres-dev "Ceres Solver (the mirror sphere's robust cone fit)")
+
 find_package(embree 3 QUIET CONFIG)
 mr_require(embree_FOUND libembree-dev "Embree 3")
 

@@ -13,6 +13,7 @@ packages=(
   nlohmann-json3-dev libspdlog-dev libfmt-dev libcli11-dev zlib1g-dev
   # cameras and calibration (OpenCV's aruco module is in contrib)
   libmrcal-dev python3-mrcal python3-numpy libmrgingham-dev libsuitesparse-dev libopencv-dev libopencv-contrib-dev
+  libceres-dev                        # the mirror sphere's robust fit
   # geometry and ray tracing
   libopenmesh-dev libembree-dev
   # tests and benchmarks

@@ -1,0 +1,67 @@
+// A mirror sphere located from its silhouette under a calibrated lens.
+//
+// The rays that graze a sphere of radius R centred at c form a cone with
+// axis c/|c| and half-angle asin(R/|c|), whatever the lens; the silhouette
+// in the image is that cone through the lens model (an ellipse-like curve
+// under a fish-eye, not a circle).  So:
+//  1. a first circle: OpenCV's Hough transform on the log luminance, or one
+//     given by the user;
+//  2. edge points: the strongest log-luminance step along the curve's normal
+//     at 360 places, to a fraction of a pixel (a parabola through the peak);
+//  3. each edge point unprojected through the lens to a ray, and the cone
+//     fitted to the rays with Ceres under a Cauchy loss (outliers: specular
+//     highlights, reflections of edges near the rim);
+//  4. steps 2-3 again along the fitted cone's own silhouette in a narrow band;
+//  5. with the known radius, c = axis R / sin(half-angle); its covariance
+//     from the fit's Jacobian over the inliers, scaled by their residuals
+//     and by their correlation along the silhouette.
+// Partly visible spheres use the visible part of the silhouette; less than
+// `min_visible` of it inside the image (and the lens's domain) is refused.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "camera/camera_model.h"
+#include "core/image.h"
+
+namespace mr {
+
+struct SphereOptions {
+  double radius_m = 0;                      // the sphere's radius, metres
+  std::optional<Eigen::Vector3d> circle;    // a first circle (x, y, r px) instead of the Hough transform
+  double min_visible = 0.5;                 // of the silhouette, inside the image
+  int samples = 360;                        // edge points searched around the silhouette
+};
+
+struct SphereFit {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();          // camera frame, metres
+  double radius_m = 0;                                        // as given
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();      // of the centre, m^2
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();           // the cone's, unit
+  double half_angle = 0;                                      // radians
+  double sigma_half_angle = 0;                                // radians, 1 sigma
+  double rms_rad = 0;                                         // angular residual of the inliers
+  double rms_px = 0;                                          // the same, in pixels at the silhouette
+  int edge_points = 0, inliers = 0;
+  double correlation = 1;  // how many neighbouring edge points err as one (the variance's inflation)
+  double visible_fraction = 0;                                // of the fitted silhouette
+  Eigen::Vector3d first_circle = Eigen::Vector3d::Zero();     // x, y, r px
+  std::vector<Eigen::Vector2d> edges;                         // the inlier edge points, px
+};
+
+// `name` names the photograph in messages.  Throws mr::Error with the
+// reason when no sphere is found or too little of it is visible.
+SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const SphereOptions& options,
+                          const std::string& name);
+
+// Several photographs of the same sphere (camera and sphere fixed):
+// inverse-covariance weighted mean of their centres.  `chi2` (optional):
+// the spread of the fits against their covariances (about 3 per
+// photograph beyond the first when they agree).
+SphereFit CombineSphereFits(const std::vector<SphereFit>& fits, double* chi2 = nullptr);
+
+}  // namespace mr

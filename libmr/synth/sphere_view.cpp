@@ -1,0 +1,52 @@
+#include "synth/sphere_view.h"
+
+#include <cmath>
+
+#include "core/math.h"
+#include "core/parallel.h"
+#include "core/sampling.h"
+
+namespace mr {
+
+Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, const Eigen::Vector3d& centre,
+                       double radius, const SphereViewOptions& o) {
+  const int W = camera.width(), H = camera.height(), S = std::max(1, o.supersample);
+  const double c2 = centre.squaredNorm() - radius * radius;
+  Image img = Image::Rgb(W, H);
+  ParallelFor(0, H, [&](int64_t y) {
+    for (int x = 0; x < W; ++x) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (int sy = 0; sy < S; ++sy)
+        for (int sx = 0; sx < S; ++sx) {
+          const Eigen::Vector2d q(x - 0.5 + (sx + 0.5) / S, static_cast<double>(y) - 0.5 + (sy + 0.5) / S);
+          Eigen::Vector3d d;
+          if (!camera.Unproject(q, &d)) continue;  // outside the lens: black
+          d.normalize();
+          // |t d - c| = r: t^2 - 2 (d.c) t + |c|^2 - r^2 = 0, the nearer root.
+          const double b = d.dot(centre), disc = b * b - c2;
+          Eigen::Vector3d dir = d;
+          double scale = 1;
+          if (disc >= 0 && b > 0) {
+            const double t = c2 / (b + std::sqrt(disc));  // the nearer root, without cancellation
+            const Eigen::Vector3d n = (t * d - centre) / radius;
+            dir = d - 2 * d.dot(n) * n;
+            scale = o.reflectance;
+          }
+          sum += scale * env.Eval(o.world_from_cam * dir);
+        }
+      sum *= o.exposure / (S * S);
+      for (int c = 0; c < 3; ++c) {
+        double v = sum[c];
+        if (o.noise_sigma > 0) {
+          Pcg32 rng(o.seed, (static_cast<uint64_t>(y) * W + x) * 3 + c);
+          const double u1 = std::max(1e-12, rng.NextDouble()), u2 = rng.NextDouble();
+          v *= 1 + o.noise_sigma * std::sqrt(-2 * std::log(u1)) * std::cos(kTwoPi * u2);
+        }
+        img.at(x, static_cast<int>(y), c) = static_cast<float>(std::max(0.0, v));
+      }
+    }
+  });
+  return img;
+}
+
+}  // namespace mr

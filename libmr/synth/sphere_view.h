@@ -1,0 +1,31 @@
+// Synthetic photographs of a mirror sphere through a known lens: the ground
+// truth of mr-calibrate sphere's tests.
+#pragma once
+
+#include <cstdint>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "camera/camera_model.h"
+#include "core/image.h"
+#include "render/environment.h"
+
+namespace mr {
+
+struct SphereViewOptions {
+  int supersample = 4;            // per pixel edge: the silhouette is box-filtered
+  double reflectance = 0.6;       // chrome's, as light-probe practice assumes (no Fresnel)
+  Eigen::Matrix3d world_from_cam = Eigen::Matrix3d::Identity();  // the environment's frame
+  double exposure = 1;            // scales radiance; values are not clipped
+  double noise_sigma = 0;         // Gaussian noise relative to each value, seeded
+  uint64_t seed = 1;
+};
+
+// A perfect mirror sphere of `radius` (metres) centred at `centre` (camera
+// frame) in front of `env` (at infinity, seen directly around the sphere):
+// linear RGB radiance.  Pixels the lens does not image are black.
+Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, const Eigen::Vector3d& centre,
+                       double radius, const SphereViewOptions& options = {});
+
+}  // namespace mr

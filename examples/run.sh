@@ -16,6 +16,10 @@ mkdir -p "$out"
 "$bin/mr-info" "$out/capture/scene.json" "$out/capture/camera.cameramodel" "$out/capture/trajectory.txt" >/dev/null
 "$bin/mr-render" "$out/capture/scene.json" --out "$out/render" --report "$out/render-report.json"
 "$bin/mr-board" calib/boards/mrgingham-10x10-30mm.json --out "$out/board.svg" -q
+# The light probe: the mirror sphere's centre from its silhouette in the
+# fish-eye light camera (truth in capture/probe/truth.json).
+"$bin/mr-calibrate" sphere --camera "$out/capture/probe/light.cameramodel" --radius 0.0254 \
+  --out "$out/capture/probe.json" "$out/capture/probe/sphere.exr" --report "$out/sphere-report.json" -q
 # The same object by precomputed form factors (prt): the transfer, then a
 # render of the scene with the method prt.
 "$bin/mr-formfactor" "$out/capture/meshes/object.ply" --resolution 8 --out "$out/capture/object.ffc" -q \

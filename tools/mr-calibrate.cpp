@@ -9,6 +9,9 @@
 
 #include "calib/calibrate.h"
 #include "calib/corners.h"
+#include "calib/sphere.h"
+#include "core/file.h"
+#include "core/json.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
@@ -139,6 +142,95 @@ bool InstantLess(const std::string& a, const std::string& b) {
   return a < b;
 }
 
+
+// mr-calibrate sphere: probe.json (docs/formats.md).
+int CalibrateSphere(const std::string& camera_file, mr::SphereOptions so, const std::vector<double>& circle,
+                    const std::string& world_board, const std::string& board_file, const std::vector<std::string>& images,
+                    const std::string& out, int argc, char** argv) {
+  mr::Report& report = mr::ToolReport();
+  const mr::CameraModel camera = mr::CameraModel::Read(camera_file);
+  report.AddInput(camera_file);
+  if (circle.size() == 3) so.circle = Eigen::Vector3d(circle[0], circle[1], circle[2]);
+  std::vector<mr::SphereFit> fits;
+  nlohmann::json per_image = nlohmann::json::array();
+  {
+    mr::ScopedTimer t(&report, "fit");
+    for (const auto& f : images) {
+      report.AddInput(f);
+      const mr::SphereFit fit = mr::FitMirrorSphere(mr::ReadImage(f), camera, so, f);
+      const Eigen::Vector3d s = fit.covariance.diagonal().cwiseSqrt();
+      per_image.push_back({{"image", f},
+                           {"centre_cam_m", {fit.centre.x(), fit.centre.y(), fit.centre.z()}},
+                           {"sigma_m", {s.x(), s.y(), s.z()}},
+                           {"half_angle_deg", fit.half_angle / mr::kDegToRad},
+                           {"edge_points", fit.edge_points},
+                           {"inliers", fit.inliers},
+                           {"rms_px", fit.rms_px},
+                           {"correlation", fit.correlation},
+                           {"visible_fraction", fit.visible_fraction},
+                           {"first_circle_px", {fit.first_circle.x(), fit.first_circle.y(), fit.first_circle.z()}}});
+      spdlog::info("{}: centre ({:.4f}, {:.4f}, {:.4f}) m, 1 sigma ({:.2g}, {:.2g}, {:.2g}) m; {} of {} edge points, "
+                   "RMS {:.3f} px, {:.0f}% of the outline visible",
+                   f, fit.centre.x(), fit.centre.y(), fit.centre.z(), s.x(), s.y(), s.z(), fit.inliers, fit.edge_points,
+                   fit.rms_px, 100 * fit.visible_fraction);
+      if (fit.visible_fraction < 0.9)
+        report.Warn(fmt::format("{}: only {:.0f}% of the sphere's outline is in the image; the distance to it is less "
+                                "certain than its covariance says (docs/tools/mr-calibrate.md)",
+                                f, 100 * fit.visible_fraction));
+      fits.push_back(fit);
+    }
+  }
+  double chi2 = 0;
+  const mr::SphereFit all = mr::CombineSphereFits(fits, &chi2);
+  // The world: the camera's rig reference (its extrinsics), or a board.
+  Eigen::Matrix3d world_from_cam = camera.cam_from_ref().rotation.conjugate().toRotationMatrix();
+  Eigen::Vector3d cam_in_world = camera.cam_from_ref().Inverse().translation;
+  std::string world = camera.cam_from_ref().rotation.angularDistance(Eigen::Quaterniond::Identity()) == 0 &&
+                              camera.cam_from_ref().translation.isZero()
+                          ? "the camera's own frame (it is its rig's reference)"
+                          : "the rig's reference frame (the camera's extrinsics)";
+  if (!world_board.empty()) {
+    if (board_file.empty()) throw mr::UsageError("--world-board needs --board");
+    const mr::BoardSpec board = mr::ReadBoard(board_file);
+    report.AddInput(world_board);
+    const mr::Rigid3 cam_from_board = mr::BoardPose(board, camera, mr::DetectCorners(mr::ReadImage(world_board), board, world_board));
+    // Board frame (x rows, y columns, z into the printed side) to the world (+y up).
+    Eigen::Matrix3d world_from_board;
+    world_from_board << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+    const mr::Rigid3 board_from_cam = cam_from_board.Inverse();
+    world_from_cam = world_from_board * board_from_cam.rotation.toRotationMatrix();
+    cam_in_world = world_from_board * board_from_cam.translation;
+    world = "the board in " + world_board;
+  }
+  const Eigen::Quaterniond q(world_from_cam);
+  nlohmann::json cov = nlohmann::json::array();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) cov.push_back(all.covariance(i, j));
+  const Eigen::Vector3d s = all.covariance.diagonal().cwiseSqrt();
+  nlohmann::json probe = {
+      {"format", "mr-probe"},
+      {"version", 1},
+      {"camera", camera_file},
+      {"radius_m", so.radius_m},
+      {"centre_cam_m", {all.centre.x(), all.centre.y(), all.centre.z()}},
+      {"centre_covariance_m2", cov},
+      {"world_from_cam", {{"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}},
+                          {"camera_in_world_m", {cam_in_world.x(), cam_in_world.y(), cam_in_world.z()}},
+                          {"source", world}}},
+      {"photographs", per_image},
+      {"consistency_chi2", chi2},
+      {"provenance", mr::JoinCommandLine(argc, argv)}};
+  mr::WriteTextFile(out, probe.dump(2) + "\n");
+  report.AddOutput(out);
+  report.SetMetric("centre_cam_m", {all.centre.x(), all.centre.y(), all.centre.z()});
+  report.SetMetric("sigma_m", {s.x(), s.y(), s.z()});
+  report.SetMetric("consistency_chi2", chi2);
+  report.SetMetric("photographs", per_image);
+  spdlog::info("{}: sphere centre ({:.4f}, {:.4f}, {:.4f}) m in the camera, 1 sigma ({:.2g}, {:.2g}, {:.2g}) m; "
+               "world: {}",
+               out, all.centre.x(), all.centre.y(), all.centre.z(), s.x(), s.y(), s.z(), world);
+  return mr::kExitOk;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -152,11 +244,13 @@ int main(int argc, char** argv) {
       "libmrcal's optimiser; the written .cameramodel files carry mrcal's optimisation inputs, so\n"
       "mrcal's own tools (mrcal-show-projection-uncertainty ...) accept them.\n"
       "Subcommands: camera (intrinsics of one camera), rig (two or more cameras photographing the\n"
-      "board at the same instants: intrinsics and extrinsics jointly).",
+      "board at the same instants: intrinsics and extrinsics jointly), sphere (a mirror sphere's\n"
+      "centre from its silhouette under a calibrated camera, with its covariance: probe.json).",
       "  mr-calibrate camera --board calib/boards/chessboard-8x6.json --lensmodel LENSMODEL_OPENCV8 \\\n"
       "      --out light.cameramodel photos/*.png\n"
       "  mr-calibrate rig --board calib/boards/chessboard-9x6.json --lensmodel LENSMODEL_OPENCV8 \\\n"
-      "      --camera light='rig/light-*.png' --camera scene='rig/scene-*.png' --out-dir rig/");
+      "      --camera light='rig/light-*.png' --camera scene='rig/scene-*.png' --out-dir rig/\n"
+      "  mr-calibrate sphere --camera rig/light.cameramodel --radius 0.0254 --out probe.json probe-*.exr");
   app.require_subcommand(1);
   CLI::App* cam = app.add_subcommand("camera", "Intrinsics of one camera from photographs of a board");
   cam->fallthrough();  // --report, --threads ... after the subcommand
@@ -177,8 +271,28 @@ int main(int argc, char** argv) {
                   "paired across cameras by what the '*' matches")
       ->required();
   rig->add_option("--out-dir", out_dir, "Where NAME.cameramodel is written for each camera")->required();
+  CLI::App* sph = app.add_subcommand(
+      "sphere", "A mirror sphere's centre, from its silhouette in photographs by a calibrated camera");
+  sph->fallthrough();
+  std::string camera_file, world_board;
+  std::vector<double> circle;
+  mr::SphereOptions so;
+  sph->add_option("--camera", camera_file, "The camera's .cameramodel (its extrinsics place it in the rig)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  sph->add_option("--radius", so.radius_m, "The sphere's radius, metres (measured with calipers)")->required();
+  sph->add_option("--circle", circle, "A first circle x,y,r px instead of the Hough transform")->delimiter(',')->expected(3);
+  sph->add_option("--min-visible", so.min_visible, "Refuse when less of the silhouette is in the image")->default_val(0.5);
+  sph->add_option("--world-board", world_board,
+                  "A photograph by this camera of the board lying flat, printed side up: it defines the world "
+                  "(origin at its first inner corner, +x along its rows, +y up, +z along its columns); needs --board")
+      ->check(CLI::ExistingFile);
+  sph->add_option("--board", board_file, "Board definition, for --world-board")->check(CLI::ExistingFile);
+  sph->add_option("--out", out, "probe.json to write")->required();
+  sph->add_option("images", images, "Photographs of the sphere (camera and sphere fixed)")->required()->check(CLI::ExistingFile);
   return mr::RunTool("mr-calibrate", app, argc, argv, [&] {
     mr::Report& report = mr::ToolReport();
+    if (sph->parsed()) return CalibrateSphere(camera_file, so, circle, world_board, board_file, images, out, argc, argv);
     const mr::BoardSpec board = mr::ReadBoard(board_file);
     report.AddInput(board_file);
     const std::string provenance = mr::JoinCommandLine(argc, argv);

@@ -447,6 +447,26 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
   return r;
 }
 
+Rigid3 BoardPose(const BoardSpec& board, const CameraModel& camera, const CornerDetection& d) {
+  if (!d.found) ThrowErrorAt(FileLoc{d.image}, "no board pose: {}", d.reason);
+  const auto object = board.ObjectPoints();
+  std::vector<cv::Point3d> obj;
+  std::vector<cv::Point2d> img;
+  for (size_t i = 0; i < d.pixels.size(); ++i) {
+    Eigen::Vector3d ray;
+    if (!camera.Unproject(d.pixels[i], &ray) || ray.normalized().z() < std::cos(75 * kDegToRad)) continue;
+    const Eigen::Vector3d& P = object[static_cast<size_t>(d.ids[i])];
+    obj.emplace_back(P.x(), P.y(), P.z());
+    img.emplace_back(ray.x() / ray.z(), ray.y() / ray.z());
+  }
+  cv::Mat rvec, tvec;
+  if (obj.size() < 6 || !cv::solvePnP(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false, cv::SOLVEPNP_ITERATIVE))
+    ThrowErrorAt(FileLoc{d.image}, "no board pose ({} corners within 75 degrees of the axis)", obj.size());
+  const double rt[6] = {rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2),
+                        tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
+  return Rigid3::FromRt(rt);
+}
+
 RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vector<CornerDetection>> detections,
                                   const std::vector<Eigen::Vector2i>& sizes, const CalibrationOptions& o) {
   const int C = static_cast<int>(detections.size());

@@ -92,6 +92,11 @@ struct CalibrationResult {
 CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDetection> detections, int width,
                                   int height, const CalibrationOptions& options);
 
+// The board's pose in a calibrated camera's frame from one photograph's
+// corners (solvePnP on the corners' rays through the lens).  Throws
+// mr::Error naming the photograph when the board was not found.
+Rigid3 BoardPose(const BoardSpec& board, const CameraModel& camera, const CornerDetection& detection);
+
 struct RigCalibrationResult {
   std::vector<CalibrationResult> cameras;  // camera 0 is the reference
   // Per camera, Var(rt_cam_fromref) (mrcal's extrinsics: Rodrigues r then

@@ -1,4 +1,5 @@
 #include "synth/synth.h"
+#include "synth/sphere_view.h"
 
 #include <spdlog/spdlog.h>
 
@@ -213,6 +214,24 @@ void RunSynth(const SynthOptions& o, Report* report) {
       for (int c = 0; c < 4; ++c) mat.push_back(world_from_object.matrix()(r, c));
     WriteTextFile(o.out / "scene.json", scene.dump(2) + "\n");
     for (const char* f2 : {"scene.json", "camera.cameramodel", "trajectory.txt", "env.exr", "meshes/object.ply"})
+      report->AddOutput((o.out / f2).string());
+    // The light probe: a 2-inch mirror sphere photographed by a 200-degree
+    // stereographic fish-eye (the "light camera", looking along the world's
+    // -z, +y up), for mr-calibrate sphere; probe/truth.json holds the answer.
+    const CameraModel light("LENSMODEL_STEREOGRAPHIC", {134, 134, 319.5, 319.5}, 640, 640);
+    const Eigen::Vector3d centre(0.04, -0.02, 0.12);
+    const double radius = 0.0254;
+    SphereViewOptions so;
+    so.supersample = 3;
+    so.world_from_cam = Eigen::Vector3d(1, -1, -1).asDiagonal();
+    so.noise_sigma = 0.01;
+    so.seed = o.seed;
+    fs::create_directories(o.out / "probe");
+    light.Write(o.out / "probe" / "light.cameramodel", note);
+    WriteImage(o.out / "probe" / "sphere.exr", RenderSphereView(EnvironmentMap(sky, "sky"), light, centre, radius, so), wo);
+    WriteTextFile(o.out / "probe" / "truth.json",
+                  Json({{"radius_m", radius}, {"centre_cam_m", {centre.x(), centre.y(), centre.z()}}, {"comment", note}}).dump(2) + "\n");
+    for (const char* f2 : {"probe/light.cameramodel", "probe/sphere.exr", "probe/truth.json"})
       report->AddOutput((o.out / f2).string());
   }
 

@@ -116,6 +116,12 @@ check "bad order" 2 "--order 9 is outside 1..8" -- "$bin/mr-formfactor" "$tmp/ca
 # mr-calibrate refuses what it cannot use, naming it.
 check "calibrate without images" 2 "images is required" -- "$bin/mr-calibrate" camera --board "$src/calib/boards/chessboard-8x6.json" --out "$tmp/c.cameramodel"
 check "calibrate unknown model" 2 'unknown lens model "LENSMODEL_NOPE"' -- "$bin/mr-calibrate" camera --board "$src/calib/boards/chessboard-8x6.json" --lensmodel LENSMODEL_NOPE --out "$tmp/c.cameramodel" "$tmp/cap/photos/00000.png"
+# The mirror sphere of mr-synth's probe: found, its centre written to probe.json.
+check "calibrate sphere" 0 "sphere centre" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/probe/light.cameramodel" --radius 0.0254 --out "$tmp/probe.json" "$tmp/cap/probe/sphere.exr"
+check "probe.json" 0 '"format": "mr-probe"' -- cat "$tmp/probe.json"
+check "sphere without radius" 2 "--radius is required" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/probe/light.cameramodel" --out "$tmp/p2.json" "$tmp/cap/probe/sphere.exr"
+check "sphere: wrong camera" 1 "the camera model is for" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/camera.cameramodel" --radius 0.0254 --out "$tmp/p3.json" "$tmp/cap/probe/sphere.exr"
+check "no probe.json left" 1 "" -- test -e "$tmp/p3.json"
 check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
 
 echo "$pass passed, $fail failed"

@@ -210,7 +210,7 @@ int CalibrateSphere(const std::string& camera_file, mr::SphereOptions so, const 
   nlohmann::json probe = {
       {"format", "mr-probe"},
       {"version", 1},
-      {"camera", camera_file},
+      {"camera", mr::fs::relative(mr::fs::absolute(camera_file), mr::fs::absolute(out).parent_path()).generic_string()},
       {"radius_m", so.radius_m},
       {"centre_cam_m", {all.centre.x(), all.centre.y(), all.centre.z()}},
       {"centre_covariance_m2", cov},
@@ -280,7 +280,9 @@ int main(int argc, char** argv) {
   sph->add_option("--camera", camera_file, "The camera's .cameramodel (its extrinsics place it in the rig)")
       ->required()
       ->check(CLI::ExistingFile);
-  sph->add_option("--radius", so.radius_m, "The sphere's radius, metres (measured with calipers)")->required();
+  sph->add_option("--radius", so.radius_m, "The sphere's radius, metres (measured with calipers)")
+      ->required()
+      ->check(CLI::PositiveNumber);
   sph->add_option("--circle", circle, "A first circle x,y,r px instead of the Hough transform")->delimiter(',')->expected(3);
   sph->add_option("--min-visible", so.min_visible, "Refuse when less of the silhouette is in the image")->default_val(0.5);
   sph->add_option("--world-board", world_board,

@@ -288,12 +288,39 @@ void Finish(Problem* p, const BoardSpec& board, const std::string& lensmodel, co
   Residuals(*p, board, c, r);
 }
 
+// The board's pose (camera from board) by OpenCV's solvePnP on the
+// corners' rays through `camera`, those within 75 degrees of its axis taken
+// as normalised pinhole points.  False (with the number of such rays) when
+// fewer than 6 or the board is not in front.
+bool PoseFromRays(const BoardSpec& board, const CameraModel& camera, const CornerDetection& d, Rigid3* pose,
+                  int* rays) {
+  const auto object = board.ObjectPoints();
+  std::vector<cv::Point3d> obj;
+  std::vector<cv::Point2d> img;
+  for (size_t i = 0; i < d.pixels.size(); ++i) {
+    Eigen::Vector3d ray;
+    if (!camera.Unproject(d.pixels[i], &ray) || ray.normalized().z() < std::cos(75 * kDegToRad)) continue;
+    const Eigen::Vector3d& P = object[static_cast<size_t>(d.ids[i])];
+    obj.emplace_back(P.x(), P.y(), P.z());
+    img.emplace_back(ray.x() / ray.z(), ray.y() / ray.z());
+  }
+  *rays = static_cast<int>(obj.size());
+  cv::Mat rvec, tvec;
+  if (obj.size() < 6 ||
+      !cv::solvePnP(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false, cv::SOLVEPNP_ITERATIVE) ||
+      tvec.at<double>(2) <= 0)
+    return false;
+  const double rt[6] = {rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2),
+                        tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
+  *pose = Rigid3::FromRt(rt);
+  return true;
+}
+
 // One camera's observations and seeds: corners to mrcal's pool, a board
 // pose per view from the stereographic seed's rays (solvePnP), the views
 // that cannot be used marked with the reason.
 void AddCameraViews(const BoardSpec& board, std::vector<CornerDetection> detections, const CameraModel& seed,
                     Problem* p, CalibrationResult* r) {
-  const auto object = board.ObjectPoints();
   for (size_t v = 0; v < detections.size(); ++v) {
     CalibrationView view;
     view.detection = std::move(detections[v]);
@@ -303,29 +330,15 @@ void AddCameraViews(const BoardSpec& board, std::vector<CornerDetection> detecti
       r->views.push_back(view);
       continue;
     }
-    // Seed pose: the corners' rays through the stereographic seed, those
-    // within 75 degrees of the axis as normalised pinhole points.
-    std::vector<cv::Point3d> obj;
-    std::vector<cv::Point2d> img;
-    for (size_t i = 0; i < d.pixels.size(); ++i) {
-      Eigen::Vector3d ray;
-      if (!seed.Unproject(d.pixels[i], &ray) || ray.normalized().z() < std::cos(75 * kDegToRad)) continue;
-      const Eigen::Vector3d& P = object[static_cast<size_t>(d.ids[i])];
-      obj.emplace_back(P.x(), P.y(), P.z());
-      img.emplace_back(ray.x() / ray.z(), ray.y() / ray.z());
-    }
-    cv::Mat rvec, tvec;
-    if (obj.size() < 6 || !cv::solvePnP(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false, cv::SOLVEPNP_ITERATIVE) ||
-        tvec.at<double>(2) <= 0) {
-      view.reason = fmt::format("no seed pose ({} corners within 75 degrees of the seed's axis)", obj.size());
+    // Seed pose from the corners' rays through the stereographic seed.
+    Rigid3 seed_pose;
+    int rays = 0;
+    if (!PoseFromRays(board, seed, d, &seed_pose, &rays)) {
+      view.reason = fmt::format("no seed pose ({} corners within 75 degrees of the seed's axis)", rays);
       r->views.push_back(view);
       continue;
     }
-    mrcal_pose_t pose;
-    for (int k = 0; k < 3; ++k) {
-      pose.r.xyz[k] = rvec.at<double>(k);
-      pose.t.xyz[k] = tvec.at<double>(k);
-    }
+    const mrcal_pose_t pose = ToPose(seed_pose);
     mrcal_observation_board_t ob{};
     ob.icam.intrinsics = 0;
     ob.icam.extrinsics = -1;
@@ -449,22 +462,11 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
 
 Rigid3 BoardPose(const BoardSpec& board, const CameraModel& camera, const CornerDetection& d) {
   if (!d.found) ThrowErrorAt(FileLoc{d.image}, "no board pose: {}", d.reason);
-  const auto object = board.ObjectPoints();
-  std::vector<cv::Point3d> obj;
-  std::vector<cv::Point2d> img;
-  for (size_t i = 0; i < d.pixels.size(); ++i) {
-    Eigen::Vector3d ray;
-    if (!camera.Unproject(d.pixels[i], &ray) || ray.normalized().z() < std::cos(75 * kDegToRad)) continue;
-    const Eigen::Vector3d& P = object[static_cast<size_t>(d.ids[i])];
-    obj.emplace_back(P.x(), P.y(), P.z());
-    img.emplace_back(ray.x() / ray.z(), ray.y() / ray.z());
-  }
-  cv::Mat rvec, tvec;
-  if (obj.size() < 6 || !cv::solvePnP(obj, img, cv::Mat::eye(3, 3, CV_64F), cv::Mat(), rvec, tvec, false, cv::SOLVEPNP_ITERATIVE))
-    ThrowErrorAt(FileLoc{d.image}, "no board pose ({} corners within 75 degrees of the axis)", obj.size());
-  const double rt[6] = {rvec.at<double>(0), rvec.at<double>(1), rvec.at<double>(2),
-                        tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2)};
-  return Rigid3::FromRt(rt);
+  Rigid3 pose;
+  int rays = 0;
+  if (!PoseFromRays(board, camera, d, &pose, &rays))
+    ThrowErrorAt(FileLoc{d.image}, "no board pose ({} corners within 75 degrees of the axis)", rays);
+  return pose;
 }
 
 RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vector<CornerDetection>> detections,

@@ -119,6 +119,8 @@ check "calibrate unknown model" 2 'unknown lens model "LENSMODEL_NOPE"' -- "$bin
 # The mirror sphere of mr-synth's probe: found, its centre written to probe.json.
 check "calibrate sphere" 0 "sphere centre" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/probe/light.cameramodel" --radius 0.0254 --out "$tmp/probe.json" "$tmp/cap/probe/sphere.exr"
 check "probe.json" 0 '"format": "mr-probe"' -- cat "$tmp/probe.json"
+check "probe.json names its camera" 0 '"camera": "cap/probe/light.cameramodel"' -- cat "$tmp/probe.json"
+check "sphere: negative radius" 2 "--radius" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/probe/light.cameramodel" --radius -1 --out "$tmp/p4.json" "$tmp/cap/probe/sphere.exr"
 check "sphere without radius" 2 "--radius is required" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/probe/light.cameramodel" --out "$tmp/p2.json" "$tmp/cap/probe/sphere.exr"
 check "sphere: wrong camera" 1 "the camera model is for" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/camera.cameramodel" --radius 0.0254 --out "$tmp/p3.json" "$tmp/cap/probe/sphere.exr"
 check "no probe.json left" 1 "" -- test -e "$tmp/p3.json"

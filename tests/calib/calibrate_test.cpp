@@ -76,6 +76,66 @@ std::vector<Rigid3> Poses(const BoardSpec& b, int n) {
   return ::testing::AssertionSuccess();
 }
 
+// The recovered lens against the truth where the boards were seen (a lens
+// is known only where it was observed): every detected corner's true
+// direction, projected through the recovered lens.  A rotation of the
+// camera frame trades against the principal point, so, as mrcal's
+// projection diff does, the best rotation between the two frames is fitted
+// first (Kabsch).  The reported uncertainty must cover the difference:
+// within 3 sigma at every (7th) observed corner, mrcal's criterion.
+struct TruthAgreement {
+  double rms_px = 0, worst_px = 0, max_ratio = 0;
+  int beyond_3_sigma = 0, checked = 0;
+  Eigen::Matrix3d recovered_from_true = Eigen::Matrix3d::Identity();  // the fitted rotation
+};
+
+TruthAgreement CompareWithTruth(const CameraModel& truth, const CalibrationResult& r) {
+  std::vector<Eigen::Vector3d> dt, de;
+  std::vector<Eigen::Vector2d> pxs;
+  for (const auto& v : r.views)
+    for (const auto& px : v.detection.pixels) {
+      Eigen::Vector3d a, e;
+      if (!truth.Unproject(px, &a) || !r.model.Unproject(px, &e)) continue;
+      dt.push_back(a.normalized());
+      de.push_back(e.normalized());
+      pxs.push_back(px);
+    }
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (size_t i = 0; i < dt.size(); ++i) H += dt[i] * de[i].transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d Rfit = svd.matrixV() * svd.matrixU().transpose();
+  if (Rfit.determinant() < 0) {
+    Eigen::Matrix3d V = svd.matrixV();
+    V.col(2) *= -1;
+    Rfit = V * svd.matrixU().transpose();
+  }
+  TruthAgreement out;
+  out.recovered_from_true = Rfit;
+  double sum2 = 0;
+  for (size_t i = 0; i < dt.size(); ++i) {
+    Eigen::Vector2d q;
+    if (!r.model.Project(Rfit * dt[i], &q)) {
+      out.worst_px = INFINITY;
+      continue;
+    }
+    const double d = (q - pxs[i]).norm();
+    out.worst_px = std::max(out.worst_px, d);
+    sum2 += d * d;
+    if (i % 7 == 0) {
+      const double sigma = r.uncertainty->StdevPx(pxs[i], r.model);
+      out.max_ratio = std::max(out.max_ratio, d / sigma);
+      out.beyond_3_sigma += !(d <= 3 * sigma);
+      ++out.checked;
+    }
+  }
+  out.rms_px = dt.empty() ? INFINITY : std::sqrt(sum2 / static_cast<double>(dt.size()));
+  std::printf("fitted rotation between the frames %.4f deg; projection difference over the observed region: RMS %.3f "
+              "px, worst %.3f px; largest difference / sigma %.2f (%d of %d beyond 3 sigma)\n",
+              Eigen::AngleAxisd(Rfit).angle() / kDegToRad, out.rms_px, out.worst_px, out.max_ratio,
+              out.beyond_3_sigma, out.checked);
+  return out;
+}
+
 // Photographs rendered through a known OPENCV8 lens with noise: the
 // recovered lens projects like the true one to a fraction of a pixel over
 // the region the boards covered, and the fit's RMS is at the noise level.
@@ -103,61 +163,13 @@ TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
   for (const auto& v : r.views) used += v.used;
   EXPECT_GE(used, 15);
   EXPECT_LT(r.rms_px, 0.15);
-  // Compare projections where the boards were seen (a lens is known only
-  // where it was observed): every detected corner's true direction,
-  // projected through the recovered lens.  A rotation of the camera frame
-  // trades against the principal point, so, as mrcal's projection diff does,
-  // the best rotation between the two frames is fitted first (Kabsch).
-  std::vector<Eigen::Vector3d> dt, de;
-  std::vector<Eigen::Vector2d> pxs;
-  for (const auto& v : r.views)
-    for (const auto& px : v.detection.pixels) {
-      Eigen::Vector3d a, e;
-      ASSERT_TRUE(truth.Unproject(px, &a));
-      ASSERT_TRUE(r.model.Unproject(px, &e));
-      dt.push_back(a.normalized());
-      de.push_back(e.normalized());
-      pxs.push_back(px);
-    }
-  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
-  for (size_t i = 0; i < dt.size(); ++i) H += dt[i] * de[i].transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(H, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d Rfit = svd.matrixV() * svd.matrixU().transpose();
-  if (Rfit.determinant() < 0) {
-    Eigen::Matrix3d V = svd.matrixV();
-    V.col(2) *= -1;
-    Rfit = V * svd.matrixU().transpose();
-  }
-  std::printf("fitted rotation between the frames: %.4f degrees\n",
-              Eigen::AngleAxisd(Rfit).angle() / kDegToRad);
-  double worst = 0, sum2 = 0;
-  int n = 0;
-  for (size_t i = 0; i < dt.size(); ++i) {
-      const Eigen::Vector2d& px = pxs[i];
-      Eigen::Vector2d q;
-      ASSERT_TRUE(r.model.Project(Rfit * dt[i], &q));
-      worst = std::max(worst, (q - px).norm());
-      sum2 += (q - px).squaredNorm();
-      ++n;
-    }
-  std::printf("projection difference over the observed region: RMS %.3f px, worst %.3f px\n", std::sqrt(sum2 / n), worst);
-  // The reported uncertainty covers the difference: within 3 sigma at
-  // every observed corner (mrcal's criterion).
-  ASSERT_TRUE(r.uncertainty);
-  int beyond = 0;
-  double max_ratio = 0;
-  for (size_t i = 0; i < dt.size(); i += 7) {
-    Eigen::Vector2d q;
-    ASSERT_TRUE(r.model.Project(Rfit * dt[i], &q));
-    const double sigma = r.uncertainty->StdevPx(pxs[i], r.model);
-    max_ratio = std::max(max_ratio, (q - pxs[i]).norm() / sigma);
-    beyond += (q - pxs[i]).norm() > 3 * sigma;
-  }
-  std::printf("noise %.3f px; largest difference / sigma %.2f\n", r.noise_px, max_ratio);
-  EXPECT_EQ(beyond, 0);
-  EXPECT_GT(max_ratio, 0.1);  // and is not so large that it says nothing (measured 0.43;
-                              // with 10 views the ratio reaches 3.6: the noise model leaves
-                              // out the regularisation's bias, as mrcal's does)
+  const TruthAgreement a = CompareWithTruth(truth, r);
+  EXPECT_EQ(a.beyond_3_sigma, 0);
+  EXPECT_GT(a.max_ratio, 0.1);  // and is not so large that it says nothing (measured 0.43;
+                                // with 10 views the ratio reaches 3.6: the noise model leaves
+                                // out the regularisation's bias, as mrcal's does)
+  EXPECT_LT(a.rms_px, 0.1);
+  EXPECT_LT(a.worst_px, 0.3);
   const double centre = r.uncertainty->StdevPx(Eigen::Vector2d(240, 180), r.model);
   const double corner = r.uncertainty->StdevPx(Eigen::Vector2d(5, 5), r.model);
   std::printf("sigma at the centre %.4f px, at the corner %.4f px\n", centre, corner);
@@ -168,8 +180,122 @@ TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
   // the corner and two more pixels, with the same observation noise.
   if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "python3-mrcal is not installed";
   EXPECT_TRUE(OracleAgrees(r, {{240, 180}, {5, 5}, {120, 90}, {400, 300}}));
-  EXPECT_LT(std::sqrt(sum2 / n), 0.1);
-  EXPECT_LT(worst, 0.3);
+}
+
+// Boards seen only near the image's centre: the lens is known there and
+// guessed elsewhere, and the report says so: the uncertainty at the image's
+// corners is many times that at the centre and above a pixel (measured
+// 14-22 px, where the recovered lens is indeed 16-20 px off), and the share
+// of the 9 x 7 grid below 1 px (the report's valid region) is at most two
+// thirds (measured 37 of 63).  Measured and not asserted: inside the
+// observed middle third the recovered lens differs from the truth by 0.36
+// px RMS, up to 4.5 sigma: with so little of the field seen, OPENCV8's
+// higher terms are held by mrcal's regularisation, whose bias the
+// uncertainty (mrcal's definition) leaves out.
+TEST(Calibrate, BoardsOnlyNearTheCentreLeaveTheEdgesUncertainAndSaySo) {
+  const BoardSpec b = test::SyntheticBoard86();
+  const CameraModel truth("LENSMODEL_OPENCV8", {330, 332, 241, 178, 0.08, -0.05, 0.001, -0.0015, 0, 0, 0, 0}, 480, 360);
+  std::vector<CornerDetection> detections;
+  BoardViewOptions vo;
+  vo.supersample = 2;
+  vo.noise_sigma = 0.01;
+  int k = 0;
+  for (Rigid3 pose : Poses(b, 12)) {
+    // Twice as far and drawn towards the axis: the boards cover the middle third.
+    pose.translation = 0.3 * pose.translation + Eigen::Vector3d(0, 0, 0.45);
+    pose.translation.x() -= 0.5 * (pose.rotation * Eigen::Vector3d(0.105, 0, 0)).x();
+    pose.translation.y() -= 0.5 * (pose.rotation * Eigen::Vector3d(0, 0.075, 0)).y();
+    vo.seed = static_cast<uint64_t>(++k);
+    detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("view{}", k)));
+  }
+  double lo_x = 1e9, hi_x = -1e9;
+  for (const auto& d : detections)
+    for (const auto& p : d.pixels) {
+      lo_x = std::min(lo_x, p.x());
+      hi_x = std::max(hi_x, p.x());
+    }
+  std::printf("corners seen between x = %.0f and %.0f of 480\n", lo_x, hi_x);
+  const CalibrationResult r = CalibrateCamera(b, detections, 480, 360, CalibrationOptions());
+  const TruthAgreement a = CompareWithTruth(truth, r);
+  const double centre = r.uncertainty->StdevPx(Eigen::Vector2d(240, 180), r.model);
+  int valid = 0;
+  for (int j = 0; j < 7; ++j)
+    for (int i = 0; i < 9; ++i) {
+      const double sg = r.uncertainty->StdevPx(Eigen::Vector2d(479.0 * i / 8, 359.0 * j / 6), r.model);
+      valid += std::isfinite(sg) && sg < 1;
+    }
+  for (const Eigen::Vector2d q : {Eigen::Vector2d(0, 0), Eigen::Vector2d(479, 0), Eigen::Vector2d(0, 359), Eigen::Vector2d(479, 359)}) {
+    const double sg = r.uncertainty->StdevPx(q, r.model);
+    Eigen::Vector3d d;
+    Eigen::Vector2d p;
+    ASSERT_TRUE(truth.Unproject(q, &d));
+    const bool ok = r.model.Project(a.recovered_from_true * d.normalized(), &p);
+    std::printf("corner (%.0f, %.0f): sigma %.2f px (centre %.3f px); the recovered lens is %.2f px off there\n", q.x(),
+                q.y(), sg, centre, ok ? (p - q).norm() : NAN);
+    EXPECT_FALSE(sg < 1.0) << "the corner is reported known to " << sg << " px";
+    EXPECT_FALSE(sg < 5 * centre);
+  }
+  std::printf("grid below 1 px: %d of 63\n", valid);
+  EXPECT_LT(centre, 0.2);
+  EXPECT_LE(valid, 42);
+}
+
+// A 190-degree fish-eye (a splined stereographic lens, as mrcal models
+// such lenses) calibrated from boards spread over its whole field, past 90
+// degrees from the axis (corners to 103 degrees; the board is found in 15
+// of the 17 photographs): the recovered lens projects
+// like the truth where the boards were, within 3 sigma of its reported
+// uncertainty.
+TEST(Calibrate, RecoversA190DegreeFisheye) {
+  const BoardSpec b = test::SyntheticBoard86();
+  const std::string model = "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=8_Ny=8_fov_x_deg=200";
+  // 2 f tan(95 deg / 2) = 320 px: 190 degrees across the 640 px width; a
+  // smooth distortion on the spline's knots.
+  std::vector<double> k = {146.6, 146.6, 319.5, 319.5};
+  for (int i = 0; i < 2 * 8 * 8; ++i) k.push_back(0.01 * std::sin(0.7 * i));
+  const CameraModel truth(model, k, 640, 640);
+  std::printf("truth: %s\n", truth.Describe().c_str());
+  std::vector<CornerDetection> detections;
+  BoardViewOptions vo;
+  vo.supersample = 2;
+  vo.noise_sigma = 0.01;
+  int n = 0;
+  const Eigen::Vector3d centre_b(0.5 * (b.inner_x - 1) * b.square_m, 0.5 * (b.inner_y - 1) * b.square_m, 0);
+  for (double theta : {0.0, 30.0, 55.0, 78.0})
+    for (int az = 0; az < (theta == 0 ? 2 : 5); ++az) {
+      const double phi = kTwoPi * (az + 0.5 * (theta > 50)) / 5;
+      const Eigen::Vector3d u(std::sin(theta * kDegToRad) * std::cos(phi), std::sin(theta * kDegToRad) * std::sin(phi),
+                              std::cos(theta * kDegToRad));
+      // The board faces the camera (its z along u), turned about u and tilted.
+      const Eigen::Matrix3d face = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), u).toRotationMatrix();
+      const Eigen::Matrix3d R = face * Eigen::AngleAxisd(0.3 * az, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+                                Eigen::AngleAxisd(0.35 * ((n % 3) - 1), Eigen::Vector3d::UnitX()).toRotationMatrix();
+      const Rigid3 pose(Eigen::Quaterniond(R), 0.3 * u - R * centre_b);
+      vo.seed = static_cast<uint64_t>(++n);
+      detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("theta{}-{}", theta, az)));
+    }
+  int found = 0;
+  double widest = 0;
+  for (const auto& d : detections) {
+    found += d.found;
+    for (const auto& p : d.pixels) {
+      Eigen::Vector3d ray;
+      if (truth.Unproject(p, &ray)) widest = std::max(widest, std::acos(ray.normalized().z()) / kDegToRad);
+    }
+  }
+  std::printf("board found in %d of %zu photographs; corners up to %.1f degrees from the axis\n", found,
+              detections.size(), widest);
+  EXPECT_GT(widest, 90.0);  // behind the camera's plane
+  CalibrationOptions o;
+  o.lensmodel = model;
+  o.focal_px = 146;
+  const CalibrationResult r = CalibrateCamera(b, detections, 640, 640, o);
+  for (const auto& s : r.stages) std::printf("%s\n", s.c_str());
+  EXPECT_LT(r.rms_px, 0.2);
+  const TruthAgreement a = CompareWithTruth(truth, r);
+  EXPECT_EQ(a.beyond_3_sigma, 0);
+  EXPECT_LT(a.rms_px, 0.4);    // measured 0.18 px
+  EXPECT_LT(a.worst_px, 1.5);  // measured 0.65 px, at the field's rim
 }
 
 // A rig of two cameras 11 cm apart, turned 4 degrees against each other,

@@ -1,4 +1,8 @@
 // mr-synth: a synthetic capture of a known room with exact ground truth.
+#include <fmt/format.h>
+
+#include "calib/board.h"
+#include "synth/board_view.h"
 #include "synth/synth.h"
 #include "tool/cli.h"
 
@@ -20,8 +24,27 @@ int main(int argc, char** argv) {
   app.add_flag("--spot-light", o.spot_light, "Add a real spot light above the table (written to lights.json)");
   app.add_option("--truth-spp", o.truth_spp, "Samples per pixel of the ground truth (default: the preset's)")
       ->check(CLI::PositiveNumber);
+  std::string boards, board_file;
+  app.add_option("--boards", boards,
+                 "Instead of a room: calibration photographs of a board through a known lens: pinhole, opencv8, "
+                 "fisheye190 (a 190-degree splined fish-eye) or rig (two cameras); with the true models in truth/");
+  app.add_option("--board", board_file, "The board for --boards (default: 8x6 inner corners of 30 mm, OpenCV's detector)")
+      ->check(CLI::ExistingFile);
   return mr::RunTool("mr-synth", app, argc, argv, [&] {
     o.command_line = mr::JoinCommandLine(argc, argv);
+    if (!boards.empty()) {
+      mr::BoardSpec b;
+      b.name = "synthetic 8x6, 30 mm";
+      b.inner_x = 8;
+      b.inner_y = 6;
+      b.square_m = 0.03;
+      b.detector = "opencv";
+      if (!board_file.empty()) b = mr::ReadBoard(board_file);
+      const std::string note = fmt::format("written by mr-synth ({}); boards through the {} lens, seed {}", o.command_line,
+                                           boards, o.seed);
+      for (const auto& f : mr::WriteBoardSet(boards, b, o.out, o.seed, note)) mr::ToolReport().AddOutput(f.string());
+      return mr::kExitOk;
+    }
     mr::RunSynth(o, &mr::ToolReport());
     return mr::kExitOk;
   });

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "core/error.h"
+#include "core/file.h"
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
@@ -79,6 +81,107 @@ Image RenderBoardView(const BoardSpec& b, const CameraModel& camera, const Rigid
         img.at(x, y, 0) = static_cast<float>(Clamp(img.at(x, y, 0) + o.noise_sigma * g, 0.0, 1.0));
       }
   return img;
+}
+
+std::vector<Rigid3> CalibrationBoardPoses(const BoardSpec& b, int n) {
+  std::vector<Rigid3> out;
+  const Eigen::Vector3d centre(0.5 * (b.inner_x - 1) * b.square_m, 0.5 * (b.inner_y - 1) * b.square_m, 0);
+  for (int i = 0; i < n; ++i) {
+    const double a = kTwoPi * i / n;
+    const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.15 * std::sin(3 * a), Eigen::Vector3d::UnitZ()) *
+                               Eigen::AngleAxisd(0.45 * std::cos(a), Eigen::Vector3d::UnitY()) *
+                               Eigen::AngleAxisd(0.45 * std::sin(a), Eigen::Vector3d::UnitX()))
+                                  .toRotationMatrix();
+    const Eigen::Vector3d at(0.09 * std::cos(a) * (i % 2 ? 1.0 : 0.4), 0.07 * std::sin(a) * (i % 2 ? 1.0 : 0.4),
+                             0.32 + 0.1 * (i % 3));
+    out.emplace_back(Eigen::Quaterniond(R), at - R * centre);
+  }
+  return out;
+}
+
+std::vector<Rigid3> FisheyeBoardPoses(const BoardSpec& b, double distance) {
+  std::vector<Rigid3> out;
+  const Eigen::Vector3d centre(0.5 * (b.inner_x - 1) * b.square_m, 0.5 * (b.inner_y - 1) * b.square_m, 0);
+  int n = 0;
+  for (double theta : {0.0, 30.0, 55.0, 78.0})
+    for (int az = 0; az < (theta == 0 ? 2 : 5); ++az, ++n) {
+      const double phi = kTwoPi * (az + 0.5 * (theta > 50)) / 5;
+      const Eigen::Vector3d u(std::sin(theta * kDegToRad) * std::cos(phi), std::sin(theta * kDegToRad) * std::sin(phi),
+                              std::cos(theta * kDegToRad));
+      // The board faces the camera (its z along u), turned about u and tilted.
+      const Eigen::Matrix3d face = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), u).toRotationMatrix();
+      const Eigen::Matrix3d R = face * Eigen::AngleAxisd(0.3 * az, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+                                Eigen::AngleAxisd(0.35 * ((n % 3) - 1), Eigen::Vector3d::UnitX()).toRotationMatrix();
+      out.emplace_back(Eigen::Quaterniond(R), distance * u - R * centre);
+    }
+  return out;
+}
+
+std::vector<fs::path> WriteBoardSet(const std::string& lens, const BoardSpec& b, const fs::path& out, uint64_t seed,
+                                    const std::string& note) {
+  struct Cam {
+    std::string name;
+    CameraModel model;
+    Rigid3 cam_from_ref;
+  };
+  std::vector<Cam> cams;
+  std::vector<Rigid3> poses;
+  if (lens == "pinhole") {
+    cams.push_back({"camera", CameraModel("LENSMODEL_PINHOLE", {500, 500, 319.5, 239.5}, 640, 480), Rigid3()});
+    poses = CalibrationBoardPoses(b, 14);
+  } else if (lens == "opencv8" || lens == "rig") {
+    cams.push_back({lens == "rig" ? "cam0" : "camera",
+                    CameraModel("LENSMODEL_OPENCV8", {440, 442, 321, 238, 0.08, -0.05, 0.001, -0.0015, 0, 0, 0, 0}, 640, 480),
+                    Rigid3()});
+    poses = CalibrationBoardPoses(b, 16);
+    if (lens == "rig") {
+      const Rigid3 cam1_from_cam0(
+          Eigen::Quaterniond(Eigen::AngleAxisd(4 * kDegToRad, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
+          Eigen::Vector3d(-0.11, 0.004, 0.002));
+      cams.push_back({"cam1",
+                      CameraModel("LENSMODEL_OPENCV8", {400, 401, 316, 242, 0.05, -0.02, -0.001, 0.001, 0, 0, 0, 0}, 640,
+                                  480, cam1_from_cam0),
+                      cam1_from_cam0});
+      for (Rigid3& p : poses) p.translation += Eigen::Vector3d(0.055, 0, 0.05);  // both cameras see most boards
+    }
+  } else if (lens == "fisheye190") {
+    // 2 f tan(95 deg / 2) = 320 px: 190 degrees across; a smooth distortion on the knots.
+    const std::string name = "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=8_Ny=8_fov_x_deg=200";
+    std::vector<double> k = {146.6, 146.6, 319.5, 319.5};
+    for (int i = 0; i < 2 * 8 * 8; ++i) k.push_back(0.01 * std::sin(0.7 * i));
+    cams.push_back({"camera", CameraModel(name, k, 640, 640), Rigid3()});
+    poses = FisheyeBoardPoses(b, 0.3);
+  } else {
+    throw UsageError(fmt::format("unknown --boards lens \"{}\" (pinhole, opencv8, fisheye190 or rig)", lens));
+  }
+  std::vector<fs::path> written;
+  std::error_code ec;
+  fs::create_directories(out / "truth", ec);
+  fs::create_directories(out / "photos", ec);
+  if (!fs::is_directory(out / "photos")) ThrowErrorAt(FileLoc{out.string()}, "cannot create the folder");
+  WriteTextFile(out / "board.json", BoardToJson(b).dump(2) + "\n");
+  written.push_back(out / "board.json");
+  // The views the calibration must leave out: blurred, over-exposed, and
+  // the board pushed half out of the frame.
+  const Rigid3 half_out(poses[0].rotation, poses[0].translation + Eigen::Vector3d(0.6 * poses[0].translation.z(), 0, 0));
+  for (const Cam& c : cams) {
+    c.model.Write(out / "truth" / (c.name + ".cameramodel"), note);
+    written.push_back(out / "truth" / (c.name + ".cameramodel"));
+    for (size_t i = 0; i < poses.size() + 3; ++i) {
+      BoardViewOptions vo;
+      vo.supersample = 2;
+      vo.noise_sigma = 0.01;
+      vo.seed = HashCombine(seed, i * 7 + static_cast<uint64_t>(&c - cams.data()));
+      Rigid3 pose = i < poses.size() ? poses[i] : poses[i - poses.size()];
+      if (i == poses.size()) vo.blur_sigma_px = 6;
+      if (i == poses.size() + 1) vo.exposure = 20;
+      if (i == poses.size() + 2) pose = half_out;
+      const fs::path f = out / "photos" / fmt::format("{}-{:02d}.png", c.name, i);
+      WriteImage(f, RenderBoardView(b, c.model, c.cam_from_ref * pose, vo));
+      written.push_back(f);
+    }
+  }
+  return written;
 }
 
 }  // namespace mr

@@ -4,6 +4,8 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
+#include <vector>
 
 #include "calib/board.h"
 #include "camera/camera_model.h"
@@ -25,5 +27,25 @@ struct BoardViewOptions {
 // `camera` from `cam_from_board`; one grey channel in [0, 1].
 Image RenderBoardView(const BoardSpec& board, const CameraModel& camera, const Rigid3& cam_from_board,
                       const BoardViewOptions& options = {});
+
+// Board poses for calibration photographs by a camera of about 90 degrees:
+// around the axis at 0.3-0.5 m, turned and tilted, their centres spread
+// over the field of view.
+std::vector<Rigid3> CalibrationBoardPoses(const BoardSpec& board, int n);
+
+// For a fish-eye: board centres at 0, 30, 55 and 78 degrees from the axis
+// (five azimuths each, two on the axis), facing the camera from `distance`,
+// turned and tilted; corners reach past 90 degrees.
+std::vector<Rigid3> FisheyeBoardPoses(const BoardSpec& board, double distance);
+
+// A synthetic calibration set (mr-synth --boards LENS): photographs of
+// `board` through a known lens, "pinhole" (640x480), "opencv8" (640x480),
+// "fisheye190" (a 190-degree splined stereographic lens, 640x640) or "rig"
+// (two OPENCV8 cameras 11 cm apart): out/board.json, out/truth/CAM.cameramodel
+// and out/photos/CAM-NN.png, with noise, plus three photographs the
+// calibration must leave out (blurred, over-exposed, the board half out of
+// the frame).  Returns the files written.
+std::vector<fs::path> WriteBoardSet(const std::string& lens, const BoardSpec& board, const fs::path& out, uint64_t seed,
+                                    const std::string& note);
 
 }  // namespace mr

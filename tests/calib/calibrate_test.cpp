@@ -19,24 +19,6 @@
 namespace mr {
 namespace {
 
-// Board poses that look at it from around, at 0.3-0.5 m, turned and tilted,
-// its centre spread over the field of view.
-std::vector<Rigid3> Poses(const BoardSpec& b, int n) {
-  std::vector<Rigid3> out;
-  const Eigen::Vector3d centre(0.5 * (b.inner_x - 1) * b.square_m, 0.5 * (b.inner_y - 1) * b.square_m, 0);
-  for (int i = 0; i < n; ++i) {
-    const double a = kTwoPi * i / n;
-    const Eigen::Matrix3d R = (Eigen::AngleAxisd(0.15 * std::sin(3 * a), Eigen::Vector3d::UnitZ()) *
-                               Eigen::AngleAxisd(0.45 * std::cos(a), Eigen::Vector3d::UnitY()) *
-                               Eigen::AngleAxisd(0.45 * std::sin(a), Eigen::Vector3d::UnitX()))
-                                  .toRotationMatrix();
-    const Eigen::Vector3d at(0.09 * std::cos(a) * (i % 2 ? 1.0 : 0.4), 0.07 * std::sin(a) * (i % 2 ? 1.0 : 0.4),
-                             0.32 + 0.1 * (i % 3));
-    out.emplace_back(Eigen::Quaterniond(R), at - R * centre);
-  }
-  return out;
-}
-
 // python3-mrcal, the oracle: reads the .cameramodel mr writes, as mrcal's
 // tools do, and recomputes from its optimisation inputs the residuals at
 // mr's solution, the unprojection and the projection uncertainty (mrcal's
@@ -151,7 +133,7 @@ TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int k = 0;
-  for (const Rigid3& pose : Poses(b, 16)) {
+  for (const Rigid3& pose : CalibrationBoardPoses(b, 16)) {
     vo.seed = static_cast<uint64_t>(++k);
     detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("view{}", k)));
   }
@@ -200,7 +182,7 @@ TEST(Calibrate, BoardsOnlyNearTheCentreLeaveTheEdgesUncertainAndSaySo) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int k = 0;
-  for (Rigid3 pose : Poses(b, 12)) {
+  for (Rigid3 pose : CalibrationBoardPoses(b, 12)) {
     // Twice as far and drawn towards the axis: the boards cover the middle third.
     pose.translation = 0.3 * pose.translation + Eigen::Vector3d(0, 0, 0.45);
     pose.translation.x() -= 0.5 * (pose.rotation * Eigen::Vector3d(0.105, 0, 0)).x();
@@ -260,20 +242,10 @@ TEST(Calibrate, RecoversA190DegreeFisheye) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int n = 0;
-  const Eigen::Vector3d centre_b(0.5 * (b.inner_x - 1) * b.square_m, 0.5 * (b.inner_y - 1) * b.square_m, 0);
-  for (double theta : {0.0, 30.0, 55.0, 78.0})
-    for (int az = 0; az < (theta == 0 ? 2 : 5); ++az) {
-      const double phi = kTwoPi * (az + 0.5 * (theta > 50)) / 5;
-      const Eigen::Vector3d u(std::sin(theta * kDegToRad) * std::cos(phi), std::sin(theta * kDegToRad) * std::sin(phi),
-                              std::cos(theta * kDegToRad));
-      // The board faces the camera (its z along u), turned about u and tilted.
-      const Eigen::Matrix3d face = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), u).toRotationMatrix();
-      const Eigen::Matrix3d R = face * Eigen::AngleAxisd(0.3 * az, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-                                Eigen::AngleAxisd(0.35 * ((n % 3) - 1), Eigen::Vector3d::UnitX()).toRotationMatrix();
-      const Rigid3 pose(Eigen::Quaterniond(R), 0.3 * u - R * centre_b);
-      vo.seed = static_cast<uint64_t>(++n);
-      detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("theta{}-{}", theta, az)));
-    }
+  for (const Rigid3& pose : FisheyeBoardPoses(b, 0.3)) {
+    vo.seed = static_cast<uint64_t>(++n);
+    detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("view{}", n)));
+  }
   int found = 0;
   double widest = 0;
   for (const auto& d : detections) {
@@ -315,7 +287,7 @@ TEST(Calibrate, RigExtrinsicsWithinThreeSigmaOfTheTruth) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int k = 0;
-  for (const Rigid3& pose : Poses(b, 14)) {
+  for (const Rigid3& pose : CalibrationBoardPoses(b, 14)) {
     // The boards shifted half the baseline, so that both cameras see most of them.
     const Rigid3 shifted(pose.rotation, pose.translation + Eigen::Vector3d(0.055, 0, 0.05));
     vo.seed = static_cast<uint64_t>(++k);

@@ -124,6 +124,11 @@ check "sphere: negative radius" 2 "--radius" -- "$bin/mr-calibrate" sphere --cam
 check "sphere without radius" 2 "--radius is required" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/probe/light.cameramodel" --out "$tmp/p2.json" "$tmp/cap/probe/sphere.exr"
 check "sphere: wrong camera" 1 "the camera model is for" -- "$bin/mr-calibrate" sphere --camera "$tmp/cap/camera.cameramodel" --radius 0.0254 --out "$tmp/p3.json" "$tmp/cap/probe/sphere.exr"
 check "no probe.json left" 1 "" -- test -e "$tmp/p3.json"
+# Synthetic board photographs calibrate; the three bad ones are left out with their reasons.
+check "mr-synth boards" 0 "" -- "$bin/mr-synth" --boards pinhole --out "$tmp/boards" -q
+check "calibrate synthetic" 0 "14 of 17 photographs used" -- "$bin/mr-calibrate" camera --board "$tmp/boards/board.json" --lensmodel LENSMODEL_PINHOLE --out "$tmp/boards/camera.cameramodel" "$tmp"/boards/photos/camera-*.png --report "$tmp/calib.json"
+check "calibrate report: blurry" 0 "blurry" -- cat "$tmp/calib.json"
+check "unknown board lens" 2 'unknown --boards lens "wide"' -- "$bin/mr-synth" --boards wide --out "$tmp/b2"
 check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
 
 echo "$pass passed, $fail failed"

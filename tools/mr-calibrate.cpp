@@ -151,6 +151,7 @@ int CalibrateSphere(const std::string& camera_file, mr::SphereOptions so, const 
   const mr::CameraModel camera = mr::CameraModel::Read(camera_file);
   report.AddInput(camera_file);
   if (circle.size() == 3) so.circle = Eigen::Vector3d(circle[0], circle[1], circle[2]);
+  if (!world_board.empty() && board_file.empty()) throw mr::UsageError("--world-board needs --board");
   std::vector<mr::SphereFit> fits;
   nlohmann::json per_image = nlohmann::json::array();
   {
@@ -190,16 +191,12 @@ int CalibrateSphere(const std::string& camera_file, mr::SphereOptions so, const 
                           ? "the camera's own frame (it is its rig's reference)"
                           : "the rig's reference frame (the camera's extrinsics)";
   if (!world_board.empty()) {
-    if (board_file.empty()) throw mr::UsageError("--world-board needs --board");
     const mr::BoardSpec board = mr::ReadBoard(board_file);
     report.AddInput(world_board);
-    const mr::Rigid3 cam_from_board = mr::BoardPose(board, camera, mr::DetectCorners(mr::ReadImage(world_board), board, world_board));
-    // Board frame (x rows, y columns, z into the printed side) to the world (+y up).
-    Eigen::Matrix3d world_from_board;
-    world_from_board << 1, 0, 0, 0, 0, -1, 0, 1, 0;
-    const mr::Rigid3 board_from_cam = cam_from_board.Inverse();
-    world_from_cam = world_from_board * board_from_cam.rotation.toRotationMatrix();
-    cam_in_world = world_from_board * board_from_cam.translation;
+    const mr::Rigid3 world_from_cam_board = mr::WorldFromCamByFlatBoard(
+        mr::BoardPose(board, camera, mr::DetectCorners(mr::ReadImage(world_board), board, world_board)));
+    world_from_cam = world_from_cam_board.rotation.toRotationMatrix();
+    cam_in_world = world_from_cam_board.translation;
     world = "the board in " + world_board;
   }
   const Eigen::Quaterniond q(world_from_cam);

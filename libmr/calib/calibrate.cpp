@@ -469,6 +469,13 @@ Rigid3 BoardPose(const BoardSpec& board, const CameraModel& camera, const Corner
   return pose;
 }
 
+Rigid3 WorldFromCamByFlatBoard(const Rigid3& cam_from_board) {
+  // Board frame: x along rows, y along columns, z into the printed side.
+  Eigen::Matrix3d world_from_board;
+  world_from_board << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  return Rigid3(Eigen::Quaterniond(world_from_board), Eigen::Vector3d::Zero()) * cam_from_board.Inverse();
+}
+
 RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vector<CornerDetection>> detections,
                                   const std::vector<Eigen::Vector2i>& sizes, const CalibrationOptions& o) {
   const int C = static_cast<int>(detections.size());

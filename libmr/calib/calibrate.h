@@ -97,6 +97,12 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
 // mr::Error naming the photograph when the board was not found.
 Rigid3 BoardPose(const BoardSpec& board, const CameraModel& camera, const CornerDetection& detection);
 
+// The world a board lying flat, printed side up, defines (docs/formats.md,
+// probe.json): origin at its first inner corner, +x along its rows, +y up
+// (out of the printed side), +z along its columns.  From the board's pose
+// in a camera to the camera's pose in that world.
+Rigid3 WorldFromCamByFlatBoard(const Rigid3& cam_from_board);
+
 struct RigCalibrationResult {
   std::vector<CalibrationResult> cameras;  // camera 0 is the reference
   // Per camera, Var(rt_cam_fromref) (mrcal's extrinsics: Rodrigues r then

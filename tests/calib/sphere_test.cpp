@@ -7,7 +7,11 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
+#include "calib/calibrate.h"
+#include "calib/corners.h"
+#include "synth/board_view.h"
 #include "synth/sphere_view.h"
+#include "synthetic_board.h"
 
 namespace mr {
 namespace {
@@ -179,6 +183,31 @@ TEST(Sphere, PhotographsCombine) {
   // combining does not shrink: the combined centre is checked to 0.5%, not
   // against its own (smaller) covariance.
   EXPECT_LT((all.centre - truth).norm(), 0.005 * truth.norm());
+}
+
+// --world-board: a camera 0.5 m above a board lying flat, looking straight
+// down, turned 30 degrees about the vertical: its forward axis is the
+// world's down (-y) and it sits 0.5 m up, to 0.2 degrees and 2 mm.
+TEST(Sphere, WorldFromABoardLyingFlat) {
+  const BoardSpec b = test::SyntheticBoard86();
+  const CameraModel cam("LENSMODEL_PINHOLE", {500, 500, 319.5, 239.5}, 640, 480);
+  const Eigen::Vector3d centre(0.5 * (b.inner_x - 1) * b.square_m, 0.5 * (b.inner_y - 1) * b.square_m, 0);
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(30 * kDegToRad, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  const Rigid3 cam_from_board(Eigen::Quaterniond(R), Eigen::Vector3d(0, 0, 0.5) - R * centre);
+  const CornerDetection d = DetectCorners(RenderBoardView(b, cam, cam_from_board), b, "floor.png");
+  ASSERT_TRUE(d.found) << d.reason;
+  const Rigid3 world_from_cam = WorldFromCamByFlatBoard(BoardPose(b, cam, d));
+  const Eigen::Vector3d forward = world_from_cam.rotation * Eigen::Vector3d::UnitZ();
+  std::printf("forward (%.4f %.4f %.4f), camera at (%.4f %.4f %.4f) m\n", forward.x(), forward.y(), forward.z(),
+              world_from_cam.translation.x(), world_from_cam.translation.y(), world_from_cam.translation.z());
+  EXPECT_LT(std::acos(std::min(1.0, -forward.y())), 0.2 * kDegToRad);
+  EXPECT_NEAR(world_from_cam.translation.y(), 0.5, 0.002);
+  // Above the board's centre: x along the rows, z along the columns.
+  EXPECT_NEAR(world_from_cam.translation.x(), centre.x(), 0.002);
+  EXPECT_NEAR(world_from_cam.translation.z(), centre.y(), 0.002);
+  // The camera's x axis is the board's rows turned by 30 degrees in the floor's plane.
+  const Eigen::Vector3d right = world_from_cam.rotation * Eigen::Vector3d::UnitX();
+  EXPECT_NEAR(std::atan2(right.z(), right.x()) / kDegToRad, -30, 0.2);
 }
 
 // Non-finite pixels and a photograph that does not match the camera are

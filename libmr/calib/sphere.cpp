@@ -76,19 +76,24 @@ std::vector<Edge> SearchEdges(const Luminance& lum, const CameraModel& camera, c
   *visible = 0;
   for (size_t k = 0; k < p.size(); ++k) {
     if (!ok[k]) continue;
-    const Eigen::Vector2d a = p[k] - (m + 1) * step * n[k], b = p[k] + (m + 1) * step * n[k];
+    // The search segment, clipped to the image: the curve point must be 2 px
+    // inside it, with 2 px of search on either side.
     auto inside = [&](const Eigen::Vector2d& q) { return q.x() >= 1 && q.y() >= 1 && q.x() <= L.cols - 2 && q.y() <= L.rows - 2; };
-    if (!inside(a) || !inside(b)) continue;
+    int lo = 0, hi = 0;  // sample indices i in [-m-1, m+1] inside the image
+    while (lo > -m - 1 && inside(p[k] + (lo - 1) * step * n[k])) --lo;
+    while (hi < m + 1 && inside(p[k] + (hi + 1) * step * n[k])) ++hi;
+    if (!inside(p[k]) || lo > -5 || hi < 5) continue;
     ++*visible;
-    std::vector<double> v(static_cast<size_t>(2 * m + 3));
-    for (int i = -m - 1; i <= m + 1; ++i) {
+    std::vector<double> v(static_cast<size_t>(2 * m + 3), 0.0);
+    for (int i = lo; i <= hi; ++i) {
       const Eigen::Vector2d q = p[k] + i * step * n[k];
       v[static_cast<size_t>(i + m + 1)] = Bilinear(L, q.x(), q.y());
     }
-    // g[i] ~ dL/ds at s = i * step, i in [-m, m].
-    std::vector<double> g(static_cast<size_t>(2 * m + 1));
+    // g[i] ~ dL/ds at s = (i - m) * step, where both neighbours are in the image.
+    const int g_lo = lo + m + 1, g_hi = hi + m - 1;  // the valid g indices
+    std::vector<double> g(static_cast<size_t>(2 * m + 1), 0.0);
     double gmax = 0;
-    for (int i = 0; i <= 2 * m; ++i) {
+    for (int i = g_lo; i <= g_hi; ++i) {
       // Outward positive: the sphere reflects less than all (reflectance
       // < 1), so at the rim the log luminance drops going inwards whatever
       // the scene does further in.
@@ -103,7 +108,7 @@ std::vector<Edge> SearchEdges(const Luminance& lum, const CameraModel& camera, c
     // whichever is less.
     const double strong = 0.5 * std::min(gmax, 0.2);
     int best = -1;
-    for (int i = 2 * m - 1; i >= 1 && best < 0; --i) {
+    for (int i = g_hi - 1; i >= g_lo + 1 && best < 0; --i) {
       const double gi = g[static_cast<size_t>(i)];
       if (gi >= strong && gi >= g[static_cast<size_t>(i - 1)] && gi > g[static_cast<size_t>(i + 1)]) best = i;
     }
@@ -111,14 +116,14 @@ std::vector<Edge> SearchEdges(const Luminance& lum, const CameraModel& camera, c
     // Placed on the linear luminance: its steepest point within a pixel of
     // the log's.
     std::vector<double> gl(g.size(), 0.0);
-    for (int i = std::max(0, best - 3); i <= std::min(2 * m, best + 3); ++i) {
+    for (int i = std::max(g_lo, best - 3); i <= std::min(g_hi, best + 3); ++i) {
       const Eigen::Vector2d q0 = p[k] + (i - m - 1) * step * n[k], q1 = p[k] + (i - m + 1) * step * n[k];
       gl[static_cast<size_t>(i)] = std::max(0.0, Bilinear(lum.linear, q1.x(), q1.y()) - Bilinear(lum.linear, q0.x(), q0.y()));
     }
     int lin = best;
-    for (int i = std::max(1, best - 2); i <= std::min(2 * m - 1, best + 2); ++i)
+    for (int i = std::max(g_lo + 1, best - 2); i <= std::min(g_hi - 1, best + 2); ++i)
       if (gl[static_cast<size_t>(i)] > gl[static_cast<size_t>(lin)]) lin = i;
-    if (lin >= 1 && lin <= 2 * m - 1) {
+    if (lin > g_lo && lin < g_hi) {
       best = lin;
       g = gl;
     }

@@ -369,7 +369,10 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
   {
     double mean = 0, var0 = 0;
     for (double r : ri) mean += r / static_cast<double>(ri.size());
-    for (double& r : ri) var0 += (r -= mean) * r / static_cast<double>(ri.size());
+    for (double& r : ri) {
+      r -= mean;
+      var0 += r * r / static_cast<double>(ri.size());
+    }
     fit.correlation = 1;
     for (size_t lag = 1; lag <= 16 && lag < ri.size() && var0 > 0; ++lag) {
       double c = 0;

@@ -33,7 +33,8 @@ ImageFileInfo InfoFromSpec(const OIIO::ImageInput& in, const OIIO::ImageSpec& sp
     std::string name = p.name().string();
     if (name.rfind("mr:", 0) == 0 || name == "oiio:ColorSpace" || name == "Software" ||
         name == "envmap" || name == "openexr:envmap" || name == "compression" ||
-        name == "ExposureTime" || name == "oiio:BitsPerSample")
+        name == "ExposureTime" || name == "FNumber" || name == "Exif:ISOSpeedRatings" ||
+        name == "Exif:PhotographicSensitivity" || name == "oiio:BitsPerSample")
       info.attributes[name] = spec.get_string_attribute(name);
   }
   return info;

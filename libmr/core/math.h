@@ -31,6 +31,11 @@ inline constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 inline constexpr float kHalfMax = 65504.0f;
 
 template <typename T>
+constexpr T Square(T v) {
+  return v * v;
+}
+
+template <typename T>
 constexpr T Clamp(T v, T lo, T hi) {
   return v < lo ? lo : (v > hi ? hi : v);
 }

@@ -1,0 +1,86 @@
+// Merging a bracket of exposures into linear radiance, with its variance.
+//
+// Each sample (pixel, channel, exposure) becomes a radiance estimate
+// X(z)/t through the response, with variance from a noise model of the
+// stored code: sigma_z^2 = read^2 + shot * z + q^2/12 (q one code step),
+// carried through the response's slope: var = (dX/dz)^2 sigma_z^2 / t^2.
+// The merged value is the inverse-variance weighted mean (the maximum-
+// likelihood estimate under that model, Granados et al. 2010), its variance
+// 1 / sum of weights.  Samples at or above `high` (saturated) or at or below
+// `low` (black) are left out; a pixel dark in every exposure takes the
+// longest exposure's value.
+//
+// Ghosts (things that moved between exposures): where the samples disagree
+// beyond their noise plus `model_error`, the pixel takes the single best
+// exposed sample and is flagged.
+//
+// Censored pixels (saturated in every exposure, e.g. the sun): X(high) /
+// t_shortest is a lower bound of their radiance.  Each connected censored
+// region is fitted in the shortest exposure by a blurred point source
+// B + Q exp(-r^2 / 2 s^2) / (2 pi s^2) over the unsaturated pixels around
+// it (the lens spreads a source smaller than its saturated disc into that
+// ring), with s and Q constrained so that the model is saturated wherever
+// the photograph is; the censored pixels take the larger of the model and
+// the lower bound.  The report gives both energies.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "hdr/response.h"
+
+namespace mr {
+
+struct MergeOptions {
+  double low = 0.02;           // normalised codes at or below: too dark to use
+  double high = 0.97;          // at or above: saturated
+  double read_noise = 0.6 / 255;  // sigma of a normalised code at black
+  double shot_noise = 0.3 / 255;  // code variance per unit code
+  bool ghosts = true;
+  double ghost_sigma = 5;      // samples further apart than this (in sigma) are a ghost
+  double model_error = 0.05;   // relative: response, JPEG and interpolation errors
+  bool fit_censored = true;    // fit censored regions (else: lower bound only)
+  void Check() const;
+};
+
+struct CensoredRegion {
+  int pixels = 0;
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // px
+  Eigen::Vector3d lower_bound = Eigen::Vector3d::Zero();  // energy: sum of radiance over its pixels, RGB
+  Eigen::Vector3d estimate = Eigen::Vector3d::Zero();     // what was filled in
+  double blur_px = 0;          // the fitted s (0 when not fitted)
+  bool fitted = false;
+  std::string why_not;         // when not fitted
+};
+
+struct MergeReport {
+  int64_t pixels = 0, censored_pixels = 0, black_pixels = 0, ghost_pixels = 0;
+  double censored_lower_bound_fraction = 0;  // of the image's total energy (luminance)
+  double censored_added_fraction = 0;        // what the fits add beyond the lower bound
+  std::vector<CensoredRegion> regions;
+  std::vector<std::string> order;            // names, shortest exposure first
+  std::vector<std::string> warnings;
+  int reference = 0;                         // index (in `order`) of the best exposed photograph
+};
+
+// Output layers: R G B (radiance, response units per second), variance.R/G/B,
+// saturated.Y (1 where censored in any channel), ghost.Y.  Exposures may
+// come in any order; a photograph given twice is used once (warned).
+Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& response, const MergeOptions& options,
+                     MergeReport* report = nullptr);
+
+// Aligns hand-held brackets (median threshold bitmaps, OpenCV's AlignMTB,
+// Ward 2003) to the middle exposure by whole-pixel shifts; photographs of
+// different sizes (crops) are centred on each other first.  Every exposure
+// comes back with the reference's size and `valid` marking pixels it saw.
+// Returns each exposure's shift (px) in the input order.
+std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int max_bits = 6);
+
+// A photograph's exposure from its metadata: ExposureTime (s), and
+// FNumber / ISO when present (t * ISO/100 / N^2 relative to f/1, ISO 100),
+// so brackets that vary aperture or gain merge too.  0 when unknown.
+double ExposureFromMetadata(const std::map<std::string, std::string>& attributes, std::string* how);
+
+}  // namespace mr

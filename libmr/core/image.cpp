@@ -1,5 +1,6 @@
 #include "core/image.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 
@@ -128,6 +129,29 @@ float SrgbToLinear(float v) {
 float LinearToSrgb(float v) {
   if (v <= 0.0031308f) return 12.92f * v;
   return 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+void GaussianBlur(Image* img, double sigma_px) {
+  if (!(sigma_px > 0)) return;
+  const int r = static_cast<int>(std::ceil(3 * sigma_px));
+  std::vector<double> k(static_cast<size_t>(2 * r + 1));
+  double ks = 0;
+  for (int i = -r; i <= r; ++i) ks += k[static_cast<size_t>(i + r)] = std::exp(-0.5 * i * i / (sigma_px * sigma_px));
+  for (auto& v : k) v /= ks;
+  const int W = img->width(), H = img->height(), C = img->channels();
+  for (int pass = 0; pass < 2; ++pass) {
+    const Image src = *img;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x)
+        for (int c = 0; c < C; ++c) {
+          double s = 0;
+          for (int i = -r; i <= r; ++i) {
+            const int xx = pass == 0 ? std::clamp(x + i, 0, W - 1) : x, yy = pass == 1 ? std::clamp(y + i, 0, H - 1) : y;
+            s += k[static_cast<size_t>(i + r)] * src.at(xx, yy, c);
+          }
+          img->at(x, y, c) = static_cast<float>(s);
+        }
+  }
 }
 
 }  // namespace mr

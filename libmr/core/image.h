@@ -66,6 +66,9 @@ std::vector<ChannelStats> ComputeStats(const Image& img);
 // Counts of NaN and +-Inf over all channels.
 int64_t CountNonFinite(const Image& img);
 
+// Separable Gaussian blur of every channel (sigma in pixels; edges clamp).
+void GaussianBlur(Image* img, double sigma_px);
+
 // The transfer function of stored integer pixels.
 enum class Transfer { kSrgb, kLinear };
 const char* ToString(Transfer t);

@@ -35,7 +35,7 @@ ImageFileInfo InfoFromSpec(const OIIO::ImageInput& in, const OIIO::ImageSpec& sp
         name == "envmap" || name == "openexr:envmap" || name == "compression" ||
         name == "ExposureTime" || name == "FNumber" || name == "Exif:ISOSpeedRatings" ||
         name == "Exif:PhotographicSensitivity" || name == "oiio:BitsPerSample")
-      info.attributes[name] = spec.get_string_attribute(name);
+      info.attributes[name] = p.type() == OIIO::TypeString ? std::string(spec.get_string_attribute(name)) : p.get_string();
   }
   return info;
 }

@@ -6,6 +6,8 @@
 #pragma once
 
 #include <array>
+#include <algorithm>
+#include <cmath>
 #include <cstdint>
 
 #include "core/math.h"
@@ -70,6 +72,12 @@ class Pcg32 {
  private:
   uint64_t state_ = 0, inc_ = 0;
 };
+
+// A standard normal deviate (Box-Muller, one of the pair).
+inline double NextGaussian(Pcg32& rng) {
+  const double u1 = std::max(1e-300, rng.NextDouble()), u2 = rng.NextDouble();
+  return std::sqrt(-2 * std::log(u1)) * std::cos(6.283185307179586 * u2);
+}
 
 // Radical inverse of `index` in a prime base; dimension d uses the d-th prime
 // (d < 64).  Halton point i = (RadicalInverse(0, i), RadicalInverse(1, i), ...).

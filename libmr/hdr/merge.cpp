@@ -40,7 +40,7 @@ double FloatWhite(const Image& img) {
 }
 
 struct Sample {
-  double value = 0, variance = 0;
+  double value = 0, variance = 0, code = 0;
   int state = 0;  // 0 usable, 1 dark, 2 saturated, 3 not seen
 };
 
@@ -97,44 +97,49 @@ std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int 
   for (size_t i = 0; i < b.size(); ++i) by_time[i] = i;
   std::stable_sort(by_time.begin(), by_time.end(), [&](size_t x, size_t y) { return b[x].time_s < b[y].time_s; });
   const size_t ref = by_time[b.size() / 2];
-  int W = 0, H = 0;
+  // Photographs of different sizes are compared on their common central
+  // crop (padding would add edges that move with the crop, not the scene).
+  int W = std::numeric_limits<int>::max(), H = W;
   for (const Exposure& e : b) {
-    W = std::max(W, e.codes.width());
-    H = std::max(H, e.codes.height());
+    W = std::min(W, e.codes.width());
+    H = std::min(H, e.codes.height());
   }
-  auto canvas = [&](const Exposure& e, Eigen::Vector2i* offset) {
-    *offset = Eigen::Vector2i((W - e.codes.width()) / 2, (H - e.codes.height()) / 2);
-    cv::Mat m(H, W, CV_8UC1, cv::Scalar(0));
+  auto offset = [&](const Exposure& e) {
+    return Eigen::Vector2i((e.codes.width() - W) / 2, (e.codes.height() - H) / 2);
+  };
+  auto grey = [&](const Exposure& e) {
+    const Eigen::Vector2i o = offset(e);
+    cv::Mat m(H, W, CV_8UC1);
     const int nc = e.codes.channels();
-    for (int y = 0; y < e.codes.height(); ++y)
-      for (int x = 0; x < e.codes.width(); ++x) {
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
         double g = 0;
-        for (int c = 0; c < nc; ++c) g += e.codes.at(x, y, c);
-        m.at<uint8_t>(y + offset->y(), x + offset->x()) =
-            static_cast<uint8_t>(std::clamp(std::lround(255 * g / nc), 0L, 255L));
+        for (int c = 0; c < nc; ++c) g += e.codes.at(x + o.x(), y + o.y(), c);
+        m.at<uint8_t>(y, x) = static_cast<uint8_t>(std::clamp(std::lround(255 * g / nc), 0L, 255L));
       }
     return m;
   };
-  Eigen::Vector2i o_ref;
-  const cv::Mat ref_img = canvas(b[ref], &o_ref);
-  cv::Ptr<cv::AlignMTB> mtb = cv::createAlignMTB(max_bits, 4, true);
+  const cv::Mat ref_img = grey(b[ref]);
+  const Eigen::Vector2i o_ref = offset(b[ref]);
+  // The pyramid's coarsest level must keep some 16 pixels across, or its
+  // shift is noise that the finer levels cannot undo.
+  const int bits = std::clamp(static_cast<int>(std::floor(std::log2(std::min(W, H) / 16.0))), 1, max_bits);
+  cv::Ptr<cv::AlignMTB> mtb = cv::createAlignMTB(bits, 4, true);
   std::vector<Eigen::Vector2i> shifts(b.size(), Eigen::Vector2i::Zero());
   const int rw = b[ref].codes.width(), rh = b[ref].codes.height();
   for (size_t i = 0; i < b.size(); ++i) {
     Exposure& e = b[i];
-    Eigen::Vector2i o;
-    const cv::Mat img = canvas(e, &o);
     Eigen::Vector2i s = Eigen::Vector2i::Zero();
     if (i != ref) {
-      const cv::Point p = mtb->calculateShift(ref_img, img);
+      const cv::Point p = mtb->calculateShift(ref_img, grey(e));
       s = Eigen::Vector2i(p.x, p.y);
     }
-    shifts[i] = s + o - o_ref;
-    if (i == ref && e.valid.empty()) continue;
-    // aligned(q) = img(q + o_ref - s - o)
+    // Reference pixel q shows what exposure i has at q - o_ref + o_i - s.
+    const Eigen::Vector2i d = offset(e) - o_ref - s;
+    shifts[i] = -d;
+    if (i == ref) continue;
     Image out(rw, rh, e.codes.channel_names());
     std::vector<uint8_t> valid(static_cast<size_t>(rw) * rh, 0);
-    const Eigen::Vector2i d = o_ref - s - o;
     for (int y = 0; y < rh; ++y)
       for (int x = 0; x < rw; ++x) {
         const int sx = x + d.x(), sy = y + d.y();
@@ -151,68 +156,52 @@ std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int 
 
 namespace {
 
-// Fits B + Q g_s(r) to the unsaturated pixels around one censored region
-// of the shortest exposure (radiance `rad`, channel c), with the constraint
-// that the model reaches `saturation` at every censored pixel.  Returns
-// false when the ring does not constrain Q (a source with no visible spread).
+// Fits B + Q exp(-r^2 / 2 s^2) / (2 pi s^2) to the unsaturated pixels
+// around one censored region of the shortest exposure (radiance `rad`,
+// channel c).  B is the median of an outer annulus; the pixels the source
+// dominates (above 3 B, below saturation) give ln(I - B) = ln(Q / 2 pi s^2)
+// - r^2 / 2 s^2, a line in r^2.  Returns false when fewer than 6 pixels
+// carry the source's spread, or the line does not fall.
 bool FitBlurredSource(const Image& rad, const std::vector<uint8_t>& usable, const std::vector<int64_t>& region,
-                      const Eigen::Vector2d& centre, double saturation, int c, double* Q, double* B, double* s_out) {
+                      const Eigen::Vector2d& centre, int c, double* Q, double* B, double* s_out) {
   const int w = rad.width(), h = rad.height();
-  int x0 = w, x1 = 0, y0 = h, y1 = 0;
-  for (int64_t p : region) {
-    x0 = std::min<int>(x0, static_cast<int>(p % w));
-    x1 = std::max<int>(x1, static_cast<int>(p % w));
-    y0 = std::min<int>(y0, static_cast<int>(p / w));
-    y1 = std::max<int>(y1, static_cast<int>(p / w));
-  }
-  const int margin = std::max(4, (x1 - x0 + y1 - y0) / 2 + 3);
-  std::vector<std::pair<double, double>> ring;  // r^2, value
-  for (int y = std::max(0, y0 - margin); y <= std::min(h - 1, y1 + margin); ++y)
-    for (int x = std::max(0, x0 - margin); x <= std::min(w - 1, x1 + margin); ++x) {
+  double r_censored = 0;
+  for (int64_t p : region)
+    r_censored = std::max(r_censored, std::hypot(p % w - centre.x(), p / w - centre.y()));
+  const double r_outer = 2 * r_censored + 8;
+  std::vector<std::pair<double, double>> near;  // r^2, value
+  std::vector<double> annulus;
+  const int R = static_cast<int>(std::ceil(r_outer));
+  const int cx = static_cast<int>(std::lround(centre.x())), cy = static_cast<int>(std::lround(centre.y()));
+  for (int y = std::max(0, cy - R); y <= std::min(h - 1, cy + R); ++y)
+    for (int x = std::max(0, cx - R); x <= std::min(w - 1, cx + R); ++x) {
       const int64_t p = static_cast<int64_t>(y) * w + x;
       if (!usable[static_cast<size_t>(p)]) continue;
       const double r2 = Square(x - centre.x()) + Square(y - centre.y());
-      ring.push_back({r2, rad.at(x, y, c)});
+      if (r2 > r_outer * r_outer) continue;
+      if (r2 > Square(0.75 * r_outer)) annulus.push_back(rad.at(x, y, c));
+      near.push_back({r2, rad.at(x, y, c)});
     }
-  if (ring.size() < 8) return false;
-  double max_r2_censored = 0;
-  for (int64_t p : region)
-    max_r2_censored = std::max(max_r2_censored, Square(p % w - centre.x()) + Square(p / w - centre.y()));
-  double best = std::numeric_limits<double>::infinity();
-  bool found = false;
-  for (double s = 0.3; s <= margin; s *= 1.05) {
-    // Linear least squares for (B, Q) at this s, relative errors (the ring
-    // spans decades).
-    Eigen::Matrix2d AtA = Eigen::Matrix2d::Zero();
-    Eigen::Vector2d Atb = Eigen::Vector2d::Zero();
-    std::vector<double> g(ring.size());
-    for (size_t i = 0; i < ring.size(); ++i) {
-      g[i] = std::exp(-ring[i].first / (2 * s * s)) / (2 * kPi * s * s);
-      const double wgt = 1.0 / Square(std::max(ring[i].second, 1e-30));
-      const Eigen::Vector2d a(1.0, g[i]);
-      AtA += wgt * a * a.transpose();
-      Atb += wgt * a * ring[i].second;
-    }
-    if (std::abs(AtA.determinant()) < 1e-300) continue;
-    Eigen::Vector2d x = AtA.ldlt().solve(Atb);
-    if (!(x[1] > 0)) continue;
-    x[0] = std::max(0.0, x[0]);
-    // The model must be saturated at every censored pixel (the farthest one
-    // is the binding one).
-    const double at_edge = x[0] + x[1] * std::exp(-max_r2_censored / (2 * s * s)) / (2 * kPi * s * s);
-    if (at_edge < saturation) continue;
-    double cost = 0;
-    for (size_t i = 0; i < ring.size(); ++i)
-      cost += Square((x[0] + x[1] * g[i] - ring[i].second) / std::max(ring[i].second, 1e-30));
-    if (cost < best) {
-      best = cost;
-      *B = x[0];
-      *Q = x[1];
-      *s_out = s;
-      found = true;
-    }
+  if (annulus.size() < 8) return false;
+  std::nth_element(annulus.begin(), annulus.begin() + static_cast<std::ptrdiff_t>(annulus.size() / 2), annulus.end());
+  *B = std::max(0.0, annulus[annulus.size() / 2]);
+  Eigen::Matrix2d AtA = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d Atb = Eigen::Vector2d::Zero();
+  int n = 0;
+  for (const auto& [r2, v] : near) {
+    if (!(v > 3 * *B + 1e-30)) continue;
+    const Eigen::Vector2d a(1.0, r2);
+    AtA += a * a.transpose();
+    Atb += a * std::log(v - *B);
+    ++n;
   }
-  return found;
+  if (n < 6 || std::abs(AtA.determinant()) < 1e-12) return false;
+  const Eigen::Vector2d x = AtA.ldlt().solve(Atb);
+  if (!(x[1] < 0)) return false;
+  const double s2 = -0.5 / x[1];
+  *s_out = std::sqrt(s2);
+  *Q = std::exp(x[0]) * 2 * kPi * s2;
+  return std::isfinite(*Q) && *Q > 0;
 }
 
 }  // namespace
@@ -256,6 +245,8 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
         if (v < 0) ThrowError("{}: negative linear pixel value {}", bracket[j].name, v);
     }
   }
+  std::vector<double> saturation_exposure(static_cast<size_t>(nc));
+  for (int c = 0; c < nc; ++c) saturation_exposure[static_cast<size_t>(c)] = response.Exposure(c, 1.0);
   auto sample = [&](size_t j, int64_t p, int c) {
     const ExposureModel& m = models[j];
     Sample s;
@@ -265,23 +256,23 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
     }
     const double z = m.e->codes.values()[static_cast<size_t>(p * nc + c)];
     const double t = m.e->time_s;
+    s.code = z;
     if (m.linear_float) {
-      if (m.white > 0 && z >= o.high * m.white) s.state = 2;
-      const double zn = m.white > 0 ? z / m.white : z;
-      if (m.white > 0 && zn <= o.low) s.state = 1;
-      const double scale = m.white > 0 ? m.white : 1.0;
-      const double var_z = Square(o.read_noise) + o.shot_noise * std::max(zn, 0.0);
+      const double white = m.white > 0 ? m.white : 1.0;
+      const double zn = z / white;
+      if (m.white > 0 && zn >= o.high) s.state = 2;
+      else if (m.white > 0 && zn <= o.low) s.state = 1;
       s.value = z / t;
-      s.variance = var_z * scale * scale / (t * t);
+      s.variance = white * white * (Square(o.read_noise) + o.shot_noise * std::max(zn, 0.0)) / (t * t);
       return s;
     }
     if (z >= o.high) s.state = 2;
     else if (z <= o.low) s.state = 1;
     const double X = response.Exposure(c, z);
+    const double Xsat = saturation_exposure[static_cast<size_t>(c)];
     const double slope = response.ExposureSlope(c, z);
-    const double var_z = Square(o.read_noise) + o.shot_noise * z + m.q * m.q / 12;
     s.value = X / t;
-    s.variance = slope * slope * var_z / (t * t);
+    s.variance = (Xsat * Xsat * (Square(o.read_noise) + o.shot_noise * X / Xsat) + slope * slope * m.q * m.q / 12) / (t * t);
     return s;
   };
   // The reference for ghosts: the exposure with the most usable samples.
@@ -352,7 +343,7 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
           size_t j = m;
           while (j-- > 0)
             if (s[j].state == 1) break;
-          value = std::max(0.0, s[j].value);
+          value = s[j].code > 0 ? std::max(0.0, s[j].value) : 0.0;  // code 0: nothing measured
           var = s[j].variance;
         } else {
           value = 0;
@@ -438,13 +429,10 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
           for (int64_t p : regions[static_cast<size_t>(l)])
             if (censored[static_cast<size_t>(p * nc + c)]) reg_c.push_back(p);
           if (reg_c.empty()) continue;
-          double saturation = std::numeric_limits<double>::infinity(), lower = 0;
-          for (int64_t p : reg_c) {
-            saturation = std::min(saturation, sample(shortest, p, c).value);
-            lower += out.values()[static_cast<size_t>(p * no + c)];
-          }
+          double lower = 0;
+          for (int64_t p : reg_c) lower += out.values()[static_cast<size_t>(p * no + c)];
           double Q = 0, B = 0, s = 0;
-          if (!FitBlurredSource(rad, usable[static_cast<size_t>(c)], reg_c, reg.centre, saturation, c, &Q, &B, &s)) {
+          if (!FitBlurredSource(rad, usable[static_cast<size_t>(c)], reg_c, reg.centre, c, &Q, &B, &s)) {
             all = false;
             continue;
           }
@@ -452,7 +440,7 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
           double e = 0;
           for (int64_t p : reg_c) {
             const double r2 = Square(p % w - reg.centre.x()) + Square(p / w - reg.centre.y());
-            const double model = B + Q * std::exp(-r2 / (2 * s * s)) / (2 * kPi * s * s);
+            const double model = Q * std::exp(-r2 / (2 * s * s)) / (2 * kPi * s * s);
             float& v = out.values()[static_cast<size_t>(p * no + c)];
             v = static_cast<float>(std::max<double>(v, model));
             e += v;

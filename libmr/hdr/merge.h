@@ -1,9 +1,11 @@
 // Merging a bracket of exposures into linear radiance, with its variance.
 //
 // Each sample (pixel, channel, exposure) becomes a radiance estimate
-// X(z)/t through the response, with variance from a noise model of the
-// stored code: sigma_z^2 = read^2 + shot * z + q^2/12 (q one code step),
-// carried through the response's slope: var = (dX/dz)^2 sigma_z^2 / t^2.
+// X(z)/t through the response, with variance from a sensor noise model in
+// the linear signal s = X / X(1) (the fraction of saturation the pixel
+// received): var(s) = read^2 + shot * s, plus the quantisation of the
+// stored code carried through the response's slope, (dX/dz)^2 q^2/12 (q one
+// code step); var = (X(1)^2 var(s) + (dX/dz)^2 q^2/12) / t^2.
 // The merged value is the inverse-variance weighted mean (the maximum-
 // likelihood estimate under that model, Granados et al. 2010), its variance
 // 1 / sum of weights.  Samples at or above `high` (saturated) or at or below
@@ -14,14 +16,15 @@
 // beyond their noise plus `model_error`, the pixel takes the single best
 // exposed sample and is flagged.
 //
-// Censored pixels (saturated in every exposure, e.g. the sun): X(high) /
-// t_shortest is a lower bound of their radiance.  Each connected censored
-// region is fitted in the shortest exposure by a blurred point source
-// B + Q exp(-r^2 / 2 s^2) / (2 pi s^2) over the unsaturated pixels around
-// it (the lens spreads a source smaller than its saturated disc into that
-// ring), with s and Q constrained so that the model is saturated wherever
-// the photograph is; the censored pixels take the larger of the model and
-// the lower bound.  The report gives both energies.
+// Censored pixels (saturated in every exposure, e.g. the sun): their code
+// over the shortest time is a lower bound of their radiance.  Each
+// connected censored region is fitted in the shortest exposure by a
+// blurred point source B + Q exp(-r^2 / 2 s^2) / (2 pi s^2) over the
+// unsaturated pixels around it that it dominates (the lens spreads a source
+// into a ring around its saturated disc); the censored pixels take the
+// larger of the model and the lower bound.  Regions with no measurable
+// spread keep the lower bound, with the reason.  The report gives both
+// energies.
 #pragma once
 
 #include <string>
@@ -36,8 +39,8 @@ namespace mr {
 struct MergeOptions {
   double low = 0.02;           // normalised codes at or below: too dark to use
   double high = 0.97;          // at or above: saturated
-  double read_noise = 0.6 / 255;  // sigma of a normalised code at black
-  double shot_noise = 0.3 / 255;  // code variance per unit code
+  double read_noise = 3e-4;    // sigma of the linear signal s at black (fraction of saturation)
+  double shot_noise = 1e-4;    // variance of s per unit s (1 / full-well electrons)
   bool ghosts = true;
   double ghost_sigma = 5;      // samples further apart than this (in sigma) are a ghost
   double model_error = 0.05;   // relative: response, JPEG and interpolation errors
@@ -75,7 +78,9 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
 // Ward 2003) to the middle exposure by whole-pixel shifts; photographs of
 // different sizes (crops) are centred on each other first.  Every exposure
 // comes back with the reference's size and `valid` marking pixels it saw.
-// Returns each exposure's shift (px) in the input order.
+// Shifts up to 2^max_bits - 1 px (fewer on small images: the coarsest
+// level keeps 16 px).  Returns each exposure's shift in the input order: reference pixel q
+// shows exposure i's pixel q - shift.
 std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int max_bits = 6);
 
 // A photograph's exposure from its metadata: ExposureTime (s), and

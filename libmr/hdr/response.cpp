@@ -155,14 +155,14 @@ std::vector<double> SolveDebevec(const std::vector<Exposure>& bracket, const std
 // Robertson, Borman & Stevenson: alternate the irradiances given the
 // response and the response (the mean exposure per code) given them.
 std::vector<double> SolveRobertson(const std::vector<Exposure>& bracket, const std::vector<int64_t>& pix, int c,
-                                   const ResponseOptions& o) {
+                                   const ResponseOptions& o, const std::vector<double>& start) {
   const int L = o.levels;
   auto weight = [&](int k) {
     const double z = (k + 0.5) / L - 0.5;
     return (k == 0 || k == L - 1) ? 0.0 : std::exp(-16.0 * z * z);
   };
   std::vector<double> X(static_cast<size_t>(L));
-  for (int k = 0; k < L; ++k) X[static_cast<size_t>(k)] = std::max(1e-4, static_cast<double>(k) / (L - 1));
+  for (int k = 0; k < L; ++k) X[static_cast<size_t>(k)] = std::exp(start[static_cast<size_t>(k)]);
   const size_t m = bracket.size();
   std::vector<int> level(pix.size() * m);
   for (size_t i = 0; i < pix.size(); ++i)
@@ -206,6 +206,7 @@ std::vector<double> SolveRobertson(const std::vector<Exposure>& bracket, const s
 }  // namespace
 
 double CameraResponse::Exposure(int channel, double z) const {
+  if (identity) return std::max(z, 0.0);
   const std::vector<double>& g = log_exposure[static_cast<size_t>(channel)];
   const int L = levels();
   const double u = std::clamp(z, 0.0, 1.0) * (L - 1);
@@ -215,6 +216,7 @@ double CameraResponse::Exposure(int channel, double z) const {
 }
 
 double CameraResponse::ExposureSlope(int channel, double z) const {
+  if (identity) return 1.0;
   const std::vector<double>& g = log_exposure[static_cast<size_t>(channel)];
   const int L = levels();
   const double u = std::clamp(z, 0.0, 1.0) * (L - 1);
@@ -225,15 +227,16 @@ double CameraResponse::ExposureSlope(int channel, double z) const {
 CameraResponse LinearResponse(int channels, int levels) {
   CameraResponse r;
   r.method = "linear";
+  r.identity = true;
   const char* names[] = {"R", "G", "B"};
   for (int c = 0; c < channels; ++c) {
     r.channels.push_back(c < 3 ? names[c] : fmt::format("C{}", c));
     std::vector<double> g(static_cast<size_t>(levels));
     // Level 0 stands for code 0: a tiny positive exposure keeps ln finite;
     // interpolation towards it is linear in ln, which only matters below
-    // one code step.
+    // one table step.
     for (int k = 0; k < levels; ++k)
-      g[static_cast<size_t>(k)] = std::log(std::max(static_cast<double>(k), 1e-3) / (levels - 1) * 2.0);
+      g[static_cast<size_t>(k)] = std::log(std::max(static_cast<double>(k), 1e-3) / (levels - 1));
     r.log_exposure.push_back(g);
   }
   return r;
@@ -272,7 +275,8 @@ CameraResponse RecoverResponse(const std::vector<Exposure>& bracket, const Respo
       g = SolveDebevec(sorted, pix, c, o, &rc);
       rms += rc * rc;
     } else {
-      g = SolveRobertson(sorted, pix, c, o);
+      double rc = 0;
+      g = SolveRobertson(sorted, pix, c, o, SolveDebevec(sorted, ChooseDebevecSamples(sorted, o.samples), c, o, &rc));
       rep.iterations = o.iterations;
     }
     for (double v : g)
@@ -300,6 +304,7 @@ CameraResponse ParseResponse(const Json& j, const std::string& name) {
   if (root.Required("version").Integer(1, 1000) != 1) root.Child("version").Fail("this mr reads response version 1");
   CameraResponse r;
   r.method = root.Required("method").String();
+  r.identity = r.method == "linear";
   const int levels = static_cast<int>(root.Required("levels").Integer(16, 4096));
   JsonNode chs = root.Required("channels");
   if (!chs.json().is_array() || chs.json().empty()) chs.Fail("expected a non-empty array of channel names");

@@ -28,6 +28,7 @@ struct CameraResponse {
   std::string method = "linear";          // linear, debevec, robertson, file
   std::vector<std::string> channels;      // R G B
   std::vector<std::vector<double>> log_exposure;  // [channel][level]: g(z)
+  bool identity = false;  // X = z exactly (linear inputs; the table is then only for files)
 
   int levels() const { return log_exposure.empty() ? 0 : static_cast<int>(log_exposure[0].size()); }
   // X = exp(g(z)) for normalised code z in [0, 1] (clamped).
@@ -36,7 +37,8 @@ struct CameraResponse {
   double ExposureSlope(int channel, double z) const;
 };
 
-// X = z: what linear (float, or linear-encoded 16-bit) inputs have.
+// X = z: what linear (float, or linear-encoded 16-bit) inputs have (no
+// g(0.5) = 0 normalisation: X is the code itself).
 CameraResponse LinearResponse(int channels, int levels = 256);
 
 // One photograph of a bracket: normalised codes in [0, 1] (or linear
@@ -56,7 +58,7 @@ struct ResponseOptions {
   int levels = 256;
   double smoothness = 50;          // Debevec's lambda, per unit weight (codes in levels)
   int samples = 400;               // Debevec: pixels chosen across the code range
-  int iterations = 30;             // Robertson
+  int iterations = 10;             // Robertson, from the Debevec solution
   void Check() const;
 };
 

@@ -51,27 +51,7 @@ Image RenderBoardView(const BoardSpec& b, const CameraModel& camera, const Rigid
       img.at(x, static_cast<int>(y), 0) = static_cast<float>(sum / n);
     }
   });
-  if (o.blur_sigma_px > 0) {  // separable Gaussian
-    const int r = static_cast<int>(std::ceil(3 * o.blur_sigma_px));
-    std::vector<double> k(static_cast<size_t>(2 * r + 1));
-    double ks = 0;
-    for (int i = -r; i <= r; ++i) ks += k[static_cast<size_t>(i + r)] = std::exp(-0.5 * i * i / (o.blur_sigma_px * o.blur_sigma_px));
-    for (auto& v : k) v /= ks;
-    Image tmp = img;
-    for (int pass = 0; pass < 2; ++pass) {
-      const Image src = pass == 0 ? img : tmp;
-      Image& dst = pass == 0 ? tmp : img;
-      for (int y = 0; y < H; ++y)
-        for (int x = 0; x < W; ++x) {
-          double s = 0;
-          for (int i = -r; i <= r; ++i) {
-            const int xx = pass == 0 ? Clamp(x + i, 0, W - 1) : x, yy = pass == 1 ? Clamp(y + i, 0, H - 1) : y;
-            s += k[static_cast<size_t>(i + r)] * src.at(xx, yy, 0);
-          }
-          dst.at(x, y, 0) = static_cast<float>(s);
-        }
-    }
-  }
+  GaussianBlur(&img, o.blur_sigma_px);
   if (o.noise_sigma > 0)
     for (int y = 0; y < H; ++y)
       for (int x = 0; x < W; ++x) {

@@ -206,7 +206,7 @@ TEST(Calibrate, BoardsOnlyNearTheCentreLeaveTheEdgesUncertainAndSaySo) {
       const double sg = r.uncertainty->StdevPx(Eigen::Vector2d(479.0 * i / 8, 359.0 * j / 6), r.model);
       valid += std::isfinite(sg) && sg < 1;
     }
-  for (const Eigen::Vector2d q : {Eigen::Vector2d(0, 0), Eigen::Vector2d(479, 0), Eigen::Vector2d(0, 359), Eigen::Vector2d(479, 359)}) {
+  for (const Eigen::Vector2d& q : {Eigen::Vector2d(0, 0), Eigen::Vector2d(479, 0), Eigen::Vector2d(0, 359), Eigen::Vector2d(479, 359)}) {
     const double sg = r.uncertainty->StdevPx(q, r.model);
     Eigen::Vector3d d;
     Eigen::Vector2d p;

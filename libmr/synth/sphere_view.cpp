@@ -31,6 +31,13 @@ Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, con
             const Eigen::Vector3d n = (t * d - centre) / radius;
             dir = d - 2 * d.dot(n) * n;
             scale = o.reflectance;
+            const Eigen::Vector3d p = t * d;
+            // The reflected ray meets the camera's body (a sphere at the origin)?
+            const double pb = p.dot(dir), pc = p.squaredNorm() - Square(o.camera_body_radius);
+            if (o.camera_body_radius > 0 && pb < 0 && pb * pb - pc >= 0) {
+              sum += Eigen::Vector3d::Constant(scale * o.camera_body_radiance);
+              continue;
+            }
           }
           sum += scale * env.Eval(o.world_from_cam * dir);
         }

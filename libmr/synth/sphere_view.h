@@ -20,6 +20,11 @@ struct SphereViewOptions {
   double exposure = 1;            // scales radiance; values are not clipped
   double noise_sigma = 0;         // Gaussian noise relative to each value, seeded
   uint64_t seed = 1;
+  // The camera's own body: a sphere of this radius (metres) around the
+  // camera's centre with this radiance, seen reflected near the sphere's
+  // centre (0: no body).
+  double camera_body_radius = 0;
+  double camera_body_radiance = 0.02;
 };
 
 // A perfect mirror sphere of `radius` (metres) centred at `centre` (camera

@@ -156,20 +156,21 @@ std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int 
 
 namespace {
 
-// Fits B + Q exp(-r^2 / 2 s^2) / (2 pi s^2) to the unsaturated pixels
-// around one censored region of the shortest exposure (radiance `rad`,
-// channel c).  B is the median of an outer annulus; the pixels the source
-// dominates (above 3 B, below saturation) give ln(I - B) = ln(Q / 2 pi s^2)
-// - r^2 / 2 s^2, a line in r^2.  Returns false when fewer than 6 pixels
-// carry the source's spread, or the line does not fall.
-bool FitBlurredSource(const Image& rad, const std::vector<uint8_t>& usable, const std::vector<int64_t>& region,
-                      const Eigen::Vector2d& centre, int c, double* Q, double* B, double* s_out) {
+// A censored region's source from the unsaturated pixels around it in the
+// shortest exposure (radiance `rad`, channel c), which the lens's blur
+// lights: B + Q exp(-r^2 / 2 s^2) / (2 pi s^2), B the median of an outer
+// annulus, s the known lens blur `psf` or (when 0) the spread the ring
+// shows (ln(I - B) is a line in r^2 over the pixels the source dominates),
+// then Q by least squares in relative terms.  Returns false when fewer than
+// 6 pixels carry the source's spread.
+bool FitCensoredRegion(const Image& rad, const std::vector<uint8_t>& usable, const std::vector<int64_t>& region,
+                       const Eigen::Vector2d& centre, int c, double psf, double* Q, double* s_out) {
   const int w = rad.width(), h = rad.height();
   double r_censored = 0;
   for (int64_t p : region)
     r_censored = std::max(r_censored, std::hypot(p % w - centre.x(), p / w - centre.y()));
   const double r_outer = 2 * r_censored + 8;
-  std::vector<std::pair<double, double>> near;  // r^2, value
+  std::vector<std::pair<int64_t, double>> near;  // pixel, value
   std::vector<double> annulus;
   const int R = static_cast<int>(std::ceil(r_outer));
   const int cx = static_cast<int>(std::lround(centre.x())), cy = static_cast<int>(std::lround(centre.y()));
@@ -180,27 +181,40 @@ bool FitBlurredSource(const Image& rad, const std::vector<uint8_t>& usable, cons
       const double r2 = Square(x - centre.x()) + Square(y - centre.y());
       if (r2 > r_outer * r_outer) continue;
       if (r2 > Square(0.75 * r_outer)) annulus.push_back(rad.at(x, y, c));
-      near.push_back({r2, rad.at(x, y, c)});
+      near.push_back({p, rad.at(x, y, c)});
     }
   if (annulus.size() < 8) return false;
   std::nth_element(annulus.begin(), annulus.begin() + static_cast<std::ptrdiff_t>(annulus.size() / 2), annulus.end());
-  *B = std::max(0.0, annulus[annulus.size() / 2]);
-  Eigen::Matrix2d AtA = Eigen::Matrix2d::Zero();
-  Eigen::Vector2d Atb = Eigen::Vector2d::Zero();
-  int n = 0;
-  for (const auto& [r2, v] : near) {
-    if (!(v > 3 * *B + 1e-30)) continue;
-    const Eigen::Vector2d a(1.0, r2);
-    AtA += a * a.transpose();
-    Atb += a * std::log(v - *B);
-    ++n;
+  const double B = std::max(0.0, annulus[annulus.size() / 2]);
+  std::vector<std::pair<int64_t, double>> lit;
+  for (const auto& pv : near)
+    if (pv.second > 3 * B + 1e-30) lit.push_back(pv);
+  if (lit.size() < 6) return false;
+  double s = psf;
+  if (!(s > 0)) {
+    Eigen::Matrix2d AtA = Eigen::Matrix2d::Zero();
+    Eigen::Vector2d Atb = Eigen::Vector2d::Zero();
+    for (const auto& [p, v] : lit) {
+      const Eigen::Vector2d a(1.0, Square(p % w - centre.x()) + Square(p / w - centre.y()));
+      AtA += a * a.transpose();
+      Atb += a * std::log(v - B);
+    }
+    if (std::abs(AtA.determinant()) < 1e-12) return false;
+    const Eigen::Vector2d x = AtA.ldlt().solve(Atb);
+    if (!(x[1] < 0)) return false;
+    s = std::sqrt(-0.5 / x[1]);
   }
-  if (n < 6 || std::abs(AtA.determinant()) < 1e-12) return false;
-  const Eigen::Vector2d x = AtA.ldlt().solve(Atb);
-  if (!(x[1] < 0)) return false;
-  const double s2 = -0.5 / x[1];
-  *s_out = std::sqrt(s2);
-  *Q = std::exp(x[0]) * 2 * kPi * s2;
+  // I(p) - B = Q g_s(p - centre): Q by least squares in relative terms.
+  double num = 0, den = 0;
+  for (const auto& [p, v] : lit) {
+    const double g = std::exp(-(Square(p % w - centre.x()) + Square(p / w - centre.y())) / (2 * s * s)) / (2 * kPi * s * s);
+    const double wgt = 1.0 / Square(v);
+    num += wgt * g * (v - B);
+    den += wgt * g * g;
+  }
+  if (!(den > 0)) return false;
+  *Q = num / den;
+  *s_out = s;
   return std::isfinite(*Q) && *Q > 0;
 }
 
@@ -431,8 +445,8 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
           if (reg_c.empty()) continue;
           double lower = 0;
           for (int64_t p : reg_c) lower += out.values()[static_cast<size_t>(p * no + c)];
-          double Q = 0, B = 0, s = 0;
-          if (!FitBlurredSource(rad, usable[static_cast<size_t>(c)], reg_c, reg.centre, c, &Q, &B, &s)) {
+          double Q = 0, s = 0;
+          if (!FitCensoredRegion(rad, usable[static_cast<size_t>(c)], reg_c, reg.centre, c, o.psf_sigma_px, &Q, &s)) {
             all = false;
             continue;
           }

@@ -282,6 +282,9 @@ CameraResponse RecoverResponse(const std::vector<Exposure>& bracket, const Respo
     for (double v : g)
       if (!std::isfinite(v)) ThrowError("the recovered response is not finite (too few distinct exposures?)");
     rep.monotonicity_fixes += MakeIncreasing(&g);
+    // The solve fixes g(middle) = 0; the unit is the saturating exposure.
+    const double top = g.back();
+    for (double& v : g) v -= top;
     r.log_exposure.push_back(std::move(g));
   }
   rep.rms_log = std::sqrt(rms / std::max(1, sorted[0].codes.channels()));

@@ -2,8 +2,9 @@
 //
 // For each channel, a table of g(z) = ln(X) over `levels` equally spaced
 // normalised codes z in [0, 1] (code / max code), where X = E * t is the
-// relative exposure (radiance times exposure time, in the camera's own
-// units; g(0.5) = 0 fixes the scale).  Codes between table entries are
+// exposure (radiance times exposure time) in units of the exposure that
+// saturates the channel: g(1) = 0.  So merged radiance is "saturation
+// exposures per second", the same for every bracket of one camera.  Codes between table entries are
 // interpolated linearly in z.  Recovered from bracketed photographs by
 // Debevec-Malik (1997: least squares with a smoothness term, over pixels
 // chosen across the code range) or Robertson et al. (2003: alternating
@@ -37,8 +38,7 @@ struct CameraResponse {
   double ExposureSlope(int channel, double z) const;
 };
 
-// X = z: what linear (float, or linear-encoded 16-bit) inputs have (no
-// g(0.5) = 0 normalisation: X is the code itself).
+// X = z: what linear (float, or linear-encoded 16-bit) inputs have.
 CameraResponse LinearResponse(int channels, int levels = 256);
 
 // One photograph of a bracket: normalised codes in [0, 1] (or linear

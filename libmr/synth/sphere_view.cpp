@@ -56,4 +56,9 @@ Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, con
   return img;
 }
 
+Image RenderEnvironmentView(const EnvironmentMap& env, const CameraModel& camera, const SphereViewOptions& options) {
+  // A sphere of radius 0 is never hit.
+  return RenderSphereView(env, camera, Eigen::Vector3d(0, 0, 1), 0.0, options);
+}
+
 }  // namespace mr

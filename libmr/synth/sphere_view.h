@@ -33,4 +33,7 @@ struct SphereViewOptions {
 Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, const Eigen::Vector3d& centre,
                        double radius, const SphereViewOptions& options = {});
 
+// The environment itself through `camera` (no sphere): a fish-eye probe.
+Image RenderEnvironmentView(const EnvironmentMap& env, const CameraModel& camera, const SphereViewOptions& options = {});
+
 }  // namespace mr

@@ -1,4 +1,5 @@
 #include "synth/synth.h"
+#include "synth/bracket.h"
 #include "synth/sphere_view.h"
 
 #include <spdlog/spdlog.h>
@@ -82,6 +83,81 @@ Material Diffuse(double r, double g, double b) {
 }
 
 }  // namespace
+
+namespace {
+
+// The light camera's bracket: exposure times and what mr-hdr needs to know.
+const std::vector<double> kProbeTimes = {1, 0.25, 0.0625, 0.015625, 0.00390625};
+
+void WriteBracket(const fs::path& dir, const std::string& prefix, const Image& radiance, uint64_t seed,
+                  const ImageWriteOptions& wo, Report* report) {
+  BracketOptions bo;
+  bo.times = kProbeTimes;
+  bo.blur_px = 1.0;
+  bo.seed = seed;
+  const std::vector<Exposure> bracket = SynthesiseBracket(radiance, bo);
+  fs::create_directories(dir);
+  std::string sidecar = "# exposure times (s) of the bracket, for mr-hdr --exposures\n";
+  ImageWriteOptions raw = wo;
+  raw.ldr_transfer = Transfer::kLinear;  // the values are already the camera's codes
+  for (size_t k = 0; k < bracket.size(); ++k) {
+    const std::string name = fmt::format("{}-{}.png", prefix, k);
+    WriteImage(dir / name, bracket[k].codes, raw);
+    sidecar += fmt::format("{} {}\n", name, bracket[k].time_s);
+    report->AddOutput((dir / name).string());
+  }
+  WriteTextFile(dir / "exposures.txt", sidecar);
+}
+
+}  // namespace
+
+void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
+  ImageWriteOptions wo;
+  wo.tool = o.tool;
+  wo.command_line = o.command_line;
+  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
+  const Eigen::Matrix3d world_from_light = Eigen::Vector3d(1, -1, -1).asDiagonal();
+  CameraModel light("LENSMODEL_STEREOGRAPHIC", {134, 134, 319.5, 319.5}, 640, 640);
+  light.set_cam_from_ref(Rigid3(Eigen::Quaterniond(world_from_light.transpose()), Eigen::Vector3d::Zero()));
+  const Eigen::Vector3d centre(0.04, -0.02, 0.12);
+  const double radius = 0.0254, reflectance = 0.6, body = 0.02;
+  const EnvironmentMap env(sky, "sky");
+  SphereViewOptions so;
+  so.supersample = 3;
+  so.world_from_cam = world_from_light;
+  so.reflectance = reflectance;
+  so.noise_sigma = 0.01;
+  so.seed = o.seed;
+  fs::create_directories(o.out / "probe");
+  light.Write(o.out / "probe" / "light.cameramodel", note);
+  WriteImage(o.out / "probe" / "sphere.exr", RenderSphereView(env, light, centre, radius, so), wo);
+  so.noise_sigma = 0;  // the bracket adds the sensor's own
+  so.camera_body_radius = body;
+  WriteBracket(o.out / "probe" / "bracket", "sphere", RenderSphereView(env, light, centre, radius, so), o.seed, wo, report);
+  // The fish-eye at the zenith: camera z along world +y, camera y along -z.
+  CameraModel up = light;
+  Eigen::Matrix3d world_from_up;
+  world_from_up << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  up.set_cam_from_ref(Rigid3(Eigen::Quaterniond(world_from_up.transpose()), Eigen::Vector3d::Zero()));
+  up.Write(o.out / "probe" / "fisheye.cameramodel", note);
+  so.world_from_cam = world_from_up;
+  so.camera_body_radius = 0;
+  WriteBracket(o.out / "probe" / "fisheye", "sky", RenderEnvironmentView(env, up, so), HashCombine(o.seed, 99), wo, report);
+  Json times = Json::array();
+  for (double t : kProbeTimes) times.push_back(t);
+  WriteTextFile(o.out / "probe" / "truth.json",
+                Json({{"radius_m", radius},
+                      {"centre_cam_m", {centre.x(), centre.y(), centre.z()}},
+                      {"reflectance", reflectance},
+                      {"camera_body_radius_m", body},
+                      {"environment", "../env.exr"},
+                      {"bracket", {{"times_s", times}, {"response", "sRGB curve, saturating at exposure 1"},
+                                   {"blur_px", 1.0}, {"bits", 8}}},
+                      {"comment", note}})
+                        .dump(2) + "\n");
+  for (const char* f2 : {"probe/light.cameramodel", "probe/sphere.exr", "probe/truth.json", "probe/fisheye.cameramodel"})
+    report->AddOutput((o.out / f2).string());
+}
 
 void RunSynth(const SynthOptions& o, Report* report) {
   const SynthPreset p = GetSynthPreset(o.preset);
@@ -217,22 +293,13 @@ void RunSynth(const SynthOptions& o, Report* report) {
       report->AddOutput((o.out / f2).string());
     // The light probe: a 2-inch mirror sphere photographed by a 200-degree
     // stereographic fish-eye (the "light camera", looking along the world's
-    // -z, +y up), for mr-calibrate sphere; probe/truth.json holds the answer.
-    const CameraModel light("LENSMODEL_STEREOGRAPHIC", {134, 134, 319.5, 319.5}, 640, 640);
-    const Eigen::Vector3d centre(0.04, -0.02, 0.12);
-    const double radius = 0.0254;
-    SphereViewOptions so;
-    so.supersample = 3;
-    so.world_from_cam = Eigen::Vector3d(1, -1, -1).asDiagonal();
-    so.noise_sigma = 0.01;
-    so.seed = o.seed;
-    fs::create_directories(o.out / "probe");
-    light.Write(o.out / "probe" / "light.cameramodel", note);
-    WriteImage(o.out / "probe" / "sphere.exr", RenderSphereView(EnvironmentMap(sky, "sky"), light, centre, radius, so), wo);
-    WriteTextFile(o.out / "probe" / "truth.json",
-                  Json({{"radius_m", radius}, {"centre_cam_m", {centre.x(), centre.y(), centre.z()}}, {"comment", note}}).dump(2) + "\n");
-    for (const char* f2 : {"probe/light.cameramodel", "probe/sphere.exr", "probe/truth.json"})
-      report->AddOutput((o.out / f2).string());
+    // -z, +y up: its extrinsics say so), for mr-calibrate sphere;
+    // probe/truth.json holds the answer.  Then the same sphere as a bracket
+    // of 8-bit photographs through the sRGB curve (the camera's response),
+    // with lens blur, noise and the camera's own body reflected, the sun
+    // saturating every exposure (mr-hdr, then mr-probe: the result should
+    // be env.exr); and a bracket of the fish-eye pointed at the zenith.
+    WriteProbe(o, sky, report);
   }
 
   // Render the truth; its real-only paths are the photographs.

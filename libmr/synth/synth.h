@@ -13,6 +13,7 @@
 #include <string>
 
 #include "core/file.h"
+#include "core/image.h"
 #include "core/report.h"
 
 namespace mr {
@@ -32,6 +33,10 @@ struct SynthPreset {
   double sun_to_sky;  // sun radiance / sky radiance
 };
 SynthPreset GetSynthPreset(const std::string& name);
+
+// probe/: the light camera, a mirror sphere's photograph, a bracket of it
+// and a bracket of the fish-eye at the zenith, and truth.json (docs/formats.md).
+void WriteProbe(const SynthOptions& options, const Image& sky, Report* report);
 
 // Writes the capture; fills `report`.
 void RunSynth(const SynthOptions& options, Report* report);

@@ -21,7 +21,27 @@ std::vector<double> ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z
 
 std::vector<Light> ParseLights(const Json& j, const std::string& name) {
   JsonNode root(j, "", &name);
-  root.RequireObject({"version", "lights", "comment"});
+  root.RequireObject({"version", "lights", "comment", "source", "residual"});
+  if (root.Has("source")) {
+    JsonNode src = root.Child("source");
+    src.RequireObject({"method", "count", "map"});
+    if (src.Has("method")) src.Child("method").String();
+    if (src.Has("count")) src.Child("count").Integer(0, 1 << 30);
+    if (src.Has("map")) src.Child("map").String();
+  }
+  if (root.Has("residual")) {
+    JsonNode res = root.Child("residual");
+    res.RequireObject({"map", "taken_fraction", "sh_order", "sh"});
+    if (res.Has("map")) res.Child("map").String();
+    if (res.Has("taken_fraction")) res.Child("taken_fraction").Number(0, 1);
+    const int64_t order = res.Has("sh_order") ? res.Child("sh_order").Integer(1, 8) : 0;
+    if (res.Has("sh")) {
+      JsonNode sh = res.Child("sh");
+      if (!sh.json().is_array() || static_cast<int64_t>(sh.json().size()) != order * order)
+        sh.Fail(fmt::format("expected sh_order^2 = {} RGB coefficients", order * order));
+      for (size_t i = 0; i < sh.json().size(); ++i) sh.Index(i).Vec3(-kHuge, kHuge);
+    }
+  }
   const int64_t version = root.Required("version").Integer(1, 1000);
   if (version != 1) root.Child("version").Fail(fmt::format("this mr reads lights version 1, the file is version {}", version));
   if (root.Has("comment")) root.Child("comment").String();
@@ -51,11 +71,14 @@ std::vector<Light> ParseLights(const Json& j, const std::string& name) {
           n.Child("falloff_start_deg").Fail(fmt::format("must not exceed cone_deg ({})", l.cone_deg));
       }
     } else {
-      n.RequireObject({"type", "name", "virtual", "direction", "irradiance", "angular_radius_deg"});
+      n.RequireObject({"type", "name", "virtual", "direction", "irradiance", "angular_radius_deg", "solid_angle_sr",
+                       "radiance"});
       l.type = LightType::kDistant;
       l.direction = UnitDirection(n.Required("direction"));
       l.irradiance = n.Required("irradiance").Vec3(0, kHuge);
       if (n.Has("angular_radius_deg")) l.angular_radius_deg = n.Child("angular_radius_deg").Number(0, 90);
+      if (n.Has("solid_angle_sr")) l.solid_angle_sr = n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324);
+      if (n.Has("radiance")) n.Child("radiance").Vec3(0, kHuge);  // informational: irradiance / solid_angle_sr
     }
     lights.push_back(l);
   }
@@ -85,6 +108,10 @@ Json LightsToJson(const std::vector<Light>& lights, const std::string& comment) 
         j["direction"] = ToJson(l.direction);
         j["irradiance"] = ToJson(l.irradiance);
         j["angular_radius_deg"] = l.angular_radius_deg;
+        if (l.solid_angle_sr > 0) {
+          j["solid_angle_sr"] = l.solid_angle_sr;
+          j["radiance"] = ToJson(l.irradiance / l.solid_angle_sr);
+        }
         break;
     }
     list.push_back(j);

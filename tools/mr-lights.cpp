@@ -1,0 +1,175 @@
+// mr-lights: light sources from an environment map, and what they leave out.
+#include <spdlog/spdlog.h>
+
+#include <sstream>
+
+#include "core/error.h"
+#include "core/image.h"
+#include "core/report.h"
+#include "eval/plot.h"
+#include "probe/lights.h"
+#include "scene/lights.h"
+#include "tool/cli.h"
+
+namespace {
+
+std::vector<int> ParseCounts(const std::string& s) {
+  std::vector<int> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');) {
+    try {
+      size_t used = 0;
+      const int v = std::stoi(item, &used);
+      if (used != item.size() || v < 1) throw std::invalid_argument(item);
+      out.push_back(v);
+    } catch (const std::exception&) {
+      throw mr::UsageError(fmt::format("--counts: \"{}\" is not a positive integer", item));
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app;
+  std::string env_file, out, residual_file, table, plot, counts_text = "1,2,4,8,16,32,64,128,256,512,1024";
+  std::vector<std::string> methods = {"median-cut", "variance-cut", "importance", "blobs"};
+  mr::ExtractOptions eo;
+  int residual_width = 64, normals = 1024;
+  bool sweep = false;
+  mr::ConfigureApp(
+      app, "mr-lights",
+      "Extracts light sources from a lat-long environment map (mr-probe's env.exr, or any lat-long\n"
+      "EXR/HDR): median cut on a double-precision, solid-angle-weighted summed-area table; variance-\n"
+      "minimising cut; hierarchical importance warping (N VPLs); or thresholded connected blobs as area\n"
+      "lights. Writes lights.json (distant lights, real, with their solid angle and the residual's\n"
+      "spherical harmonics) and with --residual the map minus what the lights took, downsampled keeping\n"
+      "energy: lights + residual integrate to the map. The report gives the extraction time and the\n"
+      "error of diffuse irradiance over all normal directions against the full map.\n"
+      "--sweep runs every method at every count and writes the error-vs-count table (CSV) and plot (SVG).",
+      "  mr-lights env.exr --method median-cut --count 64 --out lights.json --residual residual.exr\n"
+      "  mr-lights env.exr --method blobs --count 4 --threshold 20 --out sun.json --residual rest.exr\n"
+      "  mr-lights pisa.hdr --sweep --table pisa.csv --plot pisa.svg");
+  app.add_option("env", env_file, "Lat-long environment map (R G B first)")->required()->check(CLI::ExistingFile);
+  app.add_option("--out", out, "lights.json to write");
+  app.add_option("--method", eo.method, "median-cut, variance-cut, importance or blobs")
+      ->check(CLI::IsMember({"median-cut", "variance-cut", "importance", "blobs"}))
+      ->default_val("median-cut");
+  app.add_option("--count", eo.count, "Number of lights (blobs: at most)")->default_val(16);
+  app.add_option("--threshold", eo.threshold, "blobs: pixels above this times the mean radiance")->default_val(8);
+  app.add_option("--sh-order", eo.sh_order, "Bands of the residual's spherical harmonics")->default_val(3);
+  app.add_option("--residual", residual_file, "Write the map minus what the lights took (EXR)");
+  app.add_option("--residual-width", residual_width, "Width of the residual map (energy-preserving downsampling)")
+      ->default_val(64);
+  app.add_option("--normals", normals, "Normal directions for the irradiance error")->default_val(1024);
+  app.add_flag("--sweep", sweep, "Error against count for every method (with --table, --plot)");
+  app.add_option("--methods", methods, "Methods for --sweep")->delimiter(',');
+  app.add_option("--counts", counts_text, "Counts for --sweep, comma-separated");
+  app.add_option("--table", table, "--sweep: CSV table");
+  app.add_option("--plot", plot, "--sweep: SVG plot of irradiance error against count");
+  return mr::RunTool("mr-lights", app, argc, argv, [&] {
+    mr::Report& report = mr::ToolReport();
+    if (!sweep && out.empty()) throw mr::UsageError("give --out lights.json (or --sweep)");
+    if (sweep && table.empty() && plot.empty()) throw mr::UsageError("--sweep needs --table or --plot");
+    if (residual_width < 8 || residual_width % 2) throw mr::UsageError("--residual-width must be even and at least 8");
+    eo.Check();
+    mr::Image env;
+    {
+      mr::ScopedTimer t(&report, "read");
+      env = mr::ReadImage(env_file);
+    }
+    report.AddInput(env_file);
+    const std::vector<Eigen::Vector3d> dirs = mr::SphereNormals(normals);
+    std::vector<double> ref;
+    {
+      mr::ScopedTimer t(&report, "reference irradiance");
+      ref = mr::MapIrradiance(env, dirs);
+    }
+    if (sweep) {
+      const std::vector<int> counts = ParseCounts(counts_text);
+      std::string csv = "method,count,lights,seconds,irradiance_rms,irradiance_max,irradiance_rms_with_residual,taken_fraction\n";
+      std::vector<mr::PlotSeries> series;
+      nlohmann::json rows = nlohmann::json::array();
+      for (const std::string& m : methods) {
+        mr::ExtractOptions o = eo;
+        o.method = m;
+        mr::PlotSeries s{m, {}};
+        for (int n : counts) {
+          o.count = n;
+          mr::ScopedTimer t(&report, "sweep");
+          const mr::Extraction ex = mr::ExtractLights(env, o);
+          const mr::IrradianceError e = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, false), ref);
+          const mr::IrradianceError er = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, true), ref);
+          csv += fmt::format("{},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", m, n, ex.lights.size(), ex.seconds,
+                             e.rms_relative, e.max_relative, er.rms_relative, ex.taken_fraction);
+          rows.push_back({{"method", m}, {"count", n}, {"lights", ex.lights.size()}, {"seconds", ex.seconds},
+                          {"irradiance_rms", e.rms_relative}, {"irradiance_max", e.max_relative},
+                          {"irradiance_rms_with_residual", er.rms_relative}, {"taken_fraction", ex.taken_fraction}});
+          s.points.push_back({static_cast<double>(n), std::max(e.rms_relative, 1e-9)});
+        }
+        series.push_back(s);
+      }
+      report.SetMetric("sweep", rows);
+      if (!table.empty()) {
+        mr::WriteTextFile(table, csv);
+        report.AddOutput(table);
+      }
+      if (!plot.empty()) {
+        mr::PlotOptions po;
+        po.title = "Diffuse irradiance error against the number of lights: " + mr::fs::path(env_file).filename().string();
+        po.x_label = "lights";
+        po.y_label = "relative RMS error of irradiance over all normals";
+        mr::WriteSvgPlot(plot, series, po);
+        report.AddOutput(plot);
+      }
+      std::fputs(csv.c_str(), stdout);
+      return mr::kExitOk;
+    }
+    mr::Extraction ex;
+    {
+      mr::ScopedTimer t(&report, "extract");
+      ex = mr::ExtractLights(env, eo);
+    }
+    const mr::IrradianceError e = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, false), ref);
+    const mr::IrradianceError er = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, true), ref);
+    std::vector<mr::Light> lights = mr::ToLights(ex);
+    mr::Json j = mr::LightsToJson(lights, "mr-lights: " + mr::JoinCommandLine(argc, argv));
+    j["source"] = {{"method", eo.method}, {"count", eo.count}, {"map", env_file}};
+    mr::Json sh = mr::Json::array();
+    for (const auto& c : ex.residual_sh) sh.push_back({c.x(), c.y(), c.z()});
+    j["residual"] = {{"taken_fraction", std::clamp(ex.taken_fraction, 0.0, 1.0)}, {"sh_order", eo.sh_order}, {"sh", sh}};
+    if (!residual_file.empty()) {
+      j["residual"]["map"] = mr::fs::relative(mr::fs::absolute(residual_file), mr::fs::absolute(out).parent_path()).generic_string();
+      mr::ImageWriteOptions wo;
+      wo.tool = "mr-lights";
+      wo.command_line = mr::JoinCommandLine(argc, argv);
+      wo.attributes["textureformat"] = "LatLong Environment";
+      mr::WriteImage(residual_file, mr::DownsampleEnergy(ex.residual, residual_width), wo);
+      report.AddOutput(residual_file);
+      if (ex.taken_fraction > 1 - 1e-12)
+        report.Warn("the lights took all of the map's energy: the residual map is black");
+    } else if (ex.taken_fraction < 1 - 1e-9) {
+      report.Warn(fmt::format("the lights leave {:.1f}% of the map's energy out and no --residual keeps it (lights.json "
+                              "holds its spherical harmonics)",
+                              100 * (1 - ex.taken_fraction)));
+    }
+    mr::ParseLights(j, out);  // what mr-render will read
+    mr::WriteTextFile(out, j.dump(2) + "\n");
+    report.AddOutput(out);
+    report.SetMetric("method", eo.method);
+    report.SetMetric("lights", lights.size());
+    report.SetMetric("extraction_seconds", ex.seconds);
+    report.SetMetric("taken_fraction", ex.taken_fraction);
+    report.SetMetric("irradiance_error", {{"rms_relative", e.rms_relative}, {"max_relative", e.max_relative},
+                                          {"rms_relative_with_residual_sh", er.rms_relative},
+                                          {"normals", normals}});
+    if (static_cast<int>(lights.size()) < eo.count)
+      report.Warn(fmt::format("{} lights asked for, {} found", eo.count, lights.size()));
+    spdlog::info("{}: {} lights ({}) in {:.3f} s take {:.1f}% of the energy; irradiance error {:.3g} (RMS), {:.3g} "
+                 "with the residual's SH",
+                 env_file, lights.size(), eo.method, ex.seconds, 100 * ex.taken_fraction, e.rms_relative,
+                 er.rms_relative);
+    return mr::kExitOk;
+  });
+}

@@ -3,7 +3,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <queue>
+
+#include <Eigen/Eigenvalues>
 
 #include "core/error.h"
 #include "core/math.h"
@@ -231,9 +234,11 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
     levels.push_back(c);
   }
   std::reverse(levels.begin(), levels.end());  // levels[k] is 2^k x 2^k
-  const double total = levels[0][0];
   std::vector<ExtractedLight> lights;
-  if (!(total > 0)) return lights;
+  if (!(levels[0][0] > 0)) return lights;
+  // Each VPL carries the map's exact energy over N in luminance (the grid's
+  // own total differs by its nearest-pixel lookups).
+  const double total = m.total;
   for (int k = 0; k < count; ++k) {
     const std::array<float, 2> pt = Sobol2D(static_cast<uint32_t>(k), seed, seed != 0);
     double u = (k + 0.5) / count, v = pt[1];  // Hammersley-like: stratified in u, Sobol in v
@@ -280,7 +285,8 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
   return lights;
 }
 
-std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold, std::vector<uint8_t>* taken) {
+std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold, double max_sr,
+                                  std::vector<uint8_t>* taken) {
   const double mean = m.total / kFourPi;
   std::vector<int> label(m.energy.size(), -1);
   std::vector<std::vector<size_t>> comps;
@@ -307,16 +313,49 @@ std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold,
         }
     }
   }
+  // Components wider than `max_sr` split at their energy median across
+  // their widest spread (a disc is a poor model of a long window).
+  std::vector<std::vector<size_t>> parts;
+  std::function<void(std::vector<size_t>)> split = [&](std::vector<size_t> px) {
+    double omega = 0, e = 0;
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (size_t p : px) {
+      omega += m.omega[p];
+      e += m.energy[p];
+      centroid += m.omega[p] * m.dir[p];
+    }
+    if (omega <= max_sr || px.size() < 2) {
+      parts.push_back(std::move(px));
+      return;
+    }
+    centroid /= omega;
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (size_t p : px) cov += m.omega[p] * (m.dir[p] - centroid) * (m.dir[p] - centroid).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+    const Eigen::Vector3d axis = eig.eigenvectors().col(2);
+    std::sort(px.begin(), px.end(), [&](size_t a, size_t b) { return m.dir[a].dot(axis) < m.dir[b].dot(axis); });
+    // Split by solid angle when the energy is flat, by energy otherwise.
+    double acc = 0;
+    size_t k = 0;
+    const bool by_energy = e > 0;
+    const double half = 0.5 * (by_energy ? e : omega);
+    while (k + 1 < px.size() && acc + (by_energy ? m.energy[px[k]] : m.omega[px[k]]) <= half)
+      acc += by_energy ? m.energy[px[k++]] : m.omega[px[k++]];
+    k = std::clamp<size_t>(k, 1, px.size() - 1);
+    split(std::vector<size_t>(px.begin(), px.begin() + static_cast<std::ptrdiff_t>(k)));
+    split(std::vector<size_t>(px.begin() + static_cast<std::ptrdiff_t>(k), px.end()));
+  };
+  for (auto& c : comps) split(std::move(c));
   std::vector<std::pair<double, int>> order;
-  for (size_t c = 0; c < comps.size(); ++c) {
+  for (size_t c = 0; c < parts.size(); ++c) {
     double e = 0;
-    for (size_t p : comps[c]) e += m.energy[p];
+    for (size_t p : parts[c]) e += m.energy[p];
     order.push_back({-e, static_cast<int>(c)});
   }
   std::sort(order.begin(), order.end());
   std::vector<ExtractedLight> lights;
   for (int k = 0; k < count && k < static_cast<int>(order.size()); ++k) {
-    const auto& px = comps[static_cast<size_t>(order[static_cast<size_t>(k)].second)];
+    const auto& px = parts[static_cast<size_t>(order[static_cast<size_t>(k)].second)];
     lights.push_back(LightOfPixels(m, px, true));
     for (size_t p : px) (*taken)[p] = 1;
   }
@@ -330,6 +369,7 @@ void ExtractOptions::Check() const {
     throw UsageError(fmt::format("method \"{}\" is not median-cut, variance-cut, importance or blobs", method));
   if (count < 1 || count > 1 << 20) throw UsageError(fmt::format("count {} not in [1, 2^20]", count));
   if (!(threshold > 0)) throw UsageError("threshold must be positive");
+  if (!(max_blob_sr > 0)) throw UsageError("max_blob_sr must be positive");
   if (sh_order < 1 || sh_order > kMaxShOrder) throw UsageError(fmt::format("sh_order must be 1..{}", kMaxShOrder));
 }
 
@@ -346,7 +386,7 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& o) {
     ex.lights = Importance(m, o.count, o.seed);
     std::fill(taken.begin(), taken.end(), 1);
   } else {
-    ex.lights = Blobs(m, o.count, o.threshold, &taken);
+    ex.lights = Blobs(m, o.count, o.threshold, o.max_blob_sr, &taken);
   }
   ex.residual = Image::Rgb(m.w, m.h);
   double left = 0;
@@ -379,10 +419,13 @@ std::vector<Light> ToLights(const Extraction& e, const std::string& prefix) {
     l.type = LightType::kDistant;
     l.is_virtual = false;  // from the probe: part of the real scene
     l.direction = x.direction;
-    l.irradiance = x.power;
-    // A disc of the same solid angle: 2 pi (1 - cos r) = omega.
-    l.angular_radius_deg = x.area ? std::acos(std::clamp(1 - x.solid_angle / kTwoPi, -1.0, 1.0)) / kDegToRad : 0;
-    l.solid_angle_sr = x.solid_angle;
+    // A disc of the same solid angle, 2 pi (1 - cos r) = omega, and the same
+    // mean radiance; lights.json's irradiance is what it gives a surface
+    // facing it, radiance x pi sin^2 r (the power for a delta).
+    const double r = x.area ? std::acos(std::clamp(1 - x.solid_angle / kTwoPi, -1.0, 1.0)) : 0;
+    l.angular_radius_deg = r / kDegToRad;
+    l.irradiance = x.area && x.solid_angle > 0 ? Eigen::Vector3d(x.power * (kPi * Square(std::sin(r)) / x.solid_angle)) : x.power;
+    l.solid_angle_sr = std::min(x.solid_angle, kFourPi);
     out.push_back(l);
   }
   return out;
@@ -423,9 +466,34 @@ std::vector<double> LightsIrradiance(const Extraction& e, const std::vector<Eige
   };
   std::vector<double> out(normals.size(), 0.0);
   std::vector<double> basis(e.residual_sh.size());
+  // Area lights as the renderer sees them: uniform discs of their solid
+  // angle, integrated over 16 x 16 stratified directions.
+  std::vector<std::vector<Eigen::Vector3d>> disc(e.lights.size());
+  for (size_t i = 0; i < e.lights.size(); ++i) {
+    const ExtractedLight& l = e.lights[i];
+    if (!l.area || !(l.solid_angle > 0)) continue;
+    const double cos_r = std::clamp(1 - l.solid_angle / kTwoPi, -1.0, 1.0);
+    Eigen::Vector3d t, b;
+    CoordinateSystem(l.direction, &t, &b);
+    for (int a = 0; a < 16; ++a)
+      for (int c = 0; c < 16; ++c) {
+        const double z = 1 - (a + 0.5) / 16 * (1 - cos_r), phi = kTwoPi * (c + 0.5) / 16;
+        const double s = std::sqrt(std::max(0.0, 1 - z * z));
+        disc[i].push_back(z * l.direction + s * std::cos(phi) * t + s * std::sin(phi) * b);
+      }
+  }
   for (size_t k = 0; k < normals.size(); ++k) {
     double v = 0;
-    for (const ExtractedLight& l : e.lights) v += Luminance(l.power) * std::max(0.0, normals[k].dot(l.direction));
+    for (size_t i = 0; i < e.lights.size(); ++i) {
+      const ExtractedLight& l = e.lights[i];
+      if (disc[i].empty()) {
+        v += Luminance(l.power) * std::max(0.0, normals[k].dot(l.direction));
+        continue;
+      }
+      double cs = 0;
+      for (const Eigen::Vector3d& d : disc[i]) cs += std::max(0.0, normals[k].dot(d));
+      v += Luminance(l.power) * cs / static_cast<double>(disc[i].size());
+    }
     if (with_residual && order > 0) {
       ShEvaluate(normals[k], order, basis.data());
       for (int l = 0; l < order; ++l)

@@ -13,9 +13,10 @@
 //    stratified points through a quadtree of the energy, N VPLs of equal
 //    luminance power (the Monte Carlo estimator's weights L / (N pdf));
 //  - blobs: pixels above `threshold` times the map's mean radiance,
-//    connected (across the longitude seam too), the N most energetic
-//    components as area lights (disc of the component's solid angle), as
-//    differential irradiance caching detects light sources.
+//    connected (across the longitude seam too), as differential irradiance
+//    caching detects light sources; components wider than `max_blob_sr`
+//    split at their energy median across their widest spread; the N most
+//    energetic parts as area lights (discs of the part's solid angle).
 // Each cut region's or blob's light takes the region's whole RGB energy,
 // at its energy-weighted centroid direction.  The residual is the map minus
 // what the lights took, so lights + residual integrate to the map exactly.
@@ -35,6 +36,7 @@ struct ExtractOptions {
   std::string method = "median-cut";  // median-cut, variance-cut, importance, blobs
   int count = 16;
   double threshold = 8;               // blobs: times the map's mean radiance
+  double max_blob_sr = 0.05;          // blobs: larger components split (a disc of 7.2 degrees)
   int sh_order = 3;                   // the residual's spherical harmonics
   uint32_t seed = 0;                  // importance: the point set's scramble
   void Check() const;
@@ -62,7 +64,8 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& options);
 std::vector<Light> ToLights(const Extraction& e, const std::string& name_prefix = "light");
 
 // Diffuse irradiance (luminance) at `normals`: exact from the map, and from
-// the lights (deltas at their directions; discs as deltas) plus, when
+// the lights (deltas at their directions; area lights as uniform discs of
+// their solid angle, as mr-render sees them) plus, when
 // `with_residual`, the residual's SH (Ramamoorthi-Hanrahan cosine lobe).
 std::vector<double> MapIrradiance(const Image& env, const std::vector<Eigen::Vector3d>& normals);
 std::vector<double> LightsIrradiance(const Extraction& e, const std::vector<Eigen::Vector3d>& normals,

@@ -77,7 +77,7 @@ std::vector<Light> ParseLights(const Json& j, const std::string& name) {
       l.direction = UnitDirection(n.Required("direction"));
       l.irradiance = n.Required("irradiance").Vec3(0, kHuge);
       if (n.Has("angular_radius_deg")) l.angular_radius_deg = n.Child("angular_radius_deg").Number(0, 90);
-      if (n.Has("solid_angle_sr")) l.solid_angle_sr = n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324);
+      if (n.Has("solid_angle_sr")) l.solid_angle_sr = n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324 * (1 + 1e-9));  // sums of pixels round
       if (n.Has("radiance")) n.Child("radiance").Vec3(0, kHuge);  // informational: irradiance / solid_angle_sr
     }
     lights.push_back(l);

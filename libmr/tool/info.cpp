@@ -8,6 +8,8 @@
 #include "core/image.h"
 #include "core/report.h"
 #include "geometry/mesh.h"
+#include "hdr/response.h"
+#include "probe/unwrap.h"
 #include "scene/lights.h"
 #include "transfer/formfactor.h"
 #include "scene/scene.h"
@@ -101,6 +103,21 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     for (auto& s : j["skipped"]) fi->lines.push_back(fmt::format("  skipped {}: {}", s["what"].dump(), s["why"].dump()));
     fi->lines.push_back("metrics: " + j["metrics"].dump());
     fi->json = {{"tool", j["tool"]}, {"total_seconds", total}};
+  } else if (j.is_object() && j.value("format", "") == "mr-response") {
+    fi->kind = "response";
+    const CameraResponse r = ParseResponse(j, path.string());
+    fi->lines.push_back(fmt::format("camera response ({}): {} channels, {} levels", r.method, r.channels.size(), r.levels()));
+    for (size_t c = 0; c < r.channels.size(); ++c)
+      fi->lines.push_back(fmt::format("  {}: code 0.5 is {:.4g} of the saturating exposure", r.channels[c],
+                                      r.Exposure(static_cast<int>(c), 0.5)));
+    fi->json = {{"method", r.method}, {"channels", r.channels}, {"levels", r.levels()}};
+  } else if (j.is_object() && j.value("format", "") == "mr-probe") {
+    fi->kind = "probe";
+    const ProbeGeometry g = ReadProbe(path);
+    fi->lines.push_back(fmt::format("mirror sphere of radius {} m at ({:.4f}, {:.4f}, {:.4f}) m in camera {} ({})",
+                                    g.radius_m, g.centre_cam.x(), g.centre_cam.y(), g.centre_cam.z(),
+                                    g.camera.lensmodel(), j["camera"].get<std::string>()));
+    fi->json = {{"radius_m", g.radius_m}, {"centre_cam_m", {g.centre_cam.x(), g.centre_cam.y(), g.centre_cam.z()}}};
   } else if (j.is_object() && j.contains("inner_corners")) {
     fi->kind = "board";
     BoardSpec b = ParseBoard(j, path.string());

@@ -131,5 +131,36 @@ check "calibrate report: blurry" 0 "blurry" -- cat "$tmp/calib.json"
 check "unknown board lens" 2 'unknown --boards lens "wide"' -- "$bin/mr-synth" --boards wide --out "$tmp/b2"
 check "unknown preset" 2 'unknown preset "huge"' -- "$bin/mr-synth" --preset huge --out "$tmp/c2"
 
+# The lighting capture: bracket -> HDR -> world-aligned map -> lights, and what each refuses.
+probe="$tmp/cap/probe"
+check "mr-hdr bracket" 0 "" -- "$bin/mr-hdr" "$probe"/bracket/sphere-*.png --exposures "$probe/bracket/exposures.txt" --save-response "$tmp/response.json" --out "$tmp/raw.exr" --report "$tmp/hdr.json" -q
+check "hdr layers" 0 "saturated.Y" -- "$bin/mr-info" "$tmp/raw.exr"
+check "hdr report: the sun is censored" 0 '"censored_pixels"' -- cat "$tmp/hdr.json"
+check "response file" 0 "camera response (debevec)" -- "$bin/mr-info" "$tmp/response.json"
+check "mr-hdr reuses a response" 0 "" -- "$bin/mr-hdr" "$probe"/fisheye/sky-*.png --exposures "$probe/fisheye/exposures.txt" --response "$tmp/response.json" --out "$tmp/sky.exr" -q
+printf '1\n0.25\n' > "$tmp/two.txt"
+check "hdr: too few times" 1 "has 2 exposure times for 5 images" -- "$bin/mr-hdr" "$probe"/bracket/sphere-*.png --exposures "$tmp/two.txt" --out "$tmp/x.exr"
+check "hdr: no exposure time" 1 "has no ExposureTime" -- "$bin/mr-hdr" "$tmp/cap/photos/00000.png" "$tmp/cap/photos/00001.png" --out "$tmp/x.exr"
+printf 'sphere-0.png 1e-9\nsphere-1.png 2.5e-10\nsphere-2.png 6.25e-11\nsphere-3.png 1.5625e-11\nsphere-4.png 3.90625e-12\n' > "$tmp/tiny.txt"
+check "hdr: half overflow refused" 1 "65504" -- "$bin/mr-hdr" "$probe"/bracket/sphere-*.png --exposures "$tmp/tiny.txt" --half --out "$tmp/half.exr"
+check "no half-written HDR" 1 "" -- test -e "$tmp/half.exr"
+check "mr-probe" 0 "" -- "$bin/mr-probe" "$tmp/raw.exr" --probe "$tmp/probe.json" --reflectance 0.6 --width 128 --out "$tmp/env.exr" --report "$tmp/probe-report.json" -q
+check "env layers" 0 "confidence.Y" -- "$bin/mr-info" "$tmp/env.exr"
+check "probe file" 0 "mirror sphere of radius 0.0254 m" -- "$bin/mr-info" "$tmp/probe.json"
+check "mr-probe fish-eye" 0 "" -- "$bin/mr-probe" "$tmp/sky.exr" --fisheye "$probe/fisheye.cameramodel" --width 128 --out "$tmp/env-sky.exr" -q
+check "probe: photograph of another camera" 1 "but its camera model is" -- "$bin/mr-probe" "$tmp/cap/env.exr" --probe "$tmp/probe.json" --out "$tmp/x.exr"
+check "probe: bad reflectance" 2 "reflectance 2 not in (0, 1]" -- "$bin/mr-probe" "$tmp/raw.exr" --probe "$tmp/probe.json" --reflectance 2 --out "$tmp/x.exr"
+check "mr-lights" 0 "" -- "$bin/mr-lights" "$tmp/env.exr" --method median-cut --count 16 --out "$tmp/lights.json" --report "$tmp/lights-report.json" -q
+check "lights.json" 0 "lights: 16 (0 virtual)" -- "$bin/mr-info" "$tmp/lights.json"
+check "lights report" 0 '"irradiance_error"' -- cat "$tmp/lights-report.json"
+check "mr-lights blobs" 0 "" -- "$bin/mr-lights" "$tmp/cap/env.exr" --method blobs --count 4 --out "$tmp/blobs.json" --residual "$tmp/rest.exr" -q
+check "blobs name their residual" 0 '"map": "rest.exr"' -- cat "$tmp/blobs.json"
+sed 's|"environment": "env.exr"|"environment": "../rest.exr", "lights": "../blobs.json"|' "$tmp/cap/scene.json" > "$tmp/cap/scene-blobs.json"
+check "scene lit by the blobs and their residual" 0 "valid" -- "$bin/mr-info" "$tmp/cap/scene-blobs.json"
+check "render with extracted lights" 0 "" -- "$bin/mr-render" "$tmp/cap/scene-blobs.json" --out "$tmp/r-lights" --spp 1 -q
+check "mr-lights sweep" 0 "variance-cut,1024" -- "$bin/mr-lights" "$tmp/cap/env.exr" --sweep --counts 1,1024 --table "$tmp/sweep.csv" --plot "$tmp/sweep.svg" -q
+check "sweep plot" 0 "<svg" -- cat "$tmp/sweep.svg"
+check "unknown lights method" 2 "kmeans" -- "$bin/mr-lights" "$tmp/env.exr" --method kmeans --out "$tmp/x.json"
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

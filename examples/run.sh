@@ -26,6 +26,26 @@ mkdir -p "$out"
 # fish-eye light camera (truth in capture/probe/truth.json).
 "$bin/mr-calibrate" sphere --camera "$out/capture/probe/light.cameramodel" --radius 0.0254 \
   --out "$out/capture/probe.json" "$out/capture/probe/sphere.exr" --report "$out/sphere-report.json" -q
+# The lighting capture: the bracketed 8-bit photographs of the sphere merged
+# into HDR (response recovered and kept), unwrapped into a world-aligned map,
+# and turned into lights: the sun as a blob plus the residual map, and 64
+# lights by variance cut; then the scene rendered with the blob and residual
+# instead of the true environment.
+"$bin/mr-hdr" "$out"/capture/probe/bracket/sphere-*.png --exposures "$out/capture/probe/bracket/exposures.txt" \
+  --save-response "$out/capture/response.json" --out "$out/capture/probe-raw.exr" --report "$out/hdr-report.json" -q
+"$bin/mr-probe" "$out/capture/probe-raw.exr" --probe "$out/capture/probe.json" --reflectance 0.6 --width 256 \
+  --out "$out/capture/env-captured.exr" --report "$out/probe-report.json" -q
+"$bin/mr-lights" "$out/capture/env-captured.exr" --method blobs --count 4 --threshold 20 --out "$out/capture/lights-blobs.json" \
+  --residual "$out/capture/env-residual.exr" --residual-width 256 --report "$out/lights-report.json" -q
+"$bin/mr-lights" "$out/capture/env-captured.exr" --sweep --table "$out/lights-vs-count.csv" --plot "$out/lights-vs-count.svg" -q >/dev/null
+/usr/bin/python3 - "$out/capture/scene.json" "$out/capture/scene-lights.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+s["lighting"] = {"environment": "env-residual.exr", "lights": "lights-blobs.json"}
+s["output"]["dir"] = "render-lights"
+json.dump(s, open(sys.argv[2], "w"), indent=2)
+PY
+"$bin/mr-render" "$out/capture/scene-lights.json" --out "$out/render-lights" --report "$out/render-lights-report.json" -q
 # The same object by precomputed form factors (prt): the transfer, then a
 # render of the scene with the method prt.
 "$bin/mr-formfactor" "$out/capture/meshes/object.ply" --resolution 8 --out "$out/capture/object.ffc" -q \
@@ -42,6 +62,8 @@ echo
 echo "composites:     $out/render/*.png (layers in $out/render/*.exr)"
 echo "render report:  $out/render-report.json"
 echo "prt composites: $out/render-prt/*.png (report $out/render-prt-report.json)"
+echo "captured light: $out/capture/env-captured.exr (from the 8-bit bracket), lights $out/capture/lights-blobs.json,"
+echo "                composites lit by them: $out/render-lights/*.png; error vs lights: $out/lights-vs-count.csv/.svg"
 echo "error vs time:  metrics.curve in $out/render-report.json:"
 /usr/bin/python3 - "$out/render-report.json" <<'PY' || true
 import json, sys
@@ -51,4 +73,6 @@ for c in m.get("curve", []):
     print("  %8.3f %6d %12.4g %14.4g" % (c["seconds"], c["spp"], c["relmse"], c["region_relmse"]))
 p = json.load(open(sys.argv[1].replace("render-report", "render-prt-report")))["metrics"]
 print("  prt: relMSE %.4g, region relMSE %.4g (the object only: no shadows on the room)" % (p["relmse"], p["region_relmse"]))
+l = json.load(open(sys.argv[1].replace("render-report", "render-lights-report")))["metrics"]
+print("  lit by the captured probe's lights + residual: relMSE %.4g, region relMSE %.4g" % (l["relmse"], l["region_relmse"]))
 PY

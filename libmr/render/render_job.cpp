@@ -14,6 +14,7 @@
 #include "core/progress.h"
 #include "core/video.h"
 #include "eval/metrics.h"
+#include "hdr/response.h"
 #include "render/composite.h"
 #include "render/path_tracer.h"
 #include "render/prt.h"
@@ -96,9 +97,19 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   // M TM(I_m) + (1 - M)(I_c + TM(I_m) - TM(I_r)), stored back as radiance.
   const bool display_space = scene.camera.frames && scene.camera.frames_transfer == "display";
   const Transfer photo_transfer =
-      scene.camera.frames_transfer == "srgb" ? Transfer::kSrgb : Transfer::kLinear;  // display: raw code values
+      scene.camera.frames_transfer == "srgb" ? Transfer::kSrgb : Transfer::kLinear;  // display, response: raw code values
+  // "response": raw codes through the camera's response (mr-hdr), over the
+  // frames' exposure time.
+  std::optional<CameraResponse> response;
+  if (scene.camera.frames && scene.camera.frames_transfer == "response") {
+    response = ReadResponse(*scene.camera.response);
+    report->AddInput(scene.camera.response->string());
+  }
+  const bool raw_codes = display_space || response.has_value();
   if (scene.camera.frames)
-    report->SetMetric("compositing", display_space ? "display space (camera response unknown)" : "linear radiance");
+    report->SetMetric("compositing", display_space ? "display space (camera response unknown)"
+                                     : response    ? "linear radiance (frames through the camera's response)"
+                                                   : "linear radiance");
   std::unique_ptr<VideoReader> video_in;
   std::unique_ptr<VideoWriter> video_out;
   if (scene.camera.frames && scene.camera.frames_are_video) {
@@ -154,10 +165,14 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     std::optional<Image> photo, ref;
     if (video_in) {
       photo = video_in->Frame(f);  // decoded through sRGB
-      if (display_space)
-        for (float& v : photo->values()) v = LinearToSrgb(v);  // back to display values
+      if (raw_codes)
+        for (float& v : photo->values()) v = LinearToSrgb(v);  // back to code values
     } else if (scene.camera.frames) {
-      photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer, display_space);
+      photo = ReadRgb(FramePath(*scene.camera.frames, f), camera.width(), camera.height(), photo_transfer, raw_codes);
+    }
+    if (photo && response) {
+      *photo = Linearise(*photo, *response);
+      for (float& v : photo->values()) v /= static_cast<float>(scene.camera.exposure);
     }
     if (reference) ref = ReadRgb(FramePath(*reference, f), camera.width(), camera.height(), Transfer::kLinear);
     if (!frame_copy) {

@@ -142,7 +142,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   if (root.Has("comment")) root.Child("comment").String();
 
   Node cam = root.Required("camera");
-  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "poses"});
+  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "response", "poses"});
   s.camera.model = ResolveFile(cam.Required("model"), base, check, "camera model");
   if (cam.Has("frames")) {
     Node f = cam.Child("frames");
@@ -155,7 +155,11 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     }
   }
   if (cam.Has("frames_transfer"))
-    s.camera.frames_transfer = cam.Child("frames_transfer").OneOf({"srgb", "linear", "display"});
+    s.camera.frames_transfer = cam.Child("frames_transfer").OneOf({"srgb", "linear", "display", "response"});
+  if (cam.Has("response")) s.camera.response = ResolveFile(cam.Child("response"), base, check, "camera response");
+  if ((s.camera.frames_transfer == "response") != s.camera.response.has_value())
+    (cam.Has("response") ? cam.Child("response") : cam.Child("frames_transfer"))
+        .Fail("frames_transfer \"response\" and a response file go together");
   if (cam.Has("exposure")) s.camera.exposure = cam.Child("exposure").Number(1e-12, 1e12);
   if (cam.Has("poses")) {
     Node p = cam.Child("poses");

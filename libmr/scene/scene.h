@@ -38,9 +38,12 @@ struct SceneCamera {
   bool frames_are_video = false;
   // How the frames relate to radiance: "linear" (radiance), "srgb" (the sRGB
   // curve is the camera response: decoded to radiance, composited linearly),
-  // "display" (response unknown: composited in display space, see mr-render).
+  // "display" (response unknown: composited in display space, see mr-render),
+  // "response" (decoded through `response`, mr-hdr's response.json, and
+  // divided by `exposure`, the frames' exposure time: composited linearly).
   std::string frames_transfer = "srgb";
-  double exposure = 1.0;  // "display": display value = sRGB(clamp(exposure x radiance))
+  double exposure = 1.0;  // "display": display value = sRGB(clamp(exposure x radiance)); "response": seconds
+  std::optional<fs::path> response;
   std::optional<fs::path> poses;    // TUM file, 7-Scenes folder, or COLMAP text folder
   PoseFormat pose_format = PoseFormat::kTum;
 };

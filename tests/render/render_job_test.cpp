@@ -11,6 +11,7 @@
 #include "core/video.h"
 #include "eval/metrics.h"
 #include "geometry/mesh.h"
+#include "hdr/response.h"
 #include "render/composite.h"
 #include "render/prt.h"
 #include "synth/synth.h"
@@ -313,6 +314,49 @@ TEST_F(Capture, DisplaySpaceCompositingOfEightBitPhotographs) {
   EXPECT_GT(unchanged, 0);
   EXPECT_EQ(bad, 0);
   EXPECT_LT(r.metrics()["relmse"].get<double>(), 0.1);
+}
+
+// The same 8-bit photographs through a known camera response (mr-hdr's
+// response.json; here the sRGB curve the photographs were made with) and
+// their exposure: composited in linear radiance.  Where the object changes
+// nothing the composite is the linearised photograph; overall it
+// approaches the truth as the display-space composite does.
+TEST_F(Capture, FramesThroughTheCameraResponse) {
+  CameraResponse srgb;
+  srgb.method = "debevec";
+  srgb.channels = {"R", "G", "B"};
+  std::vector<double> g(256);
+  for (int k = 0; k < 256; ++k) g[static_cast<size_t>(k)] = std::log(std::max(SrgbToLinear(k / 255.0f), 1e-7f));
+  srgb.log_exposure = {g, g, g};
+  WriteResponse(Cap() / "response.json", srgb);
+  Json j = ReadJsonFile(Cap() / "scene-ldr.json");
+  j["camera"]["frames_transfer"] = "response";
+  j["camera"]["response"] = "response.json";
+  WriteTextFile(Cap() / "scene-response.json", j.dump(2));
+  Scene s = ReadScene(Cap() / "scene-response.json");
+  RenderOptions o;
+  o.spp = 8;
+  o.frame_end = 1;
+  o.out_dir = dir_->path() / "resp";
+  Report r("mr-render", "test");
+  RunRenderJob(s, o, &r);
+  EXPECT_EQ(r.metrics()["compositing"], "linear radiance (frames through the camera's response)");
+  Image out = ReadImage(dir_->path() / "resp" / "00000.exr");
+  Image comp = out.Layer("composite"), diff = out.Layer("difference"), photo = out.Layer("photo");
+  int64_t unchanged = 0, bad = 0;
+  for (int y = 0; y < comp.height(); ++y)
+    for (int x = 0; x < comp.width(); ++x)
+      for (int c = 0; c < 3; ++c)
+        if (diff.at(x, y, c) == 0.0f) {
+          ++unchanged;
+          bad += std::abs(comp.at(x, y, c) - photo.at(x, y, c)) > 1e-6f * (1 + photo.at(x, y, c));
+        }
+  EXPECT_GT(unchanged, 0);
+  EXPECT_EQ(bad, 0);
+  EXPECT_LT(r.metrics()["relmse"].get<double>(), 0.1);
+  // frames_transfer "response" without a response file is refused.
+  j["camera"].erase("response");
+  EXPECT_THROW(ParseScene(j, Cap(), "scene.json", false), Error);
 }
 
 TEST(Composite, DifferentialFormulaAndNegativeClamp) {

@@ -156,15 +156,45 @@ std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int 
 
 namespace {
 
-// A censored region's source from the unsaturated pixels around it in the
+// A uniform disc source of radius `a` at `centre`, blurred by a Gaussian of
+// `s` px, per unit energy, at pixel p: the disc sampled at up to 12 x 12
+// points.
+struct DiscKernel {
+  std::vector<Eigen::Vector2d> points;
+  double s = 1;
+  DiscKernel(const Eigen::Vector2d& centre, double a, double s_px) : s(s_px) {
+    constexpr int kN = 12;
+    for (int j = 0; j < kN && a > 0; ++j)
+      for (int i = 0; i < kN; ++i) {
+        const Eigen::Vector2d q(a * (2 * (i + 0.5) / kN - 1), a * (2 * (j + 0.5) / kN - 1));
+        if (q.squaredNorm() <= a * a) points.push_back(centre + q);
+      }
+    if (points.empty()) points.push_back(centre);
+  }
+  double operator()(double x, double y) const {
+    double k = 0;
+    for (const Eigen::Vector2d& q : points) k += std::exp(-(Square(x - q.x()) + Square(y - q.y())) / (2 * s * s));
+    return k / (2 * kPi * s * s * static_cast<double>(points.size()));
+  }
+};
+
+// A censored region's source, from the unsaturated pixels around it in the
 // shortest exposure (radiance `rad`, channel c), which the lens's blur
-// lights: B + Q exp(-r^2 / 2 s^2) / (2 pi s^2), B the median of an outer
-// annulus, s the known lens blur `psf` or (when 0) the spread the ring
-// shows (ln(I - B) is a line in r^2 over the pixels the source dominates),
-// then Q by least squares in relative terms.  Returns false when fewer than
-// 6 pixels carry the source's spread.
+// lights.  B is the median of an outer annulus; the blur s is the known
+// lens's `psf` or (when 0) the spread the ring shows (ln(I - B) as a line
+// in r^2 over the pixels the source dominates: a point source's, so no
+// smaller than the true blur).  The source is a uniform disc of radius a;
+// for each a its energy Q_a is fitted to the ring by least squares in
+// relative terms, and the largest a whose blurred disc still reaches half
+// the strict bound at every censored pixel is kept (half: the ring's fit
+// leaves the model low at the region's edge; looser only lowers Q).  A wider source lights the ring
+// with less energy, and the true source is one of the feasible ones, so Q
+// is a lower bound of its energy as long as the blur is not
+// underestimated.  Returns false when fewer than 6 pixels carry the
+// source's spread or no disc saturates the region.
 bool FitCensoredRegion(const Image& rad, const std::vector<uint8_t>& usable, const std::vector<int64_t>& region,
-                       const Eigen::Vector2d& centre, int c, double psf, double* Q, double* s_out) {
+                       const std::vector<double>& bound, const Eigen::Vector2d& centre, int c, double psf,
+                       double* Q, double* s_out, double* a_out) {
   const int w = rad.width(), h = rad.height();
   double r_censored = 0;
   for (int64_t p : region)
@@ -195,27 +225,37 @@ bool FitCensoredRegion(const Image& rad, const std::vector<uint8_t>& usable, con
     Eigen::Matrix2d AtA = Eigen::Matrix2d::Zero();
     Eigen::Vector2d Atb = Eigen::Vector2d::Zero();
     for (const auto& [p, v] : lit) {
-      const Eigen::Vector2d a(1.0, Square(p % w - centre.x()) + Square(p / w - centre.y()));
-      AtA += a * a.transpose();
-      Atb += a * std::log(v - B);
+      const Eigen::Vector2d row(1.0, Square(p % w - centre.x()) + Square(p / w - centre.y()));
+      AtA += row * row.transpose();
+      Atb += row * std::log(v - B);
     }
     if (std::abs(AtA.determinant()) < 1e-12) return false;
     const Eigen::Vector2d x = AtA.ldlt().solve(Atb);
     if (!(x[1] < 0)) return false;
     s = std::sqrt(-0.5 / x[1]);
   }
-  // I(p) - B = Q g_s(p - centre): Q by least squares in relative terms.
-  double num = 0, den = 0;
-  for (const auto& [p, v] : lit) {
-    const double g = std::exp(-(Square(p % w - centre.x()) + Square(p / w - centre.y())) / (2 * s * s)) / (2 * kPi * s * s);
-    const double wgt = 1.0 / Square(v);
-    num += wgt * g * (v - B);
-    den += wgt * g * g;
+  bool found = false;
+  for (double a = 0; a <= r_censored + 1e-9; a += 0.25) {
+    const DiscKernel K(centre, a, s);
+    double num = 0, den = 0;
+    for (const auto& [p, v] : lit) {
+      const double k = K(static_cast<double>(p % w), static_cast<double>(p / w));
+      const double wgt = 1.0 / Square(v);
+      num += wgt * k * (v - B);
+      den += wgt * k * k;
+    }
+    if (!(den > 0)) continue;
+    const double q = num / den;
+    bool saturates = q > 0;
+    for (size_t i = 0; i < region.size() && saturates; ++i)
+      saturates = B + q * K(static_cast<double>(region[i] % w), static_cast<double>(region[i] / w)) >= 0.5 * bound[i];
+    if (!saturates) continue;
+    *Q = q;
+    *a_out = a;
+    found = true;
   }
-  if (!(den > 0)) return false;
-  *Q = num / den;
   *s_out = s;
-  return std::isfinite(*Q) && *Q > 0;
+  return found;
 }
 
 }  // namespace
@@ -445,16 +485,20 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
           if (reg_c.empty()) continue;
           double lower = 0;
           for (int64_t p : reg_c) lower += out.values()[static_cast<size_t>(p * no + c)];
-          double Q = 0, s = 0;
-          if (!FitCensoredRegion(rad, usable[static_cast<size_t>(c)], reg_c, reg.centre, c, o.psf_sigma_px, &Q, &s)) {
+          double Q = 0, s = 0, radius = 0;
+          std::vector<double> bound;
+          for (int64_t p : reg_c) bound.push_back(out.values()[static_cast<size_t>(p * no + c)]);
+          if (!FitCensoredRegion(rad, usable[static_cast<size_t>(c)], reg_c, bound, reg.centre, c, o.psf_sigma_px, &Q,
+                                 &s, &radius)) {
             all = false;
             continue;
           }
           blur = std::max(blur, s);
+          reg.source_radius_px = std::max(reg.source_radius_px, radius);
+          const DiscKernel K(reg.centre, radius, s);
           double e = 0;
           for (int64_t p : reg_c) {
-            const double r2 = Square(p % w - reg.centre.x()) + Square(p / w - reg.centre.y());
-            const double model = Q * std::exp(-r2 / (2 * s * s)) / (2 * kPi * s * s);
+            const double model = Q * K(static_cast<double>(p % w), static_cast<double>(p / w));
             float& v = out.values()[static_cast<size_t>(p * no + c)];
             v = static_cast<float>(std::max<double>(v, model));
             e += v;
@@ -464,7 +508,9 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
         }
         reg.fitted = all;
         reg.blur_px = blur;
-        if (!all) reg.why_not = "the unsaturated pixels around it do not constrain a blurred source (too few, or no spread)";
+        if (!all)
+          reg.why_not = "the unsaturated pixels around it do not constrain a blurred source (too few, no spread, or no "
+                        "source that saturates the region)";
       }
       rep.regions.push_back(reg);
     }

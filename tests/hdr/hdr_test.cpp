@@ -154,9 +154,9 @@ TEST(Merge, DynamicRangeOfTwelveDecades) {
 // A sun 1e5 times the sky that saturates every exposure, blurred by the
 // lens (sigma 1.5 px): its pixels are censored and flagged, their strict
 // lower bound is below the sun's true energy (1.6% of it: the saturation
-// level over the shortest time), and the fitted blurred source brings the
-// estimate to within a factor 2 of it (measured 1.09: a disc's ring is
-// wider than a point's).  A sun smaller than a
+// level over the shortest time), and the fitted source (the widest disc
+// that the ring and the saturation allow) bounds it from below within a
+// factor 2.5 (measured 0.54).  A sun smaller than a
 // pixel with no blur leaves nothing to fit: the lower bound stays, with a
 // reason.
 TEST(Merge, SunSaturatedInEveryExposure) {
@@ -208,8 +208,8 @@ TEST(Merge, SunSaturatedInEveryExposure) {
         EXPECT_GT(e, 0);
       } else {
         EXPECT_TRUE(rep.regions[0].fitted) << rep.regions[0].why_not;
-        EXPECT_GT(e, sun_energy / 2);
-        EXPECT_LT(e, sun_energy * 2);
+        EXPECT_GT(e, sun_energy / 2.5);
+        EXPECT_LT(e, sun_energy);
       }
       if (fit && blur == 0) {
         EXPECT_FALSE(rep.regions[0].fitted);

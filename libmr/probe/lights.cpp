@@ -207,19 +207,51 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
   while (S < std::max(m.w, m.h)) S *= 2;
   std::vector<std::vector<double>> levels;
   std::vector<double> base(static_cast<size_t>(S) * S);
-  auto pixel_of = [&](double u, double v) {
-    const int x = std::clamp(static_cast<int>(std::lround(u * (m.w - 1))), 0, m.w - 1);
-    const int y = std::clamp(static_cast<int>(std::lround(v * (m.h - 1))), 0, m.h - 1);
-    return static_cast<size_t>(y) * m.w + x;
+  // Each pixel's energy spread over the cells it overlaps in (u, v) (a box
+  // filter, separable): nearest-pixel lookups would give a bright pixel the
+  // area of however many cell centres fall in it (2 or 3 here), biasing the
+  // VPLs towards it.
+  auto overlaps = [](int n_pixels, int cells) {
+    // weights[cell] = {(pixel, fraction of the pixel's extent)}; pixel k
+    // spans [k - 1/2, k + 1/2] clamped to [0, n - 1], cell c spans
+    // [c, c + 1] (n - 1) / cells.
+    std::vector<std::vector<std::pair<int, double>>> w(static_cast<size_t>(cells));
+    const double scale = static_cast<double>(n_pixels - 1) / cells;
+    for (int c = 0; c < cells; ++c) {
+      const double a = c * scale, b = (c + 1) * scale;
+      for (int k = std::max(0, static_cast<int>(std::floor(a - 0.5))); k <= std::min(n_pixels - 1, static_cast<int>(std::ceil(b + 0.5))); ++k) {
+        const double lo = std::max(0.0, k - 0.5), hi = std::min(n_pixels - 1.0, k + 0.5);
+        const double ov = std::min(b, hi) - std::max(a, lo);
+        if (ov > 0 && hi > lo) w[static_cast<size_t>(c)].push_back({k, ov / (hi - lo)});
+      }
+    }
+    return w;
   };
-  auto cell_omega = [&](int j) {
-    const double lat = kPi * (0.5 - (j + 0.5) / S);
-    return std::cos(lat) * (kPi / S) * (kTwoPi / S);
-  };
+  const auto wx = overlaps(m.w, S), wy = overlaps(m.h, S);
+  std::vector<double> rows(static_cast<size_t>(m.h) * S, 0.0);
+  for (int y = 0; y < m.h; ++y)
+    for (int i = 0; i < S; ++i)
+      for (const auto& [x, f] : wx[static_cast<size_t>(i)])
+        rows[static_cast<size_t>(y) * S + i] += f * m.energy[static_cast<size_t>(y) * m.w + x];
+  for (int j = 0; j < S; ++j)
+    for (const auto& [y, f] : wy[static_cast<size_t>(j)])
+      for (int i = 0; i < S; ++i) base[static_cast<size_t>(j) * S + i] += f * rows[static_cast<size_t>(y) * S + i];
+  // The pixel that gives each cell most of its energy: a VPL there takes its
+  // colour (a cell straddling a bright and a black pixel must not give its
+  // VPL the black one's, zero, radiance).
+  std::vector<size_t> dominant(static_cast<size_t>(S) * S);
   for (int j = 0; j < S; ++j)
     for (int i = 0; i < S; ++i) {
-      const size_t p = pixel_of((i + 0.5) / S, (j + 0.5) / S);
-      base[static_cast<size_t>(j) * S + i] = Luminance(m.radiance[p]) * cell_omega(j);
+      double best = -1;
+      for (const auto& [y, fy] : wy[static_cast<size_t>(j)])
+        for (const auto& [x, fx] : wx[static_cast<size_t>(i)]) {
+          const size_t p = static_cast<size_t>(y) * m.w + x;
+          const double e = fx * fy * m.energy[p];
+          if (e > best) {
+            best = e;
+            dominant[static_cast<size_t>(j) * S + i] = p;
+          }
+        }
     }
   levels.push_back(base);
   for (int n = S / 2; n >= 1; n /= 2) {
@@ -241,7 +273,7 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
   const double total = m.total;
   for (int k = 0; k < count; ++k) {
     const std::array<float, 2> pt = Sobol2D(static_cast<uint32_t>(k), seed, seed != 0);
-    double u = (k + 0.5) / count, v = pt[1];  // Hammersley-like: stratified in u, Sobol in v
+    double u = pt[0], v = pt[1];  // a (0, 2)-sequence: every power-of-two prefix is stratified
     int i = 0, j = 0;
     for (size_t lvl = 1; lvl < levels.size(); ++lvl) {
       const int n = 1 << lvl;
@@ -274,7 +306,7 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
     }
     const double uu = (i + u) / S, vv = (j + v) / S;
     const Eigen::Vector3d dir = LatLongPixelToDirection(Eigen::Vector2d(uu * (m.w - 1), vv * (m.h - 1)), m.w, m.h);
-    const size_t p = pixel_of(uu, vv);
+    const size_t p = dominant[static_cast<size_t>(j) * S + i];
     const double lum = Luminance(m.radiance[p]);
     ExtractedLight l;
     l.direction = dir;

@@ -9,9 +9,11 @@
 //  - variance-cut (Viriyothai and Debevec 2009): the split (either axis, any
 //    position) that minimises the summed energy-weighted spatial variance of
 //    the two halves, the region with the largest such variance first;
-//  - importance: hierarchical sample warping (Clarberg et al. 2005) of N
-//    stratified points through a quadtree of the energy, N VPLs of equal
-//    luminance power (the Monte Carlo estimator's weights L / (N pdf));
+//  - importance: hierarchical sample warping (Clarberg et al. 2005) of the
+//    first N points of a (0,2)-sequence through a quadtree of the energy
+//    (each pixel's energy spread over the cells it overlaps), N VPLs of
+//    equal luminance power (the Monte Carlo estimator's weights L / (N pdf))
+//    with the colour of their cell's dominant pixel;
 //  - blobs: pixels above `threshold` times the map's mean radiance,
 //    connected (across the longitude seam too), as differential irradiance
 //    caching detects light sources; components wider than `max_blob_sr`

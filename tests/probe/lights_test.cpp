@@ -91,8 +91,7 @@ TEST(Lights, TwelveDecadesOfDynamicRange) {
 }
 
 // More lights approximate irradiance better: on the real probes, median and
-// variance cut fall below 2% RMS error by 64 lights and importance below 5%
-// by 256;
+// variance cut fall below 2% RMS error by 64 lights and importance by 256;
 // and blobs with the residual's SH are within 3% with few lights.
 TEST(Lights, ErrorFallsWithCountOnRealProbes) {
   MR_REQUIRE_SHARED_DATA("probes-latlong");
@@ -111,10 +110,10 @@ TEST(Lights, ErrorFallsWithCountOnRealProbes) {
       std::printf("%s %s: %.3f %.3f %.3f %.4f %.4f\n", probe, method, err[0], err[1], err[2], err[3], err[4]);
       EXPECT_LT(err[4], err[0]);
       EXPECT_LT(err[2], err[1] * 1.2);
-      // Importance's VPLs converge as 1/sqrt(N) (grace's small bright sun:
-      // 3.9% at 256).
-      EXPECT_LT(std::string(method) == "importance" ? err[4] : err[3], std::string(method) == "importance" ? 0.05 : 0.02)
-          << probe << " " << method;
+      // Importance converges more slowly (measured 0.6-1.2% at 256; 2.7-3.0%
+      // on grace before its quadtree spread each pixel's energy over the
+      // cells it overlaps and gave a VPL its cell's dominant pixel's colour).
+      EXPECT_LT(std::string(method) == "importance" ? err[4] : err[3], 0.02) << probe << " " << method;
     }
     ExtractOptions o;
     o.method = "blobs";
@@ -138,7 +137,7 @@ TEST(Lights, ImportanceVplsFollowTheEnergy) {
   int in_sun = 0;
   for (const auto& l : ex.lights) {
     EXPECT_NEAR(Luminance(l.power), MapEnergy(env) / 1024, 1e-9 * MapEnergy(env));
-    in_sun += AngleBetween(l.direction, sun) < 2.0 * kDegToRad;
+    in_sun += AngleBetween(l.direction, sun) < 3.0 * kDegToRad;  // the pixel is 2.8 degrees wide
   }
   const double sigma = std::sqrt(1024 * share * (1 - share));
   std::printf("share %.3f: %d of 1024 VPLs in the sun (expected %.1f +- %.1f)\n", share, in_sun, 1024 * share, sigma);

@@ -149,7 +149,8 @@ int main(int argc, char** argv) {
       mr::WriteImage(residual_file, mr::DownsampleEnergy(ex.residual, residual_width), wo);
       report.AddOutput(residual_file);
       if (ex.taken_fraction > 1 - 1e-12)
-        report.Warn("the lights took all of the map's energy: the residual map is black");
+        report.Skip("residual energy", "the lights took all of the map's energy (" + eo.method +
+                                           "): the residual map is black and its SH zero");
     } else if (ex.taken_fraction < 1 - 1e-9) {
       report.Warn(fmt::format("the lights leave {:.1f}% of the map's energy out and no --residual keeps it (lights.json "
                               "holds its spherical harmonics)",

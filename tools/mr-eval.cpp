@@ -1,9 +1,13 @@
-// mr-eval: image comparison (and, with later issues, error-vs-time tables).
+// mr-eval: image comparison, and plots of error tables (error against time or count).
 #include <spdlog/spdlog.h>
+
+#include <map>
+#include <sstream>
 
 #include "core/error.h"
 #include "core/image.h"
 #include "eval/metrics.h"
+#include "eval/plot.h"
 #include "tool/cli.h"
 
 int main(int argc, char** argv) {
@@ -25,7 +29,73 @@ int main(int argc, char** argv) {
   cmp->add_option("--region", region, "One-channel image: compare where > 0")->check(CLI::ExistingFile);
   cmp->add_option("--diff", diff, "Write |A - B| x scale (e.g. diff.png or diff.exr)");
   cmp->add_option("--scale", scale, "Scale of the difference image")->default_val(10)->check(CLI::PositiveNumber);
+  std::string csv, x_col, y_col, group_col, plot_out, title;
+  bool linear_x = false, linear_y = false;
+  CLI::App* plot = app.add_subcommand(
+      "plot",
+      "Plots columns of a CSV table (mr-lights --sweep, bench/lights_render.sh, ...) as an SVG:\n"
+      "one line per value of --group, log axes unless --linear-x/--linear-y.");
+  plot->fallthrough();
+  plot->add_option("table", csv, "CSV with a header line")->required()->check(CLI::ExistingFile);
+  plot->add_option("--x", x_col, "Column on the x axis")->required();
+  plot->add_option("--y", y_col, "Column on the y axis")->required();
+  plot->add_option("--group", group_col, "Column whose values name the lines");
+  plot->add_option("--title", title, "Title");
+  plot->add_option("--out", plot_out, "SVG to write")->required();
+  plot->add_flag("--linear-x", linear_x, "Linear x axis");
+  plot->add_flag("--linear-y", linear_y, "Linear y axis");
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
+    if (plot->parsed()) {
+      std::istringstream in(mr::ReadTextFile(csv));
+      std::string line;
+      auto split = [](const std::string& l) {
+        std::vector<std::string> f;
+        std::stringstream ss(l);
+        for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
+        return f;
+      };
+      if (!std::getline(in, line)) mr::ThrowErrorAt(mr::FileLoc{csv}, "is empty");
+      const std::vector<std::string> header = split(line);
+      auto column = [&](const std::string& name) -> int {
+        for (size_t i = 0; i < header.size(); ++i)
+          if (header[i] == name) return static_cast<int>(i);
+        mr::ThrowErrorAt(mr::FileLoc{csv}, "has no column \"{}\" (it has: {})", name, fmt::join(header, ", "));
+      };
+      const int xi = column(x_col), yi = column(y_col), gi = group_col.empty() ? -1 : column(group_col);
+      std::map<std::string, mr::PlotSeries> groups;
+      std::vector<std::string> order;
+      int n = 1;
+      while (std::getline(in, line)) {
+        ++n;
+        if (line.empty()) continue;
+        const std::vector<std::string> f = split(line);
+        if (f.size() != header.size())
+          mr::ThrowErrorAt(mr::FileLoc{csv, n}, "has {} fields, the header {}", f.size(), header.size());
+        const std::string g = gi >= 0 ? f[static_cast<size_t>(gi)] : y_col;
+        if (!groups.count(g)) {
+          order.push_back(g);
+          groups[g].name = g;
+        }
+        try {
+          groups[g].points.push_back({std::stod(f[static_cast<size_t>(xi)]), std::stod(f[static_cast<size_t>(yi)])});
+        } catch (const std::exception&) {
+          mr::ThrowErrorAt(mr::FileLoc{csv, n}, "\"{}\" or \"{}\" is not a number", f[static_cast<size_t>(xi)],
+                           f[static_cast<size_t>(yi)]);
+        }
+      }
+      std::vector<mr::PlotSeries> series;
+      for (const auto& g : order) series.push_back(groups[g]);
+      mr::PlotOptions po;
+      po.title = title.empty() ? y_col + " against " + x_col : title;
+      po.x_label = x_col;
+      po.y_label = y_col;
+      po.log_x = !linear_x;
+      po.log_y = !linear_y;
+      mr::WriteSvgPlot(plot_out, series, po);
+      mr::ToolReport().AddInput(csv);
+      mr::ToolReport().AddOutput(plot_out);
+      return mr::kExitOk;
+    }
     mr::Image ia = mr::ReadRgbForComparison(a), ib = mr::ReadRgbForComparison(b);
     std::optional<mr::Image> reg;
     if (!region.empty()) {

@@ -160,6 +160,9 @@ check "scene lit by the blobs and their residual" 0 "valid" -- "$bin/mr-info" "$
 check "render with extracted lights" 0 "" -- "$bin/mr-render" "$tmp/cap/scene-blobs.json" --out "$tmp/r-lights" --spp 1 -q
 check "mr-lights sweep" 0 "variance-cut,1024" -- "$bin/mr-lights" "$tmp/cap/env.exr" --sweep --counts 1,1024 --table "$tmp/sweep.csv" --plot "$tmp/sweep.svg" -q
 check "sweep plot" 0 "<svg" -- cat "$tmp/sweep.svg"
+check "mr-eval plot" 0 "" -- "$bin/mr-eval" plot "$tmp/sweep.csv" --x count --y irradiance_rms --group method --out "$tmp/plot.svg"
+check "plot names its lines" 0 "variance-cut" -- cat "$tmp/plot.svg"
+check "plot: unknown column" 1 'has no column "error"' -- "$bin/mr-eval" plot "$tmp/sweep.csv" --x count --y error --out "$tmp/p2.svg"
 check "unknown lights method" 2 "kmeans" -- "$bin/mr-lights" "$tmp/env.exr" --method kmeans --out "$tmp/x.json"
 
 echo "$pass passed, $fail failed"

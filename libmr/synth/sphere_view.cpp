@@ -8,6 +8,19 @@
 
 namespace mr {
 
+void AddRelativeNoise(Image* img, double sigma, uint64_t seed) {
+  if (!(sigma > 0)) return;
+  const int W = img->width(), C = img->channels();
+  ParallelFor(0, img->height(), [&](int64_t y) {
+    for (int x = 0; x < W; ++x)
+      for (int c = 0; c < C; ++c) {
+        Pcg32 rng(seed, (static_cast<uint64_t>(y) * W + x) * static_cast<uint64_t>(C) + static_cast<uint64_t>(c));
+        float& v = img->at(x, static_cast<int>(y), c);
+        v = static_cast<float>(std::max(0.0, v * (1 + sigma * NextGaussian(rng))));
+      }
+  });
+}
+
 Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, const Eigen::Vector3d& centre,
                        double radius, const SphereViewOptions& o) {
   const int W = camera.width(), H = camera.height(), S = std::max(1, o.supersample);
@@ -42,17 +55,10 @@ Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, con
           sum += scale * env.Eval(o.world_from_cam * dir);
         }
       sum *= o.exposure / (S * S);
-      for (int c = 0; c < 3; ++c) {
-        double v = sum[c];
-        if (o.noise_sigma > 0) {
-          Pcg32 rng(o.seed, (static_cast<uint64_t>(y) * W + x) * 3 + c);
-          const double u1 = std::max(1e-12, rng.NextDouble()), u2 = rng.NextDouble();
-          v *= 1 + o.noise_sigma * std::sqrt(-2 * std::log(u1)) * std::cos(kTwoPi * u2);
-        }
-        img.at(x, static_cast<int>(y), c) = static_cast<float>(std::max(0.0, v));
-      }
+      for (int c = 0; c < 3; ++c) img.at(x, static_cast<int>(y), c) = static_cast<float>(std::max(0.0, sum[c]));
     }
   });
+  AddRelativeNoise(&img, o.noise_sigma, o.seed);
   return img;
 }
 

@@ -33,6 +33,10 @@ struct SphereViewOptions {
 Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, const Eigen::Vector3d& centre,
                        double radius, const SphereViewOptions& options = {});
 
+// Multiplies every value by 1 + sigma g, g standard normal, seeded per
+// pixel and channel (values stay non-negative).
+void AddRelativeNoise(Image* img, double sigma, uint64_t seed);
+
 // The environment itself through `camera` (no sphere): a fish-eye probe.
 Image RenderEnvironmentView(const EnvironmentMap& env, const CameraModel& camera, const SphereViewOptions& options = {});
 

@@ -128,14 +128,16 @@ void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
   so.supersample = 3;
   so.world_from_cam = world_from_light;
   so.reflectance = reflectance;
-  so.noise_sigma = 0.01;
+  so.camera_body_radius = body;
   so.seed = o.seed;
   fs::create_directories(o.out / "probe");
   light.Write(o.out / "probe" / "light.cameramodel", note);
-  WriteImage(o.out / "probe" / "sphere.exr", RenderSphereView(env, light, centre, radius, so), wo);
-  so.noise_sigma = 0;  // the bracket adds the sensor's own
-  so.camera_body_radius = body;
-  WriteBracket(o.out / "probe" / "bracket", "sphere", RenderSphereView(env, light, centre, radius, so), o.seed, wo, report);
+  // One render: the bracket adds the sensor's noise, sphere.exr 1% of its own.
+  const Image sphere = RenderSphereView(env, light, centre, radius, so);
+  WriteBracket(o.out / "probe" / "bracket", "sphere", sphere, o.seed, wo, report);
+  Image noisy = sphere;
+  AddRelativeNoise(&noisy, 0.01, o.seed);
+  WriteImage(o.out / "probe" / "sphere.exr", noisy, wo);
   // The fish-eye at the zenith: camera z along world +y, camera y along -z.
   CameraModel up = light;
   Eigen::Matrix3d world_from_up;
@@ -144,6 +146,7 @@ void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
   up.Write(o.out / "probe" / "fisheye.cameramodel", note);
   so.world_from_cam = world_from_up;
   so.camera_body_radius = 0;
+  so.supersample = 2;  // no silhouette to resolve
   WriteBracket(o.out / "probe" / "fisheye", "sky", RenderEnvironmentView(env, up, so), HashCombine(o.seed, 99), wo, report);
   Json times = Json::array();
   for (double t : kProbeTimes) times.push_back(t);

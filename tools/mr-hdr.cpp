@@ -133,23 +133,8 @@ int main(int argc, char** argv) {
     {
       mr::ScopedTimer t(&report, "read");
       for (size_t i = 0; i < images.size(); ++i) {
-        mr::ImageReadOptions opt;
-        opt.use_file_transfer = false;
-        opt.default_ldr_transfer = mr::Transfer::kLinear;  // codes / max: the response does the rest
-        mr::ImageFileInfo info;
-        mr::Exposure e;
-        e.name = images[i];
-        e.codes = mr::ReadImage(images[i], opt, &info);
-        e.pixel_type = info.pixel_type;
-        std::string how;
-        if (!times.empty()) {
-          e.time_s = times[i];
-          how = "--exposures";
-        } else {
-          e.time_s = mr::ExposureFromMetadata(info.attributes, &how);
-          if (!(e.time_s > 0))
-            mr::ThrowErrorAt(mr::FileLoc{images[i]}, "has no ExposureTime in its metadata: give --exposures FILE");
-        }
+        std::string how = "--exposures";
+        mr::Exposure e = mr::ReadExposure(images[i], times.empty() ? 0.0 : times[i], times.empty() ? &how : nullptr);
         if (e.codes.channels() != 3 && e.codes.channels() != 1)
           mr::ThrowErrorAt(mr::FileLoc{images[i]}, "has {} channels; mr-hdr merges RGB or grey photographs",
                            e.codes.channels());
@@ -194,10 +179,6 @@ int main(int argc, char** argv) {
       report.SetMetric("response", {{"method", ro.method}, {"samples", rr.samples}, {"rms_log", rr.rms_log},
                                     {"monotonicity_fixes", rr.monotonicity_fixes}});
       spdlog::info("response ({}): {} pixels, RMS {:.3f} in ln exposure", ro.method, rr.samples, rr.rms_log);
-      if (!response_out.empty()) {
-        mr::WriteResponse(response_out, response, "mr-hdr: " + mr::JoinCommandLine(argc, argv));
-        report.AddOutput(response_out);
-      }
     }
     if (static_cast<int>(response.channels.size()) != nc)
       mr::ThrowErrorAt(mr::FileLoc{response_in}, "has {} channels, the photographs {}", response.channels.size(), nc);
@@ -242,8 +223,14 @@ int main(int argc, char** argv) {
     wo.tool = "mr-hdr";
     wo.command_line = mr::JoinCommandLine(argc, argv);
     {
+      // Nothing is written before the merge has succeeded: a failed run
+      // leaves no response.json behind either.
       mr::ScopedTimer t(&report, "write");
       mr::WriteImage(out, hdr, wo);
+      if (!response_out.empty()) {
+        mr::WriteResponse(response_out, response, "mr-hdr: " + mr::JoinCommandLine(argc, argv));
+        report.AddOutput(response_out);
+      }
     }
     report.AddOutput(out);
     return mr::kExitOk;

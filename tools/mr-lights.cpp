@@ -140,8 +140,10 @@ int main(int argc, char** argv) {
     mr::Json sh = mr::Json::array();
     for (const auto& c : ex.residual_sh) sh.push_back({c.x(), c.y(), c.z()});
     j["residual"] = {{"taken_fraction", std::clamp(ex.taken_fraction, 0.0, 1.0)}, {"sh_order", eo.sh_order}, {"sh", sh}};
-    if (!residual_file.empty()) {
+    if (!residual_file.empty())
       j["residual"]["map"] = mr::fs::relative(mr::fs::absolute(residual_file), mr::fs::absolute(out).parent_path()).generic_string();
+    mr::ParseLights(j, out);  // what mr-render will read; checked before anything is written
+    if (!residual_file.empty()) {
       mr::ImageWriteOptions wo;
       wo.tool = "mr-lights";
       wo.command_line = mr::JoinCommandLine(argc, argv);
@@ -156,7 +158,6 @@ int main(int argc, char** argv) {
                               "holds its spherical harmonics)",
                               100 * (1 - ex.taken_fraction)));
     }
-    mr::ParseLights(j, out);  // what mr-render will read
     mr::WriteTextFile(out, j.dump(2) + "\n");
     report.AddOutput(out);
     report.SetMetric("method", eo.method);

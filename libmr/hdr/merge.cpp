@@ -90,6 +90,22 @@ double ExposureFromMetadata(const std::map<std::string, std::string>& a, std::st
   return e;
 }
 
+Exposure ReadExposure(const fs::path& path, double time_s, std::string* how) {
+  ImageReadOptions opt;
+  opt.use_file_transfer = false;
+  opt.default_ldr_transfer = Transfer::kLinear;  // codes / max
+  ImageFileInfo info;
+  Exposure e;
+  e.name = path.string();
+  e.codes = ReadImage(path, opt, &info);
+  e.pixel_type = info.pixel_type;
+  std::string h = "given";
+  e.time_s = time_s > 0 ? time_s : ExposureFromMetadata(info.attributes, &h);
+  if (!(e.time_s > 0)) ThrowErrorAt(FileLoc{e.name}, "has no ExposureTime in its metadata: give --exposures FILE");
+  if (how) *how = h;
+  return e;
+}
+
 std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int max_bits) {
   std::vector<Exposure>& b = *bracket;
   if (b.size() < 2) return std::vector<Eigen::Vector2i>(b.size(), Eigen::Vector2i::Zero());

@@ -90,6 +90,12 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
 // shows exposure i's pixel q - shift.
 std::vector<Eigen::Vector2i> AlignExposures(std::vector<Exposure>* bracket, int max_bits = 6);
 
+// Reads one photograph of a bracket as raw normalised codes (no transfer
+// decoding: the response does that), with its pixel type and exposure:
+// `time_s` when positive, else from its metadata (`how` says which), else
+// an error naming the file.
+Exposure ReadExposure(const fs::path& path, double time_s = 0, std::string* how = nullptr);
+
 // A photograph's exposure from its metadata: ExposureTime (s), and
 // FNumber / ISO when present (t * ISO/100 / N^2 relative to f/1, ISO 100),
 // so brackets that vary aperture or gain merge too.  0 when unknown.

@@ -334,18 +334,8 @@ TEST(ProbeRealData, MirrorBallBracketToMap) {
   MR_REQUIRE_SHARED_DATA("mirrorball-iphone");
   const fs::path dir = test::SharedData("mirrorball-iphone") / "mirrorball";
   std::vector<Exposure> bracket;
-  for (const char* f : {"ball_exp_1-10s.JPG", "ball_exp_1-40s.JPG", "ball_exp_1-160s.JPG"}) {
-    ImageReadOptions ro;
-    ro.use_file_transfer = false;
-    ro.default_ldr_transfer = Transfer::kLinear;
-    ImageFileInfo info;
-    Exposure e;
-    e.name = (dir / f).string();
-    e.codes = ReadImage(e.name, ro, &info);
-    e.pixel_type = info.pixel_type;
-    e.time_s = ExposureFromMetadata(info.attributes, nullptr);
-    bracket.push_back(e);
-  }
+  for (const char* f : {"ball_exp_1-10s.JPG", "ball_exp_1-40s.JPG", "ball_exp_1-160s.JPG"})
+    bracket.push_back(ReadExposure(dir / f));  // the time from EXIF
   AlignExposures(&bracket);
   const Image hdr = MergeExposures(bracket, RecoverResponse(bracket, {}), {}).Layer("");
   const double fpx = 3300;
@@ -408,14 +398,10 @@ TEST(ProbeChain, SyntheticBracketToWorldMap) {
   for (std::string line; std::getline(times, line);) {
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
-    Exposure e;
-    ls >> e.name >> e.time_s;
-    ImageReadOptions ro;
-    ro.use_file_transfer = false;
-    ro.default_ldr_transfer = Transfer::kLinear;
-    ImageFileInfo info;
-    e.codes = ReadImage(probe / "bracket" / e.name, ro, &info);
-    e.pixel_type = info.pixel_type;
+    std::string name;
+    double time = 0;
+    ls >> name >> time;
+    const Exposure e = ReadExposure(probe / "bracket" / name, time);
     bracket.push_back(e);
   }
   ASSERT_EQ(bracket.size(), 4u);

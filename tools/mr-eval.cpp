@@ -2,12 +2,15 @@
 #include <spdlog/spdlog.h>
 
 #include <map>
+#include <optional>
 #include <sstream>
 
 #include "core/error.h"
 #include "core/image.h"
 #include "eval/metrics.h"
 #include "eval/plot.h"
+#include "eval/trajectory_error.h"
+#include "geometry/mesh.h"
 #include "tool/cli.h"
 
 int main(int argc, char** argv) {
@@ -44,7 +47,90 @@ int main(int argc, char** argv) {
   plot->add_option("--out", plot_out, "SVG to write")->required();
   plot->add_flag("--linear-x", linear_x, "Linear x axis");
   plot->add_flag("--linear-y", linear_y, "Linear y axis");
+  std::string est, ref;
+  double max_dt = 0.02, delta = 1.0;
+  CLI::App* traj = app.add_subcommand(
+      "traj",
+      "Absolute and relative trajectory error of ESTIMATE against REFERENCE, as TUM's evaluate_ate.py\n"
+      "and evaluate_rpe.py define them: poses associated by timestamp (nearest, at most --max-dt apart),\n"
+      "ATE = RMSE of camera-centre distances after Horn's rigid alignment (no scale); RPE over all pairs\n"
+      "--delta apart (translation RMSE in metres per delta, rotation RMSE in degrees). Pose files: TUM\n"
+      "text, or a 7-Scenes folder (frame-NNNNNN.pose.txt; timestamps = frame numbers).");
+  traj->fallthrough();
+  traj->add_option("ESTIMATE", est, "Estimated trajectory")->required()->check(CLI::ExistingPath);
+  traj->add_option("REFERENCE", ref, "Reference trajectory")->required()->check(CLI::ExistingPath);
+  traj->add_option("--max-dt", max_dt, "Association: largest time difference")->default_val(0.02);
+  traj->add_option("--delta", delta, "RPE time step (timestamp units)")->default_val(1.0);
+  std::string region_box;
+  double threshold = 0.01, cutoff = 0.1;
+  int64_t samples = 200000;
+  std::vector<double> box;
+  CLI::App* mesh = app.add_subcommand(
+      "mesh",
+      "Surface distances between MESH and REFERENCE from area-uniform samples: accuracy (estimate to\n"
+      "reference), completeness (reference to estimate), exact point-to-triangle distances capped at\n"
+      "--cutoff; the fractions within --threshold and their F-score.");
+  mesh->fallthrough();
+  mesh->add_option("MESH", est, "Estimated mesh")->required()->check(CLI::ExistingFile);
+  mesh->add_option("REFERENCE", ref, "Reference mesh")->required()->check(CLI::ExistingFile);
+  mesh->add_option("--threshold", threshold, "Distance counted as correct (m)")->default_val(0.01);
+  mesh->add_option("--cutoff", cutoff, "Distances are capped here (m)")->default_val(0.1);
+  mesh->add_option("--samples", samples, "Samples per surface")->default_val(200000);
+  mesh->add_option("--region", box, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")->delimiter(',')->expected(6);
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
+    if (traj->parsed()) {
+      auto load = [](const std::string& p) {
+        return mr::fs::is_directory(p) ? mr::Read7ScenesFolder(p) : mr::ReadTum(mr::fs::path(p));
+      };
+      const mr::Trajectory e = load(est), r = load(ref);
+      const mr::AteResult ate = mr::ComputeAte(e, r, max_dt);
+      const mr::RpeResult rpe = mr::ComputeRpe(e, r, delta, max_dt);
+      auto& rep = mr::ToolReport();
+      rep.AddInput(est);
+      rep.AddInput(ref);
+      rep.SetMetric("ate.pairs", ate.pairs);
+      rep.SetMetric("ate.rmse_m", ate.rmse);
+      rep.SetMetric("ate.mean_m", ate.mean);
+      rep.SetMetric("ate.median_m", ate.median);
+      rep.SetMetric("ate.max_m", ate.max);
+      rep.SetMetric("rpe.delta", delta);
+      rep.SetMetric("rpe.pairs", rpe.pairs);
+      rep.SetMetric("rpe.trans_rmse_m", rpe.trans_rmse);
+      rep.SetMetric("rpe.trans_mean_m", rpe.trans_mean);
+      rep.SetMetric("rpe.rot_rmse_deg", rpe.rot_rmse_deg);
+      std::printf("ATE rmse %.4f m mean %.4f median %.4f max %.4f (%d pairs)\n", ate.rmse, ate.mean, ate.median,
+                  ate.max, ate.pairs);
+      std::printf("RPE (delta %g) trans rmse %.4f m, rot rmse %.3f deg (%d pairs)\n", delta, rpe.trans_rmse,
+                  rpe.rot_rmse_deg, rpe.pairs);
+      return mr::kExitOk;
+    }
+    if (mesh->parsed()) {
+      const mr::Mesh m = mr::ReadMesh(est), r = mr::ReadMesh(ref);
+      std::optional<Eigen::AlignedBox3f> reg;
+      if (box.size() == 6)
+        reg = Eigen::AlignedBox3f(Eigen::Vector3d(box[0], box[1], box[2]).cast<float>(),
+                                  Eigen::Vector3d(box[3], box[4], box[5]).cast<float>());
+      const mr::MeshErrorResult e = mr::CompareMeshes(m, r, threshold, cutoff, samples, 1, reg ? &*reg : nullptr);
+      auto& rep = mr::ToolReport();
+      rep.AddInput(est);
+      rep.AddInput(ref);
+      for (const auto& [name, d] : {std::pair{"accuracy", e.accuracy}, std::pair{"completeness", e.completeness}}) {
+        const std::string k = name;
+        rep.SetMetric(k + ".mean_m", d.mean);
+        rep.SetMetric(k + ".median_m", d.median);
+        rep.SetMetric(k + ".rmse_m", d.rmse);
+        rep.SetMetric(k + ".p90_m", d.p90);
+        rep.SetMetric(k + ".within_threshold", d.within);
+        rep.SetMetric(k + ".samples", d.samples);
+        std::printf("%-12s mean %.4f m median %.4f p90 %.4f, %.1f%% within %.3f m\n", name, d.mean, d.median, d.p90,
+                    100 * d.within, threshold);
+      }
+      rep.SetMetric("threshold_m", threshold);
+      rep.SetMetric("cutoff_m", cutoff);
+      rep.SetMetric("fscore", e.fscore);
+      std::printf("F-score %.4f\n", e.fscore);
+      return mr::kExitOk;
+    }
     if (plot->parsed()) {
       std::istringstream in(mr::ReadTextFile(csv));
       std::string line;

@@ -168,6 +168,40 @@ Trajectory Read7ScenesFolder(const fs::path& dir) {
   return t;
 }
 
+std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& a,
+                                                     const std::vector<double>& b, double max_dt) {
+  // Candidates within max_dt (b sorted by time for the window search).
+  std::vector<int> bo(b.size());
+  for (size_t i = 0; i < b.size(); ++i) bo[i] = static_cast<int>(i);
+  std::sort(bo.begin(), bo.end(), [&](int x, int y) { return b[x] < b[y] || (b[x] == b[y] && x < y); });
+  std::vector<double> bs(b.size());
+  for (size_t i = 0; i < b.size(); ++i) bs[i] = b[bo[i]];
+  struct Cand {
+    double d;
+    int i, j;
+  };
+  std::vector<Cand> cands;
+  for (size_t i = 0; i < a.size(); ++i) {
+    auto lo = std::lower_bound(bs.begin(), bs.end(), a[i] - max_dt);
+    for (auto it = lo; it != bs.end() && *it <= a[i] + max_dt; ++it) {
+      int j = bo[static_cast<size_t>(it - bs.begin())];
+      cands.push_back({std::abs(a[i] - b[j]), static_cast<int>(i), j});
+    }
+  }
+  std::sort(cands.begin(), cands.end(), [](const Cand& x, const Cand& y) {
+    return x.d < y.d || (x.d == y.d && (x.i < y.i || (x.i == y.i && x.j < y.j)));
+  });
+  std::vector<char> used_a(a.size(), 0), used_b(b.size(), 0);
+  std::vector<std::pair<int, int>> out;
+  for (const Cand& c : cands) {
+    if (used_a[c.i] || used_b[c.j]) continue;
+    used_a[c.i] = used_b[c.j] = 1;
+    out.emplace_back(c.i, c.j);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 std::string DetectPoseFormat(const fs::path& path) {
   std::string text = ReadTextFile(path);
   std::istringstream in(text);

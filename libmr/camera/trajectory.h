@@ -43,6 +43,11 @@ void Write7ScenesPose(const fs::path& path, const Rigid3& world_from_cam);
 // All frame-NNNNNN.pose.txt files of a folder, in frame order; timestamp = NNNNNN.
 Trajectory Read7ScenesFolder(const fs::path& dir);
 
+// The TUM association of two timestamp lists: index pairs (a, b), greedy by
+// smallest |ta - tb| <= max_dt, each index used once, sorted by a.
+std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& a,
+                                                     const std::vector<double>& b, double max_dt);
+
 // Guesses the kind of pose file: "tum", "7scenes" (a 4x4 matrix), or "" when neither.
 std::string DetectPoseFormat(const fs::path& path);
 

@@ -47,6 +47,8 @@ void Mesh::Validate(const std::string& name) const {
     ThrowErrorAt(loc, "{} normals for {} vertices", normals.size(), nv);
   if (!colors.empty() && colors.size() != nv) ThrowErrorAt(loc, "{} colours for {} vertices", colors.size(), nv);
   if (!uvs.empty() && uvs.size() != nv) ThrowErrorAt(loc, "{} uvs for {} vertices", uvs.size(), nv);
+  for (const Scalar& s : scalars)
+    if (s.values.size() != nv) ThrowErrorAt(loc, "{} values of \"{}\" for {} vertices", s.values.size(), s.name, nv);
   for (size_t i = 0; i < nv; ++i)
     if (!positions[i].allFinite()) ThrowErrorAt(loc, "vertex {} has a non-finite coordinate", i);
   for (size_t f = 0; f < triangles.size(); ++f)

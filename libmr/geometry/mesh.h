@@ -19,6 +19,13 @@ struct Mesh {
   std::vector<Eigen::Vector3f> colors;   // per vertex, linear [0,1]; empty or positions.size()
   std::vector<Eigen::Vector2f> uvs;      // per vertex; empty or positions.size()
   std::vector<Eigen::Vector3i> triangles;
+  // Further per-vertex scalars written as float PLY properties after the
+  // standard ones (mr-fuse: albedo_r/g/b, confidence).  Not read back.
+  struct Scalar {
+    std::string name;
+    std::vector<float> values;
+  };
+  std::vector<Scalar> scalars;
 
   size_t vertex_count() const { return positions.size(); }
   size_t triangle_count() const { return triangles.size(); }

@@ -389,6 +389,7 @@ void WritePly(const fs::path& path, const Mesh& mesh, const std::string& comment
   if (!mesh.normals.empty()) out << "property float nx\nproperty float ny\nproperty float nz\n";
   if (!mesh.colors.empty()) out << "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   if (!mesh.uvs.empty()) out << "property float u\nproperty float v\n";
+  for (const Mesh::Scalar& sc : mesh.scalars) out << "property float " << sc.name << "\n";
   out << "element face " << mesh.triangles.size() << "\n"
       << "property list uchar int vertex_indices\nend_header\n";
   auto put = [&](const void* p, size_t n) { out.write(static_cast<const char*>(p), static_cast<std::streamsize>(n)); };
@@ -403,6 +404,7 @@ void WritePly(const fs::path& path, const Mesh& mesh, const std::string& comment
       put(c, 3);
     }
     if (!mesh.uvs.empty()) put(mesh.uvs[i].data(), 8);
+    for (const Mesh::Scalar& s : mesh.scalars) put(&s.values[i], 4);
   }
   for (const auto& t : mesh.triangles) {
     uint8_t n = 3;

@@ -1,0 +1,229 @@
+#include "recon/fusion.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+
+namespace mr {
+
+namespace {
+
+double Seconds(std::chrono::steady_clock::time_point a) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
+}
+
+const Rigid3* PoseAt(const Trajectory& t, double timestamp) {
+  const TimedPose* best = nullptr;
+  for (const auto& p : t.poses)
+    if (!best || std::abs(p.timestamp - timestamp) < std::abs(best->timestamp - timestamp)) best = &p;
+  if (!best || std::abs(best->timestamp - timestamp) > 0.02) return nullptr;
+  return &best->world_from_cam;
+}
+
+}  // namespace
+
+FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume* volume,
+                const FrameCallback& on_frame) {
+  FuseResult result;
+  DepthReadOptions dopt = options.depth;
+  if (!(dopt.scale > 0)) dopt.scale = seq.depth_scale;
+  const PinholeIntrinsics& K = seq.K;
+  const int n = static_cast<int>(seq.frames.size());
+  const int stride = std::max(1, options.stride);
+
+  bool have_model = false, have_pose = false;
+  Rigid3 pose = options.first_pose, prev_pose = options.first_pose, last_fused = options.first_pose;
+  Rigid3 velocity;  // world_from_cam[k] * inverse(world_from_cam[k-1])
+  Rigid3 model_pose;
+  PointMaps model;
+  int lost_run = 0;
+  std::vector<double> early_medians;
+  int taken = 0;
+  for (int i = std::max(0, options.first); i < n; i += stride) {
+    if (options.count >= 0 && taken >= options.count) break;
+    ++taken;
+    const auto t0 = std::chrono::steady_clock::now();
+    const RgbdFrame& f = seq.frames[static_cast<size_t>(i)];
+    FrameRecord rec;
+    rec.index = f.index;
+    rec.timestamp = f.timestamp;
+    DepthReadStats ds;
+    const DepthMap depth = ReadDepth(f.depth, dopt, K.width, K.height, &ds);
+    rec.t_read = Seconds(t0);
+    rec.valid_depth = ds.valid;
+    rec.rejected_depth = ds.rejected;
+    if (ds.median_m > 0 && early_medians.size() < 5) {
+      early_medians.push_back(ds.median_m);
+      if (early_medians.size() == 5 || i + stride >= n) {
+        std::vector<double> m = early_medians;
+        std::nth_element(m.begin(), m.begin() + static_cast<std::ptrdiff_t>(m.size() / 2), m.end());
+        result.suspect_scale = SuggestDepthScale(m[m.size() / 2], dopt.scale);
+      }
+    }
+    const double valid_fraction = static_cast<double>(ds.valid) / static_cast<double>(depth.z.size());
+    auto finish = [&] {
+      rec.seconds = Seconds(t0);
+      result.peak_bytes = std::max(result.peak_bytes, volume->MemoryBytes());
+      if (on_frame) on_frame(rec);
+      result.frames.push_back(rec);
+    };
+    if (valid_fraction < options.min_valid_fraction) {
+      rec.status = "no_depth";
+      rec.note = fmt::format("{:.1f}% valid depth < {:.1f}%", 100 * valid_fraction, 100 * options.min_valid_fraction);
+      finish();
+      continue;
+    }
+    auto tp = std::chrono::steady_clock::now();
+    const FramePyramid pyr = BuildPyramid(depth, K, options.pyramid);
+    rec.t_pyramid = Seconds(tp);
+    tp = std::chrono::steady_clock::now();
+
+    if (options.poses) {
+      const Rigid3* p = PoseAt(*options.poses, f.timestamp);
+      if (!p) {
+        rec.status = "no_pose";
+        rec.note = "no pose within 0.02 s in the given trajectory";
+        finish();
+        continue;
+      }
+      pose = *p;
+      rec.status = "given";
+    } else if (!have_model) {
+      pose = options.first_pose;
+      rec.status = "first";
+    } else {
+      // Constant-velocity prediction after a tracked frame; the last good
+      // pose after a lost one (relocalisation by ICP from there, wider gates).
+      const bool relocalising = lost_run > 0;
+      const Rigid3 guess = relocalising ? prev_pose : velocity * prev_pose;
+      IcpOptions icp = options.icp;
+      if (relocalising) {
+        icp.max_distance *= 2;
+        for (auto& it : icp.iterations) it *= 2;
+      }
+      const IcpResult r = TrackIcp(pyr, model, K, model_pose, guess, icp);
+      rec.icp_rms = r.rms;
+      rec.inlier_ratio = r.inlier_ratio;
+      rec.condition = r.condition;
+      rec.weak_directions = r.weak_directions;
+      rec.iterations = r.iterations;
+      if (!r.ok) {
+        rec.status = "lost";
+        rec.note = r.failure;
+        ++lost_run;
+        if (lost_run >= options.max_lost) {
+          result.stopped_early = true;
+          result.stop_reason = fmt::format("tracking lost for {} frames in a row (last: frame {}, {}); everything "
+                                           "fused before is kept",
+                                           lost_run, f.index, r.failure);
+          finish();
+          break;
+        }
+        finish();
+        continue;
+      }
+      rec.status = relocalising ? "relocalised" : "tracked";
+      velocity = relocalising ? Rigid3() : r.world_from_cam * prev_pose.Inverse();
+      pose = r.world_from_cam;
+      lost_run = 0;
+    }
+    rec.t_track = Seconds(tp);
+    tp = std::chrono::steady_clock::now();
+    have_pose = true;
+    result.trajectory.poses.push_back({f.timestamp, pose});
+
+    // Fuse unless the frame adds nothing: small motion and no new surface.
+    IntegrateStats is;
+    const std::vector<int32_t> blocks = volume->AllocateBand(depth, K, pose, &is);
+    rec.new_blocks = is.blocks_new;
+    const double moved = (pose.translation - last_fused.translation).norm();
+    const double turned = Eigen::AngleAxisd((pose * last_fused.Inverse()).rotation).angle() * 180 / M_PI;
+    const bool small = have_model && is.blocks_new == 0 && moved < options.skip_translation_m &&
+                       turned < options.skip_rotation_deg;
+    if (small) {
+      rec.fused = false;
+      rec.note = fmt::format("moved {:.1f} mm / {:.2f} deg since the last fused frame, no new surface", 1000 * moved,
+                             turned);
+    } else {
+      Image color;
+      if (options.use_color && !f.color.empty()) color = ReadColor(f.color, K.width, K.height);
+      volume->Integrate(blocks, pyr.depth[0], color.empty() ? nullptr : &color, K, pose, &is);
+      rec.fused = true;
+      last_fused = pose;
+    }
+    rec.t_fuse = Seconds(tp);
+    tp = std::chrono::steady_clock::now();
+    if (!options.poses && (rec.fused || !have_model)) {
+      model = volume->Raycast(K, pose, 0.2f, static_cast<float>(dopt.max_m), &pyr.depth[0]);
+      model_pose = pose;
+    }
+    rec.t_raycast = Seconds(tp);
+    have_model = true;
+    prev_pose = pose;
+    finish();
+  }
+  (void)have_pose;
+  return result;
+}
+
+void ReportFusion(const FuseResult& r, Report* report) {
+  nlohmann::json frames = nlohmann::json::array();
+  int tracked = 0, lost = 0, fused = 0, no_depth = 0, not_fused = 0, weak = 0;
+  double max_cond = 0, secs = 0;
+  for (const FrameRecord& f : r.frames) {
+    frames.push_back({{"index", f.index},
+                      {"timestamp", f.timestamp},
+                      {"status", f.status},
+                      {"fused", f.fused},
+                      {"note", f.note},
+                      {"valid_depth", f.valid_depth},
+                      {"rejected_depth", f.rejected_depth},
+                      {"icp_rms_m", f.icp_rms},
+                      {"inlier_ratio", f.inlier_ratio},
+                      {"condition", std::isfinite(f.condition) ? nlohmann::json(f.condition) : nlohmann::json("inf")},
+                      {"weak_directions", f.weak_directions},
+                      {"iterations", f.iterations},
+                      {"new_blocks", f.new_blocks},
+                      {"seconds", f.seconds},
+                      {"seconds_per_part",
+                       {{"read", f.t_read}, {"pyramid", f.t_pyramid}, {"track", f.t_track}, {"fuse", f.t_fuse},
+                        {"raycast", f.t_raycast}}}});
+    tracked += f.status == "tracked" || f.status == "relocalised" || f.status == "first" || f.status == "given";
+    lost += f.status == "lost";
+    no_depth += f.status == "no_depth";
+    fused += f.fused;
+    not_fused += !f.fused && (f.status == "tracked" || f.status == "relocalised" || f.status == "given");
+    weak += f.weak_directions > 0;
+    if (std::isfinite(f.condition)) max_cond = std::max(max_cond, f.condition);
+    secs += f.seconds;
+  }
+  report->SetMetric("frames", frames);
+  report->SetMetric("summary.frames", static_cast<int>(r.frames.size()));
+  report->SetMetric("summary.tracked", tracked);
+  report->SetMetric("summary.lost", lost);
+  report->SetMetric("summary.fused", fused);
+  report->SetMetric("summary.no_depth", no_depth);
+  report->SetMetric("summary.frames_with_weak_directions", weak);
+  report->SetMetric("summary.max_condition", max_cond);
+  report->SetMetric("summary.frames_per_second", secs > 0 ? static_cast<double>(r.frames.size()) / secs : 0.0);
+  report->SetMetric("summary.peak_volume_bytes", r.peak_bytes);
+  report->SetMetric("summary.stopped_early", r.stopped_early);
+  if (r.stopped_early) report->Warn(r.stop_reason);
+  if (no_depth) report->Skip(fmt::format("{} frames", no_depth), "too little valid depth: neither tracked nor fused");
+  if (not_fused)
+    report->Skip(fmt::format("fusion of {} tracked frames", not_fused),
+                 "they moved less than the skip thresholds and touched no new surface");
+  if (lost) report->Warn(fmt::format("tracking lost in {} frames (not fused; see metrics.frames)", lost));
+  if (r.suspect_scale > 0) {
+    report->SetMetric("summary.suggested_depth_scale", r.suspect_scale);
+    report->Warn(fmt::format("the depth maps' median depth is implausible for a room at this depth scale; "
+                             "{} units per metre would make it plausible (--depth-scale)",
+                             r.suspect_scale));
+  }
+}
+
+}  // namespace mr

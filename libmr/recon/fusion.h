@@ -1,0 +1,72 @@
+// mr-fuse's pipeline: per frame, read and check depth, build the pyramid,
+// track against the model's raycast, fuse, and at the end mesh the volume.
+//
+// Leaves out what the room does not need, and says so per frame: frames
+// with (almost) no valid depth are neither tracked nor fused; frames that
+// moved less than the skip thresholds since the last fused frame and touch
+// no new block are tracked but not fused (and reuse the last raycast);
+// blocks outside --roi are never allocated.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "camera/trajectory.h"
+#include "core/report.h"
+#include "recon/rgbd.h"
+#include "recon/tracking.h"
+#include "recon/tsdf.h"
+
+namespace mr {
+
+struct FuseOptions {
+  TsdfOptions tsdf;
+  PyramidOptions pyramid;
+  IcpOptions icp;
+  DepthReadOptions depth;        // scale is taken from the sequence unless set here (> 0)
+  int first = 0, count = -1, stride = 1;  // frames first, first+stride, ... (count -1: all)
+  std::optional<Trajectory> poses;  // fuse with these (matched by timestamp), no tracking
+  double min_valid_fraction = 0.05;  // frames with fewer valid depth pixels are skipped
+  double skip_translation_m = 0.0;   // 0: fuse every tracked frame
+  double skip_rotation_deg = 0.0;
+  int max_lost = 10;  // consecutive lost frames before the run stops (keeping what it fused)
+  bool use_color = true;
+  Rigid3 first_pose;  // world_from_cam of the first frame when tracking
+};
+
+struct FrameRecord {
+  int index = 0;
+  double timestamp = 0;
+  std::string status;  // first | tracked | relocalised | lost | given | no_depth
+  bool fused = false;
+  std::string note;    // why not fused / why lost
+  int64_t valid_depth = 0, rejected_depth = 0;
+  double icp_rms = 0, inlier_ratio = 0, condition = 0;
+  int weak_directions = 0, iterations = 0;
+  int64_t new_blocks = 0;
+  double seconds = 0;
+  double t_read = 0, t_pyramid = 0, t_track = 0, t_fuse = 0, t_raycast = 0;  // seconds per part
+};
+
+struct FuseResult {
+  Trajectory trajectory;  // tracked (or given) frames, camera-to-world
+  std::vector<FrameRecord> frames;
+  int64_t peak_bytes = 0;
+  bool stopped_early = false;
+  std::string stop_reason;
+  double suspect_scale = 0;  // SuggestDepthScale's answer on the first frames
+};
+
+using FrameCallback = std::function<void(const FrameRecord&)>;
+
+// Runs over `seq`, filling `volume`.  Throws mr::Error naming the file on
+// unreadable input; tracking failures are recorded, not thrown.
+FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume* volume,
+                const FrameCallback& on_frame = {});
+
+// The per-frame table and summary into `report` (fuse-report.json).
+void ReportFusion(const FuseResult& r, Report* report);
+
+}  // namespace mr

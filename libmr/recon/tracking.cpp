@@ -1,0 +1,276 @@
+#include "recon/tracking.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Eigenvalues>
+#include <fmt/format.h>
+#include <opencv2/imgproc.hpp>
+
+#include "core/parallel.h"
+
+namespace mr {
+
+namespace {
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+DepthMap Halve(const DepthMap& d, double sigma) {
+  DepthMap h;
+  h.width = d.width / 2;
+  h.height = d.height / 2;
+  h.z.assign(static_cast<size_t>(h.width) * h.height, 0.0f);
+  const float gate = static_cast<float>(3 * sigma);
+  for (int y = 0; y < h.height; ++y)
+    for (int x = 0; x < h.width; ++x) {
+      float ref = 0, sum = 0;
+      int n = 0;
+      for (int k = 0; k < 4; ++k) {
+        const float v = d.at(2 * x + (k & 1), 2 * y + (k >> 1));
+        if (!(v > 0)) continue;
+        if (ref == 0) ref = v;
+        if (std::abs(v - ref) > gate) continue;
+        sum += v;
+        ++n;
+      }
+      h.at(x, y) = n ? sum / static_cast<float>(n) : 0.0f;
+    }
+  return h;
+}
+
+PointMaps ToMaps(const DepthMap& d, const PinholeIntrinsics& K, double max_jump) {
+  PointMaps m;
+  m.width = d.width;
+  m.height = d.height;
+  const size_t n = static_cast<size_t>(d.width) * d.height;
+  const Eigen::Vector3f nan = Eigen::Vector3f::Constant(kNaN);
+  m.vertices.assign(n, nan);
+  m.normals.assign(n, nan);
+  for (int y = 0; y < d.height; ++y)
+    for (int x = 0; x < d.width; ++x) {
+      const float z = d.at(x, y);
+      if (z > 0)
+        m.vertices[static_cast<size_t>(y) * d.width + x] =
+            Eigen::Vector3f(static_cast<float>((x - K.cx) / K.fx) * z, static_cast<float>((y - K.cy) / K.fy) * z, z);
+    }
+  for (int y = 1; y + 1 < d.height; ++y)
+    for (int x = 1; x + 1 < d.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * d.width + x;
+      const float z = d.at(x, y);
+      if (!(z > 0)) continue;
+      const float zl = d.at(x - 1, y), zr = d.at(x + 1, y), zu = d.at(x, y - 1), zd = d.at(x, y + 1);
+      const float jump = static_cast<float>(max_jump) * z;
+      if (!(zl > 0 && zr > 0 && zu > 0 && zd > 0) || std::abs(zr - zl) > 2 * jump || std::abs(zd - zu) > 2 * jump)
+        continue;
+      const Eigen::Vector3f dx = m.vertices[i + 1] - m.vertices[i - 1];
+      const Eigen::Vector3f dy = m.vertices[i + d.width] - m.vertices[i - d.width];
+      Eigen::Vector3f nrm = dy.cross(dx);
+      if (nrm.squaredNorm() <= 0) continue;
+      nrm.normalize();
+      if (nrm.dot(m.vertices[i]) > 0) nrm = -nrm;  // toward the camera
+      m.normals[i] = nrm;
+    }
+  return m;
+}
+
+}  // namespace
+
+FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options) {
+  FramePyramid p;
+  DepthMap d0 = depth;
+  if (options.bilateral) {
+    cv::Mat in(depth.height, depth.width, CV_32F, const_cast<float*>(depth.z.data()));
+    cv::Mat out;
+    const int diameter = 7;  // KinectFusion's window; sigma_space weights within it
+    cv::bilateralFilter(in, out, diameter, options.sigma_depth_m, options.sigma_space_px);
+    for (int y = 0; y < depth.height; ++y)
+      for (int x = 0; x < depth.width; ++x)
+        d0.at(x, y) = depth.at(x, y) > 0 ? out.at<float>(y, x) : 0.0f;
+  }
+  for (float z : d0.z) p.valid += z > 0;
+  p.depth.push_back(std::move(d0));
+  p.K.push_back(K);
+  for (int l = 1; l < options.levels; ++l) {
+    p.depth.push_back(Halve(p.depth.back(), options.sigma_depth_m));
+    p.K.push_back(K.Level(l));
+  }
+  p.maps.resize(p.depth.size());
+  ParallelFor(0, static_cast<int64_t>(p.depth.size()), [&](int64_t l) {
+    p.maps[static_cast<size_t>(l)] = ToMaps(p.depth[static_cast<size_t>(l)], p.K[static_cast<size_t>(l)],
+                                            options.max_depth_jump);
+  });
+  return p;
+}
+
+Rigid3 ExpIncrement(const Eigen::Matrix<double, 6, 1>& xi) {
+  const Eigen::Vector3d w = xi.head<3>();
+  const double a = w.norm();
+  Eigen::Quaterniond q = a > 1e-12 ? Eigen::Quaterniond(Eigen::AngleAxisd(a, w / a))
+                                   : Eigen::Quaterniond(1, 0.5 * w.x(), 0.5 * w.y(), 0.5 * w.z()).normalized();
+  return Rigid3(q, xi.tail<3>());
+}
+
+Eigen::Matrix<double, 6, 1> LogIncrement(const Rigid3& delta) {
+  Eigen::AngleAxisd aa(delta.rotation);
+  Eigen::Matrix<double, 6, 1> xi;
+  xi.head<3>() = aa.axis() * aa.angle();
+  xi.tail<3>() = delta.translation;
+  return xi;
+}
+
+namespace {
+
+struct Normal6 {
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::Zero();
+  double r2 = 0, depth_sum = 0;
+  int64_t inliers = 0;
+};
+
+// One linearisation at `pose` over the level's pixels.
+Normal6 Accumulate(const PointMaps& src, const PointMaps& model, const PinholeIntrinsics& mK,
+                   const Rigid3& model_from_world, const Rigid3& pose, double max_dist, double cos_angle,
+                   double huber) {
+  const Eigen::Matrix3f R = pose.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f t = pose.translation.cast<float>();
+  const Eigen::Matrix3f Rm = model_from_world.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f tm = model_from_world.translation.cast<float>();
+  const int rows = src.height;
+  constexpr int kChunk = 8;
+  const int chunks = (rows + kChunk - 1) / kChunk;
+  std::vector<Normal6> part(static_cast<size_t>(chunks));
+  const float fx = static_cast<float>(mK.fx), fy = static_cast<float>(mK.fy), cx = static_cast<float>(mK.cx),
+              cy = static_cast<float>(mK.cy);
+  const float max_d2 = static_cast<float>(max_dist * max_dist), cos_a = static_cast<float>(cos_angle);
+  const float hub = static_cast<float>(huber);
+  ParallelFor(0, chunks, [&](int64_t ci) {
+    Normal6& acc = part[static_cast<size_t>(ci)];
+    double upper[21] = {}, rhs[6] = {};
+    for (int y = static_cast<int>(ci) * kChunk; y < std::min(rows, static_cast<int>(ci + 1) * kChunk); ++y)
+      for (int x = 0; x < src.width; ++x) {
+        const size_t i = static_cast<size_t>(y) * src.width + x;
+        const Eigen::Vector3f& vs = src.normals[i];
+        if (!(vs.x() == vs.x())) continue;
+        const Eigen::Vector3f p = R * src.vertices[i] + t;
+        const Eigen::Vector3f pm = Rm * p + tm;
+        if (pm.z() <= 0) continue;
+        const float uf = fx * pm.x() / pm.z() + cx + 0.5f, vf = fy * pm.y() / pm.z() + cy + 0.5f;
+        if (!(uf >= 0 && vf >= 0 && uf < static_cast<float>(model.width) && vf < static_cast<float>(model.height)))
+          continue;
+        const size_t j = static_cast<size_t>(static_cast<int>(vf)) * model.width + static_cast<size_t>(static_cast<int>(uf));
+        const Eigen::Vector3f& N = model.normals[j];
+        if (!(N.x() == N.x())) continue;
+        const Eigen::Vector3f diff = p - model.vertices[j];
+        if (diff.squaredNorm() > max_d2) continue;
+        if ((R * vs).dot(N) < cos_a) continue;
+        const float r = N.dot(diff);
+        const float w = std::abs(r) <= hub ? 1.0f : hub / std::abs(r);
+        const Eigen::Vector3f c = p.cross(N);
+        const float J[6] = {c.x(), c.y(), c.z(), N.x(), N.y(), N.z()};
+        int k = 0;
+        for (int a = 0; a < 6; ++a) {
+          const double wa = static_cast<double>(w * J[a]);
+          for (int bb = a; bb < 6; ++bb) upper[k++] += wa * J[bb];
+          rhs[a] -= wa * r;
+        }
+        acc.r2 += static_cast<double>(r) * r;
+        acc.depth_sum += src.vertices[i].z();
+        ++acc.inliers;
+      }
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      for (int bb = a; bb < 6; ++bb, ++k) acc.A(a, bb) = acc.A(bb, a) = upper[k];
+      acc.b(a) = rhs[a];
+    }
+  });
+  Normal6 s;
+  for (const Normal6& p : part) {  // fixed order: deterministic
+    s.A += p.A;
+    s.b += p.b;
+    s.r2 += p.r2;
+    s.depth_sum += p.depth_sum;
+    s.inliers += p.inliers;
+  }
+  return s;
+}
+
+}  // namespace
+
+IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const PinholeIntrinsics& model_K,
+                   const Rigid3& model_pose, const Rigid3& guess, const IcpOptions& options) {
+  IcpResult res;
+  Rigid3 pose = guess;
+  const Rigid3 model_from_world = model_pose.Inverse();
+  const double cos_angle = std::cos(options.max_angle_deg * M_PI / 180);
+  const int levels = std::min<int>(static_cast<int>(frame.maps.size()), static_cast<int>(options.iterations.size()));
+  for (int l = levels - 1; l >= 0; --l) {
+    const double gate = options.max_distance * std::pow(2.0, l);
+    for (int it = 0; it < options.iterations[static_cast<size_t>(l)]; ++it) {
+      Normal6 s = Accumulate(frame.maps[static_cast<size_t>(l)], model, model_K, model_from_world, pose, gate,
+                             cos_angle, options.huber);
+      if (s.inliers < 6) break;
+      ++res.iterations;
+      // Scale rotations by the mean depth so that all six are in metres.
+      const double L = std::max(0.1, s.depth_sum / static_cast<double>(s.inliers));
+      Eigen::Matrix<double, 6, 1> scale;
+      scale << 1 / L, 1 / L, 1 / L, 1, 1, 1;
+      const Eigen::Matrix<double, 6, 6> As = scale.asDiagonal() * s.A * scale.asDiagonal();
+      const Eigen::Matrix<double, 6, 1> bs = scale.asDiagonal() * s.b;
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(As);
+      const Eigen::Matrix<double, 6, 1> lam = eig.eigenvalues();
+      const double lmax = std::max(lam(5), 1e-30);
+      // The prior: the increment that takes `pose` to the prediction, scaled.
+      Eigen::Matrix<double, 6, 1> prior = LogIncrement(guess * pose.Inverse());
+      prior.head<3>() *= L;
+      Eigen::Matrix<double, 6, 6> Ar = As;
+      Eigen::Matrix<double, 6, 1> br = bs;
+      int weak = 0;
+      const double floor = options.weak_eigen_ratio * lmax;
+      for (int k = 0; k < 6; ++k) {
+        if (lam(k) >= floor) continue;
+        ++weak;
+        const Eigen::Matrix<double, 6, 1> v = eig.eigenvectors().col(k);
+        const double lift = floor - std::max(lam(k), 0.0);
+        Ar += lift * v * v.transpose();
+        br += lift * v * v.dot(prior);
+      }
+      const Eigen::Matrix<double, 6, 1> xs = Ar.ldlt().solve(br);
+      Eigen::Matrix<double, 6, 1> xi = scale.asDiagonal() * xs;
+      if (!xi.allFinite()) break;
+      pose = ExpIncrement(xi) * pose;
+      if (l == 0) {
+        res.condition = lam(0) > 0 ? lmax / lam(0) : std::numeric_limits<double>::infinity();
+        res.weak_directions = weak;
+      }
+      if (xi.head<3>().norm() < 1e-6 && xi.tail<3>().norm() < 1e-6) break;
+    }
+  }
+  // Final figures at level 0 against the final pose.
+  const Normal6 f = Accumulate(frame.maps[0], model, model_K, model_from_world, pose, options.max_distance,
+                               cos_angle, options.huber);
+  int64_t valid = 0;
+  for (size_t i = 0; i < frame.maps[0].normals.size(); ++i) valid += frame.maps[0].normals[i].x() == frame.maps[0].normals[i].x();
+  res.world_from_cam = pose;
+  res.inlier_ratio = valid ? static_cast<double>(f.inliers) / static_cast<double>(valid) : 0;
+  res.rms = f.inliers ? std::sqrt(f.r2 / static_cast<double>(f.inliers)) : 0;
+  if (res.condition == 0 && f.inliers >= 6) {
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(f.A);
+    res.condition = eig.eigenvalues()(0) > 0 ? eig.eigenvalues()(5) / eig.eigenvalues()(0)
+                                             : std::numeric_limits<double>::infinity();
+  }
+  const Rigid3 jump = pose * guess.Inverse();
+  const double jump_m = (pose.translation - guess.translation).norm();
+  const double jump_deg = Eigen::AngleAxisd(jump.rotation).angle() * 180 / M_PI;
+  if (valid == 0) res.failure = "no valid depth";
+  else if (res.inlier_ratio < options.min_inlier_ratio)
+    res.failure = fmt::format("inlier ratio {:.2f} < {:.2f}", res.inlier_ratio, options.min_inlier_ratio);
+  else if (res.rms > options.max_rms)
+    res.failure = fmt::format("RMS residual {:.3f} m > {:.3f} m", res.rms, options.max_rms);
+  else if (jump_m > options.max_jump_m || jump_deg > options.max_jump_deg)
+    res.failure = fmt::format("moved {:.3f} m / {:.1f} deg from the prediction", jump_m, jump_deg);
+  res.ok = res.failure.empty();
+  return res;
+}
+
+}  // namespace mr

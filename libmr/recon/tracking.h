@@ -1,0 +1,71 @@
+// KinectFusion's camera tracking: a filtered depth pyramid with vertex and
+// normal maps, and point-to-plane ICP with projective data association
+// against the model's raycast (frame to model), coarse to fine.
+//
+// The 6x6 normal equations are examined before every step: their
+// eigenvalues, with rotations scaled by the scene's depth so that both
+// halves are in metres, give a condition number, and directions the data
+// leaves unconstrained (a flat wall: two translations and the rotation about
+// its normal) are held to the motion prior (constant velocity) instead of
+// drifting on noise.
+#pragma once
+
+#include <vector>
+
+#include "camera/pose.h"
+#include "recon/rgbd.h"
+#include "recon/tsdf.h"
+
+namespace mr {
+
+struct FramePyramid {
+  std::vector<PinholeIntrinsics> K;   // per level, 0 = full resolution
+  std::vector<DepthMap> depth;        // filtered, metres
+  std::vector<PointMaps> maps;        // camera frame
+  int64_t valid = 0;                  // valid depth pixels at level 0
+};
+
+struct PyramidOptions {
+  int levels = 3;
+  bool bilateral = true;
+  double sigma_space_px = 4.5, sigma_depth_m = 0.03;  // KinectFusion's filter
+  double max_depth_jump = 0.05;  // relative: normals across larger jumps are invalid
+};
+
+// Depth (0 = invalid) to a pyramid; halving keeps pixels within 3 sigma_depth
+// of the block's first valid one (no averaging across edges).
+FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options);
+
+struct IcpOptions {
+  std::vector<int> iterations = {10, 5, 4};  // per level, finest first
+  double max_distance = 0.10;     // metres, association gate (finest level; x2 per coarser level)
+  double max_angle_deg = 30;      // normal agreement gate
+  double huber = 0.01;            // metres
+  double weak_eigen_ratio = 5e-3; // eigenvalue / largest below this: unconstrained
+  // Tracking is lost when the result has fewer inliers than this fraction
+  // of valid pixels, a larger RMS residual, or moves farther than the
+  // limits from the prediction.
+  double min_inlier_ratio = 0.3, max_rms = 0.03, max_jump_m = 0.3, max_jump_deg = 30;
+};
+
+struct IcpResult {
+  Rigid3 world_from_cam;
+  double rms = 0;            // metres, point-to-plane, inliers at level 0
+  double inlier_ratio = 0;   // associated / valid pixels at level 0
+  double condition = 0;      // largest / smallest eigenvalue (scaled)
+  int weak_directions = 0;   // held to the prior
+  int iterations = 0;
+  bool ok = false;           // passed the loss tests
+  std::string failure;       // why not
+};
+
+// `model` holds world-frame maps raycast from `model_pose` with intrinsics
+// `model_K`; `guess` is the prediction (also the motion prior).
+IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const PinholeIntrinsics& model_K,
+                   const Rigid3& model_pose, const Rigid3& guess, const IcpOptions& options);
+
+// exp/log of the left increment p' = R p + t with R = exp(omega).
+Rigid3 ExpIncrement(const Eigen::Matrix<double, 6, 1>& xi);
+Eigen::Matrix<double, 6, 1> LogIncrement(const Rigid3& delta);
+
+}  // namespace mr

@@ -30,8 +30,29 @@ int main(int argc, char** argv) {
                  "fisheye190 (a 190-degree splined fish-eye) or rig (two cameras); with the true models in truth/");
   app.add_option("--board", board_file, "The board for --boards (default: 8x6 inner corners of 30 mm, OpenCV's detector)")
       ->check(CLI::ExistingFile);
+  bool rgbd = false;
+  mr::RgbdSynthSize rs;
+  std::vector<int> rgbd_size;
+  app.add_flag("--rgbd", rgbd,
+               "Instead of a room capture: an RGB-D recording of the room in TUM layout (Kinect-like depth noise,\n"
+               "quantisation and holes; path-traced colour; groundtruth.txt), with the true geometry in\n"
+               "reference/room.ply, for mr-fuse and mr-eval traj/mesh");
+  app.add_option("--rgbd-size", rgbd_size, "--rgbd: W,H,FRAMES (default: small 160,120,60; room 640,480,300)")
+      ->delimiter(',')
+      ->expected(3);
+  app.add_flag("--rgbd-clean", rs.clean, "--rgbd: exact depth (no sensor noise, quantisation or holes)");
+  app.add_option("--rgbd-spp", rs.color_spp, "--rgbd: colour samples per pixel (0: no colour)");
   return mr::RunTool("mr-synth", app, argc, argv, [&] {
     o.command_line = mr::JoinCommandLine(argc, argv);
+    if (rgbd) {
+      if (rgbd_size.size() == 3) {
+        rs.width = rgbd_size[0];
+        rs.height = rgbd_size[1];
+        rs.frames = rgbd_size[2];
+      }
+      mr::RunSynthRgbd(o, rs, &mr::ToolReport());
+      return mr::kExitOk;
+    }
     if (!boards.empty()) {
       mr::BoardSpec b;
       b.name = "synthetic 8x6, 30 mm";

@@ -30,7 +30,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
                 const FrameCallback& on_frame) {
   FuseResult result;
   DepthReadOptions dopt = options.depth;
-  if (!(dopt.scale > 0)) dopt.scale = seq.depth_scale;
+  dopt.scale = seq.depth_scale;
   const PinholeIntrinsics& K = seq.K;
   const int n = static_cast<int>(seq.frames.size());
   const int stride = std::max(1, options.stride);

@@ -25,7 +25,7 @@ struct FuseOptions {
   TsdfOptions tsdf;
   PyramidOptions pyramid;
   IcpOptions icp;
-  DepthReadOptions depth;        // scale is taken from the sequence unless set here (> 0)
+  DepthReadOptions depth;        // range limits; the scale is always the sequence's
   int first = 0, count = -1, stride = 1;  // frames first, first+stride, ... (count -1: all)
   std::optional<Trajectory> poses;  // fuse with these (matched by timestamp), no tracking
   double min_valid_fraction = 0.05;  // frames with fewer valid depth pixels are skipped

@@ -103,19 +103,19 @@ FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, con
   return p;
 }
 
-Rigid3 ExpIncrement(const Eigen::Matrix<double, 6, 1>& xi) {
+Rigid3 ApplyIncrement(const Eigen::Matrix<double, 6, 1>& xi, const Rigid3& world_from_cam) {
   const Eigen::Vector3d w = xi.head<3>();
   const double a = w.norm();
-  Eigen::Quaterniond q = a > 1e-12 ? Eigen::Quaterniond(Eigen::AngleAxisd(a, w / a))
-                                   : Eigen::Quaterniond(1, 0.5 * w.x(), 0.5 * w.y(), 0.5 * w.z()).normalized();
-  return Rigid3(q, xi.tail<3>());
+  const Eigen::Quaterniond q = a > 1e-12 ? Eigen::Quaterniond(Eigen::AngleAxisd(a, w / a))
+                                         : Eigen::Quaterniond(1, 0.5 * w.x(), 0.5 * w.y(), 0.5 * w.z()).normalized();
+  return Rigid3(q * world_from_cam.rotation, world_from_cam.translation + xi.tail<3>());
 }
 
-Eigen::Matrix<double, 6, 1> LogIncrement(const Rigid3& delta) {
-  Eigen::AngleAxisd aa(delta.rotation);
+Eigen::Matrix<double, 6, 1> IncrementBetween(const Rigid3& from, const Rigid3& to) {
+  const Eigen::AngleAxisd aa(to.rotation * from.rotation.conjugate());
   Eigen::Matrix<double, 6, 1> xi;
   xi.head<3>() = aa.axis() * aa.angle();
-  xi.tail<3>() = delta.translation;
+  xi.tail<3>() = to.translation - from.translation;
   return xi;
 }
 
@@ -166,7 +166,7 @@ Normal6 Accumulate(const PointMaps& src, const PointMaps& model, const PinholeIn
         if ((R * vs).dot(N) < cos_a) continue;
         const float r = N.dot(diff);
         const float w = std::abs(r) <= hub ? 1.0f : hub / std::abs(r);
-        const Eigen::Vector3f c = p.cross(N);
+        const Eigen::Vector3f c = (p - t).cross(N);  // lever arm from the camera centre
         const float J[6] = {c.x(), c.y(), c.z(), N.x(), N.y(), N.z()};
         int k = 0;
         for (int a = 0; a < 6; ++a) {
@@ -221,7 +221,7 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
       const Eigen::Matrix<double, 6, 1> lam = eig.eigenvalues();
       const double lmax = std::max(lam(5), 1e-30);
       // The prior: the increment that takes `pose` to the prediction, scaled.
-      Eigen::Matrix<double, 6, 1> prior = LogIncrement(guess * pose.Inverse());
+      Eigen::Matrix<double, 6, 1> prior = IncrementBetween(pose, guess);
       prior.head<3>() *= L;
       Eigen::Matrix<double, 6, 6> Ar = As;
       Eigen::Matrix<double, 6, 1> br = bs;
@@ -238,7 +238,7 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
       const Eigen::Matrix<double, 6, 1> xs = Ar.ldlt().solve(br);
       Eigen::Matrix<double, 6, 1> xi = scale.asDiagonal() * xs;
       if (!xi.allFinite()) break;
-      pose = ExpIncrement(xi) * pose;
+      pose = ApplyIncrement(xi, pose);
       if (l == 0) {
         res.condition = lam(0) > 0 ? lmax / lam(0) : std::numeric_limits<double>::infinity();
         res.weak_directions = weak;

@@ -45,7 +45,7 @@ struct IcpOptions {
   // Tracking is lost when the result has fewer inliers than this fraction
   // of valid pixels, a larger RMS residual, or moves farther than the
   // limits from the prediction.
-  double min_inlier_ratio = 0.3, max_rms = 0.03, max_jump_m = 0.3, max_jump_deg = 30;
+  double min_inlier_ratio = 0.15, max_rms = 0.03, max_jump_m = 0.3, max_jump_deg = 30;
 };
 
 struct IcpResult {
@@ -64,8 +64,12 @@ struct IcpResult {
 IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const PinholeIntrinsics& model_K,
                    const Rigid3& model_pose, const Rigid3& guess, const IcpOptions& options);
 
-// exp/log of the left increment p' = R p + t with R = exp(omega).
-Rigid3 ExpIncrement(const Eigen::Matrix<double, 6, 1>& xi);
-Eigen::Matrix<double, 6, 1> LogIncrement(const Rigid3& delta);
+// The increment xi = (omega, t) about the camera centre c: world points
+// move as p' = exp(omega) (p - c) + c + t.  Rotations about the camera
+// rather than the world origin keep the 6x6 system's rotation and
+// translation blocks decoupled wherever the room's origin is.
+Rigid3 ApplyIncrement(const Eigen::Matrix<double, 6, 1>& xi, const Rigid3& world_from_cam);
+// The increment that takes `from` to `to`.
+Eigen::Matrix<double, 6, 1> IncrementBetween(const Rigid3& from, const Rigid3& to);
 
 }  // namespace mr

@@ -1,6 +1,7 @@
 #include "synth/synth.h"
 #include "synth/bracket.h"
 #include "synth/sphere_view.h"
+#include "synth/rgbd_view.h"
 
 #include <spdlog/spdlog.h>
 
@@ -113,6 +114,32 @@ void WriteBracket(const fs::path& dir, const std::string& prefix, const Image& r
 
 }  // namespace
 
+std::vector<SynthPart> SynthRoom() {
+  // The room: floor, back and left walls (open to the sky above, in front and to the right),
+  // a table with a glossy top, two boxes of known albedo.
+  Material glossy = Diffuse(0.15, 0.15, 0.18);
+  glossy.specular = Eigen::Vector3d::Constant(0.6);
+  glossy.roughness = 0.25;
+  std::vector<SynthPart> parts = {
+      {"floor", Quad({-3, 0, -3}, {-3, 0, 3}, {3, 0, 3}, {3, 0, -3}), Diffuse(0.55, 0.5, 0.45)},
+      {"wall_back", Quad({-3, 0, 3}, {-3, 2.5f, 3}, {3, 2.5f, 3}, {3, 0, 3}), Diffuse(0.7, 0.7, 0.65)},
+      {"wall_left", Quad({-3, 0, -3}, {-3, 2.5f, -3}, {-3, 2.5f, 3}, {-3, 0, 3}), Diffuse(0.6, 0.25, 0.2)},
+      {"table_top", Box({-0.6f, 0.70f, -0.4f}, {0.6f, 0.75f, 0.4f}), glossy},
+      {"table_legs", Box({-0.55f, 0, -0.35f}, {-0.5f, 0.7f, -0.3f}), Diffuse(0.3, 0.2, 0.1)},
+      {"box_green", Box({1.2f, 0, 0.8f}, {1.7f, 0.5f, 1.3f}), Diffuse(0.2, 0.6, 0.25)},
+      {"box_blue", Box({-2.0f, 0, 1.0f}, {-1.5f, 0.35f, 1.5f}), Diffuse(0.15, 0.25, 0.7)},
+  };
+  for (int leg = 1; leg < 4; ++leg) {  // the other three legs
+    const float sx = leg & 1 ? 1.0f : -1.0f, sz = leg & 2 ? 1.0f : -1.0f;
+    Mesh l = Box({sx * 0.5f - 0.025f, 0, sz * 0.325f - 0.025f}, {sx * 0.5f + 0.025f, 0.7f, sz * 0.325f + 0.025f});
+    const int base = static_cast<int>(parts[4].mesh.positions.size());
+    for (auto& v : l.positions) parts[4].mesh.positions.push_back(v);
+    for (auto t : l.triangles) parts[4].mesh.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  }
+
+  return parts;
+}
+
 void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
   ImageWriteOptions wo;
   wo.tool = o.tool;
@@ -173,32 +200,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
   if (!fs::is_directory(o.out / "truth")) ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the capture folder");
   const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
 
-  // The room: floor, back and left walls (open to the sky above, in front and to the right),
-  // a table with a glossy top, two boxes of known albedo.
-  struct Part {
-    std::string name;
-    Mesh mesh;
-    Material material;
-  };
-  Material glossy = Diffuse(0.15, 0.15, 0.18);
-  glossy.specular = Eigen::Vector3d::Constant(0.6);
-  glossy.roughness = 0.25;
-  std::vector<Part> parts = {
-      {"floor", Quad({-3, 0, -3}, {-3, 0, 3}, {3, 0, 3}, {3, 0, -3}), Diffuse(0.55, 0.5, 0.45)},
-      {"wall_back", Quad({-3, 0, 3}, {-3, 2.5f, 3}, {3, 2.5f, 3}, {3, 0, 3}), Diffuse(0.7, 0.7, 0.65)},
-      {"wall_left", Quad({-3, 0, -3}, {-3, 2.5f, -3}, {-3, 2.5f, 3}, {-3, 0, 3}), Diffuse(0.6, 0.25, 0.2)},
-      {"table_top", Box({-0.6f, 0.70f, -0.4f}, {0.6f, 0.75f, 0.4f}), glossy},
-      {"table_legs", Box({-0.55f, 0, -0.35f}, {-0.5f, 0.7f, -0.3f}), Diffuse(0.3, 0.2, 0.1)},
-      {"box_green", Box({1.2f, 0, 0.8f}, {1.7f, 0.5f, 1.3f}), Diffuse(0.2, 0.6, 0.25)},
-      {"box_blue", Box({-2.0f, 0, 1.0f}, {-1.5f, 0.35f, 1.5f}), Diffuse(0.15, 0.25, 0.7)},
-  };
-  for (int leg = 1; leg < 4; ++leg) {  // the other three legs
-    const float sx = leg & 1 ? 1.0f : -1.0f, sz = leg & 2 ? 1.0f : -1.0f;
-    Mesh l = Box({sx * 0.5f - 0.025f, 0, sz * 0.325f - 0.025f}, {sx * 0.5f + 0.025f, 0.7f, sz * 0.325f + 0.025f});
-    const int base = static_cast<int>(parts[4].mesh.positions.size());
-    for (auto& v : l.positions) parts[4].mesh.positions.push_back(v);
-    for (auto t : l.triangles) parts[4].mesh.triangles.push_back(t + Eigen::Vector3i::Constant(base));
-  }
+  std::vector<SynthPart> parts = SynthRoom();
 
   // The virtual object, resting on the table.
   Mesh object;
@@ -380,6 +382,57 @@ void RunSynth(const SynthOptions& o, Report* report) {
   report->SetMetric("size", {p.width, p.height});
   report->SetMetric("sun_to_sky", p.sun_to_sky);
   report->SetMetric("changed_values", changed);
+}
+
+}  // namespace mr
+
+namespace mr {
+
+void RunSynthRgbd(const SynthOptions& o, const RgbdSynthSize& size, Report* report) {
+  if (o.out.empty()) throw UsageError("--out is required");
+  const SynthPreset p = GetSynthPreset(o.preset);
+  const bool small = o.preset == "small";
+  const int w = size.width > 0 ? size.width : (small ? 160 : 640);
+  const int h = size.height > 0 ? size.height : (small ? 120 : 480);
+  const int frames = size.frames > 0 ? size.frames : (small ? 60 : 300);
+  const std::vector<SynthPart> parts = SynthRoom();
+  int sun_x, sun_y;
+  const Image sky = SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y);
+  RenderScene rs;
+  Mesh room;
+  for (const auto& part : parts) {
+    rs.AddReal(part.mesh, part.material);
+    const int base = static_cast<int>(room.positions.size());
+    room.positions.insert(room.positions.end(), part.mesh.positions.begin(), part.mesh.positions.end());
+    for (const auto& t : part.mesh.triangles) room.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  }
+  rs.SetEnvironment(EnvironmentMap(sky, "sky"));
+  rs.Commit();
+  RgbdSynthOptions ro;
+  // 7-Scenes' field of view (fx = 585 at 640 px) at the requested size.
+  const double f = 585.0 * w / 640.0;
+  ro.K = PinholeIntrinsics{f, f, (w - 1) / 2.0, (h - 1) / 2.0, w, h};
+  ro.color_spp = size.color_spp >= 0 ? size.color_spp : (small ? 2 : 1);
+  ro.exposure = size.exposure;
+  if (size.clean) ro.sensor.noise = ro.sensor.quantise = ro.sensor.holes = false;
+  ro.seed = o.seed;
+  // Around the table, 2 m out at eye height, sweeping 60 degrees (about
+  // 7 mm per frame over 300 frames) with the table, its legs, both boxes
+  // and the walls in view: the surfaces are 1 to 4 m away, as in a room scan.
+  const Trajectory path = ScanPath(frames, Eigen::Vector3d(0, 0.6, 0.3), 2.0, 1.6, -60.0);
+  fs::create_directories(o.out / "reference");
+  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
+  WriteRgbdSequence(o.out, rs, path, ro, report);
+  WritePly(o.out / "reference" / "room.ply", room, "the synthetic room's real geometry; " + note);
+  ImageWriteOptions wo;
+  wo.tool = o.tool;
+  wo.command_line = o.command_line;
+  WriteImage(o.out / "reference" / "env.exr", sky, wo);
+  report->AddOutput((o.out / "reference" / "room.ply").string());
+  report->AddOutput((o.out / "reference" / "env.exr").string());
+  report->SetMetric("frames", frames);
+  report->SetMetric("size", {w, h});
+  report->SetMetric("path_length_m", path.PathLength());
 }
 
 }  // namespace mr

@@ -15,6 +15,8 @@
 #include "core/file.h"
 #include "core/image.h"
 #include "core/report.h"
+#include "geometry/mesh.h"
+#include "scene/scene.h"
 
 namespace mr {
 
@@ -40,5 +42,25 @@ void WriteProbe(const SynthOptions& options, const Image& sky, Report* report);
 
 // Writes the capture; fills `report`.
 void RunSynth(const SynthOptions& options, Report* report);
+
+// The room's real parts: floor, back and left walls, a table with a glossy
+// top and legs, two boxes of known albedo.
+struct SynthPart {
+  std::string name;
+  Mesh mesh;
+  Material material;
+};
+std::vector<SynthPart> SynthRoom();
+
+// Instead of a capture: an RGB-D recording of the room (TUM layout, with a
+// Kinect-like sensor, synth/rgbd_view.h) in options.out, the room's true
+// geometry in reference/room.ply and its sky in reference/env.exr.
+struct RgbdSynthSize {
+  int width = 0, height = 0, frames = 0;  // 0: the preset's (small 160x120x60, room 640x480x300)
+  int color_spp = -1;                     // -1: the preset's (2, 1)
+  double exposure = 0.5;
+  bool clean = false;  // no sensor noise, quantisation or holes
+};
+void RunSynthRgbd(const SynthOptions& options, const RgbdSynthSize& size, Report* report);
 
 }  // namespace mr

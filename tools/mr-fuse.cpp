@@ -78,6 +78,12 @@ int main(int argc, char** argv) {
                  "new surface")
       ->delimiter(',')
       ->expected(2);
+  app.add_option("--weak-ratio", fo.icp.weak_eigen_ratio,
+                 "ICP directions whose eigenvalue is below this fraction of the largest are held to the motion prior")
+      ->default_val(fo.icp.weak_eigen_ratio);
+  app.add_option("--motion-model", fo.motion_model, "Tracking prediction: velocity (constant velocity) or static")
+      ->default_val("velocity")
+      ->check(CLI::IsMember({"velocity", "static"}));
   app.add_option("--max-lost", fo.max_lost, "Stop (keeping what is fused) after this many lost frames in a row")
       ->default_val(10);
   app.add_option("--poses", poses, "Fuse with this TUM trajectory (or 'reference': the recording's) instead of tracking");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <deque>
 
 #include <fmt/format.h>
 
@@ -24,6 +25,12 @@ const Rigid3* PoseAt(const Trajectory& t, double timestamp) {
   return &best->world_from_cam;
 }
 
+double Median(const std::deque<double>& v) {
+  std::vector<double> s(v.begin(), v.end());
+  std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(s.size() / 2), s.end());
+  return s[s.size() / 2];
+}
+
 }  // namespace
 
 FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume* volume,
@@ -37,10 +44,12 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
 
   bool have_model = false, have_pose = false;
   Rigid3 pose = options.first_pose, prev_pose = options.first_pose, last_fused = options.first_pose;
-  Rigid3 velocity;  // world_from_cam[k] * inverse(world_from_cam[k-1])
+  Eigen::Matrix<double, 6, 1> velocity = Eigen::Matrix<double, 6, 1>::Zero();  // increment per second
+  double prev_time = 0;
   Rigid3 model_pose;
   PointMaps model;
   int lost_run = 0;
+  std::deque<double> good_rms, good_inliers;  // the last good frames' figures
   std::vector<double> early_medians;
   int taken = 0;
   for (int i = std::max(0, options.first); i < n; i += stride) {
@@ -99,13 +108,29 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
       // Constant-velocity prediction after a tracked frame; the last good
       // pose after a lost one (relocalisation by ICP from there, wider gates).
       const bool relocalising = lost_run > 0;
-      const Rigid3 guess = relocalising ? prev_pose : velocity * prev_pose;
+      const bool still = relocalising || options.motion_model == "static";
+      // Scaled by the time since the last pose: dropped frames widen the step.
+      const double dt = f.timestamp - prev_time;
+      const Rigid3 guess = still ? prev_pose : ApplyIncrement(velocity * dt, prev_pose);
       IcpOptions icp = options.icp;
       if (relocalising) {
         icp.max_distance *= 2;
         for (auto& it : icp.iterations) it *= 2;
       }
-      const IcpResult r = TrackIcp(pyr, model, K, model_pose, guess, icp);
+      IcpResult r = TrackIcp(pyr, model, K, model_pose, guess, icp);
+      // Against this recording's own recent figures: a residual twice the
+      // median of the last good frames, or half their inlier ratio, is a
+      // wrong pose even where the absolute limits pass.
+      if (r.ok && good_rms.size() >= 5) {
+        const double med_rms = Median(good_rms), med_in = Median(good_inliers);
+        if (r.rms > options.loss_rms_factor * med_rms)
+          r.failure = fmt::format("RMS residual {:.1f} mm > {:g} x the recent median {:.1f} mm", 1000 * r.rms,
+                                  options.loss_rms_factor, 1000 * med_rms);
+        else if (r.inlier_ratio < options.loss_inlier_factor * med_in)
+          r.failure = fmt::format("inlier ratio {:.2f} < {:g} x the recent median {:.2f}", r.inlier_ratio,
+                                  options.loss_inlier_factor, med_in);
+        r.ok = r.failure.empty();
+      }
       rec.icp_rms = r.rms;
       rec.inlier_ratio = r.inlier_ratio;
       rec.condition = r.condition;
@@ -127,7 +152,15 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         continue;
       }
       rec.status = relocalising ? "relocalised" : "tracked";
-      velocity = relocalising ? Rigid3() : r.world_from_cam * prev_pose.Inverse();
+      good_rms.push_back(r.rms);
+      good_inliers.push_back(r.inlier_ratio);
+      if (good_rms.size() > 30) {
+        good_rms.pop_front();
+        good_inliers.pop_front();
+      }
+      // Constant velocity, except along directions the data did not constrain.
+      velocity = relocalising || !(dt > 0) ? Eigen::Matrix<double, 6, 1>::Zero().eval()
+                                            : (r.RemoveWeak(IncrementBetween(prev_pose, r.world_from_cam)) / dt).eval();
       pose = r.world_from_cam;
       lost_run = 0;
     }
@@ -142,12 +175,14 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     rec.new_blocks = is.blocks_new;
     const double moved = (pose.translation - last_fused.translation).norm();
     const double turned = Eigen::AngleAxisd((pose * last_fused.Inverse()).rotation).angle() * 180 / M_PI;
-    const bool small = have_model && is.blocks_new == 0 && moved < options.skip_translation_m &&
+    const bool no_new_surface =
+        static_cast<double>(is.blocks_new) <= options.skip_new_block_fraction * static_cast<double>(is.blocks_touched);
+    const bool small = have_model && no_new_surface && moved < options.skip_translation_m &&
                        turned < options.skip_rotation_deg;
     if (small) {
       rec.fused = false;
-      rec.note = fmt::format("moved {:.1f} mm / {:.2f} deg since the last fused frame, no new surface", 1000 * moved,
-                             turned);
+      rec.note = fmt::format("moved {:.1f} mm / {:.2f} deg since the last fused frame, {} new blocks of {}",
+                             1000 * moved, turned, is.blocks_new, is.blocks_touched);
     } else {
       Image color;
       if (options.use_color && !f.color.empty()) color = ReadColor(f.color, K.width, K.height);
@@ -164,6 +199,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     rec.t_raycast = Seconds(tp);
     have_model = true;
     prev_pose = pose;
+    prev_time = f.timestamp;
     finish();
   }
   (void)have_pose;

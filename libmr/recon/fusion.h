@@ -3,8 +3,8 @@
 //
 // Leaves out what the room does not need, and says so per frame: frames
 // with (almost) no valid depth are neither tracked nor fused; frames that
-// moved less than the skip thresholds since the last fused frame and touch
-// no new block are tracked but not fused (and reuse the last raycast);
+// moved less than the skip thresholds since the last fused frame and see
+// (almost) no new surface are tracked but not fused (and reuse the last raycast);
 // blocks outside --roi are never allocated.
 #pragma once
 
@@ -31,8 +31,15 @@ struct FuseOptions {
   double min_valid_fraction = 0.05;  // frames with fewer valid depth pixels are skipped
   double skip_translation_m = 0.0;   // 0: fuse every tracked frame
   double skip_rotation_deg = 0.0;
-  int max_lost = 10;  // consecutive lost frames before the run stops (keeping what it fused)
+  double skip_new_block_fraction = 0.02;  // "no new surface": new blocks / blocks in view
+  int max_lost = 10;
+  // Loss relative to the recording's recent good frames (see TrackIcp for
+  // the absolute limits).
+  double loss_rms_factor = 2.0, loss_inlier_factor = 0.5;  // consecutive lost frames before the run stops (keeping what it fused)
   bool use_color = true;
+  // The prediction (and the prior of weak directions): "velocity" (constant
+  // velocity) or "static" (the previous pose, as KinectFusion).
+  std::string motion_model = "velocity";
   Rigid3 first_pose;  // world_from_cam of the first frame when tracking
 };
 

@@ -223,10 +223,15 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
       // The prior: the increment that takes `pose` to the prediction, scaled.
       Eigen::Matrix<double, 6, 1> prior = IncrementBetween(pose, guess);
       prior.head<3>() *= L;
+      // Directions the data barely constrain are regularised towards the
+      // motion prior: their eigenvalues are lifted to the floor, the lift
+      // pulling to the prior's increment (Tikhonov in the weak subspace only;
+      // well-constrained directions are untouched).
       Eigen::Matrix<double, 6, 6> Ar = As;
       Eigen::Matrix<double, 6, 1> br = bs;
       int weak = 0;
       const double floor = options.weak_eigen_ratio * lmax;
+      std::vector<Eigen::Matrix<double, 6, 1>> weak_dirs;
       for (int k = 0; k < 6; ++k) {
         if (lam(k) >= floor) continue;
         ++weak;
@@ -234,6 +239,11 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
         const double lift = floor - std::max(lam(k), 0.0);
         Ar += lift * v * v.transpose();
         br += lift * v * v.dot(prior);
+        weak_dirs.push_back(v);
+      }
+      if (l == 0) {
+        res.weak_basis = weak_dirs;
+        res.weak_scale = scale;
       }
       const Eigen::Matrix<double, 6, 1> xs = Ar.ldlt().solve(br);
       Eigen::Matrix<double, 6, 1> xi = scale.asDiagonal() * xs;

@@ -12,6 +12,8 @@
 
 #include <vector>
 
+#include <Eigen/Core>
+
 #include "camera/pose.h"
 #include "recon/rgbd.h"
 #include "recon/tsdf.h"
@@ -41,7 +43,7 @@ struct IcpOptions {
   double max_distance = 0.10;     // metres, association gate (finest level; x2 per coarser level)
   double max_angle_deg = 30;      // normal agreement gate
   double huber = 0.01;            // metres
-  double weak_eigen_ratio = 5e-3; // eigenvalue / largest below this: unconstrained
+  double weak_eigen_ratio = 2e-3; // eigenvalue / largest below this: unconstrained
   // Tracking is lost when the result has fewer inliers than this fraction
   // of valid pixels, a larger RMS residual, or moves farther than the
   // limits from the prediction.
@@ -54,6 +56,17 @@ struct IcpResult {
   double inlier_ratio = 0;   // associated / valid pixels at level 0
   double condition = 0;      // largest / smallest eigenvalue (scaled)
   int weak_directions = 0;   // held to the prior
+  // The weak directions of the last step: orthonormal in the scaled
+  // increment space x_s = x / weak_scale (x = (omega, t) about the camera
+  // centre).  RemoveWeak takes them out of a velocity so that noise in them
+  // is not carried into the next prediction.
+  std::vector<Eigen::Matrix<double, 6, 1>> weak_basis;
+  Eigen::Matrix<double, 6, 1> weak_scale = Eigen::Matrix<double, 6, 1>::Ones();
+  Eigen::Matrix<double, 6, 1> RemoveWeak(const Eigen::Matrix<double, 6, 1>& x) const {
+    Eigen::Matrix<double, 6, 1> xs = x.cwiseQuotient(weak_scale);
+    for (const auto& v : weak_basis) xs -= v * v.dot(xs);
+    return xs.cwiseProduct(weak_scale);
+  }
   int iterations = 0;
   bool ok = false;           // passed the loss tests
   std::string failure;       // why not

@@ -357,18 +357,26 @@ PointMaps TsdfVolume::Raycast(const PinholeIntrinsics& K, const Rigid3& world_fr
       }
     }
   });
-  // Normals from the vertex map (central differences), facing the camera:
-  // a sixth of the cost of the TSDF gradient and as accurate at this scale.
-  ParallelFor(1, K.height - 1, [&](int64_t yi) {
+  // Normals from the vertex map by central differences over at least a
+  // voxel (k pixels, up to 4), facing the camera: a sixth of the cost of
+  // the TSDF gradient.  Wider baselines would lose thin structure (table
+  // legs, edges) that constrains tracking; the gated smoothing below takes
+  // out the noise instead.
+  const float fx = static_cast<float>(K.fx);
+  constexpr float kNormalVoxels = 1.0f;
+  ParallelFor(0, K.height, [&](int64_t yi) {
     const int y = static_cast<int>(yi);
-    for (int x = 1; x + 1 < K.width; ++x) {
+    for (int x = 0; x < K.width; ++x) {
       const size_t i = static_cast<size_t>(y) * K.width + x;
       const Eigen::Vector3f& c = maps.vertices[i];
       if (!(c.x() == c.x())) continue;
-      const Eigen::Vector3f &l = maps.vertices[i - 1], &r = maps.vertices[i + 1], &u = maps.vertices[i - K.width],
-                            &dn = maps.vertices[i + K.width];
+      const int k = std::clamp(static_cast<int>(std::ceil(kNormalVoxels * vs * fx / (c - o).norm())), 1, 4);
+      if (x < k || y < k || x + k >= K.width || y + k >= K.height) continue;
+      const size_t dy = static_cast<size_t>(k) * K.width;
+      const Eigen::Vector3f &l = maps.vertices[i - k], &r = maps.vertices[i + k], &u = maps.vertices[i - dy],
+                            &dn = maps.vertices[i + dy];
       if (!(l.x() == l.x() && r.x() == r.x() && u.x() == u.x() && dn.x() == dn.x())) continue;
-      const float gap = 4 * tr;  // no normals across depth discontinuities
+      const float gap = 2 * k * tr;  // no normals across depth discontinuities
       if ((r - l).squaredNorm() > gap * gap || (dn - u).squaredNorm() > gap * gap) continue;
       Eigen::Vector3f nrm = (dn - u).cross(r - l);
       if (nrm.squaredNorm() <= 0) continue;
@@ -377,6 +385,30 @@ PointMaps TsdfVolume::Raycast(const PinholeIntrinsics& K, const Rigid3& world_fr
       maps.normals[i] = nrm;
     }
   });
+  // Average each normal with its 5x5 neighbours that agree within 30
+  // degrees: the residual noise of the fused surface averages out (it would
+  // otherwise read as constraints in the ICP's degeneracy test), creases
+  // and edges stay sharp.
+  std::vector<Eigen::Vector3f> smooth(maps.normals.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  const float cos_gate = std::cos(30.0f * static_cast<float>(M_PI) / 180.0f);
+  ParallelFor(0, K.height, [&](int64_t yi) {
+    const int y = static_cast<int>(yi);
+    for (int x = 0; x < K.width; ++x) {
+      const size_t i = static_cast<size_t>(y) * K.width + x;
+      const Eigen::Vector3f& n0 = maps.normals[i];
+      if (!(n0.x() == n0.x())) continue;
+      Eigen::Vector3f sum = Eigen::Vector3f::Zero();
+      for (int dy = -2; dy <= 2; ++dy)
+        for (int dx = -2; dx <= 2; ++dx) {
+          const int xx = x + dx, yy = y + dy;
+          if (xx < 0 || yy < 0 || xx >= K.width || yy >= K.height) continue;
+          const Eigen::Vector3f& n = maps.normals[static_cast<size_t>(yy) * K.width + xx];
+          if (n.x() == n.x() && n.dot(n0) > cos_gate) sum += n;
+        }
+      smooth[i] = sum.normalized();
+    }
+  });
+  maps.normals = std::move(smooth);
   return maps;
 }
 namespace {

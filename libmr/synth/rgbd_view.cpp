@@ -33,10 +33,14 @@ Trajectory ScanPath(int frames, const Eigen::Vector3d& target, double radius, do
   for (int i = 0; i < frames; ++i) {
     const double s = frames > 1 ? static_cast<double>(i) / (frames - 1) : 0.0;
     const double a = (start_deg + arc_deg * s) * kDegToRad;
-    const Eigen::Vector3d eye = target + Eigen::Vector3d(radius * std::cos(a), height - target.y() + 0.05 * std::sin(6.0 * kPi * s),
-                                                         radius * std::sin(a));
-    const Eigen::Vector3d look = target + Eigen::Vector3d(0.2 * std::sin(4.0 * kPi * s), 0, 0.2 * std::cos(3.0 * kPi * s));
-    t.poses.push_back({i / 30.0, LookAt(eye, look)});
+    // A hand's wobble at fixed frequencies (seconds at 30 Hz), whatever the length.
+    const double time = i / 30.0;
+    const Eigen::Vector3d eye =
+        target + Eigen::Vector3d(radius * std::cos(a), height - target.y() + 0.05 * std::sin(kTwoPi * time / 2.5),
+                                 radius * std::sin(a));
+    const Eigen::Vector3d look =
+        target + Eigen::Vector3d(0.2 * std::sin(kTwoPi * time / 3.3), 0, 0.2 * std::cos(kTwoPi * time / 4.1));
+    t.poses.push_back({time, LookAt(eye, look)});
   }
   return t;
 }

@@ -84,6 +84,10 @@ int main(int argc, char** argv) {
   app.add_option("--motion-model", fo.motion_model, "Tracking prediction: velocity (constant velocity) or static")
       ->default_val("velocity")
       ->check(CLI::IsMember({"velocity", "static"}));
+  app.add_option("--raycast-level", fo.raycast_level,
+                 "Raycast the model at this pyramid level (0: full resolution; 1: half, 4x fewer rays)")
+      ->default_val(1)
+      ->check(CLI::Range(0, 2));
   app.add_option("--max-lost", fo.max_lost, "Stop (keeping what is fused) after this many lost frames in a row")
       ->default_val(10);
   app.add_option("--poses", poses, "Fuse with this TUM trajectory (or 'reference': the recording's) instead of tracking");

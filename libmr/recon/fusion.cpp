@@ -48,6 +48,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
   double prev_time = 0;
   Rigid3 model_pose;
   PointMaps model;
+  PinholeIntrinsics model_K = K;
   int lost_run = 0;
   std::deque<double> good_rms, good_inliers;  // the last good frames' figures
   std::vector<double> early_medians;
@@ -117,7 +118,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         icp.max_distance *= 2;
         for (auto& it : icp.iterations) it *= 2;
       }
-      IcpResult r = TrackIcp(pyr, model, K, model_pose, guess, icp);
+      IcpResult r = TrackIcp(pyr, model, model_K, model_pose, guess, icp);
       // Against this recording's own recent figures: a residual twice the
       // median of the last good frames, or half their inlier ratio, is a
       // wrong pose even where the absolute limits pass.
@@ -193,7 +194,11 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     rec.t_fuse = Seconds(tp);
     tp = std::chrono::steady_clock::now();
     if (!options.poses && (rec.fused || !have_model)) {
-      model = volume->Raycast(K, pose, 0.2f, static_cast<float>(dopt.max_m), &pyr.depth[0]);
+      int rl = std::clamp(options.raycast_level, 0, static_cast<int>(pyr.depth.size()) - 1);
+      while (rl > 0 && pyr.K[static_cast<size_t>(rl)].width < 320) --rl;  // coarser models lose thin structure
+      model = volume->Raycast(pyr.K[static_cast<size_t>(rl)], pose, 0.2f, static_cast<float>(dopt.max_m),
+                              &pyr.depth[static_cast<size_t>(rl)]);
+      model_K = pyr.K[static_cast<size_t>(rl)];
       model_pose = pose;
     }
     rec.t_raycast = Seconds(tp);

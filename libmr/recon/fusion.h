@@ -37,6 +37,9 @@ struct FuseOptions {
   // the absolute limits).
   double loss_rms_factor = 2.0, loss_inlier_factor = 0.5;  // consecutive lost frames before the run stops (keeping what it fused)
   bool use_color = true;
+  // The model is raycast at this pyramid level (0: full resolution; 1: half,
+  // a quarter of the rays, for speed), but never below 320 pixels across.
+  int raycast_level = 1;
   // The prediction (and the prior of weak directions): "velocity" (constant
   // velocity) or "static" (the previous pose, as KinectFusion).
   std::string motion_model = "velocity";

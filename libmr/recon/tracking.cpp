@@ -253,7 +253,7 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
         res.condition = lam(0) > 0 ? lmax / lam(0) : std::numeric_limits<double>::infinity();
         res.weak_directions = weak;
       }
-      if (xi.head<3>().norm() < 1e-6 && xi.tail<3>().norm() < 1e-6) break;
+      if (xi.head<3>().norm() < 1e-5 && xi.tail<3>().norm() < 1e-5) break;  // 0.01 mm, 2 arc seconds
     }
   }
   // Final figures at level 0 against the final pose.

@@ -43,7 +43,7 @@ struct IcpOptions {
   double max_distance = 0.10;     // metres, association gate (finest level; x2 per coarser level)
   double max_angle_deg = 30;      // normal agreement gate
   double huber = 0.01;            // metres
-  double weak_eigen_ratio = 2e-3; // eigenvalue / largest below this: unconstrained
+  double weak_eigen_ratio = 1e-3; // eigenvalue / largest below this: unconstrained
   // Tracking is lost when the result has fewer inliers than this fraction
   // of valid pixels, a larger RMS residual, or moves farther than the
   // limits from the prediction.

@@ -153,6 +153,14 @@ int main(int argc, char** argv) {
     spdlog::info("{}: {} frames ({} layout), {}x{}, fx {:.1f}", input, seq.frames.size(), seq.layout, seq.K.width,
                  seq.K.height, seq.K.fx);
 
+    {
+      mr::DepthReadOptions dopt = fo.depth;
+      dopt.scale = seq.depth_scale;
+      if (const double k = mr::CheckDepthScale(seq, dopt); k > 0)
+        spdlog::warn("{}: the depth maps' median depth is implausible for a room at {} units per metre; {} would make "
+                     "it plausible (--depth-scale)",
+                     input, seq.depth_scale, k);
+    }
     mr::TsdfVolume volume(fo.tsdf);
     const int total = fo.count >= 0 ? fo.count : static_cast<int>(seq.frames.size());
     mr::Progress progress("fuse", total);
@@ -172,7 +180,10 @@ int main(int argc, char** argv) {
     mr::MeshStats ms;
     mr::Mesh mesh = volume.ExtractMesh(mo, &confidence, &ms);
     report.AddTiming("meshing", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-    if (mesh.triangles.empty()) mr::ThrowErrorAt(mr::FileLoc{input}, "the fused volume holds no surface to mesh");
+    if (mesh.triangles.empty())
+      mr::ThrowErrorAt(mr::FileLoc{input},
+                       "the fused volume holds no surface to mesh ({} frames fused; voxels need a weight of {} or more)",
+                       report.metrics()["summary"]["fused"].get<int>(), mo.min_weight);
     report.SetMetric("mesh.vertices", static_cast<int64_t>(mesh.vertex_count()));
     report.SetMetric("mesh.triangles", static_cast<int64_t>(mesh.triangle_count()));
     report.SetMetric("mesh.components_dropped", ms.components_dropped);

@@ -38,6 +38,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
   FuseResult result;
   DepthReadOptions dopt = options.depth;
   dopt.scale = seq.depth_scale;
+  result.suspect_scale = CheckDepthScale(seq, dopt);
   const PinholeIntrinsics& K = seq.K;
   const int n = static_cast<int>(seq.frames.size());
   const int stride = std::max(1, options.stride);
@@ -51,7 +52,6 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
   PinholeIntrinsics model_K = K;
   int lost_run = 0;
   std::deque<double> good_rms, good_inliers;  // the last good frames' figures
-  std::vector<double> early_medians;
   int taken = 0;
   for (int i = std::max(0, options.first); i < n; i += stride) {
     if (options.count >= 0 && taken >= options.count) break;
@@ -66,14 +66,6 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     rec.t_read = Seconds(t0);
     rec.valid_depth = ds.valid;
     rec.rejected_depth = ds.rejected;
-    if (ds.median_m > 0 && early_medians.size() < 5) {
-      early_medians.push_back(ds.median_m);
-      if (early_medians.size() == 5 || i + stride >= n) {
-        std::vector<double> m = early_medians;
-        std::nth_element(m.begin(), m.begin() + static_cast<std::ptrdiff_t>(m.size() / 2), m.end());
-        result.suspect_scale = SuggestDepthScale(m[m.size() / 2], dopt.scale);
-      }
-    }
     const double valid_fraction = static_cast<double>(ds.valid) / static_cast<double>(depth.z.size());
     auto finish = [&] {
       rec.seconds = Seconds(t0);

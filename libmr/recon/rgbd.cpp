@@ -284,6 +284,18 @@ double SuggestDepthScale(double median_m, double scale) {
   return best;
 }
 
+double CheckDepthScale(const RgbdSequence& seq, const DepthReadOptions& options, int frames) {
+  std::vector<double> medians;
+  for (size_t i = 0; i < seq.frames.size() && static_cast<int>(medians.size()) < frames; ++i) {
+    DepthReadStats st;
+    ReadDepth(seq.frames[i].depth, options, seq.K.width, seq.K.height, &st);
+    if (st.median_m > 0) medians.push_back(st.median_m);
+  }
+  if (medians.empty()) return 0;
+  std::nth_element(medians.begin(), medians.begin() + static_cast<std::ptrdiff_t>(medians.size() / 2), medians.end());
+  return SuggestDepthScale(medians[medians.size() / 2], options.scale);
+}
+
 Image ReadColor(const fs::path& path, int width, int height) {
   Image c = ReadImage(path);
   if (c.channels() < 3) {

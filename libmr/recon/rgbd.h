@@ -95,6 +95,9 @@ DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int ex
 // 0 when the median looks right or no common scale helps.
 double SuggestDepthScale(double median_m, double scale);
 
+// SuggestDepthScale on the median of the first `frames` depth maps' medians.
+double CheckDepthScale(const RgbdSequence& seq, const DepthReadOptions& options, int frames = 5);
+
 // Colour as linear RGB, resampled to width x height (nearest) when its size
 // differs.  Throws naming the file.
 Image ReadColor(const fs::path& path, int width, int height);

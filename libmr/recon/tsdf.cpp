@@ -402,8 +402,8 @@ PointMaps TsdfVolume::Raycast(const PinholeIntrinsics& K, const Rigid3& world_fr
         for (int dx = -2; dx <= 2; ++dx) {
           const int xx = x + dx, yy = y + dy;
           if (xx < 0 || yy < 0 || xx >= K.width || yy >= K.height) continue;
-          const Eigen::Vector3f& n = maps.normals[static_cast<size_t>(yy) * K.width + xx];
-          if (n.x() == n.x() && n.dot(n0) > cos_gate) sum += n;
+          const Eigen::Vector3f& nb = maps.normals[static_cast<size_t>(yy) * K.width + xx];
+          if (nb.x() == nb.x() && nb.dot(n0) > cos_gate) sum += nb;
         }
       smooth[i] = sum.normalized();
     }

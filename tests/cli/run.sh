@@ -166,5 +166,22 @@ check "plot names its lines" 0 "variance-cut" -- cat "$tmp/plot.svg"
 check "plot: unknown column" 1 'has no column "error"' -- "$bin/mr-eval" plot "$tmp/sweep.csv" --x count --y error --out "$tmp/p2.svg"
 check "unknown lights method" 2 "kmeans" -- "$bin/mr-lights" "$tmp/env.exr" --method kmeans --out "$tmp/x.json"
 
+# RGB-D reconstruction: synthetic recording -> mr-fuse -> mr-eval traj / mesh.
+check "mr-synth --rgbd" 0 "" -- "$bin/mr-synth" --rgbd --rgbd-size 160,120,20 --rgbd-spp 1 --out "$tmp/rgbd" -q
+check "mr-fuse" 0 "" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/fused" --first-pose reference --report "$tmp/fuse.json" -q
+check "fuse writes its report beside the mesh" 0 '"frames_per_second"' -- cat "$tmp/fused/fuse-report.json"
+check "room.ply carries albedo and confidence" 0 "property float confidence" -- head -c 600 "$tmp/fused/room.ply"
+check "room.ply is a mesh mr-info reads" 0 "triangles" -- "$bin/mr-info" "$tmp/fused/room.ply"
+check "mr-eval traj" 0 "ATE rmse" -- "$bin/mr-eval" traj "$tmp/fused/trajectory.txt" "$tmp/rgbd/groundtruth.txt"
+check "mr-eval mesh" 0 "accuracy" -- "$bin/mr-eval" mesh "$tmp/fused/room.ply" "$tmp/rgbd/reference/room.ply" --samples 20000
+check "fuse: not a recording" 1 "is not an RGB-D recording" -- "$bin/mr-fuse" "$tmp/cap" --out "$tmp/f2"
+[ ! -e "$tmp/f2/room.ply" ] && echo "ok   fuse: nothing written on failure" && pass=$((pass + 1))
+sed -n 1,2p "$tmp/rgbd/depth.txt" > "$tmp/rgbd-bad.txt"
+mkdir -p "$tmp/rgbd-bad" && cp -r "$tmp/rgbd/depth" "$tmp/rgbd/depth.cameramodel" "$tmp/rgbd-bad/"
+printf '0.0 depth/0.000000.png\nabc depth/x.png\n' > "$tmp/rgbd-bad/depth.txt"
+check "fuse: bad list line" 1 "depth.txt:2: \"abc\" is not a timestamp" -- "$bin/mr-fuse" "$tmp/rgbd-bad" --out "$tmp/f3"
+check "fuse: wrong depth scale warned" 1 "5000 would make it plausible" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/f4" --depth-scale 1000 --max-depth 30 --no-albedo --count 6
+check "fuse: bad ROI" 2 "minimum corner" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/f5" --roi 1,1,1,0,0,0
+
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

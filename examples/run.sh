@@ -58,12 +58,30 @@ s["output"]["dir"] = "render-prt"
 json.dump(s, open(sys.argv[2], "w"), indent=2)
 PY
 "$bin/mr-render" "$out/capture/scene-prt.json" --method prt --out "$out/render-prt" --report "$out/render-prt-report.json" -q
+# The room from RGB-D: a synthetic Kinect-like recording of the room,
+# reconstructed by mr-fuse (tracking, hashed TSDF, meshing, albedo de-lit by
+# the captured environment), then its trajectory and mesh against the truth.
+"$bin/mr-synth" --rgbd --rgbd-size 160,120,60 --out "$out/rgbd" -q
+"$bin/mr-fuse" "$out/rgbd" --out "$out/room" --first-pose reference --env "$out/capture/env-captured.exr" \
+  --albedo-rays 64 --report "$out/fuse-report.json" -q
+"$bin/mr-eval" traj "$out/room/trajectory.txt" "$out/rgbd/groundtruth.txt" --report "$out/traj-report.json" -q > /dev/null
+"$bin/mr-eval" mesh "$out/room/room.ply" "$out/rgbd/reference/room.ply" --samples 50000 --report "$out/mesh-report.json" -q > /dev/null
 echo
 echo "composites:     $out/render/*.png (layers in $out/render/*.exr)"
 echo "render report:  $out/render-report.json"
 echo "prt composites: $out/render-prt/*.png (report $out/render-prt-report.json)"
 echo "captured light: $out/capture/env-captured.exr (from the 8-bit bracket), lights $out/capture/lights-blobs.json,"
 echo "                composites lit by them: $out/render-lights/*.png; error vs lights: $out/lights-vs-count.csv/.svg"
+echo "room from RGB-D: $out/room/room.ply, trajectory $out/room/trajectory.txt, report $out/room/fuse-report.json"
+/usr/bin/python3 - "$out" <<'PY' || true
+import json, sys
+o = sys.argv[1]
+t = json.load(open(o + "/traj-report.json"))["metrics"]
+m = json.load(open(o + "/mesh-report.json"))["metrics"]
+f = json.load(open(o + "/fuse-report.json"))["metrics"]["summary"]
+print("                 ATE %.1f mm, mesh accuracy %.1f mm mean, %d frames at %.1f frames/s, %d lost"
+      % (1000 * t["ate"]["rmse_m"], 1000 * m["accuracy"]["mean_m"], f["frames"], f["frames_per_second"], f["lost"]))
+PY
 echo "error vs time:  metrics.curve in $out/render-report.json:"
 /usr/bin/python3 - "$out/render-report.json" <<'PY' || true
 import json, sys

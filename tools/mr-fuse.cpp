@@ -102,6 +102,10 @@ int main(int argc, char** argv) {
   app.add_option("--env", env, "Environment map (lat-long EXR): de-light the albedo")->check(CLI::ExistingFile);
   app.add_option("--albedo-stride", ao.frame_stride, "Albedo: use every Nth fused frame")->default_val(5);
   app.add_option("--albedo-rays", ao.rays, "Albedo: hemisphere rays per vertex for the irradiance")->default_val(256);
+  app.add_option("--camera-scale", ao.camera_scale,
+                 "Albedo: colour units per unit of radiance (mr-synth: truth.json's color_exposure)")
+      ->default_val(1.0)
+      ->check(CLI::PositiveNumber);
   app.add_flag("--no-albedo", no_albedo, "Skip the albedo pass (colour = fused voxel colour)");
   return mr::RunTool("mr-fuse", app, argc, argv, [&] {
     mr::Report& report = mr::ToolReport();

@@ -21,6 +21,7 @@ namespace mr {
 namespace {
 
 constexpr int kMaxObs = 8;
+constexpr float kSaturated = 254.5f / 255.0f;  // of an 8-bit code, linear or not
 
 struct Obs {
   int frame = -1;
@@ -98,8 +99,10 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
       if (!(d > 0) || std::abs(d - pc.z()) > tol) return;
       const float c = (R * mesh->normals[v]).dot(-pc.normalized());
       if (c < cos_max) return;
-      const Eigen::Vector3f col(color.at(u, y, 0), color.at(u, y, 1), color.at(u, y, 2));
-      if (!col.allFinite()) return;
+      Eigen::Vector3f col(color.at(u, y, 0), color.at(u, y, 1), color.at(u, y, 2));
+      // Saturated pixels say only "at least": left out.
+      if (!col.allFinite() || col.maxCoeff() >= kSaturated) return;
+      col /= static_cast<float>(options.camera_scale);  // to the lighting's radiance unit
       sum[v] += c * col.cast<double>();
       wsum[v] += c;
       obs[v].Add({static_cast<int>(fi), c, col});
@@ -151,11 +154,14 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
           e += smp.li * c / smp.pdf / samples;
         }
       }
-      // Indirect: the room's observed radiance, or the map where rays escape.
+      // The room's observed radiance where cosine-distributed rays hit it (every
+      // bounce at once); the map where rays escape, by multiple importance
+      // sampling of the cosine and the map's own distribution (balance
+      // heuristic), so that a sun of a few pixels is found as reliably as a sky.
       Eigen::Vector3d tan = std::abs(n.x()) < 0.9 ? n.cross(Eigen::Vector3d::UnitX()).normalized()
                                                   : n.cross(Eigen::Vector3d::UnitY()).normalized();
       const Eigen::Vector3d bit = n.cross(tan);
-      Eigen::Vector3d ind = Eigen::Vector3d::Zero();
+      Eigen::Vector3d room = Eigen::Vector3d::Zero(), sky = Eigen::Vector3d::Zero();
       for (int s = 0; s < rays; ++s) {
         const auto u = Sobol2D(static_cast<uint32_t>(s), static_cast<uint32_t>(v), true);
         const auto d = SampleCosineHemisphere(u[0], u[1]);
@@ -167,14 +173,27 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
         if (scene.Intersect(r, &h)) {
           const Eigen::Vector3i& tri = mesh->triangles[h.primitive_id];
           const double b1 = h.uv.x(), b2 = h.uv.y(), b0 = 1 - b1 - b2;
-          ind += (b0 * observed[static_cast<size_t>(tri[0])] + b1 * observed[static_cast<size_t>(tri[1])] +
-                  b2 * observed[static_cast<size_t>(tri[2])]) /
-                 options.camera_scale;
+          room += b0 * observed[static_cast<size_t>(tri[0])] + b1 * observed[static_cast<size_t>(tri[1])] +
+                  b2 * observed[static_cast<size_t>(tri[2])];
         } else if (!env.empty()) {
-          ind += env.Eval(dir);
+          double pdf_env = 0;
+          const Eigen::Vector3d L = env.EvalWithPdf(dir, &pdf_env);
+          const double c = d[2];
+          sky += L * c / (c / kPi + pdf_env);
         }
+        if (env.empty()) continue;
+        Eigen::Vector3d dl;
+        double pdf_env = 0;
+        const Eigen::Vector3d L = env.Sample(rng.NextDouble(), rng.NextDouble(), rng.NextDouble(), &dl, &pdf_env);
+        const double c = n.dot(dl);
+        if (c <= 0 || !(pdf_env > 0)) continue;
+        Ray sr;
+        sr.origin = p.cast<float>();
+        sr.direction = dl.cast<float>();
+        if (scene.Occluded(sr)) continue;
+        sky += L * c / (c / kPi + pdf_env);
       }
-      E[v] = e + ind * (kPi / rays);
+      E[v] = e + room * (kPi / rays) + sky / rays;
     });
     // Joint solve of gains and a subset's albedo.
     std::vector<size_t> subset;

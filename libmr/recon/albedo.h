@@ -30,7 +30,7 @@ struct AlbedoOptions {
   double max_angle_deg = 75;   // ignore grazing views
   double depth_tolerance = 0.03;  // metres: visibility test against the frame's depth
   std::string lights, env;     // lighting; both empty: mean colour only
-  double camera_scale = 1.0;   // camera colour units per unit of radiance
+  double camera_scale = 1.0;   // camera colour units per unit of radiance (observations are divided by it)
   int rays = 256;              // hemisphere rays per vertex
   int solve_vertices = 3000;   // vertices in the joint Ceres solve
   double huber = 0.05;         // colour units
@@ -47,7 +47,8 @@ struct AlbedoStats {
 };
 
 // Sets mesh->colors to the albedo (clamped to [0,1]) and adds scalars
-// albedo_r/g/b (unclamped) and observed_r/g/b (mean observed colour).
+// albedo_r/g/b (unclamped) and observed_r/g/b (mean observed colour over
+// camera_scale).  Saturated colour samples are left out.
 AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, double max_depth,
                           const AlbedoOptions& options, Mesh* mesh, Report* report);
 

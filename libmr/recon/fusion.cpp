@@ -4,10 +4,12 @@
 #include <chrono>
 #include <cmath>
 #include <deque>
+#include <memory>
 
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "core/image.h"
 
 namespace mr {
 
@@ -31,6 +33,19 @@ double Median(const std::deque<double>& v) {
   return s[s.size() / 2];
 }
 
+// The raycast model shaded by a head light (normal . view), grey.
+void WritePreview(const FuseOptions& o, int index, const PointMaps& m, const Rigid3& pose) {
+  Image img = Image::Gray(m.width, m.height);
+  for (size_t i = 0; i < m.normals.size(); ++i) {
+    const Eigen::Vector3f& n = m.normals[i];
+    if (!(n.x() == n.x())) continue;
+    const Eigen::Vector3f view = (pose.translation.cast<float>() - m.vertices[i]).normalized();
+    img.values()[i] = 0.1f + 0.9f * std::max(0.0f, n.dot(view));
+  }
+  fs::create_directories(o.preview_dir);
+  WriteImage(o.preview_dir / fmt::format("{:06d}.png", index), img);
+}
+
 }  // namespace
 
 FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume* volume,
@@ -43,12 +58,22 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
   const int n = static_cast<int>(seq.frames.size());
   const int stride = std::max(1, options.stride);
 
-  bool have_model = false, have_pose = false;
+  bool have_model = false;
   Rigid3 pose = options.first_pose, prev_pose = options.first_pose, last_fused = options.first_pose;
   Eigen::Matrix<double, 6, 1> velocity = Eigen::Matrix<double, 6, 1>::Zero();  // increment per second
   double prev_time = 0;
   Rigid3 model_pose;
   PointMaps model;
+  // With a region of interest the output volume holds only that region; the
+  // camera is tracked against a second, whole volume (tracking_voxel).
+  std::unique_ptr<TsdfVolume> tracker;
+  if (!options.poses && !volume->options().roi.isEmpty()) {
+    TsdfOptions t = volume->options();
+    t.roi = Eigen::AlignedBox3f();
+    if (options.tracking_voxel > 0) t.voxel_size = static_cast<float>(options.tracking_voxel);
+    t.truncation = 0;
+    tracker = std::make_unique<TsdfVolume>(t);
+  }
   PinholeIntrinsics model_K = K;
   int lost_run = 0;
   std::deque<double> good_rms, good_inliers;  // the last good frames' figures
@@ -69,7 +94,8 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     const double valid_fraction = static_cast<double>(ds.valid) / static_cast<double>(depth.z.size());
     auto finish = [&] {
       rec.seconds = Seconds(t0);
-      result.peak_bytes = std::max(result.peak_bytes, volume->MemoryBytes());
+      result.peak_bytes = std::max(result.peak_bytes,
+                                   volume->MemoryBytes() + (tracker ? tracker->MemoryBytes() : int64_t{0}));
       if (on_frame) on_frame(rec);
       result.frames.push_back(rec);
     };
@@ -159,7 +185,6 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     }
     rec.t_track = Seconds(tp);
     tp = std::chrono::steady_clock::now();
-    have_pose = true;
     result.trajectory.poses.push_back({f.timestamp, pose});
 
     // Fuse unless the frame adds nothing: small motion and no new surface.
@@ -180,6 +205,10 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
       Image color;
       if (options.use_color && !f.color.empty()) color = ReadColor(f.color, K.width, K.height);
       volume->Integrate(blocks, pyr.depth[0], color.empty() ? nullptr : &color, K, pose, &is);
+      if (tracker) {
+        IntegrateStats ts;
+        tracker->Integrate(tracker->AllocateBand(depth, K, pose, &ts), pyr.depth[0], nullptr, K, pose, &ts);
+      }
       rec.fused = true;
       last_fused = pose;
     }
@@ -188,9 +217,10 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     if (!options.poses && (rec.fused || !have_model)) {
       int rl = std::clamp(options.raycast_level, 0, static_cast<int>(pyr.depth.size()) - 1);
       while (rl > 0 && pyr.K[static_cast<size_t>(rl)].width < 320) --rl;  // coarser models lose thin structure
-      model = volume->Raycast(pyr.K[static_cast<size_t>(rl)], pose, 0.2f, static_cast<float>(dopt.max_m),
+      model = (tracker ? tracker.get() : volume)->Raycast(pyr.K[static_cast<size_t>(rl)], pose, 0.2f, static_cast<float>(dopt.max_m),
                               &pyr.depth[static_cast<size_t>(rl)]);
       model_K = pyr.K[static_cast<size_t>(rl)];
+      if (options.preview_every > 0 && (taken - 1) % options.preview_every == 0) WritePreview(options, f.index, model, pose);
       model_pose = pose;
     }
     rec.t_raycast = Seconds(tp);
@@ -199,7 +229,6 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     prev_time = f.timestamp;
     finish();
   }
-  (void)have_pose;
   return result;
 }
 

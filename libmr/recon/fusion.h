@@ -44,6 +44,12 @@ struct FuseOptions {
   // velocity) or "static" (the previous pose, as KinectFusion).
   std::string motion_model = "velocity";
   Rigid3 first_pose;  // world_from_cam of the first frame when tracking
+  // With a region of interest (tsdf.roi on the output volume) and tracking,
+  // the camera is tracked against a whole-room volume of this voxel size
+  // (0: the output's): coarser saves memory, at some accuracy.
+  double tracking_voxel = 0;
+  int preview_every = 0;  // > 0: the model's raycast, shaded, every N frames ...
+  fs::path preview_dir;   // ... as preview_dir/NNNNNN.png
 };
 
 struct FrameRecord {

@@ -181,6 +181,9 @@ mkdir -p "$tmp/rgbd-bad" && cp -r "$tmp/rgbd/depth" "$tmp/rgbd/depth.cameramodel
 printf '0.0 depth/0.000000.png\nabc depth/x.png\n' > "$tmp/rgbd-bad/depth.txt"
 check "fuse: bad list line" 1 "depth.txt:2: \"abc\" is not a timestamp" -- "$bin/mr-fuse" "$tmp/rgbd-bad" --out "$tmp/f3"
 check "fuse: wrong depth scale warned" 1 "5000 would make it plausible" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/f4" --depth-scale 1000 --max-depth 30 --no-albedo --count 6
+check "fuse around the scene's object" 0 "" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/f6" --first-pose reference --roi-from "$tmp/cap/scene.json" --preview-every 10 --no-albedo --report "$tmp/f6.json" -q
+check "roi reported as a skip" 0 "virtual objects' bounds" -- cat "$tmp/f6.json"
+check "preview written" 0 "" -- test -s "$tmp/f6/preview/000010.png"
 check "fuse: bad ROI" 2 "minimum corner" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/f5" --roi 1,1,1,0,0,0
 
 echo "$pass passed, $fail failed"

@@ -30,37 +30,9 @@ PinholeIntrinsics PinholeIntrinsics::Level(int level) const {
 
 namespace {
 
-struct ListEntry {
-  double t;
-  std::string file;
-};
-
-// TUM's rgb.txt / depth.txt: "timestamp filename" per line, '#' comments.
-std::vector<ListEntry> ReadTumList(const fs::path& path) {
+std::vector<TimestampedFile> ReadTumList(const fs::path& path) {
   std::istringstream in(ReadTextFile(path));
-  std::vector<ListEntry> out;
-  std::string line;
-  int n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
-    std::istringstream ls(line);
-    ls.imbue(std::locale::classic());
-    ListEntry e;
-    std::string ts;
-    if (!(ls >> ts)) continue;
-    try {
-      size_t used = 0;
-      e.t = std::stod(ts, &used);
-      if (used != ts.size() || !std::isfinite(e.t)) throw std::invalid_argument(ts);
-    } catch (const std::exception&) {
-      ThrowErrorAt(FileLoc{path.string(), n}, "\"{}\" is not a timestamp", ts);
-    }
-    if (!(ls >> e.file)) ThrowErrorAt(FileLoc{path.string(), n}, "expected \"timestamp filename\"");
-    out.push_back(e);
-  }
-  if (out.empty()) ThrowErrorAt(FileLoc{path.string()}, "lists no images");
-  return out;
+  return ReadTimestampList(in, path.string());
 }
 
 PinholeIntrinsics ReadIntrinsicsTxt(const fs::path& path) {
@@ -121,6 +93,32 @@ std::string DetectLayout(const fs::path& dir) {
 
 }  // namespace
 
+std::vector<TimestampedFile> ReadTimestampList(std::istream& in, const std::string& name) {
+  std::vector<TimestampedFile> out;
+  std::string line;
+  int n = 0;
+  while (std::getline(in, line)) {
+    ++n;
+    if (auto h = line.find('#'); h != std::string::npos) line.resize(h);
+    std::istringstream ls(line);
+    ls.imbue(std::locale::classic());
+    TimestampedFile e;
+    std::string ts;
+    if (!(ls >> ts)) continue;
+    try {
+      size_t used = 0;
+      e.t = std::stod(ts, &used);
+      if (used != ts.size() || !std::isfinite(e.t)) throw std::invalid_argument(ts);
+    } catch (const std::exception&) {
+      ThrowErrorAt(FileLoc{name, n}, "\"{}\" is not a timestamp", ts);
+    }
+    if (!(ls >> e.file)) ThrowErrorAt(FileLoc{name, n}, "expected \"timestamp filename\"");
+    out.push_back(e);
+  }
+  if (out.empty()) ThrowErrorAt(FileLoc{name}, "lists no images");
+  return out;
+}
+
 RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& options) {
   if (!fs::is_directory(dir)) ThrowErrorAt(FileLoc{dir.string()}, "is not a folder");
   RgbdSequence seq;
@@ -136,8 +134,8 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
 
   if (seq.layout == "tum") {
     seq.depth_scale = 5000;
-    const std::vector<ListEntry> depth = ReadTumList(dir / "depth.txt");
-    std::vector<ListEntry> rgb;
+    const std::vector<TimestampedFile> depth = ReadTumList(dir / "depth.txt");
+    std::vector<TimestampedFile> rgb;
     if (fs::exists(dir / "rgb.txt")) rgb = ReadTumList(dir / "rgb.txt");
     std::vector<double> td, tr;
     for (const auto& e : depth) td.push_back(e.t);

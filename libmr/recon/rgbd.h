@@ -14,6 +14,7 @@
 // centres are at integer coordinates (mrcal's convention).
 #pragma once
 
+#include <iosfwd>
 #include <optional>
 #include <string>
 #include <vector>
@@ -56,6 +57,14 @@ struct RgbdSequence {
   int unpaired_depth = 0;  // TUM depth images without a colour image within max_dt
   bool has_color() const { return !frames.empty() && !frames.front().color.empty(); }
 };
+
+// TUM's rgb.txt / depth.txt: "timestamp filename" per line, '#' comments.
+// Throws mr::Error naming `name` and the line on a malformed one.
+struct TimestampedFile {
+  double t = 0;
+  std::string file;
+};
+std::vector<TimestampedFile> ReadTimestampList(std::istream& in, const std::string& name);
 
 // Throws mr::Error naming the folder or file when the layout is not
 // recognised, a list file is malformed or intrinsics are missing.

@@ -61,7 +61,6 @@ int main(int argc, char** argv) {
   traj->add_option("REFERENCE", ref, "Reference trajectory")->required()->check(CLI::ExistingPath);
   traj->add_option("--max-dt", max_dt, "Association: largest time difference")->default_val(0.02);
   traj->add_option("--delta", delta, "RPE time step (timestamp units)")->default_val(1.0);
-  std::string region_box;
   double threshold = 0.01, cutoff = 0.1;
   int64_t samples = 200000;
   std::vector<double> box;
@@ -83,8 +82,14 @@ int main(int argc, char** argv) {
         return mr::fs::is_directory(p) ? mr::Read7ScenesFolder(p) : mr::ReadTum(mr::fs::path(p));
       };
       const mr::Trajectory e = load(est), r = load(ref);
-      const mr::AteResult ate = mr::ComputeAte(e, r, max_dt);
-      const mr::RpeResult rpe = mr::ComputeRpe(e, r, delta, max_dt);
+      mr::AteResult ate;
+      mr::RpeResult rpe;
+      try {
+        ate = mr::ComputeAte(e, r, max_dt);
+        rpe = mr::ComputeRpe(e, r, delta, max_dt);
+      } catch (const mr::Error& err) {  // name both files
+        mr::ThrowErrorAt(mr::FileLoc{est}, "against {}: {}", ref, err.message());
+      }
       auto& rep = mr::ToolReport();
       rep.AddInput(est);
       rep.AddInput(ref);

@@ -140,6 +140,16 @@ std::vector<SynthPart> SynthRoom() {
   return parts;
 }
 
+Mesh MergeParts(const std::vector<SynthPart>& parts) {
+  Mesh room;
+  for (const auto& part : parts) {
+    const int base = static_cast<int>(room.positions.size());
+    room.positions.insert(room.positions.end(), part.mesh.positions.begin(), part.mesh.positions.end());
+    for (const auto& t : part.mesh.triangles) room.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+  }
+  return room;
+}
+
 void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
   ImageWriteOptions wo;
   wo.tool = o.tool;
@@ -399,13 +409,8 @@ void RunSynthRgbd(const SynthOptions& o, const RgbdSynthSize& size, Report* repo
   int sun_x, sun_y;
   const Image sky = SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y);
   RenderScene rs;
-  Mesh room;
-  for (const auto& part : parts) {
-    rs.AddReal(part.mesh, part.material);
-    const int base = static_cast<int>(room.positions.size());
-    room.positions.insert(room.positions.end(), part.mesh.positions.begin(), part.mesh.positions.end());
-    for (const auto& t : part.mesh.triangles) room.triangles.push_back(t + Eigen::Vector3i::Constant(base));
-  }
+  for (const auto& part : parts) rs.AddReal(part.mesh, part.material);
+  const Mesh room = MergeParts(parts);
   rs.SetEnvironment(EnvironmentMap(sky, "sky"));
   rs.Commit();
   RgbdSynthOptions ro;

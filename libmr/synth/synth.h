@@ -51,6 +51,8 @@ struct SynthPart {
   Material material;
 };
 std::vector<SynthPart> SynthRoom();
+// The parts' geometry as one mesh (the reference for mr-eval mesh).
+Mesh MergeParts(const std::vector<SynthPart>& parts);
 
 // Instead of a capture: an RGB-D recording of the room (TUM layout, with a
 // Kinect-like sensor, synth/rgbd_view.h) in options.out, the room's true

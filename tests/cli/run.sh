@@ -173,6 +173,7 @@ check "fuse writes its report beside the mesh" 0 '"frames_per_second"' -- cat "$
 check "room.ply carries albedo and confidence" 0 "property float confidence" -- head -c 600 "$tmp/fused/room.ply"
 check "room.ply is a mesh mr-info reads" 0 "triangles" -- "$bin/mr-info" "$tmp/fused/room.ply"
 check "mr-eval traj" 0 "ATE rmse" -- "$bin/mr-eval" traj "$tmp/fused/trajectory.txt" "$tmp/rgbd/groundtruth.txt"
+check "traj: no common timestamps" 1 "too few for ATE" -- "$bin/mr-eval" traj "$tmp/cap/trajectory.txt" "$tmp/rgbd/groundtruth.txt" --max-dt 0.001
 check "mr-eval mesh" 0 "accuracy" -- "$bin/mr-eval" mesh "$tmp/fused/room.ply" "$tmp/rgbd/reference/room.ply" --samples 20000
 check "fuse: not a recording" 1 "is not an RGB-D recording" -- "$bin/mr-fuse" "$tmp/cap" --out "$tmp/f2"
 [ ! -e "$tmp/f2/room.ply" ] && echo "ok   fuse: nothing written on failure" && pass=$((pass + 1))

@@ -44,12 +44,8 @@ RenderScene RoomScene(const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
 }
 
 Mesh RoomMesh(const Eigen::Vector3d& offset = Eigen::Vector3d::Zero()) {
-  Mesh room;
-  for (const SynthPart& p : SynthRoom()) {
-    const int base = static_cast<int>(room.positions.size());
-    for (const auto& v : p.mesh.positions) room.positions.push_back(v + offset.cast<float>());
-    for (const auto& t : p.mesh.triangles) room.triangles.push_back(t + Eigen::Vector3i::Constant(base));
-  }
+  Mesh room = MergeParts(SynthRoom());
+  for (auto& v : room.positions) v += offset.cast<float>();
   return room;
 }
 

@@ -1,5 +1,7 @@
 #include "render/path_tracer.h"
 
+#include "render/path_common.h"
+
 #include <atomic>
 #include <cmath>
 
@@ -9,139 +11,8 @@
 
 namespace mr {
 
-namespace {
-
-double PowerHeuristic(double a, double b) {
-  if (std::isinf(a)) return 1;
-  const double a2 = a * a, b2 = b * b;
-  return a2 + b2 > 0 ? a2 / (a2 + b2) : 0;
-}
-
-struct Frame {
-  Eigen::Vector3d t, b, n;
-  explicit Frame(const Eigen::Vector3d& normal) : n(normal) { CoordinateSystem(n, &t, &b); }
-  Eigen::Vector3d ToLocal(const Eigen::Vector3d& v) const { return {v.dot(t), v.dot(b), v.dot(n)}; }
-  Eigen::Vector3d ToWorld(const Eigen::Vector3d& v) const { return v.x() * t + v.y() * b + v.z() * n; }
-};
-
-// Ray origins are offset along the normal by 64 float ulps of the largest
-// magnitude that entered the hit position: the position itself, the ray's
-// origin and the distance travelled (Embree's t carries an error relative to
-// those, so a hit near the world origin reached from 1 m away is uncertain
-// to ~1e-7 m, not to ulps of its own tiny coordinates).  Local, so the
-// offset (and every path) does not depend on what else is in the scene.
-double OffsetScale(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, double t) {
-  const double m = std::max({p.cwiseAbs().maxCoeff(), origin.cwiseAbs().maxCoeff(), t, 1e-3});
-  return 64.0 * std::numeric_limits<float>::epsilon() * m;
-}
-
-Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, uint32_t mask, double tfar = INFINITY) {
-  Ray r;
-  r.origin = origin.cast<float>();
-  r.direction = dir.cast<float>();
-  r.mask = mask;
-  r.tfar = static_cast<float>(tfar);
-  return r;
-}
-
-// A surface vertex: position, shading frame facing the incoming ray, BSDF.
-struct Vertex {
-  Eigen::Vector3d p, wo_world;
-  double offset = 0;  // along the normal, for rays leaving p
-  Frame frame{Eigen::Vector3d::UnitZ()};
-  const Bsdf* bsdf = nullptr;
-  const Material* material = nullptr;
-};
-
-Vertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit& hit) {
-  Vertex v;
-  const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
-  const Eigen::Vector3d o = ray.origin.cast<double>();
-  v.p = o + static_cast<double>(hit.t) * ray.direction.cast<double>();
-  v.offset = OffsetScale(v.p, o, static_cast<double>(hit.t) * ray.direction.cast<double>().norm());
-  Eigen::Vector3d n = scene.WorldNormal(hit);
-  if (n.dot(d) > 0) n = -n;  // two-sided: face the incoming ray
-  v.frame = Frame(n);
-  v.wo_world = -d;
-  v.bsdf = &scene.bsdf(hit.geometry_id);
-  v.material = &scene.material(hit.geometry_id);
-  return v;
-}
-
-// Which emitters a path sees: the environment and real lights exist in both
-// I_m and I_r, virtual lights only in I_m.
-enum LightSet : unsigned { kRealLights = 1, kVirtualLights = 2, kAllLights = 3 };
-
-unsigned LightBit(const LightSource& l) { return l.is_virtual() ? kVirtualLights : kRealLights; }
-
-// Radiance arriving along an escaped ray from the environment and the
-// distant disc lights in `which`, each MIS-weighted against the BSDF pdf
-// that chose the direction (prev_pdf 0: seen directly by the camera).
-Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pdf, unsigned which) {
-  Eigen::Vector3d L = Eigen::Vector3d::Zero();
-  const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
-  const EnvironmentMap& env = scene.environment();
-  if ((which & kRealLights) && !env.empty()) {
-    double pdf = 0;
-    const Eigen::Vector3d le = env.EvalWithPdf(d, &pdf);
-    L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
-  }
-  if (scene.has_distant_area_light())
-    for (const LightSource& l : scene.lights()) {
-      if (!(which & LightBit(l))) continue;
-      double pdf = 0;
-      const Eigen::Vector3d le = l.EvalDistant(d, &pdf);
-      if (pdf > 0) L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
-    }
-  return L;
-}
-
-// Next-event estimates at `v`: one environment sample and one sample of each
-// light.  Calls emit(contribution, shadow ray, is_virtual_light) for each
-// unoccluded contribution (times beta: the caller's) still to be tested.  The
-// random numbers drawn do not depend on outcomes, so that paths that part at
-// a virtual object keep their streams aligned.
-template <class Emit>
-void NextEvent(const RenderScene& scene, const Vertex& v, Pcg32& rng, Emit&& emit) {
-  const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
-  const Eigen::Vector3d origin = v.p + v.frame.n * v.offset;
-  const EnvironmentMap& env = scene.environment();
-  {
-    const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble();
-    Eigen::Vector3d wi;
-    double pdf_light = 0;
-    if (!env.empty()) {
-      const Eigen::Vector3d le = env.Sample(u0, u1, u2, &wi, &pdf_light);
-      const Eigen::Vector3d wi_l = v.frame.ToLocal(wi);
-      if (pdf_light > 0 && wi_l.z() > 0) {
-        const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
-        if (f.maxCoeff() > 0) {
-          const double w = PowerHeuristic(pdf_light, v.bsdf->Pdf(wo_l, wi_l));
-          emit(Eigen::Vector3d(f.cwiseProduct(le) * (wi_l.z() * w / pdf_light)), MakeRay(origin, wi, kMaskAll), false);
-        }
-      }
-    }
-  }
-  for (const LightSource& l : scene.lights()) {
-    const double u0 = rng.NextDouble(), u1 = rng.NextDouble();
-    LightSample ls;
-    if (!l.Sample(v.p, u0, u1, &ls)) continue;
-    const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
-    if (wi_l.z() <= 0) continue;
-    const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
-    if (f.maxCoeff() <= 0) continue;
-    const double w = ls.delta ? 1.0 : PowerHeuristic(ls.pdf, v.bsdf->Pdf(wo_l, wi_l));
-    // A point light's shadow ray stops just short of it.
-    const double tfar = std::isinf(ls.distance) ? INFINITY : ls.distance * (1 - 1e-6);
-    emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / ls.pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),
-         l.is_virtual());
-  }
-}
-
-}  // namespace
-
 Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf,
-                                                    int depth, Pcg32& rng, int* rays) const {
+                                                    int depth, Pcg32& rng, int* rays, int escape_from_depth) const {
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
   const unsigned lights = mask == kMaskReal ? kRealLights : kAllLights;  // a real path sees no virtual light
@@ -149,10 +20,10 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     Hit hit;
     ++*rays;
     if (!Intersect(ray, &hit)) {
-      L += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, lights));
+      if (depth >= escape_from_depth) L += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, lights));
       break;
     }
-    Vertex v = MakeVertex(scene_, ray, hit);
+    PathVertex v = MakeVertex(scene_, ray, hit);
     L += beta.cwiseProduct(v.material->emission);
     if (depth >= settings_.max_depth || v.bsdf->IsBlack()) break;
     NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
@@ -176,17 +47,17 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   return L;
 }
 
-PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
+PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int start_depth,
+                                             Pcg32& rng, int escape_from_depth) const {
   PathSample out;
   int* rays = &out.rays;
-  Ray ray = primary;
+  Ray ray = start;
   ray.mask = kMaskAll;
-  Eigen::Vector3d beta = Eigen::Vector3d::Ones();
-  double prev_pdf = 0;  // 0: the camera ray, seen directly (no MIS)
-  for (int depth = 0;; ++depth) {
+  for (int depth = start_depth;; ++depth) {
     Hit hit;
     ++*rays;
     if (!Intersect(ray, &hit)) {
+      if (depth < escape_from_depth) return out;
       const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
       out.mixed += c;
       out.real += c;
@@ -198,12 +69,12 @@ PathSample DifferentialPathTracer::Trace(const Ray& primary, Pcg32& rng) const {
       // of the random stream, the mixed one goes on from the object.
       if (depth == 0) out.primary_virtual = true;
       Pcg32 real_rng = rng;
-      out.real += TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, real_rng, &out.rays);
-      out.mixed += TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, &out.rays);
+      out.real += TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, real_rng, &out.rays, escape_from_depth);
+      out.mixed += TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, &out.rays, escape_from_depth);
       return out;
     }
     // A real vertex shared by both paths.
-    Vertex v = MakeVertex(scene_, ray, hit);
+    PathVertex v = MakeVertex(scene_, ray, hit);
     const Eigen::Vector3d e = beta.cwiseProduct(v.material->emission);
     out.mixed += e;
     out.real += e;
@@ -327,9 +198,9 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
       tracer_(scene, settings),
       sampler_(camera, world_from_cam, settings.seed, settings.frame),
       width_(camera.width()),
-      height_(camera.height()) {
+      height_(camera.height()),
+      acc_(width_, height_) {
   const size_t n = static_cast<size_t>(width_) * height_;
-  count_.assign(n, 0);
   // Pixels whose camera rays provably meet no geometry see only the
   // environment, identically in I_m and I_r: their difference is exactly
   // zero, and after the first pass they are not sampled further.
@@ -359,11 +230,6 @@ FrameRenderer::FrameRenderer(const RenderScene& scene, const CameraModel& camera
     });
     for (char k : skip_) skipped_pixels_ += k;
   }
-  sum_m_.assign(n, Eigen::Vector3d::Zero());
-  sum_r_.assign(n, Eigen::Vector3d::Zero());
-  sum_d_.assign(n, 0);
-  sum_d2_.assign(n, 0);
-  coverage_.assign(n, 0);
 }
 
 void FrameRenderer::RenderPass(int spp) {
@@ -373,8 +239,8 @@ void FrameRenderer::RenderPass(int spp) {
     for (int x = 0; x < width_; ++x) {
       const size_t i = static_cast<size_t>(y) * width_ + x;
       if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;  // outside the lens
-      if (skip_[i] && count_[i] > 0) continue;  // provably no difference: sampled once is enough
-      count_[i] += spp;
+      if (skip_[i] && acc_.count(i) > 0) continue;  // provably no difference: sampled once is enough
+      acc_.Count(i, spp);
       for (int s = 0; s < spp; ++s) {
         Ray ray;
         Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), spp_ + s, &ray);
@@ -384,12 +250,7 @@ void FrameRenderer::RenderPass(int spp) {
           ++nonfinite;  // dropped and counted: never NaN in the image
           continue;
         }
-        sum_m_[i] += ps.mixed;
-        sum_r_[i] += ps.real;
-        const double dl = Luminance(ps.mixed - ps.real);
-        sum_d_[i] += dl;
-        sum_d2_[i] += dl * dl;
-        coverage_[i] += ps.primary_virtual ? 1 : 0;
+        acc_.Add(i, ps.mixed, ps.real, ps.primary_virtual);
       }
     }
     rays += row_rays;
@@ -399,44 +260,10 @@ void FrameRenderer::RenderPass(int spp) {
   rays_ += rays.load();
 }
 
-namespace {
-Image MeanImage(const std::vector<Eigen::Vector3d>& sum, int w, int h, const std::vector<int>& count) {
-  Image img = Image::Rgb(w, h);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      const size_t i = static_cast<size_t>(y) * w + x;
-      const double inv = count[i] > 0 ? 1.0 / count[i] : 0.0;
-      for (int c = 0; c < 3; ++c) img.at(x, y, c) = static_cast<float>(sum[i][c] * inv);
-    }
-  return img;
-}
-}  // namespace
-
-Image FrameRenderer::Mixed() const { return MeanImage(sum_m_, width_, height_, count_); }
-Image FrameRenderer::Real() const { return MeanImage(sum_r_, width_, height_, count_); }
-
-Image FrameRenderer::Mask() const {
-  Image img = Image::Gray(width_, height_);
-  for (size_t i = 0; i < coverage_.size(); ++i) img.values()[i] = count_[i] > 0 ? static_cast<float>(coverage_[i] / count_[i]) : 0.f;
-  return img;
-}
-
-Image FrameRenderer::DifferenceVariance() const {
-  Image img = Image::Gray(width_, height_);
-  for (size_t i = 0; i < sum_d_.size(); ++i) {
-    const double n = count_[i];
-    if (n < 2) continue;
-    const double mean = sum_d_[i] / n;
-    const double var = std::max(0.0, (sum_d2_[i] / n - mean * mean)) * n / (n - 1);
-    img.values()[i] = static_cast<float>(var / n);  // variance of the mean
-  }
-  return img;
-}
-
-Image FrameRenderer::SampleCount() const {
-  Image img = Image::Gray(width_, height_);
-  for (size_t i = 0; i < count_.size(); ++i) img.values()[i] = static_cast<float>(count_[i]);
-  return img;
-}
+Image FrameRenderer::Mixed() const { return acc_.Mixed(); }
+Image FrameRenderer::Real() const { return acc_.Real(); }
+Image FrameRenderer::Mask() const { return acc_.Mask(); }
+Image FrameRenderer::DifferenceVariance() const { return acc_.DifferenceVariance(); }
+Image FrameRenderer::SampleCount() const { return acc_.SampleCount(); }
 
 }  // namespace mr

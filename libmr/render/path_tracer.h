@@ -17,6 +17,7 @@
 #include "camera/pose.h"
 #include "core/image.h"
 #include "core/sampling.h"
+#include "render/pixel_accumulator.h"
 #include "render/render_scene.h"
 
 namespace mr {
@@ -49,19 +50,28 @@ class DifferentialPathTracer {
  public:
   DifferentialPathTracer(const RenderScene& scene, const PathTracerSettings& settings)
       : scene_(scene), settings_(settings) {}
-  PathSample Trace(const Ray& primary, Pcg32& rng) const;
+  PathSample Trace(const Ray& primary, Pcg32& rng) const {
+    return TraceFrom(primary, Eigen::Vector3d::Ones(), 0, 0, rng);
+  }
+  // The shared differential path from `start` on, as if it had reached
+  // there at bounce `depth` with throughput `beta` after a direction chosen
+  // with solid-angle pdf `prev_pdf` (0: no MIS on escape).  Rays escaping
+  // before bounce `escape_from_depth` count nothing (a method that takes
+  // direct light by light sampling alone passes depth + 1).
+  PathSample TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int depth, Pcg32& rng,
+                       int escape_from_depth = 0) const;
   // Radiance arriving along `ray` in the scene with everything in it
   // (virtual included); `prev_pdf` is the solid-angle pdf that chose the
   // direction (0: no MIS against lights on escape).
   Eigen::Vector3d Radiance(const Ray& ray, double prev_pdf, Pcg32& rng) const {
     int rays = 0;
-    return TraceSingle(ray, kMaskAll, Eigen::Vector3d::Ones(), prev_pdf, 0, rng, &rays);
+    return TraceSingle(ray, kMaskAll, Eigen::Vector3d::Ones(), prev_pdf, 0, rng, &rays, 0);
   }
 
  private:
   // One path seeing geometry through `mask`, from `ray` on.
   Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth,
-                              Pcg32& rng, int* rays) const;
+                              Pcg32& rng, int* rays, int escape_from_depth) const;
   bool Intersect(const Ray& ray, Hit* hit) const {
     if (settings_.ray_log) settings_.ray_log->closest.push_back(ray);
     return scene_.embree().Intersect(ray, hit);
@@ -141,9 +151,7 @@ class FrameRenderer : public FrameMethod {
   DifferentialPathTracer tracer_;
   CameraSampler sampler_;
   int width_, height_;
-  std::vector<Eigen::Vector3d> sum_m_, sum_r_;
-  std::vector<double> sum_d_, sum_d2_, coverage_;
-  std::vector<int> count_;   // samples per pixel
+  PixelAccumulator acc_;
   std::vector<char> skip_;   // provably zero difference
   int64_t skipped_pixels_ = 0;
   int spp_ = 0;

@@ -18,6 +18,7 @@
 #include "render/composite.h"
 #include "render/path_tracer.h"
 #include "render/prt.h"
+#include "render/vpl.h"
 #include "render/render_scene.h"
 
 namespace mr {
@@ -66,8 +67,9 @@ Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool 
 
 void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const std::string method = o.method.empty() ? scene.render.method : o.method;
-  if (method != "pt" && method != "prt")
-    throw UsageError(fmt::format("method \"{}\" is not available yet; this mr renders with \"pt\" and \"prt\"", method));
+  if (method != "pt" && method != "prt" && method != "vpl")
+    throw UsageError(
+        fmt::format("method \"{}\" is not available yet; this mr renders with \"pt\", \"vpl\" and \"prt\"", method));
   const int spp = o.spp > 0 ? o.spp : scene.render.spp;
   const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
   const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
@@ -145,6 +147,26 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (!scene.camera.frames)
       report->Skip("background", "the scene names no camera frames: prt composites the objects over black");
   }
+  std::shared_ptr<const VplSet> vpls;
+  if (method == "vpl" && !copy_through) {
+    ScopedTimer t(report, "build vpls");
+    VplSettings vs;
+    vs.paths = scene.render.vpl.paths;
+    vs.directions = scene.render.vpl.directions;
+    vs.glossy_depth = scene.render.vpl.glossy_depth;
+    vs.clamp_distance = scene.render.vpl.clamp_distance;
+    vs.drop_threshold = scene.render.vpl.drop_threshold;
+    vs.compensate = scene.render.vpl.compensate;
+    vs.max_depth = scene.render.max_depth;
+    vs.seed = scene.render.seed;
+    vpls = VplSet::Build(rs, vs);
+    vpls->Describe(report);
+    bool emissive = false;
+    for (const auto& r : scene.reals) emissive = emissive || r.material.IsEmissive();
+    for (const auto& v : scene.virtuals) emissive = emissive || v.material.IsEmissive();
+    if (emissive)
+      report->Warn("vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights only)");
+  }
   PathTracerSettings st;
   st.max_depth = scene.render.max_depth;
   st.seed = scene.render.seed;
@@ -186,6 +208,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
         }
         fr = std::make_unique<PrtFrameRenderer>(rs, prt_objects, camera, poses[static_cast<size_t>(f)], st.seed, f,
                                                 background ? &*background : nullptr);
+      } else if (method == "vpl") {
+        fr = std::make_unique<VplFrameRenderer>(rs, vpls, camera, poses[static_cast<size_t>(f)], st.seed, f);
       } else {
         fr = std::make_unique<FrameRenderer>(rs, camera, poses[static_cast<size_t>(f)], st);
       }
@@ -216,7 +240,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     int done = 0;
     double seconds = 0;
     while (fr && done < spp) {
-      const int n = std::min(done == 0 ? 1 : done, spp - done);  // checkpoints at 1, 2, 4, 8, ... spp
+      // pt, prt: checkpoints at 1, 2, 4, 8, ... spp; vpl and ic in one pass.
+      const int n = method == "vpl" || method == "ic" ? spp : std::min(done == 0 ? 1 : done, spp - done);
       {
         ScopedTimer t(report, "render");
         fr->RenderPass(n);
@@ -279,6 +304,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
           curve_sum[k][key] = curve_sum[k][key].get<double>() + curve[k][key].get<double>();
         curve_sum[k]["frames"] = curve_sum[k]["frames"].get<int>() + 1;
       }
+    }
+    if (auto* v = dynamic_cast<VplFrameRenderer*>(fr.get())) {
+      v->Describe(report, f);
+      fj["clamp_bias_mixed"] = v->clamp_bias_mixed();
+      fj["clamp_bias_real"] = v->clamp_bias_real();
     }
     frames_json.push_back(fj);
     {

@@ -12,8 +12,7 @@ uint32_t RenderScene::AddReal(const Mesh& mesh, const Material& material) {
   uint32_t id = embree_->AddMesh(mesh, /*is_virtual=*/false);
   closed_.Add(mesh);
   geometry_bounds_.push_back(mesh.Bounds().cast<double>());
-  if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
-  surfaces_[id] = Surface{material, Bsdf(material), Eigen::Matrix3d::Identity()};
+  SetSurface(id, material, Eigen::Matrix3d::Identity());
   return id;
 }
 
@@ -26,10 +25,18 @@ uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_
   geometry_bounds_.push_back(wb);
   virtual_bounds_.push_back(wb);
   virtual_ids_.push_back(id);
-  if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
-  surfaces_[id] = Surface{material, Bsdf(material), world_from_object.linear().inverse().transpose()};
+  SetSurface(id, material, world_from_object.linear().inverse().transpose());
   has_virtual_ = has_virtual_geometry_ = true;
   return id;
+}
+
+void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world) {
+  if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
+  Material d = material, g = material;
+  d.specular.setZero();
+  g.albedo.setZero();
+  surfaces_[id] = Surface{material, Bsdf(material), normal_to_world, Bsdf(d), Bsdf(g)};
+  has_glossy_ = has_glossy_ || material.IsGlossy();
 }
 
 void RenderScene::AddLight(const Light& light) {

@@ -36,6 +36,12 @@ class RenderScene {
   bool has_distant_area_light() const { return has_distant_area_light_; }
   const Material& material(uint32_t geometry_id) const { return surfaces_.at(geometry_id).material; }
   const Bsdf& bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).bsdf; }
+  // The material's diffuse and glossy lobes alone (bsdf = their sum), for
+  // methods that treat the lobes differently (ic, vpl).
+  const Bsdf& diffuse_bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).diffuse; }
+  const Bsdf& glossy_bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).glossy; }
+  // Whether any surface has a glossy lobe.
+  bool has_glossy() const { return has_glossy_; }
   // Unit world-space geometric normal of a hit (Embree reports instance
   // normals in object space).
   Eigen::Vector3d WorldNormal(const Hit& hit) const;
@@ -49,6 +55,7 @@ class RenderScene {
   Eigen::AlignedBox3f bounds() const { return embree_->Bounds(); }
   // World bounds of each piece of geometry, real and virtual (after Commit).
   const std::vector<Eigen::AlignedBox3d>& geometry_bounds() const { return geometry_bounds_; }
+  const std::vector<Eigen::AlignedBox3d>& virtual_bounds() const { return virtual_bounds_; }
   // Whether a closed real surface provably keeps every virtual object and
   // light away from a camera at `eye` (geometry/enclosure.h); `why` says which.
   bool VirtualEnclosedAwayFrom(const Eigen::Vector3d& eye, std::string* why) const;
@@ -59,7 +66,10 @@ class RenderScene {
     Material material;
     Bsdf bsdf;
     Eigen::Matrix3d normal_to_world;
+    Bsdf diffuse{Material()}, glossy{Material()};
   };
+  void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world);
+  bool has_glossy_ = false;
   std::unique_ptr<EmbreeScene> embree_;
   std::vector<Surface> surfaces_;  // by geometry id
   EnvironmentMap env_;

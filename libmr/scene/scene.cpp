@@ -219,7 +219,33 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
 
   if (root.Has("render")) {
     Node r = root.Child("render");
-    r.RequireObject({"method", "spp", "max_depth", "seed", "frames", "time_budget_s"});
+    r.RequireObject({"method", "spp", "max_depth", "seed", "frames", "time_budget_s", "vpl", "ic"});
+    if (r.Has("vpl")) {
+      Node v = r.Child("vpl");
+      v.RequireObject({"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate"});
+      auto& o = s.render.vpl;
+      if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
+      if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
+      if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
+      if (v.Has("clamp_distance")) o.clamp_distance = v.Child("clamp_distance").Number(0, 1e9);
+      if (v.Has("drop_threshold")) o.drop_threshold = v.Child("drop_threshold").Number(0, 1);
+      if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
+    }
+    if (r.Has("ic")) {
+      Node v = r.Child("ic");
+      v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold",
+                       "glossy_depth"});
+      auto& o = s.render.ic;
+      if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
+      if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
+      if (v.Has("min_spacing_px")) o.min_spacing_px = v.Child("min_spacing_px").Number(0.1, 1e4);
+      if (v.Has("max_spacing_px")) o.max_spacing_px = v.Child("max_spacing_px").Number(0.1, 1e5);
+      if (v.Has("t_max")) o.t_max = static_cast<int>(v.Child("t_max").Integer(1, 1 << 20));
+      if (v.Has("tile")) o.tile = static_cast<int>(v.Child("tile").Integer(1, 1024));
+      if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
+      if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
+      if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
+    }
     if (r.Has("method")) s.render.method = r.Child("method").OneOf(RenderMethods());
     if (r.Has("spp")) s.render.spp = static_cast<int>(r.Child("spp").Integer(1, 1 << 24));
     if (r.Has("max_depth")) s.render.max_depth = static_cast<int>(r.Child("max_depth").Integer(0, 1000));

@@ -68,8 +68,28 @@ struct SceneVirtual {
   std::optional<fs::path> formfactors;  // .ffc from mr-formfactor
 };
 
+// Quality settings of `vpl` (render/vpl.h has what each does).
+struct SceneVplSettings {
+  int paths = 1024, directions = 128, glossy_depth = 2;
+  double clamp_distance = 0, drop_threshold = 1e-3;
+  bool compensate = false;
+};
+
+// Quality settings of `ic` (render/irradiance_cache.h).
+struct SceneIcSettings {
+  int rays = 256;            // hemisphere rays per record
+  double accuracy = 0.3;     // a of the record weight w = 1 - max(eps_p, eps_n) / a
+  double min_spacing_px = 1.5, max_spacing_px = 20;  // R_i clamp, in pixels at the record
+  int t_max = 8;             // frames between re-evaluations of a record
+  int tile = 16;             // miss-detection tile, pixels
+  double influence_threshold = 1e-3;  // records skipped where the objects' form factor bound is below
+  int glossy_depth = 2;
+};
+
 struct SceneRender {
   std::string method = "pt";  // pt, ic, vpl, vct, prt
+  SceneVplSettings vpl;
+  SceneIcSettings ic;
   int spp = 64;
   int max_depth = 5;
   uint64_t seed = 0;

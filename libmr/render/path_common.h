@@ -1,0 +1,174 @@
+// Pieces of a differential path shared by the rendering methods (pt, ic,
+// vpl): surface vertices, ray construction, escaped radiance and next-event
+// estimation with real/virtual blocker tests.  Internal to libmr/render.
+#pragma once
+
+#include <cmath>
+#include <limits>
+
+#include "core/math.h"
+#include "core/sampling.h"
+#include "core/spherical.h"
+#include "render/render_scene.h"
+
+namespace mr {
+
+inline double PowerHeuristic(double a, double b) {
+  if (std::isinf(a)) return 1;
+  const double a2 = a * a, b2 = b * b;
+  return a2 + b2 > 0 ? a2 / (a2 + b2) : 0;
+}
+
+struct ShadingFrame {
+  Eigen::Vector3d t, b, n;
+  explicit ShadingFrame(const Eigen::Vector3d& normal) : n(normal) { CoordinateSystem(n, &t, &b); }
+  Eigen::Vector3d ToLocal(const Eigen::Vector3d& v) const { return {v.dot(t), v.dot(b), v.dot(n)}; }
+  Eigen::Vector3d ToWorld(const Eigen::Vector3d& v) const { return v.x() * t + v.y() * b + v.z() * n; }
+};
+
+// Ray origins are offset along the normal by 64 float ulps of the largest
+// magnitude that entered the hit position: the position itself, the ray's
+// origin and the distance travelled (Embree's t carries an error relative to
+// those, so a hit near the world origin reached from 1 m away is uncertain
+// to ~1e-7 m, not to ulps of its own tiny coordinates).  Local, so the
+// offset (and every path) does not depend on what else is in the scene.
+inline double OffsetScale(const Eigen::Vector3d& p, const Eigen::Vector3d& origin, double t) {
+  const double m = std::max({p.cwiseAbs().maxCoeff(), origin.cwiseAbs().maxCoeff(), t, 1e-3});
+  return 64.0 * std::numeric_limits<float>::epsilon() * m;
+}
+
+inline Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, uint32_t mask, double tfar = INFINITY) {
+  Ray r;
+  r.origin = origin.cast<float>();
+  r.direction = dir.cast<float>();
+  r.mask = mask;
+  r.tfar = static_cast<float>(tfar);
+  return r;
+}
+
+// A surface vertex: position, shading frame facing the incoming ray, BSDF.
+struct PathVertex {
+  Eigen::Vector3d p, wo_world;
+  double offset = 0;  // along the normal, for rays leaving p
+  ShadingFrame frame{Eigen::Vector3d::UnitZ()};
+  const Bsdf* bsdf = nullptr;
+  const Material* material = nullptr;
+  uint32_t geometry_id = 0;
+};
+
+inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit& hit) {
+  PathVertex v;
+  const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
+  const Eigen::Vector3d o = ray.origin.cast<double>();
+  v.p = o + static_cast<double>(hit.t) * ray.direction.cast<double>();
+  v.offset = OffsetScale(v.p, o, static_cast<double>(hit.t) * ray.direction.cast<double>().norm());
+  Eigen::Vector3d n = scene.WorldNormal(hit);
+  if (n.dot(d) > 0) n = -n;  // two-sided: face the incoming ray
+  v.frame = ShadingFrame(n);
+  v.wo_world = -d;
+  v.bsdf = &scene.bsdf(hit.geometry_id);
+  v.material = &scene.material(hit.geometry_id);
+  v.geometry_id = hit.geometry_id;
+  return v;
+}
+
+// Which emitters a path sees: the environment and real lights exist in both
+// I_m and I_r, virtual lights only in I_m.
+enum LightSet : unsigned { kRealLights = 1, kVirtualLights = 2, kAllLights = 3 };
+
+inline unsigned LightBit(const LightSource& l) { return l.is_virtual() ? kVirtualLights : kRealLights; }
+
+// Radiance arriving along an escaped ray from the environment and the
+// distant disc lights in `which`, each MIS-weighted against the BSDF pdf
+// that chose the direction (prev_pdf 0: seen directly by the camera).
+inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pdf, unsigned which) {
+  Eigen::Vector3d L = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
+  const EnvironmentMap& env = scene.environment();
+  if ((which & kRealLights) && !env.empty()) {
+    double pdf = 0;
+    const Eigen::Vector3d le = env.EvalWithPdf(d, &pdf);
+    L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
+  }
+  if (scene.has_distant_area_light())
+    for (const LightSource& l : scene.lights()) {
+      if (!(which & LightBit(l))) continue;
+      double pdf = 0;
+      const Eigen::Vector3d le = l.EvalDistant(d, &pdf);
+      if (pdf > 0) L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
+    }
+  return L;
+}
+
+// Next-event estimates at `v`: one environment sample and one sample of each
+// light.  Calls emit(contribution, shadow ray, is_virtual_light) for each
+// unoccluded contribution (times beta: the caller's) still to be tested.  The
+// random numbers drawn do not depend on outcomes, so that paths that part at
+// a virtual object keep their streams aligned.
+// `mis`: weight the environment and disc-light samples against the BSDF's
+// pdf (false: light sampling alone, for methods that never count those
+// emitters through BSDF-sampled rays at this vertex).
+template <class Emit>
+void NextEvent(const RenderScene& scene, const PathVertex& v, Pcg32& rng, Emit&& emit, bool mis = true) {
+  const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
+  const Eigen::Vector3d origin = v.p + v.frame.n * v.offset;
+  const EnvironmentMap& env = scene.environment();
+  {
+    const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble();
+    Eigen::Vector3d wi;
+    double pdf_light = 0;
+    if (!env.empty()) {
+      const Eigen::Vector3d le = env.Sample(u0, u1, u2, &wi, &pdf_light);
+      const Eigen::Vector3d wi_l = v.frame.ToLocal(wi);
+      if (pdf_light > 0 && wi_l.z() > 0) {
+        const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
+        if (f.maxCoeff() > 0) {
+          const double w = mis ? PowerHeuristic(pdf_light, v.bsdf->Pdf(wo_l, wi_l)) : 1.0;
+          emit(Eigen::Vector3d(f.cwiseProduct(le) * (wi_l.z() * w / pdf_light)), MakeRay(origin, wi, kMaskAll), false);
+        }
+      }
+    }
+  }
+  for (const LightSource& l : scene.lights()) {
+    const double u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    LightSample ls;
+    if (!l.Sample(v.p, u0, u1, &ls)) continue;
+    const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
+    if (wi_l.z() <= 0) continue;
+    const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
+    if (f.maxCoeff() <= 0) continue;
+    const double w = ls.delta || !mis ? 1.0 : PowerHeuristic(ls.pdf, v.bsdf->Pdf(wo_l, wi_l));
+    // A point light's shadow ray stops just short of it.
+    const double tfar = std::isinf(ls.distance) ? INFINITY : ls.distance * (1 - 1e-6);
+    emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / ls.pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),
+         l.is_virtual());
+  }
+}
+
+// Whether the segment o + t d, t in [0, tmax], meets any of `boxes`
+// (slab test, boxes grown by a relative 1e-4): false proves that no virtual
+// object can block it, so its virtual shadow test is not traced.
+inline bool SegmentMeetsBoxes(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double tmax,
+                              const std::vector<Eigen::AlignedBox3d>& boxes) {
+  for (const auto& b : boxes) {
+    const Eigen::Vector3d grow = Eigen::Vector3d::Constant(1e-4 * b.diagonal().norm() + 1e-9);
+    const Eigen::Vector3d lo = b.min() - grow, hi = b.max() + grow;
+    double t0 = 0, t1 = tmax;
+    bool miss = false;
+    for (int k = 0; k < 3 && !miss; ++k) {
+      if (std::abs(d[k]) < 1e-300) {
+        miss = o[k] < lo[k] || o[k] > hi[k];
+        continue;
+      }
+      double a = (lo[k] - o[k]) / d[k], c = (hi[k] - o[k]) / d[k];
+      if (a > c) std::swap(a, c);
+      t0 = std::max(t0, a);
+      t1 = std::min(t1, c);
+      miss = t0 > t1;
+    }
+    if (!miss) return true;
+  }
+  return false;
+}
+
+}  // namespace mr

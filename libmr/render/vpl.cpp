@@ -1,0 +1,564 @@
+#include "render/vpl.h"
+
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <chrono>
+
+#include "core/parallel.h"
+
+namespace mr {
+
+namespace {
+
+uint32_t MaskOf(uint8_t sets) { return sets == kLightsReal ? kMaskReal : kMaskAll; }
+
+struct Emitter {
+  int light = -1;  // -1: the environment
+  double power = 0;
+};
+
+}  // namespace
+
+std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplSettings& st) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto out = std::make_shared<VplSet>();
+  out->settings_ = st;
+  const Eigen::AlignedBox3d box = scene.bounds().cast<double>();
+  const double diag = box.isEmpty() ? 1.0 : std::max(1e-6, box.diagonal().norm());
+  const Eigen::Vector3d centre = box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
+  const double radius = 0.5 * diag * 1.001;
+  out->clamp_ = st.clamp_distance > 0 ? st.clamp_distance : 0.02 * diag;
+  const EnvironmentMap& env = scene.environment();
+
+  // Directional VPLs: the environment (half by its importance, half
+  // uniformly, weighted by the balance heuristic over the two), disc lights
+  // by their cones, delta distant lights exactly.
+  const int nd = std::max(1, st.directions);
+  if (!env.empty()) {
+    const int n1 = (nd + 1) / 2, n2 = nd / 2;
+    Pcg32 rng(HashCombine(st.seed, 0x646972), 0);
+    for (int k = 0; k < nd; ++k) {
+      Eigen::Vector3d dir;
+      double pdf = 0;
+      const double u = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble();
+      if (k < n1) {
+        env.Sample((k + u) / n1, u1, u2, &dir, &pdf);
+      } else {
+        const auto d = SampleUniformSphere((k - n1 + u) / n2, u1);
+        dir = Eigen::Vector3d(d[0], d[1], d[2]);
+      }
+      const double p_env = env.Pdf(dir);
+      const double denom = n1 * p_env + n2 * kUniformSpherePdf;
+      if (!(denom > 0)) continue;
+      const Eigen::Vector3d L = env.Eval(dir);
+      if (L.maxCoeff() <= 0) continue;
+      out->directional_.push_back({dir, L / denom, kLightsBoth});
+    }
+  }
+  for (size_t i = 0; i < scene.lights().size(); ++i) {
+    const LightSource& l = scene.lights()[i];
+    if (l.light().type != LightType::kDistant) continue;
+    const uint8_t sets = l.is_virtual() ? kLightsMixed : kLightsBoth;
+    const int n = l.light().IsDelta() ? 1 : std::max(1, nd / 4);
+    Pcg32 rng(HashCombine(st.seed, 0x646973), i);
+    for (int k = 0; k < n; ++k) {
+      LightSample ls;
+      const double u0 = (k + rng.NextDouble()) / n, u1 = rng.NextDouble();
+      if (!l.Sample(centre, u0, u1, &ls)) continue;
+      out->directional_.push_back({ls.wi, ls.li / (ls.pdf * n), sets});
+    }
+  }
+
+  // Light paths.
+  std::vector<Emitter> emitters;
+  if (!env.empty() && env.LuminanceIntegral() > 0) emitters.push_back({-1, env.LuminanceIntegral() * kPi * radius * radius});
+  for (size_t i = 0; i < scene.lights().size(); ++i) {
+    const Light& l = scene.lights()[i].light();
+    double p = 0;
+    switch (l.type) {
+      case LightType::kPoint: p = Luminance(l.intensity) * kFourPi; break;
+      case LightType::kSpot: p = Luminance(l.intensity) * kTwoPi * (1 - std::cos(l.cone_deg * kDegToRad)); break;
+      case LightType::kDistant: p = Luminance(l.irradiance) * kPi * radius * radius; break;
+    }
+    if (p > 0) emitters.push_back({static_cast<int>(i), p});
+  }
+  double total = 0;
+  for (const auto& e : emitters) total += e.power;
+  const int max_vpl_depth = st.max_depth - 2;  // a VPL at depth k ends a path of k + 2 surfaces
+  if (!emitters.empty() && st.paths > 0 && max_vpl_depth >= 0) {
+    std::vector<std::vector<Vpl>> per_path(static_cast<size_t>(st.paths));
+    std::atomic<int64_t> below{0};
+    const EmbreeScene& embree = scene.embree();
+    ParallelFor(0, st.paths, [&](int64_t j) {
+      Pcg32 rng(HashCombine(st.seed, 0x76706c), static_cast<uint64_t>(j));
+      // Pick an emitter in proportion to its power.
+      double u = rng.NextDouble() * total;
+      size_t ei = 0;
+      while (ei + 1 < emitters.size() && u >= emitters[ei].power) u -= emitters[ei++].power;
+      const Emitter& em = emitters[ei];
+      const double p_select = em.power / total;
+      const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble(), u3 = rng.NextDouble(),
+                   u4 = rng.NextDouble();
+      Eigen::Vector3d origin, dir, flux;
+      uint8_t sets = kLightsBoth;
+      auto from_disc = [&](const Eigen::Vector3d& towards, const Eigen::Vector3d& irradiance) {
+        Eigen::Vector3d t, b;
+        CoordinateSystem(towards, &t, &b);
+        const double r = radius * std::sqrt(u3), phi = kTwoPi * u4;
+        origin = centre + radius * towards + r * (std::cos(phi) * t + std::sin(phi) * b);
+        dir = -towards;
+        flux = irradiance * (kPi * radius * radius / (p_select * st.paths));
+      };
+      if (em.light < 0) {
+        double pdf = 0;
+        Eigen::Vector3d w;
+        const Eigen::Vector3d L = env.Sample(u0, u1, u2, &w, &pdf);
+        if (!(pdf > 0)) return;
+        from_disc(w, L / pdf);
+      } else {
+        const LightSource& ls = scene.lights()[static_cast<size_t>(em.light)];
+        const Light& l = ls.light();
+        sets = l.is_virtual ? kLightsMixed : kLightsBoth;
+        if (l.type == LightType::kDistant) {
+          LightSample s;
+          if (!ls.Sample(centre, u0, u1, &s)) return;
+          from_disc(s.wi, s.li / s.pdf);
+        } else {
+          double pdf;
+          if (l.type == LightType::kPoint) {
+            const auto d = SampleUniformSphere(u0, u1);
+            dir = Eigen::Vector3d(d[0], d[1], d[2]);
+            pdf = kUniformSpherePdf;
+          } else {  // uniform in the cone
+            const double cos_max = std::cos(l.cone_deg * kDegToRad);
+            const double c = 1 - u0 * (1 - cos_max), s = SafeSqrt(1 - c * c), phi = kTwoPi * u1;
+            Eigen::Vector3d t, b;
+            CoordinateSystem(l.direction, &t, &b);
+            dir = (c * l.direction + s * (std::cos(phi) * t + std::sin(phi) * b)).normalized();
+            pdf = 1 / (kTwoPi * (1 - cos_max));
+          }
+          LightSample s;  // the intensity towards dir, with the spot's falloff (at unit distance)
+          if (!ls.Sample(l.position + dir, 0, 0, &s)) return;
+          origin = l.position;
+          flux = s.li / (pdf * p_select * st.paths);
+        }
+      }
+      // Walks a light path, leaving a VPL at each surface; where a shared
+      // path meets a virtual object the real-only path goes on behind it.
+      std::vector<Vpl>& vs = per_path[static_cast<size_t>(j)];
+      const double flux0 = flux.maxCoeff();
+      const std::function<void(Ray, uint8_t, Eigen::Vector3d, int, Pcg32&)> walk =
+          [&](Ray ray, uint8_t path_sets, Eigen::Vector3d phi, int depth, Pcg32& g) {
+            for (; depth <= max_vpl_depth; ++depth) {
+              ray.mask = MaskOf(path_sets);
+              Hit hit;
+              if (!embree.Intersect(ray, &hit)) return;
+              if (hit.is_virtual && path_sets == kLightsBoth) {
+                Pcg32 real_rng = g;
+                walk(ray, kLightsReal, phi, depth, real_rng);  // ir VPLs
+                path_sets = kLightsMixed;
+              }
+              const PathVertex v = MakeVertex(scene, ray, hit);
+              if (Luminance(phi) > 0) {
+                Vpl p;
+                p.p = v.p + v.frame.n * v.offset;
+                p.frame = v.frame;
+                p.wi_local = v.frame.ToLocal(v.wo_world);
+                p.flux = phi;
+                p.bsdf = v.bsdf;
+                p.sets = path_sets;
+                p.on_virtual = hit.is_virtual;
+                p.depth = depth;
+                vs.push_back(p);
+              }
+              if (v.bsdf->IsBlack() || depth == max_vpl_depth) return;
+              BsdfSample s;
+              const double ul = g.NextDouble(), a = g.NextDouble(), b = g.NextDouble();
+              if (!v.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, a, b, &s)) return;
+              phi = phi.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
+              const double q = std::min(1.0, phi.maxCoeff() / flux0);
+              if (g.NextDouble() >= q) {
+                if (q > 0) below.fetch_add(1);
+                return;
+              }
+              phi /= q;
+              ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), MaskOf(path_sets));
+            }
+          };
+      walk(MakeRay(origin, dir, MaskOf(sets)), sets, flux, 0, rng);
+    });
+    for (auto& v : per_path) out->vpls_.insert(out->vpls_.end(), v.begin(), v.end());
+    out->paths_ended_below_ = below.load();
+  }
+  out->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+void VplSet::Describe(Report* report) const {
+  int64_t shared = 0, mixed = 0, real = 0, on_virtual = 0;
+  for (const Vpl& v : vpls_) {
+    shared += v.sets == kLightsBoth;
+    mixed += v.sets == kLightsMixed;
+    real += v.sets == kLightsReal;
+    on_virtual += v.on_virtual;
+  }
+  report->SetMetric("vpl.paths", settings_.paths);
+  report->SetMetric("vpl.vpls", static_cast<int64_t>(vpls_.size()));
+  report->SetMetric("vpl.shared", shared);
+  report->SetMetric("vpl.mixed_only", mixed);
+  report->SetMetric("vpl.real_only_ir", real);
+  report->SetMetric("vpl.on_virtual", on_virtual);
+  report->SetMetric("vpl.directional", static_cast<int64_t>(directional_.size()));
+  report->SetMetric("vpl.clamp_distance_m", clamp_);
+  report->SetMetric("vpl.compensate", settings_.compensate);
+  report->SetMetric("vpl.build_seconds", build_seconds_);
+  report->SetMetric("vpl.paths_ended_by_roulette", paths_ended_below_);
+}
+
+// ---------------------------------------------------------------------------
+// Shading.
+
+namespace {
+
+struct Accum {
+  Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
+  Eigen::Vector3d bias_m = Eigen::Vector3d::Zero(), bias_r = Eigen::Vector3d::Zero();
+  bool primary_virtual = false;
+  VplFrameRenderer::Counters c;
+};
+
+struct Contribution {
+  Eigen::Vector3d value, bias, dir;
+  double tfar;
+  uint8_t sets;
+};
+
+class VplShader {
+ public:
+  VplShader(const RenderScene& scene, const VplSet& set) : scene_(scene), set_(set), st_(set.settings()) {
+    clamp2_ = set.clamp_distance() * set.clamp_distance();
+  }
+
+  // Radiance along `ray` (times beta) for the wanted solutions.
+  void ShadeRay(Ray ray, bool want_m, bool want_r, int depth, double prev_pdf, const Eigen::Vector3d& beta, Pcg32& rng,
+                Accum* acc) const {
+    ray.mask = want_m ? kMaskAll : kMaskReal;
+    Hit hit;
+    ++acc->c.rays;
+    if (!scene_.embree().Intersect(ray, &hit)) {
+      const Eigen::Vector3d e = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
+      if (want_m) acc->mixed += e + beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kVirtualLights));
+      if (want_r) acc->real += e;
+      return;
+    }
+    if (hit.is_virtual) {
+      if (depth == 0) acc->primary_virtual = true;
+      if (want_r) {
+        Pcg32 real_rng = rng;
+        ShadeRay(ray, false, true, depth, prev_pdf, beta, real_rng, acc);
+      }
+      ShadeAt(MakeVertex(scene_, ray, hit), true, true, false, depth, beta, rng, acc, true);
+      return;
+    }
+    ShadeAt(MakeVertex(scene_, ray, hit), false, want_m, want_r, depth, beta, rng, acc, true);
+  }
+
+ private:
+  void Add(Accum* acc, bool m, bool r, const Eigen::Vector3d& c) const {
+    if (m) acc->mixed += c;
+    if (r) acc->real += c;
+  }
+
+  void ShadeAt(const PathVertex& v, bool x_virtual, bool want_m, bool want_r, int depth, const Eigen::Vector3d& beta,
+               Pcg32& rng, Accum* acc, bool emission) const {
+    if (emission) Add(acc, want_m, want_r, beta.cwiseProduct(v.material->emission));
+    if (v.bsdf->IsBlack()) return;
+    const bool split = v.material->IsGlossy() && depth < st_.glossy_depth;
+    if (!split) {
+      Gather(v, *v.bsdf, x_virtual, want_m, want_r, beta, acc, depth == 0);
+    } else {
+      // Diffuse lobe by VPLs; glossy lobe by next-event estimation and one
+      // BSDF-sampled ray, gathered where it lands.
+      const Bsdf* diffuse = DiffuseOf(v);
+      const Bsdf* glossy = GlossyOf(v);
+      Gather(v, *diffuse, x_virtual, want_m, want_r, beta, acc, depth == 0);
+      PathVertex g = v;
+      g.bsdf = glossy;
+      const bool virtual_geometry = scene_.has_virtual_geometry();
+      NextEvent(scene_, g, rng, [&](const Eigen::Vector3d& c0, Ray shadow, bool virtual_light) {
+        const Eigen::Vector3d c = beta.cwiseProduct(c0);
+        if (virtual_light || x_virtual) {
+          if (!want_m) return;
+          ++acc->c.shadow_rays;
+          if (!scene_.embree().Occluded(shadow)) acc->mixed += c;
+          return;
+        }
+        shadow.mask = kMaskReal;
+        ++acc->c.shadow_rays;
+        if (scene_.embree().Occluded(shadow)) return;
+        if (want_r) acc->real += c;
+        if (!want_m) return;
+        if (virtual_geometry) {
+          shadow.mask = kMaskVirtual;
+          ++acc->c.shadow_rays;
+          if (scene_.embree().Occluded(shadow)) return;
+        }
+        acc->mixed += c;
+      });
+      BsdfSample s;
+      const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
+      if (glossy->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
+        const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
+        ShadeRay(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1,
+                 s.pdf, b, rng, acc);
+      }
+    }
+    if (st_.compensate && depth == 0) Compensate(v, x_virtual, want_m, want_r, beta, rng, acc);
+  }
+
+  // Kollig & Keller's correction: the light that reaches v from surfaces
+  // closer than the clamp distance, weighted by the part the clamp removed
+  // (1 - d²/clamp²), along one cosine-sampled ray.
+  void Compensate(const PathVertex& v, bool x_virtual, bool want_m, bool want_r, const Eigen::Vector3d& beta,
+                  Pcg32& rng, Accum* acc) const {
+    const auto d = SampleCosineHemisphere(rng.NextDouble(), rng.NextDouble());
+    const Eigen::Vector3d dir = v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2]));
+    const Eigen::Vector3d albedo = DiffuseAlbedo(v);  // f cos / pdf of the diffuse lobe
+    auto one = [&](uint32_t mask, bool m, bool r) {
+      Ray ray = MakeRay(v.p + v.frame.n * v.offset, dir, mask, set_.clamp_distance());
+      Hit hit;
+      ++acc->c.compensation_rays;
+      if (!scene_.embree().Intersect(ray, &hit)) return;
+      const double t = hit.t;
+      const double w = std::max(0.0, 1 - t * t / clamp2_);
+      if (w <= 0) return;
+      if (hit.is_virtual && !m) return;
+      Accum sub;
+      Pcg32 g = rng;
+      const PathVertex y = MakeVertex(scene_, ray, hit);
+      ShadeAt(y, hit.is_virtual, m, r && !hit.is_virtual, 1, beta.cwiseProduct(albedo) * w, g, &sub, false);
+      if (m) acc->mixed += sub.mixed;
+      if (r) acc->real += sub.real;
+      acc->c.shadow_rays += sub.c.shadow_rays;
+    };
+    if (x_virtual || !want_r) {
+      one(kMaskAll, true, false);
+    } else if (!want_m) {
+      one(kMaskReal, false, true);
+    } else {
+      // Both from one mixed ray unless it meets a virtual object first.
+      Ray probe = MakeRay(v.p + v.frame.n * v.offset, dir, kMaskAll, set_.clamp_distance());
+      Hit hit;
+      if (scene_.embree().Intersect(probe, &hit) && hit.is_virtual) {
+        one(kMaskAll, true, false);
+        one(kMaskReal, false, true);
+      } else {
+        one(kMaskAll, true, true);
+      }
+    }
+  }
+
+  const Bsdf* DiffuseOf(const PathVertex& v) const { return &scene_.diffuse_bsdf(Id(v)); }
+  const Bsdf* GlossyOf(const PathVertex& v) const { return &scene_.glossy_bsdf(Id(v)); }
+  Eigen::Vector3d DiffuseAlbedo(const PathVertex& v) const { return v.material->albedo; }
+  uint32_t Id(const PathVertex& v) const { return v.geometry_id; }
+
+  // Every VPL, directional VPL and delta light at v through `bsdf`.
+  void Gather(const PathVertex& v, const Bsdf& bsdf, bool x_virtual, bool want_m, bool want_r,
+              const Eigen::Vector3d& beta, Accum* acc, bool measure_bias) const {
+    thread_local std::vector<Contribution> list;
+    list.clear();
+    const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
+    const Eigen::Vector3d origin = v.p + v.frame.n * v.offset;
+    // Which sets matter here: a virtual point exists in I_m only.
+    const uint8_t wanted = static_cast<uint8_t>((want_m ? kLightsMixed : 0) | (want_r && !x_virtual ? kLightsReal : 0));
+    double total = 0;
+    auto push = [&](const Eigen::Vector3d& value, const Eigen::Vector3d& bias, const Eigen::Vector3d& dir, double tfar,
+                    uint8_t sets) {
+      if (!(sets & wanted)) return;
+      const double l = Luminance(value);
+      if (!(l > 0)) return;
+      total += l;
+      list.push_back({value, bias, dir, tfar, sets});
+    };
+    for (const DirectionalVpl& d : set_.directional()) {
+      const Eigen::Vector3d wi = v.frame.ToLocal(d.dir);
+      if (wi.z() <= 0) continue;
+      push(bsdf.Eval(wo_l, wi).cwiseProduct(d.irradiance) * wi.z(), Eigen::Vector3d::Zero(), d.dir, INFINITY, d.sets);
+    }
+    for (const LightSource& l : scene_.lights()) {
+      if (l.light().type == LightType::kDistant) continue;  // directional VPLs
+      LightSample ls;
+      if (!l.Sample(v.p, 0, 0, &ls)) continue;
+      const Eigen::Vector3d wi = v.frame.ToLocal(ls.wi);
+      if (wi.z() <= 0) continue;
+      push(bsdf.Eval(wo_l, wi).cwiseProduct(ls.li) * wi.z(), Eigen::Vector3d::Zero(), ls.wi, ls.distance * (1 - 1e-6),
+           l.is_virtual() ? kLightsMixed : kLightsBoth);
+    }
+    for (const Vpl& p : set_.vpls()) {
+      if (!(p.sets & wanted)) continue;
+      Eigen::Vector3d d = p.p - origin;
+      const double d2 = d.squaredNorm();
+      if (!(d2 > 0)) continue;
+      const double dist = std::sqrt(d2);
+      d /= dist;
+      const double cos_x = d.dot(v.frame.n), cos_y = -d.dot(p.frame.n);
+      if (cos_x <= 0 || cos_y <= 0) continue;
+      const Eigen::Vector3d fx = bsdf.Eval(wo_l, v.frame.ToLocal(d));
+      if (fx.maxCoeff() <= 0) continue;
+      const Eigen::Vector3d fy = p.bsdf->Eval(p.wi_local, p.frame.ToLocal(-d));
+      const Eigen::Vector3d e = p.flux.cwiseProduct(fy).cwiseProduct(fx) * (cos_x * cos_y);
+      const double g = 1 / std::max(d2, clamp2_);
+      push(e * g, measure_bias ? Eigen::Vector3d(e * (1 / d2 - g)) : Eigen::Vector3d::Zero(), d, dist * (1 - 1e-5),
+           p.sets);
+    }
+    if (list.empty()) return;
+    const double cut = st_.drop_threshold * total / static_cast<double>(list.size());
+    const bool virtual_geometry = scene_.has_virtual_geometry();
+    for (const Contribution& c : list) {
+      if (Luminance(c.value) < cut) {
+        ++acc->c.dropped;
+        continue;
+      }
+      const bool m = want_m && (c.sets & kLightsMixed), r = want_r && !x_virtual && (c.sets & kLightsReal);
+      Ray shadow = MakeRay(origin, c.dir, kMaskAll, c.tfar);
+      const Eigen::Vector3d value = beta.cwiseProduct(c.value), bias = beta.cwiseProduct(c.bias);
+      if (m && r) {  // a shared contribution at a real point: st_r, then st_v
+        shadow.mask = kMaskReal;
+        ++acc->c.shadow_rays;
+        if (scene_.embree().Occluded(shadow)) continue;
+        acc->real += value;
+        acc->bias_r += bias;
+        if (virtual_geometry) {
+          if (SegmentMeetsBoxes(origin, c.dir, std::min(c.tfar, 1e30), scene_.virtual_bounds())) {
+            shadow.mask = kMaskVirtual;
+            ++acc->c.shadow_rays;
+            if (scene_.embree().Occluded(shadow)) continue;
+          } else {
+            ++acc->c.virtual_tests_skipped;
+          }
+        }
+        acc->mixed += value;
+        acc->bias_m += bias;
+      } else if (m) {
+        shadow.mask = kMaskAll;
+        ++acc->c.shadow_rays;
+        if (scene_.embree().Occluded(shadow)) continue;
+        acc->mixed += value;
+        acc->bias_m += bias;
+      } else if (r) {
+        shadow.mask = kMaskReal;
+        ++acc->c.shadow_rays;
+        if (scene_.embree().Occluded(shadow)) continue;
+        acc->real += value;
+        acc->bias_r += bias;
+      }
+    }
+  }
+
+  const RenderScene& scene_;
+  const VplSet& set_;
+  const VplSettings& st_;
+  double clamp2_ = 0;
+};
+
+}  // namespace
+
+VplFrameRenderer::VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls,
+                                   const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
+    : scene_(scene),
+      set_(std::move(vpls)),
+      sampler_(camera, world_from_cam, seed, frame),
+      width_(camera.width()),
+      height_(camera.height()),
+      acc_(width_, height_) {
+  const size_t n = static_cast<size_t>(width_) * height_;
+  for (auto* v : {&bias_m_, &bias_r_, &lum_m_, &lum_r_}) v->assign(n, 0);
+}
+
+void VplFrameRenderer::RenderPass(int spp) {
+  VplShader shader(scene_, *set_);
+  std::vector<Counters> rows(static_cast<size_t>(height_));
+  std::atomic<int64_t> nonfinite{0};
+  ParallelFor(0, height_, [&](int64_t y) {
+    Counters& rc = rows[static_cast<size_t>(y)];
+    for (int x = 0; x < width_; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
+      acc_.Count(i, spp);
+      for (int s = 0; s < spp; ++s) {
+        Ray ray;
+        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), spp_ + s, &ray);
+        Accum acc;
+        shader.ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
+        rc.rays += acc.c.rays + acc.c.shadow_rays + acc.c.compensation_rays;
+        rc.shadow_rays += acc.c.shadow_rays;
+        rc.dropped += acc.c.dropped;
+        rc.virtual_tests_skipped += acc.c.virtual_tests_skipped;
+        rc.compensation_rays += acc.c.compensation_rays;
+        if (!acc.mixed.allFinite() || !acc.real.allFinite()) {
+          ++nonfinite;
+          continue;
+        }
+        acc_.Add(i, acc.mixed, acc.real, acc.primary_virtual);
+        bias_m_[i] += Luminance(acc.bias_m);
+        bias_r_[i] += Luminance(acc.bias_r);
+        lum_m_[i] += Luminance(acc.mixed);
+        lum_r_[i] += Luminance(acc.real);
+      }
+    }
+  });
+  for (const Counters& c : rows) {
+    counters_.rays += c.rays;
+    counters_.shadow_rays += c.shadow_rays;
+    counters_.dropped += c.dropped;
+    counters_.virtual_tests_skipped += c.virtual_tests_skipped;
+    counters_.compensation_rays += c.compensation_rays;
+  }
+  spp_ += spp;
+  nonfinite_ += nonfinite.load();
+}
+
+namespace {
+double Ratio(const std::vector<double>& a, const std::vector<double>& b) {
+  double sa = 0, sb = 0;
+  for (size_t i = 0; i < a.size(); ++i) {
+    sa += a[i];
+    sb += b[i];
+  }
+  return sb > 0 ? sa / sb : 0;
+}
+}  // namespace
+
+// With compensation on, the clamped energy is added back: what is reported
+// is then the energy the clamp removed before compensation.
+double VplFrameRenderer::clamp_bias_mixed() const { return Ratio(bias_m_, lum_m_); }
+double VplFrameRenderer::clamp_bias_real() const { return Ratio(bias_r_, lum_r_); }
+
+void VplFrameRenderer::Describe(Report* report, int frame) const {
+  const std::string k = fmt::format("vpl.frames.{}.", frame);
+  report->SetMetric(k + "clamp_bias_mixed", clamp_bias_mixed());
+  report->SetMetric(k + "clamp_bias_real", clamp_bias_real());
+  report->SetMetric(k + "rays", counters_.rays);
+  report->SetMetric(k + "shadow_rays", counters_.shadow_rays);
+  report->SetMetric(k + "dropped_vpl_tests", counters_.dropped);
+  report->SetMetric(k + "virtual_tests_skipped", counters_.virtual_tests_skipped);
+  report->SetMetric(k + "compensation_rays", counters_.compensation_rays);
+  if (counters_.dropped > 0)
+    report->Skip(fmt::format("frame {}: {} VPL shadow tests", frame, counters_.dropped),
+                 fmt::format("their unshadowed contribution was below {} of the mean one at the point (bias at most "
+                             "that fraction of the point's unshadowed light)",
+                             set_->settings().drop_threshold));
+  if (counters_.virtual_tests_skipped > 0)
+    report->Skip(fmt::format("frame {}: {} virtual blocker tests", frame, counters_.virtual_tests_skipped),
+                 "the shadow segment misses every virtual object's bounding box: st_v = 1 exactly");
+}
+
+Image VplFrameRenderer::Mixed() const { return acc_.Mixed(); }
+Image VplFrameRenderer::Real() const { return acc_.Real(); }
+Image VplFrameRenderer::Mask() const { return acc_.Mask(); }
+Image VplFrameRenderer::DifferenceVariance() const { return acc_.DifferenceVariance(); }
+Image VplFrameRenderer::SampleCount() const { return acc_.SampleCount(); }
+
+}  // namespace mr

@@ -1,0 +1,125 @@
+// `vpl`: differential instant radiosity (Knecht et al. 2010,
+// ../shared/papers/differential-instant-radiosity.txt), offline on the CPU.
+//
+// Light paths leave the emitters (the environment, importance-sampled, and
+// lights.json's lights) and leave a virtual point light (VPL) at each
+// surface they meet.  Every VPL carries the flags of the paper:
+//  - the path flag x̄ = r(x̄_prev)·r(p_VPL): a path that has met only real
+//    surfaces (and started at a real emitter) lights both solutions, I_r and
+//    I_m; once it meets a virtual surface (or starts at a virtual light) it
+//    lights I_m only;
+//  - ir(VPL): where a shared path meets a virtual object, the real-only
+//    solution's path goes on behind it (a real ray, with a copy of the random
+//    stream), and the VPLs it leaves light I_r only: they cancel, in
+//    I_m − I_r, the colour bleeding the object has taken away.
+// A shading point gathers every VPL through the two blocker tests st_r (real
+// geometry) and st_v (virtual): I_r uses st_r, I_m uses st_rv = min(st_r, st_v).
+// Visibility is exact (Embree shadow rays), not imperfect shadow maps.
+//
+// Direct light from the environment and disc lights comes from directional
+// VPLs (a fixed set of directions, half importance-sampled from the map and
+// half uniform, combined by the balance heuristic); point and spot lights
+// are VPLs at the light itself.  The 1/d² singularity of the geometry term
+// is clamped at `clamp_distance`; the energy the clamp removes at the first
+// gather is measured per pixel and reported as bias, and `compensate` adds
+// it back by a short path-traced correction (Kollig & Keller 2004).  Glossy
+// lobes, which VPLs render badly, are followed by one BSDF-sampled ray
+// (next-event estimation with MIS, as in `pt`) and gathered at its hit.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "core/report.h"
+#include "render/path_common.h"
+#include "render/path_tracer.h"
+
+namespace mr {
+
+struct VplSettings {
+  int paths = 1024;           // light paths from the emitters
+  int directions = 128;       // directional VPLs for the environment and disc lights
+  int max_depth = 5;          // surface bounces of a whole path, as pt's max_depth
+  double clamp_distance = 0;  // metres; 0: 2% of the scene's diagonal
+  bool compensate = false;    // add back the clamped energy (Kollig & Keller)
+  int glossy_depth = 2;       // glossy bounces followed by BSDF-sampled rays
+  // Shadow tests of VPLs whose unshadowed contribution to a point is below
+  // this fraction of the mean one are not traced (the VPL is dropped there).
+  double drop_threshold = 1e-3;
+  uint64_t seed = 0;
+};
+
+enum VplSets : uint8_t { kLightsReal = 1, kLightsMixed = 2, kLightsBoth = 3 };
+
+struct Vpl {
+  Eigen::Vector3d p;        // on the surface, offset along n
+  ShadingFrame frame{Eigen::Vector3d::UnitZ()};  // n faces the side the light arrived on
+  Eigen::Vector3d wi_local;  // towards where the light came from, in frame
+  Eigen::Vector3d flux;      // arriving flux (W)
+  const Bsdf* bsdf = nullptr;
+  uint8_t sets = kLightsBoth;  // which solutions it lights
+  bool on_virtual = false;
+  int depth = 0;               // surfaces met along its path before (0: lit by the emitter)
+};
+
+struct DirectionalVpl {
+  Eigen::Vector3d dir;         // unit, towards the emitter
+  Eigen::Vector3d irradiance;  // at normal incidence, this VPL's share
+  uint8_t sets = kLightsBoth;
+};
+
+// The VPLs of a scene: view-independent, built once per render and reused by
+// every frame (so frames do not flicker).
+class VplSet {
+ public:
+  static std::shared_ptr<const VplSet> Build(const RenderScene& scene, const VplSettings& settings);
+  const std::vector<Vpl>& vpls() const { return vpls_; }
+  const std::vector<DirectionalVpl>& directional() const { return directional_; }
+  const VplSettings& settings() const { return settings_; }
+  double clamp_distance() const { return clamp_; }
+  double build_seconds() const { return build_seconds_; }
+  // Counts by kind, and what was left out while building, for the report.
+  void Describe(Report* report) const;
+
+ private:
+  std::vector<Vpl> vpls_;
+  std::vector<DirectionalVpl> directional_;
+  VplSettings settings_;
+  double clamp_ = 0, build_seconds_ = 0;
+  int64_t paths_ended_below_ = 0;  // VPLs not stored: flux below the drop threshold
+};
+
+class VplFrameRenderer : public FrameMethod {
+ public:
+  VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls, const CameraModel& camera,
+                   const Rigid3& world_from_cam, uint64_t seed, int frame);
+  void RenderPass(int spp) override;
+  Image Mixed() const override;
+  Image Real() const override;
+  Image Mask() const override;
+  Image DifferenceVariance() const override;
+  Image SampleCount() const override;
+  int64_t nonfinite_samples() const override { return nonfinite_; }
+  // Energy the clamp removed, over the energy rendered (luminance, I_m and I_r).
+  double clamp_bias_mixed() const;
+  double clamp_bias_real() const;
+  void Describe(Report* report, int frame) const;
+
+  struct Counters {
+    int64_t shadow_rays = 0, dropped = 0, virtual_tests_skipped = 0, rays = 0, compensation_rays = 0;
+  };
+
+ private:
+  const RenderScene& scene_;
+  std::shared_ptr<const VplSet> set_;
+  CameraSampler sampler_;
+  int width_, height_;
+  PixelAccumulator acc_;
+  std::vector<double> bias_m_, bias_r_, lum_m_, lum_r_;
+  int spp_ = 0;
+  int64_t nonfinite_ = 0;
+  Counters counters_;
+};
+
+}  // namespace mr

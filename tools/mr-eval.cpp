@@ -9,6 +9,8 @@
 #include "core/image.h"
 #include "eval/metrics.h"
 #include "eval/plot.h"
+#include "eval/sweep.h"
+#include "scene/scene.h"
 #include "eval/trajectory_error.h"
 #include "geometry/mesh.h"
 #include "tool/cli.h"
@@ -76,7 +78,55 @@ int main(int argc, char** argv) {
   mesh->add_option("--cutoff", cutoff, "Distances are capped here (m)")->default_val(0.1);
   mesh->add_option("--samples", samples, "Samples per surface")->default_val(200000);
   mesh->add_option("--region", box, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")->delimiter(',')->expected(6);
+  std::string sweep_scene, methods = "pt,ic,vpl", frames;
+  mr::SweepOptions so;
+  std::string sweep_out;
+  CLI::App* sweep = app.add_subcommand(
+      "sweep",
+      "Error against run time: renders SCENE with each method over a range of quality settings, compares\n"
+      "each render with the scene's reference (relMSE over the image and over the region the objects\n"
+      "change), times it, and writes sweep.csv, sweep.json, error-vs-time[-region].svg/.png and\n"
+      "diff/METHOD-SETTING.png (|composite - reference| x --diff-scale, first frame) into --out.");
+  sweep->fallthrough();
+  sweep->add_option("SCENE", sweep_scene, "scene.json with a reference (mr-synth writes one)")->required()->check(CLI::ExistingFile);
+  sweep->add_option("--methods", methods, "Comma-separated: pt, ic, vpl, prt")->default_val("pt,ic,vpl");
+  sweep->add_option("--out", sweep_out, "Output folder")->required();
+  sweep->add_option("--pt-spp", so.pt_spp, "pt: samples per pixel")->delimiter(',')->default_str("1,4,16,64,256");
+  sweep->add_option("--ic-rays", so.ic_rays, "ic: rays per record")->delimiter(',')->default_str("32,64,128,256,512");
+  sweep->add_option("--ic-spp", so.ic_spp, "ic: camera samples per pixel")->default_val(4);
+  sweep->add_option("--vpl-paths", so.vpl_paths, "vpl: light paths (directional VPLs: a quarter, at least 16)")
+      ->delimiter(',')
+      ->default_str("64,128,256,512,1024");
+  sweep->add_option("--vpl-spp", so.vpl_spp, "vpl: camera samples per pixel")->default_val(2);
+  sweep->add_option("--prt-spp", so.prt_spp, "prt: samples per pixel")->delimiter(',')->default_str("1,4,16");
+  sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
+  sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
+    if (sweep->parsed()) {
+      so.methods.clear();
+      std::stringstream ss(methods);
+      for (std::string m; std::getline(ss, m, ',');)
+        if (!m.empty()) so.methods.push_back(m);
+      if (!frames.empty()) {
+        const auto colon = frames.find(':');
+        try {
+          so.frame_begin = std::stoi(frames.substr(0, colon));
+          so.frame_end = colon == std::string::npos ? so.frame_begin + 1 : std::stoi(frames.substr(colon + 1));
+        } catch (const std::exception&) {
+          throw mr::UsageError(fmt::format("--frames {}: expected BEGIN:END", frames));
+        }
+      }
+      so.out = sweep_out;
+      so.command_line = mr::ToolReport().ToJson().value("command_line", "");
+      const mr::Scene scene = mr::ReadScene(sweep_scene);
+      mr::ToolReport().AddInput(sweep_scene);
+      const auto rows = mr::RunSweep(scene, so, &mr::ToolReport());
+      std::printf("%-5s %-36s %10s %12s %14s\n", "method", "setting", "s/frame", "relMSE", "region relMSE");
+      for (const auto& r : rows)
+        std::printf("%-5s %-36s %10.3f %12.4g %14.4g\n", r.method.c_str(), r.setting.c_str(), r.seconds, r.relmse,
+                    r.region_relmse);
+      return mr::kExitOk;
+    }
     if (traj->parsed()) {
       auto load = [](const std::string& p) {
         return mr::fs::is_directory(p) ? mr::Read7ScenesFolder(p) : mr::ReadTum(mr::fs::path(p));

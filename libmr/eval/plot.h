@@ -25,3 +25,10 @@ struct PlotOptions {
 void WriteSvgPlot(const fs::path& path, const std::vector<PlotSeries>& series, const PlotOptions& options);
 
 }  // namespace mr
+
+namespace mr {
+
+// The same plot rasterised to PNG (OpenCV drawing; atomic write).
+void WritePngPlot(const fs::path& path, const std::vector<PlotSeries>& series, const PlotOptions& options);
+
+}  // namespace mr

@@ -145,6 +145,33 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Pcg32& rng, Emit&&
   }
 }
 
+// Adds a next-event contribution `c` at a point to the wanted solutions
+// through the blocker tests: I_r sees real blockers (st_r), I_m real and
+// virtual ones (st_rv = min(st_r, st_v)); a virtual light and a point on a
+// virtual surface exist in I_m only.  Returns the shadow rays traced.
+inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray shadow, bool virtual_light,
+                        bool x_virtual, bool want_m, bool want_r, Eigen::Vector3d* mixed, Eigen::Vector3d* real) {
+  const EmbreeScene& e = scene.embree();
+  if (virtual_light || x_virtual || !want_r) {
+    if (!want_m) return 0;
+    shadow.mask = kMaskAll;
+    if (!e.Occluded(shadow)) *mixed += c;
+    return 1;
+  }
+  shadow.mask = kMaskReal;
+  if (e.Occluded(shadow)) return 1;
+  *real += c;
+  if (!want_m) return 1;
+  if (scene.has_virtual_geometry()) {
+    shadow.mask = kMaskVirtual;
+    if (e.Occluded(shadow)) return 2;
+    *mixed += c;
+    return 2;
+  }
+  *mixed += c;
+  return 1;
+}
+
 // Whether the segment o + t d, t in [0, tmax], meets any of `boxes`
 // (slab test, boxes grown by a relative 1e-4): false proves that no virtual
 // object can block it, so its virtual shadow test is not traced.

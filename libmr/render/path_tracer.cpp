@@ -56,7 +56,9 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
   for (int depth = start_depth;; ++depth) {
     Hit hit;
     ++*rays;
-    if (!Intersect(ray, &hit)) {
+    const bool found = Intersect(ray, &hit);
+    if (depth == start_depth) out.first_t = hit.t;
+    if (!found) {
       if (depth < escape_from_depth) return out;
       const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
       out.mixed += c;

@@ -44,6 +44,7 @@ struct PathSample {
   Eigen::Vector3d real = Eigen::Vector3d::Zero();
   bool primary_virtual = false;  // the camera ray's first hit is virtual (mask M)
   int rays = 0;                  // closest-hit and occlusion queries traced
+  float first_t = INFINITY;      // distance to the first surface met (infinity: none)
 };
 
 class DifferentialPathTracer {
@@ -66,6 +67,12 @@ class DifferentialPathTracer {
   Eigen::Vector3d Radiance(const Ray& ray, double prev_pdf, Pcg32& rng) const {
     int rays = 0;
     return TraceSingle(ray, kMaskAll, Eigen::Vector3d::Ones(), prev_pdf, 0, rng, &rays, 0);
+  }
+  // Radiance arriving along `ray` in the real scene alone (virtual geometry
+  // and lights left out), times beta, from bounce `depth` on.
+  Eigen::Vector3d RealRadiance(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, int depth, Pcg32& rng,
+                               int* rays) const {
+    return TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, rng, rays, 0);
   }
 
  private:

@@ -19,6 +19,7 @@
 #include "render/path_tracer.h"
 #include "render/prt.h"
 #include "render/vpl.h"
+#include "render/irradiance_cache.h"
 #include "render/render_scene.h"
 
 namespace mr {
@@ -65,11 +66,37 @@ Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool 
 
 }  // namespace
 
+// ic's temporal stability on a static scene: each pixel's world point
+// (`positions`) is projected into the previous frame; where it lands on a
+// pixel that interpolated irradiance at the same point, the relative mean absolute change of
+// the interpolated irradiance, sum |E_f - E_f-1| / sum |E_f|.  NaN: no
+// overlap.
+double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const std::vector<float>& prev,
+                      const std::vector<Eigen::Vector3f>& prev_positions, const std::vector<Eigen::Vector3f>& positions,
+                      const std::vector<float>& now) {
+  double diff = 0, sum = 0;
+  const int w = camera.width(), h = camera.height();
+  for (size_t i = 0; i < now.size(); ++i) {
+    if (!std::isfinite(now[i]) || !positions[i].allFinite()) continue;
+    const Eigen::Vector3d pc = prev_pose.rotation.conjugate() * (positions[i].cast<double>() - prev_pose.translation);
+    Eigen::Vector2d q;
+    if (!camera.Project(pc, &q) || !q.allFinite()) continue;
+    const long x = std::lround(q.x()), y = std::lround(q.y());
+    if (x < 0 || y < 0 || x >= w || y >= h) continue;
+    const size_t j = static_cast<size_t>(y) * w + x;
+    const float p = prev[j];
+    // The same surface (not one hidden in the previous frame): within 1% of the distance.
+    if (!std::isfinite(p) || !((prev_positions[j] - positions[i]).norm() < 0.01 * pc.norm())) continue;
+    diff += std::abs(now[i] - p);
+    sum += std::abs(now[i]);
+  }
+  return sum > 0 ? diff / sum : NAN;
+}
+
 void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const std::string method = o.method.empty() ? scene.render.method : o.method;
-  if (method != "pt" && method != "prt" && method != "vpl")
-    throw UsageError(
-        fmt::format("method \"{}\" is not available yet; this mr renders with \"pt\", \"vpl\" and \"prt\"", method));
+  if (method == "vct")
+    throw UsageError("method \"vct\" is not available yet; this mr renders with \"pt\", \"ic\", \"vpl\" and \"prt\"");
   const int spp = o.spp > 0 ? o.spp : scene.render.spp;
   const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
   const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
@@ -167,6 +194,26 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (emissive)
       report->Warn("vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights only)");
   }
+  std::unique_ptr<IrradianceCache> ic_cache;
+  if (method == "ic" && !copy_through) {
+    IcSettings is;
+    const SceneIcSettings& o = scene.render.ic;
+    is.rays = o.rays;
+    is.accuracy = o.accuracy;
+    is.min_spacing_px = o.min_spacing_px;
+    is.max_spacing_px = o.max_spacing_px;
+    is.t_max = o.t_max;
+    is.tile = o.tile;
+    is.influence_threshold = o.influence_threshold;
+    is.photograph = scene.camera.frames.has_value();
+    is.max_depth = scene.render.max_depth;
+    is.seed = scene.render.seed;
+    ic_cache = std::make_unique<IrradianceCache>(rs, is);
+  }
+  // ic's temporal figure: the previous frame's interpolated irradiance.
+  std::vector<float> prev_irradiance;
+  std::vector<Eigen::Vector3f> prev_positions;
+  Rigid3 prev_pose;
   PathTracerSettings st;
   st.max_depth = scene.render.max_depth;
   st.seed = scene.render.seed;
@@ -208,6 +255,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
         }
         fr = std::make_unique<PrtFrameRenderer>(rs, prt_objects, camera, poses[static_cast<size_t>(f)], st.seed, f,
                                                 background ? &*background : nullptr);
+      } else if (method == "ic") {
+        fr = std::make_unique<IcFrameRenderer>(rs, ic_cache.get(), camera, poses[static_cast<size_t>(f)], st.seed, f);
       } else if (method == "vpl") {
         fr = std::make_unique<VplFrameRenderer>(rs, vpls, camera, poses[static_cast<size_t>(f)], st.seed, f);
       } else {
@@ -310,6 +359,17 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       fj["clamp_bias_mixed"] = v->clamp_bias_mixed();
       fj["clamp_bias_real"] = v->clamp_bias_real();
     }
+    if (auto* ic = dynamic_cast<IcFrameRenderer*>(fr.get())) {
+      ic->Describe(report, f);
+      if (!prev_irradiance.empty()) {
+        const double change = TemporalChange(camera, prev_pose, prev_irradiance, prev_positions, ic->positions(), ic->interpolated());
+        fj["temporal_change"] = change;
+        report->SetMetric(fmt::format("ic.frames.{}.temporal_change", f), change);
+      }
+      prev_irradiance = ic->interpolated();
+      prev_positions = ic->positions();
+      prev_pose = poses[static_cast<size_t>(f)];
+    }
     frames_json.push_back(fj);
     {
       ScopedTimer t(report, "write");
@@ -341,6 +401,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     spdlog::info("frame {}: {} spp in {:.2f} s{}", f, done, seconds,
                  ref ? fmt::format(", relMSE {:.3g}", fj["relmse"].get<double>()) : std::string());
   }
+  if (ic_cache) ic_cache->Describe(report);
   if (video_out) {
     video_out->Close();
     report->AddOutput((out_dir / "composite.mp4").string());

@@ -285,26 +285,9 @@ class VplShader {
       Gather(v, *diffuse, x_virtual, want_m, want_r, beta, acc, depth == 0);
       PathVertex g = v;
       g.bsdf = glossy;
-      const bool virtual_geometry = scene_.has_virtual_geometry();
-      NextEvent(scene_, g, rng, [&](const Eigen::Vector3d& c0, Ray shadow, bool virtual_light) {
-        const Eigen::Vector3d c = beta.cwiseProduct(c0);
-        if (virtual_light || x_virtual) {
-          if (!want_m) return;
-          ++acc->c.shadow_rays;
-          if (!scene_.embree().Occluded(shadow)) acc->mixed += c;
-          return;
-        }
-        shadow.mask = kMaskReal;
-        ++acc->c.shadow_rays;
-        if (scene_.embree().Occluded(shadow)) return;
-        if (want_r) acc->real += c;
-        if (!want_m) return;
-        if (virtual_geometry) {
-          shadow.mask = kMaskVirtual;
-          ++acc->c.shadow_rays;
-          if (scene_.embree().Occluded(shadow)) return;
-        }
-        acc->mixed += c;
+      NextEvent(scene_, g, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+        acc->c.shadow_rays += AddNextEvent(scene_, beta.cwiseProduct(c), shadow, virtual_light, x_virtual, want_m,
+                                           want_r, &acc->mixed, &acc->real);
       });
       BsdfSample s;
       const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();

@@ -79,7 +79,7 @@ struct SceneVplSettings {
 struct SceneIcSettings {
   int rays = 256;            // hemisphere rays per record
   double accuracy = 0.3;     // a of the record weight w = 1 - max(eps_p, eps_n) / a
-  double min_spacing_px = 1.5, max_spacing_px = 20;  // R_i clamp, in pixels at the record
+  double min_spacing_px = 2, max_spacing_px = 32;  // influence radius clamp, pixels at the record
   int t_max = 8;             // frames between re-evaluations of a record
   int tile = 16;             // miss-detection tile, pixels
   double influence_threshold = 1e-3;  // records skipped where the objects' form factor bound is below

@@ -202,7 +202,8 @@ void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
 }
 
 void RunSynth(const SynthOptions& o, Report* report) {
-  const SynthPreset p = GetSynthPreset(o.preset);
+  SynthPreset p = GetSynthPreset(o.preset);
+  if (o.frames > 0) p.frames = o.frames;
   const int truth_spp = o.truth_spp > 0 ? o.truth_spp : p.truth_spp;
   if (o.out.empty()) throw UsageError("--out is required");
   std::error_code ec;
@@ -233,6 +234,17 @@ void RunSynth(const SynthOptions& o, Report* report) {
   Eigen::Vector3d oc = 0.5 * (ob.min() + ob.max()).cast<double>();
   world_from_object.translate(Eigen::Vector3d(-oc.x(), 0, -oc.z()));
   Material object_material = Diffuse(0.8, 0.75, 0.7);
+  if (o.object_material == "glossy") {
+    object_material = Diffuse(0.25, 0.22, 0.2);
+    object_material.specular = Eigen::Vector3d::Constant(0.6);
+    object_material.roughness = 0.3;
+  } else if (o.object_material == "mirror") {
+    object_material = Diffuse(0.02, 0.02, 0.02);
+    object_material.specular = Eigen::Vector3d::Constant(0.9);
+    object_material.roughness = 0.05;
+  } else if (o.object_material != "diffuse") {
+    throw UsageError(fmt::format("unknown object material \"{}\" (diffuse, glossy, mirror)", o.object_material));
+  }
 
   // Lighting, camera and path.
   int sun_x, sun_y;

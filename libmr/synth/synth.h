@@ -26,6 +26,11 @@ struct SynthOptions {
   uint64_t seed = 1;
   std::string object = "sphere";  // sphere | box | a mesh file (OBJ/PLY/OFF/STL)
   int truth_spp = 0;              // 0: the preset's
+  int frames = 0;                 // 0: the preset's
+  // The object's material: diffuse (albedo 0.8/0.75/0.7), glossy (albedo
+  // 0.25, GGX specular 0.6 at roughness 0.3) or mirror (specular 0.9 at
+  // roughness 0.05).
+  std::string object_material = "diffuse";
   bool spot_light = false;        // a real spot light above the table (lights.json)
   std::string tool = "mr-synth", command_line;
 };

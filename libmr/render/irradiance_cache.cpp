@@ -1,0 +1,450 @@
+#include "render/irradiance_cache.h"
+
+#include <spdlog/spdlog.h>
+
+#include <atomic>
+#include <cmath>
+#include <unordered_map>
+
+#include "core/parallel.h"
+#include "render/path_common.h"
+
+namespace mr {
+
+namespace {
+
+const double kSqrtOneMinusCos10 = std::sqrt(1 - std::cos(10 * kDegToRad));
+
+PathTracerSettings TracerSettings(const IcSettings& s) {
+  PathTracerSettings p;
+  p.max_depth = s.max_depth;
+  p.seed = s.seed;
+  return p;
+}
+
+// Tabellion & Lamorlette's weight of record r at (p, n); <= 0: no contribution.
+double Weight(const IcRecord& r, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double inv_accuracy) {
+  const double eps_p = (p - r.p).norm() / r.r;
+  const double eps_n = SafeSqrt(1 - std::min(1.0, n.dot(r.n))) / kSqrtOneMinusCos10;
+  return 1 - inv_accuracy * std::max(eps_p, eps_n);
+}
+
+}  // namespace
+
+IrradianceCache::IrradianceCache(const RenderScene& scene, const IcSettings& settings)
+    : scene_(scene), settings_(settings), tracer_(scene, TracerSettings(settings)) {
+  for (const auto& b : scene.virtual_bounds()) {
+    const Eigen::Vector3d c = b.center();
+    spheres_.emplace_back(c.x(), c.y(), c.z(), 0.5 * b.diagonal().norm());
+  }
+  for (const LightSource& l : scene.lights()) virtual_light_ = virtual_light_ || l.is_virtual();
+}
+
+bool IrradianceCache::InInfluence(const Eigen::Vector3d& p) const {
+  if (!settings_.photograph || virtual_light_ || settings_.influence_threshold <= 0) return true;
+  for (const auto& s : spheres_) {
+    const double d2 = (p - s.head<3>()).squaredNorm(), r2 = s[3] * s[3];
+    if (d2 <= r2 || r2 / d2 >= settings_.influence_threshold) return true;  // the sphere's form factor bound
+  }
+  return false;
+}
+
+void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
+  // Stratified cosine-distributed directions, the record's own stream.
+  Pcg32 rng(HashCombine(settings_.seed, 0x6963), r->index);
+  const int n = std::max(1, settings_.rays);
+  const int side = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(n))));
+  const ShadingFrame frame_n(r->n);
+  const double offset = OffsetScale(r->p, r->p, 0);
+  const Eigen::Vector3d origin = r->p + r->n * offset;
+  Eigen::Vector3d em = Eigen::Vector3d::Zero(), er = Eigen::Vector3d::Zero();
+  double r_hit = INFINITY;
+  for (int k = 0; k < n; ++k) {
+    double u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    if (k < side * side) {
+      u0 = (k % side + u0) / side;
+      u1 = (k / side + u1) / side;
+    }
+    const auto d = SampleCosineHemisphere(u0, u1);
+    const Ray ray = MakeRay(origin, frame_n.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
+    // Bounce 1 onwards of a differential path; escapes of the first segment
+    // are direct light (the pixel's next-event estimate).
+    const double pdf = d[2] * kInvPi;
+    PathSample ps = tracer_.TraceFrom(ray, Eigen::Vector3d::Ones(), pdf, 1, rng, 2);
+    if (ps.mixed.allFinite() && ps.real.allFinite()) {
+      em += ps.mixed;
+      er += ps.real;
+    }
+    r_hit = std::min(r_hit, static_cast<double>(ps.first_t));
+  }
+  r->e_mixed = em * (kPi / n);
+  r->e_real = er * (kPi / n);
+  r->r_hit = r_hit;
+  r->evaluated_frame = frame;
+}
+
+void IrradianceCache::Describe(Report* report) const {
+  report->SetMetric("ic.records", static_cast<int64_t>(records_.size()));
+  report->SetMetric("ic.records_created", created_);
+  report->SetMetric("ic.records_reevaluated", reevaluated_);
+  report->SetMetric("ic.record_rays", record_rays_);
+  report->SetMetric("ic.miss_passes", passes_);
+  report->SetMetric("ic.rays_per_record", settings_.rays);
+  report->SetMetric("ic.accuracy", settings_.accuracy);
+  report->SetMetric("ic.t_max", settings_.t_max);
+}
+
+IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
+                                 const Rigid3& world_from_cam, uint64_t seed, int frame)
+    : scene_(scene),
+      cache_(cache),
+      camera_(camera),
+      sampler_(camera, world_from_cam, seed, frame),
+      width_(camera.width()),
+      height_(camera.height()),
+      frame_(frame),
+      acc_(width_, height_) {}
+
+void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
+  // The record's influence sphere (weight > 0 within accuracy x R_i) projected
+  // into the image; a sphere around or behind the camera covers every pixel.
+  const double rho = cache_->settings_.accuracy * r.r;
+  const Rigid3& pose = sampler_.pose();
+  const Eigen::Vector3d pc = pose.rotation.conjugate() * (r.p - pose.translation);
+  const double dist = pc.norm();
+  int x0 = 0, x1 = width_ - 1, ya = static_cast<int>(y0), yb = static_cast<int>(y1) - 1;
+  Eigen::Vector2d q;
+  if (dist > rho && camera_.Project(pc, &q) && q.allFinite()) {
+    const int cx = std::clamp(static_cast<int>(std::lround(q.x())), 0, width_ - 1);
+    const int cy = std::clamp(static_cast<int>(std::lround(q.y())), 0, height_ - 1);
+    Eigen::Vector3d c[4];
+    sampler_.CornerDirections(cx, cy, c);
+    const double pixel_angle = std::max(1e-9, std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0));
+    const double rpx = std::asin(std::min(1.0, rho / dist)) / pixel_angle * 1.25 + 2;
+    x0 = std::max(0, static_cast<int>(std::floor(q.x() - rpx)));
+    x1 = std::min(width_ - 1, static_cast<int>(std::ceil(q.x() + rpx)));
+    ya = std::max(ya, static_cast<int>(std::floor(q.y() - rpx)));
+    yb = std::min(yb, static_cast<int>(std::ceil(q.y() + rpx)));
+  }
+  const double inv_a = 1 / cache_->settings_.accuracy;
+  for (int y = ya; y <= yb; ++y)
+    for (int x = x0; x <= x1; ++x)
+      for (int s = 0; s < samples_; ++s) {
+        const size_t k = (static_cast<size_t>(y) * width_ + x) * samples_ + s;
+        // The mixed entry: virtual records on virtual points, real ones on real.
+        Entry& m = mixed_[k];
+        if (m.valid && m.is_virtual == r.on_virtual) {
+          const double w = Weight(r, m.p, m.n, inv_a);
+          if (w > 0) {
+            m.w += w;
+            m.sum_m += w * r.e_mixed;
+            m.sum_r += w * r.e_real;
+          }
+        }
+        Entry& e = real_[k];
+        if (e.valid && !r.on_virtual && m.is_virtual) {  // the real point behind a virtual one
+          const double w = Weight(r, e.p, e.n, inv_a);
+          if (w > 0) {
+            e.w += w;
+            e.sum_r += w * r.e_real;
+          }
+        }
+      }
+}
+
+void IcFrameRenderer::SplatAll(const std::vector<size_t>& which) {
+  // Bands of rows in parallel; each band visits every record.
+  const int64_t band = 8, bands = (height_ + band - 1) / band;
+  ParallelFor(0, bands, [&](int64_t b) {
+    const int64_t y0 = b * band, y1 = std::min<int64_t>(height_, y0 + band);
+    for (size_t i : which) Splat(cache_->records_[i], y0, y1);
+  });
+  splatted_ += static_cast<int64_t>(which.size());
+}
+
+void IcFrameRenderer::RenderPass(int spp) {
+  const IcSettings& st = cache_->settings_;
+  const EmbreeScene& embree = scene_.embree();
+  samples_ = spp;
+  const size_t n = static_cast<size_t>(width_) * height_ * spp;
+  mixed_.assign(n, Entry());
+  real_.assign(n, Entry());
+  // G-buffer: the first hits of each camera sample's mixed ray and, where it
+  // meets a virtual object, of its real ray.
+  std::atomic<int64_t> outside{0};
+  ParallelFor(0, height_, [&](int64_t y) {
+    for (int x = 0; x < width_; ++x) {
+      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
+      Eigen::Vector3d c[4];
+      sampler_.CornerDirections(x, static_cast<int>(y), c);
+      const double pixel_angle = std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0);
+      for (int s = 0; s < spp; ++s) {
+        const size_t k = (static_cast<size_t>(y) * width_ + x) * spp + s;
+        Ray ray;
+        sampler_.Sample(x, static_cast<int>(y), s, &ray);
+        auto fill = [&](Ray r, uint32_t mask, Entry* e) {
+          r.mask = mask;
+          Hit hit;
+          if (!embree.Intersect(r, &hit)) return false;
+          const PathVertex v = MakeVertex(scene_, r, hit);
+          e->p = v.p;
+          e->n = v.frame.n;
+          e->footprint = hit.t * pixel_angle;
+          e->valid = true;
+          e->is_virtual = hit.is_virtual;
+          e->needed = hit.is_virtual || cache_->InInfluence(v.p);
+          if (!e->needed) outside.fetch_add(1);
+          return hit.is_virtual;
+        };
+        if (fill(ray, kMaskAll, &mixed_[k])) fill(ray, kMaskReal, &real_[k]);
+      }
+    }
+  });
+  outside_influence_ = outside.load();
+
+  // Records due for re-evaluation (t_max frames old), then every record splatted.
+  {
+    std::vector<size_t> due;
+    for (size_t i = 0; i < cache_->records_.size(); ++i)
+      if (frame_ - cache_->records_[i].evaluated_frame >= st.t_max) due.push_back(i);
+    ParallelFor(0, static_cast<int64_t>(due.size()),
+                [&](int64_t j) { cache_->Evaluate(&cache_->records_[due[static_cast<size_t>(j)]], frame_); });
+    reevaluated_ = static_cast<int64_t>(due.size());
+    cache_->reevaluated_ += reevaluated_;
+    std::vector<size_t> all(cache_->records_.size());
+    for (size_t i = 0; i < all.size(); ++i) all[i] = i;
+    SplatAll(all);
+  }
+
+  // Miss detection: per tile, the first needed sample of zero weight gets a
+  // record; passes repeat until none is left.
+  const int tile = st.tile;
+  const int tiles_x = (width_ + tile - 1) / tile, tiles_y = (height_ + tile - 1) / tile;
+  std::vector<int64_t> resume(static_cast<size_t>(tiles_x) * tiles_y, 0);
+  // A spatial hash of the records for neighbour clamping.
+  const double cell = [&] {
+    double f = 0;
+    int64_t c = 0;
+    for (const Entry& e : mixed_)
+      if (e.valid) f += e.footprint, ++c;
+    return std::max(1e-6, c > 0 ? 2 * st.max_spacing_px * f / c : 1.0);
+  }();
+  std::unordered_map<int64_t, std::vector<size_t>> grid;
+  auto key = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d g = (p / cell).array().floor();
+    return (static_cast<int64_t>(g.x()) * 73856093) ^ (static_cast<int64_t>(g.y()) * 19349663) ^
+           (static_cast<int64_t>(g.z()) * 83492791);
+  };
+  for (size_t i = 0; i < cache_->records_.size(); ++i) grid[key(cache_->records_[i].p)].push_back(i);
+  for (;;) {
+    std::vector<IcRecord> fresh(resume.size());
+    std::vector<char> made(resume.size(), 0);
+    ParallelFor(0, static_cast<int64_t>(resume.size()), [&](int64_t t) {
+      const int tx = static_cast<int>(t % tiles_x), ty = static_cast<int>(t / tiles_x);
+      const int w = std::min(tile, width_ - tx * tile), h = std::min(tile, height_ - ty * tile);
+      const int64_t total = static_cast<int64_t>(w) * h * samples_ * 2;
+      for (int64_t& j = resume[static_cast<size_t>(t)]; j < total; ++j) {
+        const int64_t s2 = j % (samples_ * 2), px = j / (samples_ * 2);
+        const int x = tx * tile + static_cast<int>(px % w), y = ty * tile + static_cast<int>(px / w);
+        const size_t k = (static_cast<size_t>(y) * width_ + x) * samples_ + static_cast<size_t>(s2 / 2);
+        const Entry& e = s2 % 2 == 0 ? mixed_[k] : real_[k];
+        if (!e.valid || !e.needed || e.w > 0) continue;
+        if (s2 % 2 == 1 && !mixed_[k].is_virtual) continue;
+        IcRecord r;
+        r.p = e.p;
+        r.n = e.n;
+        r.on_virtual = e.is_virtual;
+        // The clamps bound the influence radius (accuracy x R_i) in pixels.
+        r.r_min = st.min_spacing_px * e.footprint / st.accuracy;
+        r.r_max = st.max_spacing_px * e.footprint / st.accuracy;
+        fresh[static_cast<size_t>(t)] = r;
+        made[static_cast<size_t>(t)] = 1;
+        break;
+      }
+    });
+    std::vector<size_t> added;
+    for (size_t t = 0; t < fresh.size(); ++t)
+      if (made[t]) {
+        fresh[t].index = cache_->records_.size();
+        added.push_back(cache_->records_.size());
+        cache_->records_.push_back(fresh[t]);
+      }
+    if (added.empty()) break;
+    ++miss_passes_;
+    ParallelFor(0, static_cast<int64_t>(added.size()),
+                [&](int64_t j) { cache_->Evaluate(&cache_->records_[added[static_cast<size_t>(j)]], frame_); });
+    // R_i: half the least hit distance (Tabellion & Lamorlette), clamped by
+    // the neighbours (R_i <= R_j + |x_i - x_j|) and to the pixel limits.
+    for (size_t i : added) {
+      IcRecord& r = cache_->records_[i];
+      double ri = 0.5 * r.r_hit;
+      const int reach = static_cast<int>(std::ceil(std::min(ri, r.r_max) / cell));
+      const Eigen::Vector3d g = (r.p / cell).array().floor();
+      for (int dz = -reach; dz <= reach; ++dz)
+        for (int dy = -reach; dy <= reach; ++dy)
+          for (int dx = -reach; dx <= reach; ++dx) {
+            const Eigen::Vector3d q = (g + Eigen::Vector3d(dx, dy, dz)) * cell + Eigen::Vector3d::Constant(0.5 * cell);
+            auto it = grid.find(key(q));
+            if (it == grid.end()) continue;
+            for (size_t j : it->second) {
+              const IcRecord& o = cache_->records_[j];
+              if (o.on_virtual == r.on_virtual) ri = std::min(ri, 0.5 * o.r_hit + (o.p - r.p).norm());
+            }
+          }
+      r.r = std::clamp(ri, r.r_min, r.r_max);
+      grid[key(r.p)].push_back(i);
+    }
+    new_records_ += static_cast<int64_t>(added.size());
+    SplatAll(added);
+  }
+  cache_->created_ += new_records_;
+  cache_->passes_ += miss_passes_;
+  cache_->record_rays_ += (new_records_ + reevaluated_) * st.rays;
+
+  // Shading.
+  DifferentialPathTracer tracer(scene_, TracerSettings(st));
+  interpolated_.assign(static_cast<size_t>(width_) * height_, NAN);
+  positions_.assign(static_cast<size_t>(width_) * height_, Eigen::Vector3f::Constant(NAN));
+  std::atomic<int64_t> nonfinite{0}, rays{0};
+  ParallelFor(0, height_, [&](int64_t y) {
+    int64_t row_rays = 0;
+    for (int x = 0; x < width_; ++x) {
+      const size_t pi = static_cast<size_t>(y) * width_ + x;
+      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
+      acc_.Count(pi, spp);
+      for (int s = 0; s < spp; ++s) {
+        const size_t k = pi * spp + s;
+        Ray ray;
+        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), s, &ray);
+        Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
+        bool primary_virtual = false;
+        // One surface point for the wanted solutions: emission, direct light,
+        // cached indirect diffuse light, and the glossy lobe's path.
+        auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, const Eigen::Vector3d& e_m,
+                         const Eigen::Vector3d& e_r, Pcg32& g) {
+          PathVertex v = MakeVertex(scene_, r, hit);
+          const bool xv = hit.is_virtual;
+          if (want_m) mixed += v.material->emission;
+          if (want_r) real += v.material->emission;
+          if (v.bsdf->IsBlack()) return;
+          const bool glossy = v.material->IsGlossy();
+          PathVertex vd = v;
+          vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
+          // Direct light on the diffuse lobe: next-event estimation and one
+          // cosine-sampled ray that counts only what it sees of the
+          // environment and disc lights, combined by MIS (a sun 1e6 x the sky
+          // takes nearly every light sample; the sky needs the BSDF's).
+          NextEvent(scene_, vd, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
+            row_rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
+          });
+          {
+            const auto d = SampleCosineHemisphere(g.NextDouble(), g.NextDouble());
+            const double pdf = d[2] * kInvPi;
+            if (pdf > 0) {
+              Ray sky = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])),
+                                want_m ? kMaskAll : kMaskReal);
+              const Eigen::Vector3d& albedo = v.material->albedo;  // f cos / pdf
+              Hit h;
+              ++row_rays;
+              const bool blocked = embree.Intersect(sky, &h);
+              if (!blocked) {
+                const Eigen::Vector3d e = albedo.cwiseProduct(Escaped(scene_, sky, pdf, kRealLights));
+                if (want_m) mixed += e + albedo.cwiseProduct(Escaped(scene_, sky, pdf, kVirtualLights));
+                if (want_r && !xv) real += e;
+              } else if (h.is_virtual && want_r && !xv) {  // I_r sees past the object
+                sky.mask = kMaskReal;
+                ++row_rays;
+                if (!embree.Occluded(sky)) real += albedo.cwiseProduct(Escaped(scene_, sky, pdf, kRealLights));
+              }
+            }
+          }
+          const Eigen::Vector3d f = v.material->albedo * kInvPi;
+          if (want_m) mixed += f.cwiseProduct(e_m);
+          if (want_r) real += f.cwiseProduct(e_r);
+          if (!glossy) return;
+          PathVertex vg = v;
+          vg.bsdf = &scene_.glossy_bsdf(v.geometry_id);
+          NextEvent(scene_, vg, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
+            row_rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
+          });
+          BsdfSample bs;
+          const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
+          if (!vg.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return;
+          const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
+          const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
+          if (want_r && !want_m) {
+            int nr = 0;
+            real += tracer.RealRadiance(next, beta, bs.pdf, 1, g, &nr);
+            row_rays += nr;
+          } else {
+            PathSample ps = tracer.TraceFrom(next, beta, bs.pdf, 1, g);
+            row_rays += ps.rays;
+            mixed += ps.mixed;
+            if (want_r) real += ps.real;
+          }
+        };
+        const Entry& me = mixed_[k];
+        Hit hit;
+        ++row_rays;
+        if (!embree.Intersect(ray, &hit)) {
+          const Eigen::Vector3d e = Escaped(scene_, ray, 0, kRealLights);
+          mixed += e + Escaped(scene_, ray, 0, kVirtualLights);
+          real += e;
+        } else if (hit.is_virtual) {
+          primary_virtual = true;
+          const Entry& re = real_[k];
+          Pcg32 real_rng = rng;
+          Ray rr = ray;
+          rr.mask = kMaskReal;
+          Hit rh;
+          ++row_rays;
+          if (embree.Intersect(rr, &rh)) {
+            const Eigen::Vector3d er = re.w > 0 ? Eigen::Vector3d(re.sum_r / re.w) : Eigen::Vector3d::Zero();
+            shade(rr, rh, false, true, Eigen::Vector3d::Zero(), er, real_rng);
+          } else {
+            real += Escaped(scene_, rr, 0, kRealLights);
+          }
+          const Eigen::Vector3d em = me.w > 0 ? Eigen::Vector3d(me.sum_m / me.w) : Eigen::Vector3d::Zero();
+          shade(ray, hit, true, false, em, Eigen::Vector3d::Zero(), rng);
+          if (s == 0) interpolated_[pi] = static_cast<float>(Luminance(em));
+        } else {
+          // A real point: E_m and E_r interpolated with the same weights, so
+          // that their difference is the interpolated differential irradiance.
+          const double inv = me.w > 0 ? 1 / me.w : 0;
+          const Eigen::Vector3d em = me.sum_m * inv, er = me.sum_r * inv;
+          shade(ray, hit, true, true, em, er, rng);
+          if (s == 0) interpolated_[pi] = static_cast<float>(Luminance(em - er));
+        }
+        if (s == 0 && me.valid) positions_[pi] = me.p.cast<float>();
+        if (!mixed.allFinite() || !real.allFinite()) {
+          ++nonfinite;
+          continue;
+        }
+        acc_.Add(pi, mixed, real, primary_virtual);
+      }
+    }
+    rays += row_rays;
+  });
+  spp_ += spp;
+  nonfinite_ += nonfinite.load();
+  rays_ += rays.load();
+}
+
+void IcFrameRenderer::Describe(Report* report, int frame) const {
+  const std::string k = fmt::format("ic.frames.{}.", frame);
+  report->SetMetric(k + "records_created", new_records_);
+  report->SetMetric(k + "records_reevaluated", reevaluated_);
+  report->SetMetric(k + "records_splatted", splatted_);
+  report->SetMetric(k + "miss_passes", miss_passes_);
+  report->SetMetric(k + "pixel_rays", rays_);
+  if (reevaluated_ == 0 && frame > 0)
+    report->Skip(fmt::format("frame {}: record re-evaluation", frame),
+                 "no record is t_max frames old: the records of earlier frames are reused as they are");
+  if (outside_influence_ > 0)
+    report->Skip(fmt::format("frame {}: cache records for {} G-buffer samples", frame, outside_influence_),
+                 fmt::format("real points where the virtual objects' form factor bound is below {}: their indirect "
+                             "difference is taken as zero",
+                             cache_->settings_.influence_threshold));
+}
+
+}  // namespace mr

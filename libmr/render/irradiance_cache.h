@@ -117,7 +117,7 @@ class IcFrameRenderer : public FrameMethod {
 
   const RenderScene& scene_;
   IrradianceCache* cache_;
-  const CameraModel& camera_;
+  CameraModel camera_;  // a copy: renderers may outlive the caller's model
   CameraSampler sampler_;
   int width_, height_, frame_;
   PixelAccumulator acc_;

@@ -83,8 +83,13 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     }
     if (p > 0) emitters.push_back({static_cast<int>(i), p});
   }
-  double total = 0;
-  for (const auto& e : emitters) total += e.power;
+  // Emitters are chosen by a defensive mixture: half in proportion to power,
+  // half uniformly, so that a dim virtual lamp beside a bright sky still gets
+  // paths (all of its light is difference); the flux divides by the mixture.
+  double power = 0;
+  for (const auto& e : emitters) power += e.power;
+  for (auto& e : emitters) e.power = 0.5 * e.power / power + 0.5 / static_cast<double>(emitters.size());
+  const double total = 1;
   const int max_vpl_depth = st.max_depth - 2;  // a VPL at depth k ends a path of k + 2 surfaces
   if (!emitters.empty() && st.paths > 0 && max_vpl_depth >= 0) {
     std::vector<std::vector<Vpl>> per_path(static_cast<size_t>(st.paths));

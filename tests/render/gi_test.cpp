@@ -1,0 +1,362 @@
+// The fast differential GI methods (ic, vpl) against closed forms and
+// against pt on purpose-built scenes.
+#include <gtest/gtest.h>
+
+#include "core/math.h"
+#include "eval/metrics.h"
+#include "geometry/primitives.h"
+#include "render/irradiance_cache.h"
+#include "render/vpl.h"
+#include "scene/lights.h"
+
+namespace mr {
+namespace {
+
+CameraModel Pinhole(int w, int h, double f) {
+  return CameraModel("LENSMODEL_PINHOLE", {f, f, (w - 1) / 2.0, (h - 1) / 2.0}, w, h);
+}
+
+Rigid3 LookAt(const Eigen::Vector3d& eye, const Eigen::Vector3d& target) {
+  const Eigen::Vector3d z = (target - eye).normalized();
+  Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z);
+  if (x.norm() < 1e-6) x = Eigen::Vector3d::UnitX();
+  x.normalize();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d R;
+  R.col(0) = x;
+  R.col(1) = -y;  // image y points down
+  R.col(2) = z;
+  if (R.determinant() < 0) R.col(0) = -R.col(0);
+  return Rigid3(Eigen::Quaterniond(R), eye);
+}
+
+double Mean(const Image& img) {
+  double s = 0;
+  for (float v : img.values()) s += v;
+  return s / static_cast<double>(img.values().size());
+}
+
+Image Difference(const FrameMethod& r) {
+  Image m = r.Mixed();
+  const Image real = r.Real();
+  for (size_t i = 0; i < m.values().size(); ++i) m.values()[i] -= real.values()[i];
+  return m;
+}
+
+// A sky of constant radiance with a sun `sun` times brighter in one pixel.
+EnvironmentMap Sky(double sun) {
+  Image img = Image::Rgb(64, 32);
+  for (float& v : img.values()) v = 0.5f;
+  for (int c = 0; c < 3; ++c) img.at(20, 8, c) = static_cast<float>(0.5 * sun);
+  return EnvironmentMap(img, "sky");
+}
+
+Material Diffuse(double a) {
+  Material m;
+  m.albedo = Eigen::Vector3d::Constant(a);
+  return m;
+}
+
+// Floor and a back wall, a virtual sphere resting on the floor (contact).
+void OpenCorner(RenderScene* s, double sun, bool with_object = true) {
+  s->AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), Diffuse(0.6));
+  s->AddReal(Quad({-2, 0, 1}, {2, 0, 1}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.7));
+  if (with_object) {
+    Eigen::Affine3d t = Eigen::Affine3d::Identity();
+    t.translate(Eigen::Vector3d(0, 0.3, 0));
+    s->AddVirtual(UvSphere(0.3f, 24), t, Diffuse(0.8));
+  }
+  s->SetEnvironment(Sky(sun));
+  s->Commit();
+}
+
+const Rigid3 kCornerCamera = LookAt({0.3, 1.2, -2.2}, {0, 0.3, 0.2});
+
+// Integrating sphere: a closed sphere of albedo rho with a point light of
+// intensity I at its centre.  Every point receives E_d = I / R^2 directly,
+// and the indirect irradiance of a sphere is uniform, rho E_d / (1 - rho), so
+// a wall seen from the centre has L = rho / pi x E_d / (1 - rho): 31.5 x E_d
+// at rho = 0.99, 99 bounces' worth of light.  The sphere is tessellated
+// (48 x 96 facets: their distance to the centre varies by 0.1%); the
+// tolerance, 4%, covers that and the Monte Carlo error of the counts used.
+constexpr double kRho = 0.99;
+
+void IntegratingSphere(RenderScene* s) {
+  s->AddReal(UvSphere(1.0f, 48), Diffuse(kRho));
+  Light l;
+  l.type = LightType::kPoint;
+  l.position = Eigen::Vector3d(0, 0, 0);
+  l.intensity = Eigen::Vector3d::Ones();
+  s->AddLight(l);
+  s->Commit();
+}
+
+TEST(Ic, IntegratingSphereWithAlbedoNearOne) {
+  RenderScene s;
+  IntegratingSphere(&s);
+  IcSettings st;
+  st.rays = 256;
+  st.max_depth = 1 << 20;  // Russian roulette ends paths: no truncation
+  st.photograph = false;
+  IrradianceCache cache(s, st);
+  IcFrameRenderer r(s, &cache, Pinhole(12, 9, 8), LookAt({0, 0, 0}, {0, 0, 1}), 0, 0);
+  r.RenderPass(2);
+  const double expected = kRho / kPi / (1 - kRho);
+  const Image img = r.Mixed();
+  EXPECT_EQ(CountNonFinite(img), 0);
+  EXPECT_EQ(r.nonfinite_samples(), 0);
+  EXPECT_NEAR(Mean(img), expected, 0.04 * expected);
+  ASSERT_FALSE(cache.records().empty());
+  for (const IcRecord& rec : cache.records()) EXPECT_TRUE(rec.e_mixed.allFinite());
+}
+
+TEST(Vpl, IntegratingSphereWithAlbedoNearOne) {
+  RenderScene s;
+  IntegratingSphere(&s);
+  VplSettings st;
+  st.paths = 400;
+  st.max_depth = 1 << 20;
+  auto set = VplSet::Build(s, st);
+  // Paths end by Russian roulette only: ~100 surfaces each at rho = 0.99.
+  EXPECT_GT(set->vpls().size(), 400u * 30);
+  VplFrameRenderer r(s, set, Pinhole(16, 12, 10), LookAt({0, 0, 0}, {0, 0, 1}), 0, 0);
+  r.RenderPass(1);
+  const double expected = kRho / kPi / (1 - kRho);
+  EXPECT_EQ(CountNonFinite(r.Mixed()), 0);
+  EXPECT_NEAR(Mean(r.Mixed()), expected, 0.04 * expected);
+  // Little light comes from closer than the clamp distance in a sphere.
+  EXPECT_LT(r.clamp_bias_mixed(), 0.02);
+}
+
+// With nothing virtual, I_m and I_r are the same numbers: no noise, no bias
+// in the difference.
+TEST(Gi, NothingVirtualMeansExactlyNoDifference) {
+  RenderScene s;
+  OpenCorner(&s, 1e3, /*with_object=*/false);
+  const CameraModel cam = Pinhole(24, 18, 20);
+  VplSettings vs;
+  vs.paths = 64;
+  VplFrameRenderer v(s, VplSet::Build(s, vs), cam, kCornerCamera, 0, 0);
+  v.RenderPass(1);
+  IcSettings is;
+  is.rays = 32;
+  IrradianceCache cache(s, is);
+  IcFrameRenderer c(s, &cache, cam, kCornerCamera, 0, 0);
+  c.RenderPass(1);
+  for (const FrameMethod* r : {static_cast<const FrameMethod*>(&v), static_cast<const FrameMethod*>(&c)}) {
+    const Image d = Difference(*r);
+    for (float x : d.values()) ASSERT_EQ(x, 0.0f);
+    EXPECT_GT(Mean(r->Mixed()), 0);
+  }
+}
+
+// Shadow, contact shadow and bounce light of a sphere resting on the floor
+// under a sun 1e3 x the sky, against a converged pt (1024 spp): the
+// composite (photograph = pt's I_r) no worse than twice pt's own at the same
+// camera samples per pixel (another seed), and the light the object takes
+// from the floor (the sum of I_m - I_r over its shadow) within 20%: the
+// sum's spread over seeds, measured, is ~8% for pt at 16-64 spp and ~10% for
+// ic, whose records' noise is shared by many pixels.  The
+// shadow region comes from a third, independent pt render: chosen from the
+// reference's own noise, it would favour the reference.
+TEST(Gi, IcAndVplMatchPathTracerAroundAnObjectOnTheFloor) {
+  RenderScene s;
+  OpenCorner(&s, 1e3);
+  const CameraModel cam = Pinhole(40, 30, 34);
+  PathTracerSettings ps;
+  ps.max_depth = 5;  // as IcSettings and VplSettings
+  FrameRenderer pt(s, cam, kCornerCamera, ps);
+  pt.RenderPass(1024);
+  const Image photo = pt.Real(), truth = pt.Mixed();
+  auto composite = [&](const FrameMethod& r) {
+    Image out = photo;
+    const Image m = r.Mixed(), re = r.Real(), a = r.Mask();
+    for (int y = 0; y < out.height(); ++y)
+      for (int x = 0; x < out.width(); ++x)
+        for (int c = 0; c < 3; ++c) {
+          const float k = a.at(x, y, 0);
+          out.at(x, y, c) = k * m.at(x, y, c) + (1 - k) * (photo.at(x, y, c) + m.at(x, y, c) - re.at(x, y, c));
+        }
+    return out;
+  };
+  ps.seed = 2;
+  FrameRenderer pt_region(s, cam, kCornerCamera, ps);
+  pt_region.RenderPass(256);
+  const Image pt_diff = Difference(pt_region), mask = pt.Mask();
+  auto shadow = [&](const Image& d) {
+    double sum = 0;
+    for (int y = 0; y < d.height(); ++y)
+      for (int x = 0; x < d.width(); ++x)
+        if (mask.at(x, y, 0) == 0 && pt_diff.at(x, y, 1) < -0.05f) sum += d.at(x, y, 1);
+    return sum;
+  };
+  const double pt_shadow = shadow(Difference(pt));
+  ASSERT_LT(pt_shadow, -1.0);
+  ps.seed = 1;
+  FrameRenderer pt16(s, cam, kCornerCamera, ps);
+  pt16.RenderPass(16);
+  const double pt16_error = CompareImages(composite(pt16), truth).relmse;
+  EXPECT_GT(CompareImages(photo, truth).relmse, 3 * pt16_error);  // leaving the object out is far worse
+
+  IcSettings is;
+  is.rays = 256;
+  IrradianceCache cache(s, is);
+  IcFrameRenderer ic(s, &cache, cam, kCornerCamera, 0, 0);
+  ic.RenderPass(16);
+  VplSettings vs;
+  vs.paths = 512;
+  vs.directions = 256;
+  VplFrameRenderer vpl(s, VplSet::Build(s, vs), cam, kCornerCamera, 0, 0);
+  vpl.RenderPass(16);
+  for (const FrameMethod* r : {static_cast<const FrameMethod*>(&ic), static_cast<const FrameMethod*>(&vpl)}) {
+    const char* name = r == &ic ? "ic" : "vpl";
+    EXPECT_LT(CompareImages(composite(*r), truth).relmse, 2 * pt16_error) << name;
+    EXPECT_NEAR(shadow(Difference(*r)), pt_shadow, 0.2 * std::abs(pt_shadow)) << name;
+  }
+}
+
+// A virtual spot light over the real floor: all of its light is a
+// difference.  The total of I_m - I_r over the image within 10% of pt's
+// (vpl: the spot's direct light is exact, its bounce light comes from ~100
+// light paths).
+TEST(Gi, VirtualSpotLightRelightsTheRealRoom) {
+  RenderScene s;
+  s.AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), Diffuse(0.6));
+  s.AddReal(Quad({-2, 0, 1}, {2, 0, 1}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.7));
+  Light spot;
+  spot.type = LightType::kSpot;
+  spot.is_virtual = true;
+  spot.position = Eigen::Vector3d(0, 1.5, 0);
+  spot.direction = Eigen::Vector3d(0, -1, 0.3).normalized();
+  spot.intensity = Eigen::Vector3d::Constant(2.0);
+  spot.cone_deg = 30;
+  spot.falloff_start_deg = 20;
+  s.AddLight(spot);
+  s.SetEnvironment(Sky(1));
+  s.Commit();
+  const CameraModel cam = Pinhole(32, 24, 28);
+  PathTracerSettings ps;
+  ps.max_depth = 5;  // as IcSettings and VplSettings
+  FrameRenderer pt(s, cam, kCornerCamera, ps);
+  pt.RenderPass(256);
+  const double expected = Mean(Difference(pt));
+  ASSERT_GT(expected, 0.01);
+  IcSettings is;
+  is.rays = 128;
+  IrradianceCache cache(s, is);
+  IcFrameRenderer ic(s, &cache, cam, kCornerCamera, 0, 0);
+  ic.RenderPass(4);
+  VplSettings vs;
+  vs.paths = 256;
+  VplFrameRenderer vpl(s, VplSet::Build(s, vs), cam, kCornerCamera, 0, 0);
+  vpl.RenderPass(2);
+  EXPECT_NEAR(Mean(Difference(ic)), expected, 0.1 * expected);
+  EXPECT_NEAR(Mean(Difference(vpl)), expected, 0.1 * expected);
+}
+
+// A sun 1e6 x the sky on the floor beside a wall, a clamp of 1 m: the
+// same VPLs with and without the clamp (the set does not depend on it), so
+// the clamp's effect is isolated from the VPLs' noise.  The measured bias is
+// exactly the light the clamp removed at the camera's points, and
+// compensation brings back most of it.
+TEST(Vpl, SunBesideAWallClampBiasMeasuredAndCompensated) {
+  RenderScene s;
+  OpenCorner(&s, 1e6, false);
+  const Rigid3 pose = LookAt({0, 1.0, -1.0}, {0, 0.2, 1.0});
+  const CameraModel cam = Pinhole(24, 18, 14);
+  VplSettings vs;
+  vs.paths = 512;
+  vs.drop_threshold = 0;
+  vs.clamp_distance = 1e-6;
+  VplFrameRenderer unclamped(s, VplSet::Build(s, vs), cam, pose, 0, 0);
+  unclamped.RenderPass(1);
+  vs.clamp_distance = 1.0;
+  VplFrameRenderer plain(s, VplSet::Build(s, vs), cam, pose, 0, 0);
+  plain.RenderPass(1);
+  vs.compensate = true;
+  VplFrameRenderer comp(s, VplSet::Build(s, vs), cam, pose, 0, 0);
+  comp.RenderPass(16);
+  const double u = Mean(unclamped.Mixed()), p = Mean(plain.Mixed()), c = Mean(comp.Mixed());
+  EXPECT_EQ(CountNonFinite(comp.Mixed()), 0);
+  ASSERT_LT(p, 0.995 * u);  // the clamp matters here (1.5%)
+  // Luminance ratio (the sky is grey, so luminance = each channel).
+  EXPECT_NEAR(plain.clamp_bias_mixed(), (u - p) / p, 0.01 * (u - p) / p);
+  EXPECT_LT(std::abs(c - u), 0.5 * (u - p));
+}
+
+// Skipped work does not change the result beyond its stated bound: VPL
+// shadow tests dropped below 1e-3 of the mean contribution change each
+// pixel by at most 1e-3 of its unshadowed light.
+TEST(Vpl, DroppedShadowTestsStayWithinTheirBound) {
+  RenderScene s;
+  OpenCorner(&s, 1e3);
+  const CameraModel cam = Pinhole(24, 18, 20);
+  VplSettings vs;
+  vs.paths = 128;
+  vs.drop_threshold = 0;
+  VplFrameRenderer all(s, VplSet::Build(s, vs), cam, kCornerCamera, 0, 0);
+  all.RenderPass(1);
+  vs.drop_threshold = 1e-3;
+  VplFrameRenderer some(s, VplSet::Build(s, vs), cam, kCornerCamera, 0, 0);
+  some.RenderPass(1);
+  const Image a = all.Mixed(), b = some.Mixed();
+  for (size_t i = 0; i < a.values().size(); ++i) EXPECT_LE(a.values()[i] - b.values()[i], 1e-3 * a.values()[i] + 1e-6);
+}
+
+// ic's records outside the objects' influence region (form factor bound
+// 1e-3) are not made; the composite changes by less than 1e-4 relMSE.
+TEST(Ic, InfluenceRegionSkipChangesLittle) {
+  RenderScene s;
+  s.AddReal(Quad({-20, 0, -20}, {20, 0, -20}, {20, 0, 20}, {-20, 0, 20}), Diffuse(0.6));
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Eigen::Vector3d(0, 0.05, 0));
+  s.AddVirtual(UvSphere(0.05f, 16), t, Diffuse(0.8));
+  s.SetEnvironment(Sky(100));
+  s.Commit();
+  const CameraModel cam = Pinhole(32, 24, 16);
+  const Rigid3 pose = LookAt({0, 3, -6}, {0, 0, 4});
+  auto run = [&](double threshold, int64_t* records) {
+    IcSettings is;
+    is.rays = 64;
+    is.max_spacing_px = 3;  // dense records, so that skipping shows
+    is.influence_threshold = threshold;
+    IrradianceCache cache(s, is);
+    IcFrameRenderer r(s, &cache, cam, pose, 0, 0);
+    r.RenderPass(2);
+    *records = static_cast<int64_t>(cache.records().size());
+    return Difference(r);
+  };
+  int64_t n_all = 0, n_some = 0;
+  const Image all = run(0, &n_all), some = run(1e-3, &n_some);
+  EXPECT_LT(n_some, n_all / 2);  // the skip saves work here
+  double err = 0;
+  for (size_t i = 0; i < all.values().size(); ++i) err += std::pow(all.values()[i] - some.values()[i], 2);
+  EXPECT_LT(err / static_cast<double>(all.values().size()), 1e-4);
+}
+
+// Records persist in world space: a second frame keeps the first's records,
+// and re-evaluation after t_max frames uses the
+// record's own random numbers, so that it reproduces the values exactly.
+TEST(Ic, RecordsPersistAcrossFramesWithoutFlicker) {
+  RenderScene s;
+  OpenCorner(&s, 1e3);
+  const CameraModel cam = Pinhole(24, 18, 20);
+  IcSettings is;
+  is.rays = 64;
+  is.t_max = 1;
+  IrradianceCache cache(s, is);
+  IcFrameRenderer f0(s, &cache, cam, kCornerCamera, 0, 0);
+  f0.RenderPass(1);
+  const std::vector<IcRecord> first = cache.records();
+  IcFrameRenderer f1(s, &cache, cam, kCornerCamera, 0, 1);  // re-evaluates every record
+  f1.RenderPass(1);
+  ASSERT_GE(cache.records().size(), first.size());
+  for (size_t i = 0; i < first.size(); ++i) {
+    EXPECT_EQ(cache.records()[i].evaluated_frame, 1);
+    ASSERT_EQ(cache.records()[i].e_mixed, first[i].e_mixed);
+    ASSERT_EQ(cache.records()[i].e_real, first[i].e_real);
+  }
+}
+
+}  // namespace
+}  // namespace mr

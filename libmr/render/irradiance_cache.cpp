@@ -330,34 +330,12 @@ void IcFrameRenderer::RenderPass(int spp) {
           const bool glossy = v.material->IsGlossy();
           PathVertex vd = v;
           vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
-          // Direct light on the diffuse lobe: next-event estimation and one
-          // cosine-sampled ray that counts only what it sees of the
-          // environment and disc lights, combined by MIS (a sun 1e6 x the sky
-          // takes nearly every light sample; the sky needs the BSDF's).
-          NextEvent(scene_, vd, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
-            row_rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
-          });
-          {
-            const auto d = SampleCosineHemisphere(g.NextDouble(), g.NextDouble());
-            const double pdf = d[2] * kInvPi;
-            if (pdf > 0) {
-              Ray sky = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])),
-                                want_m ? kMaskAll : kMaskReal);
-              const Eigen::Vector3d& albedo = v.material->albedo;  // f cos / pdf
-              Hit h;
-              ++row_rays;
-              const bool blocked = embree.Intersect(sky, &h);
-              if (!blocked) {
-                const Eigen::Vector3d e = albedo.cwiseProduct(Escaped(scene_, sky, pdf, kRealLights));
-                if (want_m) mixed += e + albedo.cwiseProduct(Escaped(scene_, sky, pdf, kVirtualLights));
-                if (want_r && !xv) real += e;
-              } else if (h.is_virtual && want_r && !xv) {  // I_r sees past the object
-                sky.mask = kMaskReal;
-                ++row_rays;
-                if (!embree.Occluded(sky)) real += albedo.cwiseProduct(Escaped(scene_, sky, pdf, kRealLights));
-              }
-            }
-          }
+          row_rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real,
+                                    [&](Ray r) {
+                                      r.mask = kMaskVirtual;
+                                      ++row_rays;
+                                      return embree.Occluded(r) ? 0.0 : 1.0;
+                                    });
           const Eigen::Vector3d f = v.material->albedo * kInvPi;
           if (want_m) mixed += f.cwiseProduct(e_m);
           if (want_r) real += f.cwiseProduct(e_r);

@@ -172,6 +172,51 @@ inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray 
   return 1;
 }
 
+// The light a point's vertex v reflects from emitters it sees directly, for
+// the wanted solutions: next-event estimation through v.bsdf, and one
+// cosine-sampled ray that counts only the environment and disc lights it
+// escapes to, combined by MIS (a sun 1e6 x the sky takes nearly every light
+// sample; the sky needs the BSDF's).  v.bsdf must be the diffuse lobe with
+// albedo `albedo` (f cos / pdf of the cosine sample).  `virtual_pass(ray)`
+// returns how much of a real point's mixed light passes the virtual objects
+// along `ray` (1 or 0 by shadow ray; vct: a shadow cone).  Returns rays traced.
+template <class VirtualPass>
+int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen::Vector3d& albedo, bool x_virtual,
+                      bool want_m, bool want_r, Pcg32& rng, Eigen::Vector3d* mixed, Eigen::Vector3d* real,
+                      VirtualPass&& virtual_pass) {
+  const EmbreeScene& embree = scene.embree();
+  int64_t rays = 0;
+  NextEvent(scene, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+    if (virtual_light || x_virtual || !want_r || !want_m) {
+      rays += AddNextEvent(scene, c, shadow, virtual_light, x_virtual, want_m, want_r, mixed, real);
+      return;
+    }
+    shadow.mask = kMaskReal;
+    ++rays;
+    if (embree.Occluded(shadow)) return;
+    *real += c;
+    *mixed += c * virtual_pass(shadow);
+  });
+  const auto d = SampleCosineHemisphere(rng.NextDouble(), rng.NextDouble());
+  const double pdf = d[2] * kInvPi;
+  if (!(pdf > 0)) return rays;
+  Ray sky = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskReal);
+  ++rays;
+  if (embree.Occluded(sky)) return rays;  // real blockers stop both solutions
+  const Eigen::Vector3d e = albedo.cwiseProduct(Escaped(scene, sky, pdf, kRealLights));
+  if (want_r && !x_virtual) *real += e;
+  if (want_m) {
+    const double pass = x_virtual || !scene.has_virtual_geometry() ? 1.0 : virtual_pass(sky);
+    if (x_virtual && scene.has_virtual_geometry()) {
+      sky.mask = kMaskVirtual;
+      ++rays;
+      if (embree.Occluded(sky)) return rays;
+    }
+    *mixed += e * pass + albedo.cwiseProduct(Escaped(scene, sky, pdf, kVirtualLights)) * pass;
+  }
+  return rays;
+}
+
 // Whether the segment o + t d, t in [0, tmax], meets any of `boxes`
 // (slab test, boxes grown by a relative 1e-4): false proves that no virtual
 // object can block it, so its virtual shadow test is not traced.

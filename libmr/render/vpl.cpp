@@ -20,24 +20,17 @@ struct Emitter {
 
 }  // namespace
 
-std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplSettings& st) {
-  const auto t0 = std::chrono::steady_clock::now();
-  auto out = std::make_shared<VplSet>();
-  out->settings_ = st;
-  const Eigen::AlignedBox3d box = scene.bounds().cast<double>();
-  const double diag = box.isEmpty() ? 1.0 : std::max(1e-6, box.diagonal().norm());
-  const Eigen::Vector3d centre = box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
-  const double radius = 0.5 * diag * 1.001;
-  out->clamp_ = st.clamp_distance > 0 ? st.clamp_distance : 0.02 * diag;
+std::vector<DirectionalVpl> DirectionalLights(const RenderScene& scene, int directions, uint64_t seed,
+                                              const Eigen::Vector3d& centre) {
+  std::vector<DirectionalVpl> out;
   const EnvironmentMap& env = scene.environment();
-
   // Directional VPLs: the environment (half by its importance, half
   // uniformly, weighted by the balance heuristic over the two), disc lights
   // by their cones, delta distant lights exactly.
-  const int nd = std::max(1, st.directions);
+  const int nd = std::max(1, directions);
   if (!env.empty()) {
     const int n1 = (nd + 1) / 2, n2 = nd / 2;
-    Pcg32 rng(HashCombine(st.seed, 0x646972), 0);
+    Pcg32 rng(HashCombine(seed, 0x646972), 0);
     for (int k = 0; k < nd; ++k) {
       Eigen::Vector3d dir;
       double pdf = 0;
@@ -53,7 +46,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
       if (!(denom > 0)) continue;
       const Eigen::Vector3d L = env.Eval(dir);
       if (L.maxCoeff() <= 0) continue;
-      out->directional_.push_back({dir, L / denom, kLightsBoth});
+      out.push_back({dir, L / denom, kLightsBoth});
     }
   }
   for (size_t i = 0; i < scene.lights().size(); ++i) {
@@ -61,14 +54,30 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     if (l.light().type != LightType::kDistant) continue;
     const uint8_t sets = l.is_virtual() ? kLightsMixed : kLightsBoth;
     const int n = l.light().IsDelta() ? 1 : std::max(1, nd / 4);
-    Pcg32 rng(HashCombine(st.seed, 0x646973), i);
+    Pcg32 rng(HashCombine(seed, 0x646973), i);
     for (int k = 0; k < n; ++k) {
       LightSample ls;
       const double u0 = (k + rng.NextDouble()) / n, u1 = rng.NextDouble();
       if (!l.Sample(centre, u0, u1, &ls)) continue;
-      out->directional_.push_back({ls.wi, ls.li / (ls.pdf * n), sets});
+      out.push_back({ls.wi, ls.li / (ls.pdf * n), sets});
     }
   }
+
+  return out;
+}
+
+std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplSettings& st) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto out = std::make_shared<VplSet>();
+  out->settings_ = st;
+  const Eigen::AlignedBox3d box = scene.bounds().cast<double>();
+  const double diag = box.isEmpty() ? 1.0 : std::max(1e-6, box.diagonal().norm());
+  const Eigen::Vector3d centre = box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
+  const double radius = 0.5 * diag * 1.001;
+  out->clamp_ = st.clamp_distance > 0 ? st.clamp_distance : 0.02 * diag;
+  const EnvironmentMap& env = scene.environment();
+
+  out->directional_ = DirectionalLights(scene, st.directions, st.seed, centre);
 
   // Light paths.
   std::vector<Emitter> emitters;

@@ -69,6 +69,13 @@ struct DirectionalVpl {
   uint8_t sets = kLightsBoth;
 };
 
+// Directional lights standing for the environment and the disc lights:
+// `directions` environment directions, half importance-sampled and half
+// uniform, weighted by the balance heuristic; disc lights by their cones
+// (a quarter as many each); delta distant lights exactly.
+std::vector<DirectionalVpl> DirectionalLights(const RenderScene& scene, int directions, uint64_t seed,
+                                              const Eigen::Vector3d& centre);
+
 // The VPLs of a scene: view-independent, built once per render and reused by
 // every frame (so frames do not flicker).
 class VplSet {

@@ -92,12 +92,16 @@ int main(int argc, char** argv) {
   sweep->add_option("--methods", methods, "Comma-separated: pt, ic, vpl, prt")->default_val("pt,ic,vpl");
   sweep->add_option("--out", sweep_out, "Output folder")->required();
   sweep->add_option("--pt-spp", so.pt_spp, "pt: samples per pixel")->delimiter(',')->default_str("1,4,16,64,256");
-  sweep->add_option("--ic-rays", so.ic_rays, "ic: rays per record")->delimiter(',')->default_str("32,64,128,256,512");
-  sweep->add_option("--ic-spp", so.ic_spp, "ic: camera samples per pixel")->default_val(4);
+  sweep->add_option("--ic-rays", so.ic_rays, "ic: rays per record")->delimiter(',')->default_str("32,64,128,256");
+  sweep->add_option("--ic-spp", so.ic_spp, "ic: camera samples per pixel, one per --ic-rays value or one for all")
+      ->delimiter(',')
+      ->default_str("4,8,16,32");
   sweep->add_option("--vpl-paths", so.vpl_paths, "vpl: light paths (directional VPLs: a quarter, at least 16)")
       ->delimiter(',')
-      ->default_str("64,128,256,512,1024");
-  sweep->add_option("--vpl-spp", so.vpl_spp, "vpl: camera samples per pixel")->default_val(2);
+      ->default_str("64,128,256,512");
+  sweep->add_option("--vpl-spp", so.vpl_spp, "vpl: camera samples per pixel, one per --vpl-paths value or one for all")
+      ->delimiter(',')
+      ->default_str("2,4,8,16");
   sweep->add_option("--prt-spp", so.prt_spp, "prt: samples per pixel")->delimiter(',')->default_str("1,4,16");
   sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);

@@ -20,6 +20,12 @@ struct Setting {
   int spp = 0;
 };
 
+int Paired(const std::vector<int>& spp, size_t i, const char* name, size_t n) {
+  if (spp.size() == 1) return spp[0];
+  if (spp.size() != n) throw UsageError(fmt::format("{} has {} values for {} settings (give one, or one per setting)", name, spp.size(), n));
+  return spp[i];
+}
+
 std::vector<Setting> Settings(const Scene& base, const SweepOptions& o) {
   std::vector<Setting> out;
   for (const std::string& m : o.methods) {
@@ -36,16 +42,20 @@ std::vector<Setting> Settings(const Scene& base, const SweepOptions& o) {
     } else if (m == "prt") {
       for (int spp : o.prt_spp) add(fmt::format("spp={}", spp), fmt::format("spp{}", spp), spp, [](Scene*) {});
     } else if (m == "ic") {
-      for (int rays : o.ic_rays)
-        add(fmt::format("rays={} spp={}", rays, o.ic_spp), fmt::format("rays{}", rays), o.ic_spp,
+      for (size_t i = 0; i < o.ic_rays.size(); ++i) {
+        const int rays = o.ic_rays[i], spp = Paired(o.ic_spp, i, "--ic-spp", o.ic_rays.size());
+        add(fmt::format("rays={} spp={}", rays, spp), fmt::format("rays{}-spp{}", rays, spp), spp,
             [&](Scene* s) { s->render.ic.rays = rays; });
+      }
     } else if (m == "vpl") {
-      for (int paths : o.vpl_paths)
-        add(fmt::format("paths={} directions={} spp={}", paths, std::max(16, paths / 4), o.vpl_spp),
-            fmt::format("paths{}", paths), o.vpl_spp, [&](Scene* s) {
+      for (size_t i = 0; i < o.vpl_paths.size(); ++i) {
+        const int paths = o.vpl_paths[i], spp = Paired(o.vpl_spp, i, "--vpl-spp", o.vpl_paths.size());
+        add(fmt::format("paths={} directions={} spp={}", paths, std::max(16, paths / 4), spp),
+            fmt::format("paths{}-spp{}", paths, spp), spp, [&](Scene* s) {
               s->render.vpl.paths = paths;
               s->render.vpl.directions = std::max(16, paths / 4);
             });
+      }
     } else {
       throw UsageError(fmt::format("unknown method \"{}\" (pt, ic, vpl, prt)", m));
     }

@@ -58,6 +58,9 @@ s["output"]["dir"] = "render-prt"
 json.dump(s, open(sys.argv[2], "w"), indent=2)
 PY
 "$bin/mr-render" "$out/capture/scene-prt.json" --method prt --out "$out/render-prt" --report "$out/render-prt-report.json" -q
+# The fast differential GI methods against pt: error against run time.
+"$bin/mr-eval" sweep "$out/capture/scene.json" --out "$out/sweep" --methods pt,ic,vpl --pt-spp 1,4,16,64 \
+  --ic-rays 32,128 --ic-spp 4,16 --vpl-paths 64,256 --vpl-spp 2,8 --report "$out/sweep-report.json" -q
 # The room from RGB-D: a synthetic Kinect-like recording of the room,
 # reconstructed by mr-fuse (tracking, hashed TSDF, meshing, albedo de-lit by
 # the captured environment), then its trajectory and mesh against the truth.
@@ -72,6 +75,7 @@ echo "render report:  $out/render-report.json"
 echo "prt composites: $out/render-prt/*.png (report $out/render-prt-report.json)"
 echo "captured light: $out/capture/env-captured.exr (from the 8-bit bracket), lights $out/capture/lights-blobs.json,"
 echo "                composites lit by them: $out/render-lights/*.png; error vs lights: $out/lights-vs-count.csv/.svg"
+echo "error vs time:  $out/sweep/sweep.csv, plots $out/sweep/error-vs-time*.png/.svg, differences $out/sweep/diff/"
 echo "room from RGB-D: $out/room/room.ply, trajectory $out/room/trajectory.txt, report $out/room/fuse-report.json"
 /usr/bin/python3 - "$out" <<'PY' || true
 import json, sys

@@ -133,7 +133,7 @@ std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report
       series[index[r.method]].points.emplace_back(r.seconds, std::string(which) == "relmse" ? r.relmse : r.region_relmse);
     }
     PlotOptions po;
-    po.title = fmt::format("{}: {} against time", scene.file.filename().string(),
+    po.title = fmt::format("{}: {} against time", (scene.file.parent_path().filename() / scene.file.filename()).string(),
                            std::string(which) == "relmse" ? "relMSE" : "relMSE in the object's region");
     po.x_label = "seconds per frame";
     po.y_label = std::string(which) == "relmse" ? "relMSE" : "region relMSE";

@@ -100,6 +100,12 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
   for (auto& e : emitters) e.power = 0.5 * e.power / power + 0.5 / static_cast<double>(emitters.size());
   const double total = 1;
   const int max_vpl_depth = st.max_depth - 2;  // a VPL at depth k ends a path of k + 2 surfaces
+  // The virtual objects' bounding sphere (radius 0: none).
+  Eigen::AlignedBox3d objects;
+  for (const auto& b : scene.virtual_bounds()) objects.extend(b);
+  const Eigen::Vector3d object_centre = objects.isEmpty() ? centre : Eigen::Vector3d(objects.center());
+  const double object_radius = objects.isEmpty() ? 0.0 : 0.5 * objects.diagonal().norm();
+  constexpr double kObjectStratum = 0.5;
   if (!emitters.empty() && st.paths > 0 && max_vpl_depth >= 0) {
     std::vector<std::vector<Vpl>> per_path(static_cast<size_t>(st.paths));
     std::atomic<int64_t> below{0};
@@ -116,13 +122,29 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
                    u4 = rng.NextDouble();
       Eigen::Vector3d origin, dir, flux;
       uint8_t sets = kLightsBoth;
+      // Parallel light (the environment, distant lights) enters through a
+      // disc covering the scene, in two strata: the disc of the virtual
+      // objects' bounding sphere (chosen with probability f) and the rest of
+      // the scene's disc (points inside the objects' disc are dropped there),
+      // so that light paths meet the objects, whose VPLs (mixed-only and ir)
+      // carry the difference, however small they are in the room.
+      const double u5 = rng.NextDouble();
+      bool dropped = false;
       auto from_disc = [&](const Eigen::Vector3d& towards, const Eigen::Vector3d& irradiance) {
         Eigen::Vector3d t, b;
         CoordinateSystem(towards, &t, &b);
-        const double r = radius * std::sqrt(u3), phi = kTwoPi * u4;
-        origin = centre + radius * towards + r * (std::cos(phi) * t + std::sin(phi) * b);
+        const bool object_stratum = object_radius > 0 && u5 < kObjectStratum;
+        const double rad = object_stratum ? object_radius : radius;
+        const double p_stratum = object_radius > 0 ? (object_stratum ? kObjectStratum : 1 - kObjectStratum) : 1.0;
+        const Eigen::Vector3d c = object_stratum ? object_centre : centre;
+        const double r = rad * std::sqrt(u3), phi = kTwoPi * u4;
+        origin = c + (radius + (c - centre).norm()) * towards + r * (std::cos(phi) * t + std::sin(phi) * b);
         dir = -towards;
-        flux = irradiance * (kPi * radius * radius / (p_select * st.paths));
+        if (!object_stratum && object_radius > 0) {
+          const Eigen::Vector3d q = object_centre - origin;
+          dropped = (q - q.dot(dir) * dir).norm() < object_radius;  // the other stratum's
+        }
+        flux = irradiance * (kPi * rad * rad / (p_select * p_stratum * st.paths));
       };
       if (em.light < 0) {
         double pdf = 0;
@@ -158,6 +180,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
           flux = s.li / (pdf * p_select * st.paths);
         }
       }
+      if (dropped) return;
       // Walks a light path, leaving a VPL at each surface; where a shared
       // path meets a virtual object the real-only path goes on behind it.
       std::vector<Vpl>& vs = per_path[static_cast<size_t>(j)];

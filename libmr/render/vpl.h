@@ -3,7 +3,9 @@
 //
 // Light paths leave the emitters (the environment, importance-sampled, and
 // lights.json's lights) and leave a virtual point light (VPL) at each
-// surface they meet.  Every VPL carries the flags of the paper:
+// surface they meet.  Half the parallel light's paths are aimed at the
+// virtual objects' bounding sphere (a stratum of the entry disc), since the
+// VPLs that carry the difference arise where paths meet the objects.  Every VPL carries the flags of the paper:
 //  - the path flag x̄ = r(x̄_prev)·r(p_VPL): a path that has met only real
 //    surfaces (and started at a real emitter) lights both solutions, I_r and
 //    I_m; once it meets a virtual surface (or starts at a virtual light) it

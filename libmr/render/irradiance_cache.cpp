@@ -115,16 +115,18 @@ void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
   int x0 = 0, x1 = width_ - 1, ya = static_cast<int>(y0), yb = static_cast<int>(y1) - 1;
   Eigen::Vector2d q;
   if (dist > rho && camera_.Project(pc, &q) && q.allFinite()) {
-    const int cx = std::clamp(static_cast<int>(std::lround(q.x())), 0, width_ - 1);
-    const int cy = std::clamp(static_cast<int>(std::lround(q.y())), 0, height_ - 1);
+    const int cx = static_cast<int>(std::clamp(std::round(q.x()), 0.0, width_ - 1.0));
+    const int cy = static_cast<int>(std::clamp(std::round(q.y()), 0.0, height_ - 1.0));
     Eigen::Vector3d c[4];
     sampler_.CornerDirections(cx, cy, c);
     const double pixel_angle = std::max(1e-9, std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0));
     const double rpx = std::asin(std::min(1.0, rho / dist)) / pixel_angle * 1.25 + 2;
-    x0 = std::max(0, static_cast<int>(std::floor(q.x() - rpx)));
-    x1 = std::min(width_ - 1, static_cast<int>(std::ceil(q.x() + rpx)));
-    ya = std::max(ya, static_cast<int>(std::floor(q.y() - rpx)));
-    yb = std::min(yb, static_cast<int>(std::ceil(q.y() + rpx)));
+    // Clamped as doubles first: a point near the camera plane projects far out.
+    auto px = [](double v, int hi) { return static_cast<int>(std::clamp(v, -1.0, static_cast<double>(hi) + 1)); };
+    x0 = std::max(0, px(std::floor(q.x() - rpx), width_));
+    x1 = std::min(width_ - 1, px(std::ceil(q.x() + rpx), width_));
+    ya = std::max(ya, px(std::floor(q.y() - rpx), height_));
+    yb = std::min(yb, px(std::ceil(q.y() + rpx), height_));
   }
   const double inv_a = 1 / cache_->settings_.accuracy;
   for (int y = ya; y <= yb; ++y)
@@ -278,7 +280,9 @@ void IcFrameRenderer::RenderPass(int spp) {
     for (size_t i : added) {
       IcRecord& r = cache_->records_[i];
       double ri = 0.5 * r.r_hit;
-      const int reach = static_cast<int>(std::ceil(std::min(ri, r.r_max) / cell));
+      // Neighbours within 2 cells (a far record, with a wide footprint, is
+      // clamped by its near neighbours only: the search stays bounded).
+      const int reach = static_cast<int>(std::min(2.0, std::ceil(std::min(ri, r.r_max) / cell)));
       const Eigen::Vector3d g = (r.p / cell).array().floor();
       for (int dz = -reach; dz <= reach; ++dz)
         for (int dy = -reach; dy <= reach; ++dy)

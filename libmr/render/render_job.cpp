@@ -81,6 +81,7 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
     const Eigen::Vector3d pc = prev_pose.rotation.conjugate() * (positions[i].cast<double>() - prev_pose.translation);
     Eigen::Vector2d q;
     if (!camera.Project(pc, &q) || !q.allFinite()) continue;
+    if (!(q.x() > -0.5 && q.y() > -0.5 && q.x() < w - 0.5 && q.y() < h - 0.5)) continue;
     const long x = std::lround(q.x()), y = std::lround(q.y());
     if (x < 0 || y < 0 || x >= w || y >= h) continue;
     const size_t j = static_cast<size_t>(y) * w + x;

@@ -78,7 +78,7 @@ int main(int argc, char** argv) {
   mesh->add_option("--cutoff", cutoff, "Distances are capped here (m)")->default_val(0.1);
   mesh->add_option("--samples", samples, "Samples per surface")->default_val(200000);
   mesh->add_option("--region", box, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")->delimiter(',')->expected(6);
-  std::string sweep_scene, methods = "pt,ic,vpl", frames;
+  std::string sweep_scene, methods = "pt,ic,vpl,vct", frames;
   mr::SweepOptions so;
   std::string sweep_out;
   CLI::App* sweep = app.add_subcommand(
@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
       "diff/METHOD-SETTING.png (|composite - reference| x --diff-scale, first frame) into --out.");
   sweep->fallthrough();
   sweep->add_option("SCENE", sweep_scene, "scene.json with a reference (mr-synth writes one)")->required()->check(CLI::ExistingFile);
-  sweep->add_option("--methods", methods, "Comma-separated: pt, ic, vpl, prt")->default_val("pt,ic,vpl");
+  sweep->add_option("--methods", methods, "Comma-separated: pt, ic, vpl, vct, prt")->default_val("pt,ic,vpl,vct");
   sweep->add_option("--out", sweep_out, "Output folder")->required();
   sweep->add_option("--pt-spp", so.pt_spp, "pt: samples per pixel")->delimiter(',')->default_str("1,4,16,64,256");
   sweep->add_option("--ic-rays", so.ic_rays, "ic: rays per record")->delimiter(',')->default_str("32,64,128,256");
@@ -99,6 +99,12 @@ int main(int argc, char** argv) {
   sweep->add_option("--vpl-paths", so.vpl_paths, "vpl: light paths (directional VPLs: a quarter, at least 16)")
       ->delimiter(',')
       ->default_str("64,128,256,512");
+  sweep->add_option("--vct-resolution", so.vct_resolution, "vct: voxels along the volume's longest side")
+      ->delimiter(',')
+      ->default_str("32,64,128");
+  sweep->add_option("--vct-spp", so.vct_spp, "vct: camera samples per pixel, one per --vct-resolution value or one for all")
+      ->delimiter(',')
+      ->default_str("4");
   sweep->add_option("--vpl-spp", so.vpl_spp, "vpl: camera samples per pixel, one per --vpl-paths value or one for all")
       ->delimiter(',')
       ->default_str("2,4,8,16");

@@ -56,8 +56,14 @@ std::vector<Setting> Settings(const Scene& base, const SweepOptions& o) {
               s->render.vpl.directions = std::max(16, paths / 4);
             });
       }
+    } else if (m == "vct") {
+      for (size_t i = 0; i < o.vct_resolution.size(); ++i) {
+        const int res = o.vct_resolution[i], spp = Paired(o.vct_spp, i, "--vct-spp", o.vct_resolution.size());
+        add(fmt::format("resolution={} spp={}", res, spp), fmt::format("res{}-spp{}", res, spp), spp,
+            [&](Scene* s) { s->render.vct.resolution = res; });
+      }
     } else {
-      throw UsageError(fmt::format("unknown method \"{}\" (pt, ic, vpl, prt)", m));
+      throw UsageError(fmt::format("unknown method \"{}\" (pt, ic, vpl, vct, prt)", m));
     }
   }
   return out;
@@ -95,7 +101,7 @@ std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report
     // Rendering and the per-render preparation (VPLs, prt shading); not
     // loading, compositing or writing, which every method shares.
     const Json& t = j["timings"];
-    row.seconds = (Timing(t, "render") + Timing(t, "build vpls") + Timing(t, "prepare prt")) / std::max(1, row.frames);
+    row.seconds = (Timing(t, "render") + Timing(t, "build vpls") + Timing(t, "build volumes") + Timing(t, "prepare prt")) / std::max(1, row.frames);
     row.relmse = m.value("relmse", NAN);
     row.region_relmse = m.value("region_relmse", NAN);
     row.rmse = m.value("rmse", NAN);

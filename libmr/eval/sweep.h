@@ -13,7 +13,7 @@
 namespace mr {
 
 struct SweepOptions {
-  std::vector<std::string> methods = {"pt", "ic", "vpl"};
+  std::vector<std::string> methods = {"pt", "ic", "vpl", "vct"};
   std::vector<int> pt_spp = {1, 4, 16, 64, 256};
   // ic and vpl: the i-th setting takes the i-th rays/paths and spp (one spp
   // value: the same for all), since their per-pixel part needs samples too.
@@ -21,6 +21,9 @@ struct SweepOptions {
   std::vector<int> ic_spp = {4, 8, 16, 32};
   std::vector<int> vpl_paths = {64, 128, 256, 512};
   std::vector<int> vpl_spp = {2, 4, 8, 16};
+  // vct: voxels along the volume's longest side, paired with spp as above.
+  std::vector<int> vct_resolution = {32, 64, 128};
+  std::vector<int> vct_spp = {4};
   std::vector<int> prt_spp = {1, 4, 16};
   int frame_begin = -1, frame_end = -1;  // -1: the scene's
   double diff_scale = 5;

@@ -18,6 +18,7 @@
 #include "render/composite.h"
 #include "render/path_tracer.h"
 #include "render/prt.h"
+#include "render/vct.h"
 #include "render/vpl.h"
 #include "render/irradiance_cache.h"
 #include "render/render_scene.h"
@@ -96,8 +97,6 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
 
 void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const std::string method = o.method.empty() ? scene.render.method : o.method;
-  if (method == "vct")
-    throw UsageError("method \"vct\" is not available yet; this mr renders with \"pt\", \"ic\", \"vpl\" and \"prt\"");
   const int spp = o.spp > 0 ? o.spp : scene.render.spp;
   const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
   const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
@@ -195,6 +194,31 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (emissive)
       report->Warn("vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights only)");
   }
+  std::shared_ptr<const VctVolumes> vct_volumes;
+  if (method == "vct" && !copy_through) {
+    ScopedTimer t(report, "build volumes");
+    VctSettings vs;
+    const SceneVctSettings& vo = scene.render.vct;
+    vs.resolution = vo.resolution;
+    vs.directions = vo.directions;
+    vs.injection_spacing = vo.injection_spacing;
+    vs.shadow_aperture_deg = vo.shadow_aperture_deg;
+    vs.min_specular_aperture_deg = vo.min_specular_aperture_deg;
+    vs.cone_offset = vo.cone_offset;
+    vs.paper_accumulation = vo.accumulation == "paper";
+    vs.split_relighting = vo.relight == "split";
+    vs.far_field_width = vo.far_field_width;
+    vs.far_field_samples = vo.far_field_samples;
+    vs.max_depth = scene.render.max_depth;
+    vs.seed = scene.render.seed;
+    vct_volumes = VctVolumes::Build(rs, vs);
+    vct_volumes->Describe(report);
+    bool emissive = false;
+    for (const auto& r : scene.reals) emissive = emissive || r.material.IsEmissive();
+    for (const auto& v : scene.virtuals) emissive = emissive || v.material.IsEmissive();
+    if (emissive)
+      report->Warn("vct: emissive surfaces are seen and lit but inject no light into the volumes");
+  }
   std::unique_ptr<IrradianceCache> ic_cache;
   if (method == "ic" && !copy_through) {
     IcSettings is;
@@ -258,6 +282,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                                                 background ? &*background : nullptr);
       } else if (method == "ic") {
         fr = std::make_unique<IcFrameRenderer>(rs, ic_cache.get(), camera, poses[static_cast<size_t>(f)], st.seed, f);
+      } else if (method == "vct") {
+        fr = std::make_unique<VctFrameRenderer>(rs, vct_volumes, camera, poses[static_cast<size_t>(f)], st.seed, f);
       } else if (method == "vpl") {
         fr = std::make_unique<VplFrameRenderer>(rs, vpls, camera, poses[static_cast<size_t>(f)], st.seed, f);
       } else {
@@ -291,7 +317,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     double seconds = 0;
     while (fr && done < spp) {
       // pt, prt: checkpoints at 1, 2, 4, 8, ... spp; vpl and ic in one pass.
-      const int n = method == "vpl" || method == "ic" ? spp : std::min(done == 0 ? 1 : done, spp - done);
+      const int n = method == "vpl" || method == "ic" || method == "vct" ? spp : std::min(done == 0 ? 1 : done, spp - done);
       {
         ScopedTimer t(report, "render");
         fr->RenderPass(n);
@@ -360,6 +386,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       fj["clamp_bias_mixed"] = v->clamp_bias_mixed();
       fj["clamp_bias_real"] = v->clamp_bias_real();
     }
+    if (auto* v = dynamic_cast<VctFrameRenderer*>(fr.get())) v->Describe(report, f);
     if (auto* ic = dynamic_cast<IcFrameRenderer*>(fr.get())) {
       ic->Describe(report, f);
       if (!prev_irradiance.empty()) {

@@ -219,7 +219,25 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
 
   if (root.Has("render")) {
     Node r = root.Child("render");
-    r.RequireObject({"method", "spp", "max_depth", "seed", "frames", "time_budget_s", "vpl", "ic"});
+    r.RequireObject({"method", "spp", "max_depth", "seed", "frames", "time_budget_s", "vpl", "ic", "vct"});
+    if (r.Has("vct")) {
+      Node v = r.Child("vct");
+      v.RequireObject({"resolution", "directions", "injection_spacing", "shadow_aperture_deg",
+                       "min_specular_aperture_deg", "cone_offset", "accumulation", "relight", "far_field_width",
+                       "far_field_samples"});
+      auto& o = s.render.vct;
+      if (v.Has("resolution")) o.resolution = static_cast<int>(v.Child("resolution").Integer(2, 1024));
+      if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 16));
+      if (v.Has("injection_spacing")) o.injection_spacing = v.Child("injection_spacing").Number(0.05, 8);
+      if (v.Has("shadow_aperture_deg")) o.shadow_aperture_deg = v.Child("shadow_aperture_deg").Number(0, 90);
+      if (v.Has("min_specular_aperture_deg"))
+        o.min_specular_aperture_deg = v.Child("min_specular_aperture_deg").Number(0, 90);
+      if (v.Has("cone_offset")) o.cone_offset = v.Child("cone_offset").Number(0, 16);
+      if (v.Has("accumulation")) o.accumulation = v.Child("accumulation").OneOf({"front_to_back", "paper"});
+      if (v.Has("relight")) o.relight = v.Child("relight").OneOf({"delta", "split"});
+      if (v.Has("far_field_width")) o.far_field_width = static_cast<int>(v.Child("far_field_width").Integer(8, 1024));
+      if (v.Has("far_field_samples")) o.far_field_samples = static_cast<int>(v.Child("far_field_samples").Integer(1, 1 << 16));
+    }
     if (r.Has("vpl")) {
       Node v = r.Child("vpl");
       v.RequireObject({"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate"});

@@ -86,10 +86,23 @@ struct SceneIcSettings {
   int glossy_depth = 2;
 };
 
+// Quality settings of `vct` (render/vct.h).
+struct SceneVctSettings {
+  int resolution = 32;              // voxels along the volume's longest side
+  int directions = 64;              // environment directions injected
+  double injection_spacing = 0.5;   // voxels between injection rays
+  double shadow_aperture_deg = 2, min_specular_aperture_deg = 1;
+  double cone_offset = 1.0;         // voxels
+  std::string accumulation = "front_to_back";  // or "paper"
+  std::string relight = "split";    // or "delta" (the paper's)
+  int far_field_width = 64, far_field_samples = 16;
+};
+
 struct SceneRender {
   std::string method = "pt";  // pt, ic, vpl, vct, prt
   SceneVplSettings vpl;
   SceneIcSettings ic;
+  SceneVctSettings vct;
   int spp = 64;
   int max_depth = 5;
   uint64_t seed = 0;

@@ -59,7 +59,7 @@ json.dump(s, open(sys.argv[2], "w"), indent=2)
 PY
 "$bin/mr-render" "$out/capture/scene-prt.json" --method prt --out "$out/render-prt" --report "$out/render-prt-report.json" -q
 # The fast differential GI methods against pt: error against run time.
-"$bin/mr-eval" sweep "$out/capture/scene.json" --out "$out/sweep" --methods pt,ic,vpl --pt-spp 1,4,16,64 \
+"$bin/mr-eval" sweep "$out/capture/scene.json" --out "$out/sweep" --methods pt,ic,vpl,vct --pt-spp 1,4,16,64 --vct-resolution 16,32 --vct-spp 4 \
   --ic-rays 32,128 --ic-spp 4,16 --vpl-paths 64,256 --vpl-spp 2,8 --report "$out/sweep-report.json" -q
 # The room from RGB-D: a synthetic Kinect-like recording of the room,
 # reconstructed by mr-fuse (tracking, hashed TSDF, meshing, albedo de-lit by

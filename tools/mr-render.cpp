@@ -21,7 +21,7 @@ int main(int argc, char** argv) {
       "  mr-render capture/scene.json --out render --spp 64 --report render/report.json");
   app.add_option("scene", scene_file, "Scene description (docs/formats.md)")->required()->check(CLI::ExistingFile);
   app.add_option("--out", out, "Output folder (default: the scene's output.dir)");
-  app.add_option("--method", method, "Rendering method (default: the scene's render.method); available: pt");
+  app.add_option("--method", method, "Rendering method (default: the scene's render.method); pt, ic, vpl, vct, prt");
   auto* spp_opt = app.add_option("--spp", spp, "Samples per pixel (default: the scene's render.spp)")->check(CLI::PositiveNumber);
   app.add_option("--time-budget", budget, "Seconds per frame; stops sampling when reached (0 = none)")
       ->check(CLI::NonNegativeNumber)->excludes(spp_opt);

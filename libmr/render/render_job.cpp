@@ -1,5 +1,7 @@
 #include "render/render_job.h"
 
+#include <algorithm>
+
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -97,6 +99,8 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
 
 void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const std::string method = o.method.empty() ? scene.render.method : o.method;
+  if (std::find(RenderMethods().begin(), RenderMethods().end(), method) == RenderMethods().end())
+    throw UsageError(fmt::format("unknown method \"{}\" (pt, ic, vpl, vct, prt)", method));
   const int spp = o.spp > 0 ? o.spp : scene.render.spp;
   const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
   const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;

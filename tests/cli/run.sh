@@ -93,14 +93,18 @@ check "mr-render" 0 "" -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/ren
 check "render report" 0 '"region_relmse"' -- cat "$tmp/render.json"
 check "render layers" 0 "composite" -- "$bin/mr-info" "$tmp/render/00001.exr"
 check "mr-eval compare" 0 "relmse" -- "$bin/mr-eval" compare "$tmp/render/00000.exr" "$tmp/cap/truth/00000.exr" --diff "$tmp/diff.png" --report "$tmp/cmp.json"
-check "unknown method" 2 'method "vct" is not available yet' -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/r2" --method vct
+check "unknown method" 2 'voxels' -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/r2" --method voxels
 # The fast GI methods, their reports and the error-against-time sweep.
 check "mr-render ic" 0 "" -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/ric" --method ic --spp 1 -q --report "$tmp/ric.json"
 check "ic report" 0 '"records_created"' -- cat "$tmp/ric.json"
 check "ic temporal figure" 0 '"temporal_change"' -- cat "$tmp/ric.json"
 check "mr-render vpl" 0 "" -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/rvpl" --method vpl --spp 1 -q --report "$tmp/rvpl.json"
 check "vpl report" 0 '"clamp_bias_mixed"' -- cat "$tmp/rvpl.json"
-check "mr-eval sweep" 0 "region relMSE" -- "$bin/mr-eval" sweep "$tmp/cap/scene.json" --out "$tmp/sweep" --methods pt,ic,vpl --pt-spp 1,2 --ic-rays 16 --ic-spp 1 --vpl-paths 16 --vpl-spp 1 --frames 0:1
+check "mr-render vct" 0 "" -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/rvct" --method vct --spp 1 -q --report "$tmp/rvct.json"
+check "vct report" 0 '"injected_bounces"' -- cat "$tmp/rvct.json"
+sed 's/"render": {/"render": {"vct": {"resolution": 16, "relight": "both"},/' "$tmp/cap/scene.json" > "$tmp/cap/scene-badvct.json"
+check "bad vct value" 1 "relight" -- "$bin/mr-render" "$tmp/cap/scene-badvct.json" --out "$tmp/rbadvct" -q
+check "mr-eval sweep" 0 "region relMSE" -- "$bin/mr-eval" sweep "$tmp/cap/scene.json" --out "$tmp/sweep" --methods pt,ic,vpl,vct --pt-spp 1,2 --ic-rays 16 --ic-spp 1 --vpl-paths 16 --vpl-spp 1 --vct-resolution 16 --vct-spp 1 --frames 0:1
 check "sweep outputs" 0 "sweep.csv" -- ls "$tmp/sweep"
 check "sweep plot" 0 "" -- test -s "$tmp/sweep/error-vs-time.png"
 sed 's/"render": {/"render": {"vpl": {"paths": 16, "clamp": 0.1},/' "$tmp/cap/scene.json" > "$tmp/cap/scene-badvpl.json"

@@ -178,6 +178,9 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (!scene.camera.frames)
       report->Skip("background", "the scene names no camera frames: prt composites the objects over black");
   }
+  bool has_emissive = false;  // vpl and vct take no light from emissive surfaces
+  for (const auto& r : scene.reals) has_emissive = has_emissive || r.material.IsEmissive();
+  for (const auto& v : scene.virtuals) has_emissive = has_emissive || v.material.IsEmissive();
   std::shared_ptr<const VplSet> vpls;
   if (method == "vpl" && !copy_through) {
     ScopedTimer t(report, "build vpls");
@@ -192,10 +195,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     vs.seed = scene.render.seed;
     vpls = VplSet::Build(rs, vs);
     vpls->Describe(report);
-    bool emissive = false;
-    for (const auto& r : scene.reals) emissive = emissive || r.material.IsEmissive();
-    for (const auto& v : scene.virtuals) emissive = emissive || v.material.IsEmissive();
-    if (emissive)
+    if (has_emissive)
       report->Warn("vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights only)");
   }
   std::shared_ptr<const VctVolumes> vct_volumes;
@@ -217,10 +217,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     vs.seed = scene.render.seed;
     vct_volumes = VctVolumes::Build(rs, vs);
     vct_volumes->Describe(report);
-    bool emissive = false;
-    for (const auto& r : scene.reals) emissive = emissive || r.material.IsEmissive();
-    for (const auto& v : scene.virtuals) emissive = emissive || v.material.IsEmissive();
-    if (emissive)
+    if (has_emissive)
       report->Warn("vct: emissive surfaces are seen and lit but inject no light into the volumes");
   }
   std::unique_ptr<IrradianceCache> ic_cache;

@@ -18,6 +18,8 @@ packages=(
   libopenmesh-dev libembree-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  # the end-to-end pipeline: video registration, batch rendering, man pages
+  colmap parallel help2man
 )
 
 missing=()

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "eval/merge.h"
 #include "eval/metrics.h"
 #include "eval/plot.h"
 #include "eval/sweep.h"
@@ -111,7 +112,31 @@ int main(int argc, char** argv) {
   sweep->add_option("--prt-spp", so.prt_spp, "prt: samples per pixel")->delimiter(',')->default_str("1,4,16");
   sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
+  mr::MergeOptions mo;
+  std::vector<std::string> merge_reports;
+  std::string merge_video;
+  CLI::App* merge = app.add_subcommand(
+      "merge",
+      "Merges the reports of mr-render shards (mr-render --frames A:B, one per machine or job) into one\n"
+      "report (--report): frames in order, timings summed, error figures averaged over frames as one run\n"
+      "averages them; with --video, the composites of every shard's EXR frames in frame order as one video.\n"
+      "Refuses shards of different scenes or methods and overlapping ranges; a frame range that no shard\n"
+      "rendered is an error unless --allow-gaps. See docs/cluster.md.");
+  merge->fallthrough();
+  merge->add_option("REPORTS", merge_reports, "Shard reports (mr-render --report)")->required()->check(CLI::ExistingFile);
+  merge->add_option("--video", merge_video, "Video to write (.mp4 or .avi)");
+  merge->add_option("--fps", mo.fps, "Frames per second of the video")->default_val(30)->check(CLI::PositiveNumber);
+  merge->add_flag("--allow-gaps", mo.allow_gaps, "Merge even when some frames were rendered by no shard");
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
+    if (merge->parsed()) {
+      for (const auto& r : merge_reports) mo.reports.push_back(r);
+      if (!merge_video.empty()) mo.video = merge_video;
+      mr::MergeRenderReports(mo, &mr::ToolReport());
+      const auto& m = mr::ToolReport().metrics();
+      std::printf("merged %d shards: %zu frames%s\n", m["shards"].get<int>(), m["frames"].size(),
+                  m.contains("relmse") ? fmt::format(", relMSE {:.4g}", m["relmse"].get<double>()).c_str() : "");
+      return mr::kExitOk;
+    }
     if (sweep->parsed()) {
       so.methods.clear();
       std::stringstream ss(methods);

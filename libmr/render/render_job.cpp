@@ -124,6 +124,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (end < 0 || end > n_frames) end = n_frames;
   if (begin >= end) throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
   const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
+  const bool shard = begin > 0 || end < n_frames;
+  report->SetMetric("shard", Json{{"begin", begin}, {"end", end}, {"scene_frames", n_frames}});
+  const std::string frame_provenance =
+      fmt::format("scene {} method {} spp {} time_budget {} seed {}", scene.file.filename().string(), method, spp,
+                  budget, scene.render.seed);
   // "display": the camera response is unknown, so the photograph stays in
   // display values and the renders are brought to display space by the tone
   // map TM(L) = sRGB(clamp(exposure L)); the composite is
@@ -150,6 +155,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (video_in->width() != camera.width() || video_in->height() != camera.height())
       ThrowErrorAt(FileLoc{scene.camera.frames->string()}, "video is {}x{}, the camera model says {}x{}",
                    video_in->width(), video_in->height(), camera.width(), camera.height());
+  }
+  if (video_in && shard) {
+    report->Skip("composite video", fmt::format("frames {}:{} are a shard of {}: `mr-eval merge` writes the video "
+                                                "from every shard's frames", begin, end, n_frames));
+  } else if (video_in) {
     const fs::path vpath = out_dir / "composite.mp4";
     video_out = std::make_unique<VideoWriter>(vpath, camera.width(), camera.height(),
                                               video_in->fps() > 0 ? video_in->fps() : 30.0);
@@ -235,6 +245,9 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     is.max_depth = scene.render.max_depth;
     is.seed = scene.render.seed;
     ic_cache = std::make_unique<IrradianceCache>(rs, is);
+    if (begin > 0)
+      report->Warn(fmt::format("ic: the cache starts empty at frame {} (records carry over between frames), so frames of "
+                               "this shard differ from an unsharded run within ic's accuracy", begin));
   }
   // ic's temporal figure: the previous frame's interpolated irradiance.
   std::vector<float> prev_irradiance;
@@ -413,7 +426,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       if (photo) layers.AppendLayer("photo", *photo);
       ImageWriteOptions wo;
       wo.tool = o.tool;
-      wo.command_line = o.command_line;
+      // A frame's provenance is what decides its pixels, not how the job
+      // was split: no command line (it names --frames), so that a frame
+      // rendered in a shard is byte-identical to the same frame rendered
+      // in one run (docs/cluster.md).  The report keeps the command line.
+      wo.attributes["mr:render"] = frame_provenance + fmt::format(" frame {}", f);
       wo.pixel_type = scene.output.half ? PixelType::kHalf : PixelType::kFloat;
       const fs::path exr = out_dir / fmt::format("{:05d}.exr", f);
       WriteImage(exr, layers, wo);

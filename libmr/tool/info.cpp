@@ -12,6 +12,7 @@
 #include "probe/unwrap.h"
 #include "scene/lights.h"
 #include "transfer/formfactor.h"
+#include "render/render_job.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -146,8 +147,12 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     for (const auto& v : s.virtuals) fi->lines.push_back(fmt::format("  {}: {}", v.name, v.mesh.string()));
     fi->lines.push_back(fmt::format("render: method {}, {} spp, max depth {}, seed {}", s.render.method, s.render.spp,
                                     s.render.max_depth, s.render.seed));
+    const int n_frames = static_cast<int>(LoadScenePoses(s).size());
+    const int end = s.render.frame_end < 0 || s.render.frame_end > n_frames ? n_frames : s.render.frame_end;
+    fi->lines.push_back(fmt::format("frames: {} (rendered: {}:{})", n_frames, s.render.frame_begin, end));
     fi->lines.push_back("valid");
-    fi->json = {{"virtual_objects", s.virtuals.size()}, {"method", s.render.method}};
+    fi->json = {{"virtual_objects", s.virtuals.size()}, {"method", s.render.method}, {"frames", n_frames},
+                {"frame_begin", s.render.frame_begin}, {"frame_end", end}};
   }
 }
 

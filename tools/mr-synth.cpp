@@ -14,10 +14,11 @@ int main(int argc, char** argv) {
       "Writes a deterministic synthetic capture of a known room: camera model, trajectory (TUM),\n"
       "photographs I_c (linear EXR and 8-bit PNG), room meshes with their albedos, a sky with a sun,\n"
       "the virtual object, scene.json, and the ground truth (converged render of room + object)\n"
-      "named by scene.json's \"reference\". Presets: small (64x48, 2 frames, seconds), room\n"
+      "named by scene.json's \"reference\". Presets: small (64x48, 2 frames, seconds), medium\n"
+      "(160x120, 4 frames, the main job's), room\n"
       "(640x480, 4 frames, for benchmarks).",
       "  mr-synth --preset small --out capture && mr-render capture/scene.json");
-  app.add_option("--preset", o.preset, "small or room")->default_val("small");
+  app.add_option("--preset", o.preset, "small, medium or room")->default_val("small");
   app.add_option("--out", o.out, "Output folder (created)")->required();
   app.add_option("--seed", o.seed, "Random seed")->default_val(1);
   app.add_option("--object", o.object, "Virtual object: sphere, box, or a mesh file")->default_val("sphere");
@@ -31,7 +32,8 @@ int main(int argc, char** argv) {
   std::string boards, board_file;
   app.add_option("--boards", boards,
                  "Instead of a room: calibration photographs of a board through a known lens: pinhole, opencv8, "
-                 "fisheye190 (a 190-degree splined fish-eye) or rig (two cameras); with the true models in truth/");
+                 "fisheye190 (a 190-degree splined fish-eye), rig (two cameras), or a .cameramodel file (e.g. a capture's "
+                 "camera); with the true models in truth/");
   app.add_option("--board", board_file, "The board for --boards (default: 8x6 inner corners of 30 mm, OpenCV's detector)")
       ->check(CLI::ExistingFile);
   bool rgbd = false;

@@ -131,8 +131,14 @@ std::vector<fs::path> WriteBoardSet(const std::string& lens, const BoardSpec& b,
     for (int i = 0; i < 2 * 8 * 8; ++i) k.push_back(0.01 * std::sin(0.7 * i));
     cams.push_back({"camera", CameraModel(name, k, 640, 640), Rigid3()});
     poses = FisheyeBoardPoses(b, 0.3);
+  } else if (LowerExtension(lens) == ".cameramodel") {
+    // Any camera, e.g. a capture's (mr-synth --preset medium writes
+    // camera.cameramodel): the same views as the pinhole set.
+    cams.push_back({"camera", CameraModel::Read(lens), Rigid3()});
+    poses = CalibrationBoardPoses(b, 14);
   } else {
-    throw UsageError(fmt::format("unknown --boards lens \"{}\" (pinhole, opencv8, fisheye190 or rig)", lens));
+    throw UsageError(
+        fmt::format("unknown --boards lens \"{}\" (pinhole, opencv8, fisheye190, rig or a .cameramodel)", lens));
   }
   std::vector<fs::path> written;
   std::error_code ec;

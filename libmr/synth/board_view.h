@@ -41,7 +41,8 @@ std::vector<Rigid3> FisheyeBoardPoses(const BoardSpec& board, double distance);
 // A synthetic calibration set (mr-synth --boards LENS): photographs of
 // `board` through a known lens, "pinhole" (640x480), "opencv8" (640x480),
 // "fisheye190" (a 190-degree splined stereographic lens, 640x640) or "rig"
-// (two OPENCV8 cameras 11 cm apart): out/board.json, out/truth/CAM.cameramodel
+// (two OPENCV8 cameras 11 cm apart), or through the camera of a
+// .cameramodel file: out/board.json, out/truth/CAM.cameramodel
 // and out/photos/CAM-NN.png, with noise, plus three photographs the
 // calibration must leave out (blurred, over-exposed, the board half out of
 // the frame).  Returns the files written.

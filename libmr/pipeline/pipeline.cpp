@@ -1,0 +1,826 @@
+#include "pipeline/pipeline.h"
+
+#include <fcntl.h>
+#include <fnmatch.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "core/json_node.h"
+#include "core/version.h"
+#include "geometry/mesh.h"
+#include "scene/scene.h"
+
+extern char** environ;
+
+namespace mr {
+
+const std::vector<std::string>& PipelineStageNames() {
+  static const std::vector<std::string> n = {"calibrate", "sphere",     "hdr",   "probe",  "lights", "fuse",
+                                             "register",  "formfactor", "scene", "render", "sweep"};
+  return n;
+}
+
+// ---------------------------------------------------------------------------
+// Content hashes
+
+namespace {
+
+// FNV-1a over 8-byte words with a final avalanche (splitmix64): fast enough
+// for gigabytes of recordings, and any changed byte changes the hash.
+struct Hasher {
+  uint64_t h = 0xcbf29ce484222325ull;
+  void Word(uint64_t w) { h = (h ^ w) * 0x100000001b3ull; }
+  void Bytes(const char* p, size_t n) {
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+      uint64_t w;
+      std::memcpy(&w, p + i, 8);
+      Word(w);
+    }
+    uint64_t tail = 0;
+    std::memcpy(&tail, p + i, n - i);
+    Word(tail ^ (static_cast<uint64_t>(n - i) << 56));
+  }
+  void String(const std::string& s) {
+    Word(s.size());
+    Bytes(s.data(), s.size());
+  }
+  uint64_t Final() const {
+    uint64_t z = h + 0x9e3779b97f4a7c15ull;
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  }
+};
+
+void HashFile(const fs::path& path, Hasher* h) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) ThrowErrorAt(FileLoc{path.string()}, "cannot read");
+  std::vector<char> buf(1 << 16);
+  uint64_t total = 0;
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const auto n = static_cast<size_t>(in.gcount());
+    if (n == 0) break;
+    h->Bytes(buf.data(), n);
+    total += n;
+  }
+  h->Word(total);
+}
+
+std::string Hex(uint64_t v) { return fmt::format("{:016x}", v); }
+
+}  // namespace
+
+uint64_t ContentHash(const fs::path& path) {
+  Hasher h;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::recursive_directory_iterator(path))
+      if (e.is_regular_file()) files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) {
+      h.String(f.lexically_relative(path).generic_string());
+      HashFile(f, &h);
+    }
+    h.Word(files.size());
+  } else {
+    HashFile(path, &h);
+  }
+  return h.Final();
+}
+
+// ---------------------------------------------------------------------------
+// Planning
+
+namespace {
+
+using Node = JsonNode;
+
+struct Planner {
+  Pipeline* p;
+  const std::string* name;
+
+  fs::path Path(const Node& n, const char* what) const {
+    fs::path f = n.String();
+    if (f.empty()) n.Fail("empty path");
+    if (f.is_relative()) f = p->base / f;
+    std::error_code ec;
+    if (!fs::exists(f, ec)) n.Fail(fmt::format("{} {} does not exist", what, f.string()));
+    return f.lexically_normal();
+  }
+  // A path that a stage may write, or a frame pattern (printf-style): only
+  // its folder has to exist.
+  fs::path Pattern(const Node& n, const char* what) const {
+    fs::path f = n.String();
+    if (f.empty()) n.Fail("empty path");
+    if (f.is_relative()) f = p->base / f;
+    std::error_code ec;
+    if (f.string().find('%') == std::string::npos) return Path(n, what);
+    if (!fs::is_directory(f.parent_path(), ec)) n.Fail(fmt::format("the folder of {} does not exist", f.string()));
+    return f.lexically_normal();
+  }
+  // One path, or a list of paths; '*' and '?' in a file name match files of
+  // its folder (sorted).  An empty match is an error.
+  std::vector<fs::path> Files(const Node& n, const char* what) const {
+    std::vector<fs::path> out;
+    auto one = [&](const Node& e) {
+      fs::path f = e.String();
+      if (f.is_relative()) f = p->base / f;
+      const std::string pattern = f.filename().string();
+      if (pattern.find_first_of("*?[") == std::string::npos) {
+        out.push_back(Path(e, what));
+        return;
+      }
+      std::vector<fs::path> m;
+      std::error_code ec;
+      if (fs::is_directory(f.parent_path(), ec))
+        for (const auto& d : fs::directory_iterator(f.parent_path()))
+          if (d.is_regular_file() && fnmatch(pattern.c_str(), d.path().filename().c_str(), 0) == 0)
+            m.push_back(d.path().lexically_normal());
+      if (m.empty()) e.Fail(fmt::format("no {} match {}", what, f.string()));
+      std::sort(m.begin(), m.end());
+      out.insert(out.end(), m.begin(), m.end());
+    };
+    if (n.json().is_array()) {
+      if (n.json().empty()) n.Fail(fmt::format("an empty list of {}", what));
+      for (size_t i = 0; i < n.json().size(); ++i) one(n.Index(i));
+    } else {
+      one(n);
+    }
+    return out;
+  }
+  // "options": {"albedo-rays": 64, "no-albedo": true} -> --albedo-rays 64 --no-albedo.
+  // The tool checks them (unknown flags are its usage errors).
+  std::vector<std::string> Options(const Node& parent, const char* key = "options") const {
+    std::vector<std::string> a;
+    if (!parent.Has(key)) return a;
+    const Node n = parent.Child(key);
+    if (!n.json().is_object()) n.Fail("expected an object of tool options, e.g. {\"width\": 256}");
+    for (auto& [k, v] : n.json().items()) {
+      if (k.empty() || k[0] == '-') n.Child(k).Fail("option names go without the leading --");
+      if (v.is_boolean()) {
+        if (v.get<bool>()) a.push_back("--" + k);
+      } else if (v.is_string()) {
+        a.insert(a.end(), {"--" + k, v.get<std::string>()});
+      } else if (v.is_number()) {
+        a.insert(a.end(), {"--" + k, v.dump()});
+      } else if (v.is_array()) {
+        std::string list;
+        for (const auto& e : v) list += (list.empty() ? "" : ",") + (e.is_string() ? e.get<std::string>() : e.dump());
+        a.insert(a.end(), {"--" + k, list});
+      } else {
+        n.Child(k).Fail("expected a string, number, true/false or a list");
+      }
+    }
+    return a;
+  }
+  std::string Rel(const fs::path& f) const { return f.lexically_relative(p->work).generic_string(); }
+};
+
+void Append(std::vector<std::string>* a, const std::vector<std::string>& b) { a->insert(a->end(), b.begin(), b.end()); }
+void AppendPaths(std::vector<std::string>* a, const std::vector<fs::path>& b) {
+  for (const auto& f : b) a->push_back(f.string());
+}
+
+// A scene entry ("real" or "virtual") with its paths rebased to the work folder.
+Json Rebase(const Planner& pl, const Node& n, const std::vector<std::string>& path_keys) {
+  Json out = n.json();
+  if (!out.is_object()) n.Fail("expected an object");
+  for (const std::string& k : path_keys)
+    if (n.Has(k.c_str()) && n.Child(k).json().is_string()) out[k] = pl.Rel(pl.Path(n.Child(k), k.c_str()));
+  return out;
+}
+
+}  // namespace
+
+Pipeline PlanPipeline(const fs::path& file) {
+  Pipeline p;
+  p.file = file;
+  p.base = file.parent_path().empty() ? fs::path(".") : file.parent_path();
+  p.base = fs::absolute(p.base).lexically_normal();
+  try {
+    p.json = Json::parse(ReadTextFile(file));
+  } catch (const Json::parse_error& e) {
+    ThrowErrorAt(FileLoc{file.string()}, "not JSON: {}", e.what());
+  }
+  const std::string name = file.string();
+  const Node root(p.json, "", &name);
+  root.RequireObject({"version", "comment", "work", "camera", "lighting", "room", "video", "virtual", "render",
+                      "output", "reference", "formfactor", "outputs"});
+  if (root.Required("version").Integer(1, 1) != 1) root.Fail("version must be 1");
+  Planner pl{&p, &name};
+  p.work = (p.base / (root.Has("work") ? root.Child("work").String() : std::string("work"))).lexically_normal();
+  const fs::path& w = p.work;
+  auto stage = [&](const std::string& n) -> PipelineStage& {
+    p.stages.push_back({});
+    PipelineStage& s = p.stages.back();
+    s.name = n;
+    s.report = w / "reports" / (n + ".json");
+    return s;
+  };
+  Json scene = {{"version", 1}};
+
+  // The scene camera: a model, or calibrated from board photographs.
+  const Node cam = root.Required("camera");
+  cam.RequireObject({"model", "boards"});
+  fs::path camera_model;
+  {
+    PipelineStage& s = stage("calibrate");
+    s.tool = "mr-calibrate";
+    if (cam.Has("model") == cam.Has("boards")) cam.Fail("give either camera.model or camera.boards");
+    if (cam.Has("model")) {
+      camera_model = pl.Path(cam.Child("model"), "camera model");
+      s.skip = "camera.model is given: " + camera_model.string();
+    } else {
+      const Node b = cam.Child("boards");
+      b.RequireObject({"photos", "board", "lensmodel", "options"});
+      const auto photos = pl.Files(b.Required("photos"), "board photographs");
+      const fs::path board = pl.Path(b.Required("board"), "board definition");
+      camera_model = w / "camera.cameramodel";
+      s.args = {"camera", "--board", board.string(), "--out", camera_model.string()};
+      if (b.Has("lensmodel")) Append(&s.args, {"--lensmodel", b.Child("lensmodel").String()});
+      Append(&s.args, pl.Options(b));
+      AppendPaths(&s.args, photos);
+      s.inputs = photos;
+      s.inputs.push_back(board);
+      s.outputs = {camera_model};
+      s.does = fmt::format("the scene camera's intrinsics from {} board photographs (mrcal)", photos.size());
+    }
+  }
+
+  // The lighting: a map, or a probe (photographs -> HDR -> unwrapped map),
+  // and optionally lights extracted from it.
+  const Node light = root.Required("lighting");
+  light.RequireObject({"environment", "probe", "lights"});
+  if (light.Has("environment") == light.Has("probe")) light.Fail("give either lighting.environment or lighting.probe");
+  fs::path env, probe_json, probe_raw;
+  std::optional<Node> probe;
+  if (light.Has("probe")) {
+    probe.emplace(light.Child("probe"));
+    probe->RequireObject({"photos", "exposures", "probe", "sphere", "fisheye", "hdr", "unwrap"});
+  }
+  {
+    PipelineStage& s = stage("sphere");
+    s.tool = "mr-calibrate";
+    if (!probe) {
+      s.skip = "lighting.environment is given: no probe to locate";
+    } else if (probe->Has("fisheye")) {
+      s.skip = "the probe is a fish-eye view: no mirror sphere to locate";
+    } else if (probe->Has("probe")) {
+      probe_json = pl.Path(probe->Child("probe"), "probe.json");
+      s.skip = "lighting.probe.probe is given: " + probe_json.string();
+    } else {
+      if (!probe->Has("sphere")) probe->Fail("a mirror-sphere probe needs \"probe\" (probe.json) or \"sphere\" (its photographs)");
+      const Node sp = probe->Child("sphere");
+      sp.RequireObject({"camera", "photos", "radius", "options"});
+      const fs::path light_cam = pl.Path(sp.Required("camera"), "light camera model");
+      const auto photos = pl.Files(sp.Required("photos"), "sphere photographs");
+      const double radius = sp.Required("radius").Number(1e-4, 10);
+      probe_json = w / "probe.json";
+      s.args = {"sphere", "--camera", light_cam.string(), "--radius", fmt::format("{}", radius), "--out", probe_json.string()};
+      Append(&s.args, pl.Options(sp));
+      AppendPaths(&s.args, photos);
+      s.inputs = photos;
+      s.inputs.push_back(light_cam);
+      s.outputs = {probe_json};
+      s.does = "the mirror sphere's centre in the light camera (probe.json)";
+    }
+  }
+  {
+    PipelineStage& s = stage("hdr");
+    s.tool = "mr-hdr";
+    if (!probe) {
+      s.skip = "lighting.environment is given: no photographs to merge";
+    } else {
+      const auto photos = pl.Files(probe->Required("photos"), "probe photographs");
+      const std::string ext = LowerExtension(photos.front());
+      if (photos.size() == 1 && (ext == ".exr" || ext == ".hdr")) {
+        probe_raw = photos.front();
+        s.skip = "one HDR photograph of the probe: nothing to merge";
+      } else {
+        probe_raw = w / "probe-raw.exr";
+        s.args = {"--out", probe_raw.string(), "--save-response", (w / "probe-response.json").string()};
+        s.inputs = photos;
+        if (probe->Has("exposures")) {
+          const fs::path e = pl.Path(probe->Child("exposures"), "exposure list");
+          Append(&s.args, {"--exposures", e.string()});
+          s.inputs.push_back(e);
+        }
+        Append(&s.args, pl.Options(*probe, "hdr"));
+        AppendPaths(&s.args, photos);
+        s.outputs = {probe_raw, w / "probe-response.json"};
+        s.does = fmt::format("{} bracketed photographs of the probe merged into radiance", photos.size());
+      }
+    }
+  }
+  {
+    PipelineStage& s = stage("probe");
+    s.tool = "mr-probe";
+    if (!probe) {
+      env = pl.Path(light.Child("environment"), "environment map");
+      s.skip = "lighting.environment is given: " + env.string();
+    } else {
+      env = w / "env.exr";
+      s.args = {probe_raw.string(), "--out", env.string()};
+      s.inputs = {probe_raw};
+      if (probe->Has("fisheye")) {
+        const fs::path fe = pl.Path(probe->Child("fisheye"), "fish-eye camera model");
+        Append(&s.args, {"--fisheye", fe.string()});
+        s.inputs.push_back(fe);
+        s.does = "the fish-eye view unwrapped into a world-aligned lat-long map";
+      } else {
+        Append(&s.args, {"--probe", probe_json.string()});
+        s.inputs.push_back(probe_json);
+        s.does = "the mirror sphere unwrapped into a world-aligned lat-long map";
+      }
+      Append(&s.args, pl.Options(*probe, "unwrap"));
+      s.outputs = {env};
+    }
+  }
+  Json lighting = {{"environment", pl.Rel(env)}};
+  {
+    PipelineStage& s = stage("lights");
+    s.tool = "mr-lights";
+    if (!light.Has("lights")) {
+      s.skip = "lighting.lights is not asked for: the scene is lit by the environment map alone";
+    } else if (light.Child("lights").json().is_string()) {
+      const fs::path l = pl.Path(light.Child("lights"), "lights.json");
+      lighting["lights"] = pl.Rel(l);
+      s.skip = "lighting.lights is given: " + l.string();
+    } else {
+      const Node l = light.Child("lights");
+      l.RequireObject({"options"});
+      const fs::path out = w / "lights.json", residual = w / "env-residual.exr";
+      s.args = {env.string(), "--out", out.string(), "--residual", residual.string()};
+      Append(&s.args, pl.Options(l));
+      s.inputs = {env};
+      s.outputs = {out, residual};
+      s.does = "lights extracted from the map; the scene is lit by them and the residual map";
+      lighting = {{"environment", pl.Rel(residual)}, {"lights", pl.Rel(out)}};
+    }
+  }
+  scene["lighting"] = lighting;
+
+  // The room: meshes given, or fused from an RGB-D recording.
+  const Node room = root.Required("room");
+  room.RequireObject({"real", "rgbd", "options"});
+  if (room.Has("real") == room.Has("rgbd")) room.Fail("give either room.real (meshes) or room.rgbd (a recording to fuse)");
+  fs::path fused_mesh, fused_trajectory;
+  {
+    PipelineStage& s = stage("fuse");
+    s.tool = "mr-fuse";
+    if (room.Has("real")) {
+      const Node r = room.Child("real");
+      Json reals = Json::array();
+      if (r.json().is_array()) {
+        for (size_t i = 0; i < r.json().size(); ++i) reals.push_back(Rebase(pl, r.Index(i), {"mesh"}));
+      } else {
+        reals.push_back(Rebase(pl, r, {"mesh"}));
+      }
+      scene["real"] = reals;
+      s.skip = fmt::format("room.real gives {} mesh{}: no RGB-D recording to fuse", reals.size(), reals.size() == 1 ? "" : "es");
+    } else {
+      const fs::path rgbd = pl.Path(room.Child("rgbd"), "RGB-D recording");
+      fused_mesh = w / "room" / "room.ply";
+      fused_trajectory = w / "room" / "trajectory.txt";
+      s.args = {rgbd.string(), "--out", (w / "room").string()};
+      s.inputs = {rgbd};
+      const auto opts = pl.Options(room);
+      if (std::find(opts.begin(), opts.end(), "--no-albedo") == opts.end() &&
+          std::find(opts.begin(), opts.end(), "--env") == opts.end()) {
+        Append(&s.args, {"--env", env.string()});  // albedo de-lit by the captured light
+        s.inputs.push_back(env);
+      }
+      Append(&s.args, opts);
+      s.outputs = {fused_mesh, fused_trajectory};
+      s.does = "the room reconstructed from RGB-D (tracking, TSDF, mesh with de-lit albedo)";
+    }
+  }
+
+  // The video to augment and its poses.
+  const Node video = root.Required("video");
+  video.RequireObject({"frames", "frames_transfer", "exposure", "response", "poses"});
+  Json camera = {{"model", pl.Rel(camera_model)}};
+  if (video.Has("frames")) camera["frames"] = pl.Rel(pl.Pattern(video.Child("frames"), "video frames"));
+  if (video.Has("frames_transfer")) camera["frames_transfer"] = video.Child("frames_transfer").String();
+  if (video.Has("exposure")) camera["exposure"] = video.Child("exposure").json();
+  if (video.Has("response")) camera["response"] = pl.Rel(pl.Path(video.Child("response"), "camera response"));
+  fs::path poses;
+  {
+    PipelineStage& s = stage("register");
+    s.tool = "mr-register";
+    const Node ps = video.Required("poses");
+    ps.RequireObject({"tum", "fuse", "colmap", "register", "align", "options"});
+    const int given = ps.Has("tum") + ps.Has("fuse") + ps.Has("colmap") + ps.Has("register");
+    if (given != 1) ps.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
+    if (ps.Has("tum")) {
+      poses = pl.Path(ps.Child("tum"), "trajectory");
+      s.skip = "video.poses.tum is given: " + poses.string();
+    } else if (ps.Has("fuse")) {
+      if (fused_trajectory.empty()) ps.Child("fuse").Fail("the room is not fused (room.rgbd): there is no fused trajectory");
+      poses = fused_trajectory;
+      s.skip = "the video is the RGB-D recording's colour: its poses are mr-fuse's trajectory";
+    } else {
+      poses = w / "video" / "poses.txt";
+      const fs::path model_out = w / "video" / "camera.cameramodel";
+      const std::string align = ps.Has("align") ? ps.Child("align").OneOf({"trajectory", "mesh"}) : "trajectory";
+      if (ps.Has("colmap")) {
+        const fs::path m = pl.Path(ps.Child("colmap"), "COLMAP model");
+        s.args = {"align", m.string()};
+        s.inputs = {m};
+        s.does = "the COLMAP model aligned to the room (similarity, Ceres)";
+      } else {
+        if (!video.Has("frames")) ps.Fail("registration needs video.frames");
+        s.args = {"colmap", (p.base / video.Child("frames").String()).lexically_normal().string(), "--workspace",
+                  (w / "video" / "colmap").string()};
+        s.inputs = {fs::path(s.args[1]).parent_path()};
+        s.does = "the video's frames registered by COLMAP and aligned to the room (similarity, Ceres)";
+      }
+      if (align == "trajectory") {
+        if (fused_trajectory.empty()) ps.Fail("align: trajectory needs the room fused from RGB-D (its trajectory); use align: mesh");
+        Append(&s.args, {"--trajectory", fused_trajectory.string()});
+        s.inputs.push_back(fused_trajectory);
+      } else {
+        const fs::path m = fused_mesh.empty() ? pl.Path(room.Child("real").json().is_array() ? room.Child("real").Index(0).Required("mesh")
+                                                                                              : room.Child("real").Required("mesh"),
+                                                        "room mesh")
+                                              : fused_mesh;
+        Append(&s.args, {"--mesh", m.string()});
+        s.inputs.push_back(m);
+      }
+      Append(&s.args, {"--out", poses.string(), "--camera-out", model_out.string()});
+      Append(&s.args, pl.Options(ps));
+      s.outputs = {poses, model_out};
+    }
+    if (!poses.empty()) camera["poses"] = {{"format", "tum"}, {"path", pl.Rel(poses)}};
+  }
+  scene["camera"] = camera;
+
+  // Virtual objects, with form factors where prt needs them.
+  const Json render = root.Has("render") ? root.Child("render").json() : Json::object();
+  const std::string method = render.value("method", "pt");
+  Json virtuals = Json::array();
+  {
+    PipelineStage& s = stage("formfactor");
+    s.tool = "mr-formfactor";
+    const Node v = root.Required("virtual");
+    if (!v.json().is_array()) v.Fail("expected a list of virtual objects");
+    const auto opts = root.Has("formfactor") ? pl.Options(root, "formfactor") : std::vector<std::string>();
+    for (size_t i = 0; i < v.json().size(); ++i) {
+      const Node o = v.Index(i);
+      Json e = Rebase(pl, o, {"mesh", "formfactors"});
+      const bool wants = method == "prt" ? !(o.Has("formfactors") && o.Child("formfactors").json().is_string())
+                                         : o.Has("formfactors") && o.Child("formfactors").json().is_boolean() &&
+                                               o.Child("formfactors").Bool();
+      if (o.Has("formfactors") && o.Child("formfactors").json().is_boolean() && !o.Child("formfactors").Bool())
+        e.erase("formfactors");
+      if (wants) {
+        if (!s.args.empty()) o.Fail("form factors for more than one object: give each its own ffc file");
+        const fs::path mesh = pl.Path(o.Required("mesh"), "mesh");
+        const std::string nm = o.Has("name") ? o.Child("name").String() : fmt::format("object{}", i);
+        const fs::path ffc = w / (nm + ".ffc");
+        s.args = {mesh.string(), "--out", ffc.string()};
+        Append(&s.args, opts);
+        s.inputs = {mesh};
+        s.outputs = {ffc};
+        s.does = fmt::format("per-vertex form factors of {}", nm);
+        e["formfactors"] = pl.Rel(ffc);
+      }
+      virtuals.push_back(e);
+    }
+    if (s.args.empty())
+      s.skip = method == "prt" ? "every virtual object names its form factors"
+                               : fmt::format("render.method is {}: form factors are only used by prt", method);
+  }
+  scene["virtual"] = virtuals;
+  scene["render"] = render;
+  Json output = root.Has("output") ? root.Child("output").json() : Json::object();
+  output["dir"] = "render";
+  scene["output"] = output;
+  if (root.Has("reference")) scene["reference"] = pl.Rel(pl.Pattern(root.Child("reference"), "reference frames"));
+  scene["comment"] = fmt::format("written by mr-pipeline from {}", file.string());
+  const fs::path scene_file = w / "scene.json";
+  {
+    PipelineStage& s = stage("scene");
+    s.args = {};
+    s.inputs = {file, camera_model, env};
+    if (lighting.contains("lights")) s.inputs.push_back(w / lighting["lights"].get<std::string>());
+    if (!fused_mesh.empty()) s.inputs.push_back(fused_mesh);
+    if (!poses.empty()) s.inputs.push_back(poses);
+    for (const auto& v2 : virtuals)
+      if (v2.contains("formfactors")) s.inputs.push_back(w / v2["formfactors"].get<std::string>());
+    s.outputs = {scene_file};
+    s.does = fused_mesh.empty() ? "scene.json naming every input" : "scene.json naming every input (the fused room's mean albedo)";
+  }
+  if (!fused_mesh.empty()) {
+    // The albedo is the fused mesh's mean, filled in when the scene stage runs.
+    scene["real"] = Json::array({{{"mesh", pl.Rel(fused_mesh)}, {"material", {{"albedo", {0.5, 0.5, 0.5}}}}}});
+    p.fused_room = fused_mesh;
+  }
+  // Validate the assembled scene now (files that stages make need not exist yet).
+  ParseScene(scene, w, (w / "scene.json").string(), false);
+  p.scene = scene;
+
+  const Json outputs = root.Has("outputs") ? root.Child("outputs").json() : Json{{"render", true}};
+  const Node outs(outputs, "outputs", &name);
+  outs.RequireObject({"render", "sweep"});
+  {
+    PipelineStage& s = stage("render");
+    s.tool = "mr-render";
+    if (outs.Has("render") && !outs.Child("render").Bool()) {
+      s.skip = "outputs.render is false";
+    } else {
+      s.args = {scene_file.string(), "--out", (w / "render").string()};
+      s.inputs = {scene_file};
+      s.outputs = {w / "render"};
+      s.does = fmt::format("the virtual objects rendered into every frame ({}) and composited", method);
+    }
+  }
+  {
+    PipelineStage& s = stage("sweep");
+    s.tool = "mr-eval";
+    if (!outs.Has("sweep")) {
+      s.skip = "outputs.sweep is not asked for";
+    } else if (!root.Has("reference")) {
+      s.skip = "no reference frames (reference): there is nothing to measure error against";
+    } else {
+      const Node sw = outs.Child("sweep");
+      if (sw.json().is_boolean() && !sw.Bool()) {
+        s.skip = "outputs.sweep is false";
+      } else {
+        s.args = {"sweep", scene_file.string(), "--out", (w / "sweep").string()};
+        if (sw.json().is_object()) {
+          sw.RequireObject({"options"});
+          Append(&s.args, pl.Options(sw));
+        }
+        s.inputs = {scene_file};
+        s.outputs = {w / "sweep"};
+        s.does = "error against run time of the rendering methods against the reference";
+      }
+    }
+  }
+  return p;
+}
+
+// ---------------------------------------------------------------------------
+// Running
+
+namespace {
+
+fs::path ToolPath(const std::string& tool, const fs::path& bin_dir) {
+  if (!bin_dir.empty()) return bin_dir / tool;
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  if (!ec && fs::exists(self.parent_path() / tool)) return self.parent_path() / tool;
+  return tool;  // PATH
+}
+
+// Runs argv with stdout and stderr into `log`; returns the exit status.
+int Spawn(const std::vector<std::string>& argv, const fs::path& log) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int err = posix_spawnp(&pid, args[0], &fa, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (err != 0) return 127;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
+}
+
+// The tool's own error lines from its log (the last few).
+std::string ErrorLines(const fs::path& log) {
+  std::ifstream in(log);
+  std::vector<std::string> lines, errors;
+  for (std::string l; std::getline(in, l);) {
+    lines.push_back(l);
+    if (l.find("error") != std::string::npos) errors.push_back(l);
+  }
+  const auto& pick = errors.empty() ? lines : errors;
+  std::string out;
+  for (size_t i = pick.size() > 3 ? pick.size() - 3 : 0; i < pick.size(); ++i) {
+    if (!out.empty()) out += "\n  ";
+    out += pick[i];
+  }
+  return out;
+}
+
+std::string Quote(const std::string& s) {
+  if (s.find_first_of(" \t'\"$\\*?") == std::string::npos && !s.empty()) return s;
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+// The scene stage: scene.json, with the fused room's mean albedo (the render
+// methods read one albedo per mesh).
+void WriteSceneJson(const Pipeline& p, Report* report) {
+  Json scene = p.scene;
+  if (!p.fused_room.empty()) {
+    Json& r = scene["real"][0];
+    const Mesh m = ReadMesh(p.fused_room);
+    if (m.colors.size() != m.positions.size())
+      ThrowErrorAt(FileLoc{p.fused_room.string()}, "the fused room has no vertex colours (albedo)");
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const auto& c : m.colors) sum += c.cast<double>();
+    Eigen::Vector3d mean = sum / std::max<size_t>(1, m.colors.size());
+    for (int c = 0; c < 3; ++c) mean[c] = std::clamp(mean[c], 0.0, 0.99);
+    r["material"]["albedo"] = {mean[0], mean[1], mean[2]};
+    report->Warn(fmt::format("the fused room is rendered with its mean albedo ({:.3f}, {:.3f}, {:.3f}): the render "
+                             "methods read one albedo per mesh",
+                             mean[0], mean[1], mean[2]));
+  }
+  ParseScene(scene, p.work, (p.work / "scene.json").string(), true);
+  WriteTextFile(p.work / "scene.json", scene.dump(2) + "\n");
+}
+
+}  // namespace
+
+void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report) {
+  const auto& names = PipelineStageNames();
+  auto known = [&](const std::string& s, const char* flag) {
+    if (std::find(names.begin(), names.end(), s) == names.end())
+      throw UsageError(fmt::format("{} {}: no such stage (stages: {})", flag, s, fmt::join(names, ", ")));
+  };
+  if (!o.until.empty()) known(o.until, "--until");
+  for (const auto& f : o.force) known(f, "--force");
+  report->AddInput(p.file.string());
+  std::error_code ec;
+  if (!o.dry_run) {
+    fs::create_directories(p.work / ".mr-pipeline", ec);
+    fs::create_directories(p.work / "reports", ec);
+    fs::create_directories(p.work / "logs", ec);
+    if (!fs::is_directory(p.work / "logs")) ThrowErrorAt(FileLoc{p.work.string()}, "cannot create the work folder");
+  }
+  Json stages = Json::array();
+  std::set<std::string> remade;  // outputs of stages that run (or would) in this invocation
+  bool past_until = false;
+  int ran = 0, current = 0, skipped = 0;
+  for (const PipelineStage& s : p.stages) {
+    ++current;
+    Json sj = {{"stage", s.name}, {"tool", s.tool.empty() ? "mr-pipeline" : s.tool}};
+    auto finish = [&](const std::string& status, const std::string& why) {
+      sj["status"] = status;
+      if (!why.empty()) sj["why"] = why;
+      stages.push_back(sj);
+      if (o.dry_run)
+        std::printf("%-11s %-11s %s\n", s.name.c_str(), status.c_str(), why.c_str());
+      else if (!o.quiet)
+        spdlog::info("[{}/{}] {}: {}{}", current, p.stages.size(), s.name, status, why.empty() ? "" : " (" + why + ")");
+    };
+    if (!s.skip.empty()) {
+      report->Skip(s.name, s.skip);
+      ++skipped;
+      finish("skipped", s.skip);
+      continue;
+    }
+    if (past_until) {
+      const std::string why = fmt::format("after --until {}", o.until);
+      report->Skip(s.name, why);
+      finish("skipped", why);
+      continue;
+    }
+    if (s.name == o.until) past_until = true;
+    std::vector<std::string> argv;
+    if (!s.tool.empty()) {
+      argv.push_back(ToolPath(s.tool, o.bin_dir).string());
+      Append(&argv, s.args);
+      Append(&argv, {"--report", s.report.string()});
+    }
+    std::string cmd;
+    for (const auto& a : argv) {
+      if (!cmd.empty()) cmd += ' ';
+      cmd += Quote(a);
+    }
+    sj["command"] = s.tool.empty() ? "(mr-pipeline writes " + s.outputs.front().string() + ")" : cmd;
+    sj["does"] = s.does;
+    // Up to date?
+    const bool forced = std::find(o.force.begin(), o.force.end(), s.name) != o.force.end();
+    std::string upstream;
+    for (const auto& in : s.inputs)
+      if (remade.count(in.string())) upstream = in.string();
+    const fs::path stamp = p.work / ".mr-pipeline" / (s.name + ".json");
+    std::string why_run;
+    Hasher key;
+    key.String(kVersion);
+    key.String(s.name);
+    bool inputs_ready = true;
+    if (!s.tool.empty()) {
+      const fs::path tool = argv[0];
+      if (fs::exists(tool, ec)) HashFile(tool, &key);
+      for (const auto& a : s.args) key.String(a);
+    } else {
+      key.String(p.scene.dump());
+    }
+    for (const auto& in : s.inputs) {
+      key.String(in.string());
+      if (fs::exists(in, ec)) key.Word(ContentHash(in));
+      else inputs_ready = false;
+    }
+    const std::string key_hex = Hex(key.Final());
+    Json old;
+    if (fs::exists(stamp, ec)) {
+      try {
+        old = Json::parse(ReadTextFile(stamp));
+      } catch (const std::exception&) {
+        old = Json();
+      }
+    }
+    if (forced) {
+      why_run = "--force";
+    } else if (!inputs_ready || !upstream.empty()) {
+      why_run = upstream.empty() ? "inputs are made by an earlier stage" : "an input is re-made: " + upstream;
+    } else if (!old.is_object()) {
+      why_run = "not run before";
+    } else if (old.value("key", "") != key_hex) {
+      why_run = "inputs, options or the tool changed";
+    } else {
+      for (const auto& out : s.outputs) {
+        const std::string k = out.string();
+        if (!fs::exists(out, ec)) {
+          why_run = "output missing: " + k;
+          break;
+        }
+        if (!old["outputs"].contains(k) || old["outputs"][k] != Hex(ContentHash(out))) {
+          why_run = "output changed since: " + k;
+          break;
+        }
+      }
+    }
+    if (why_run.empty()) {
+      if (fs::exists(s.report, ec)) {
+        try {
+          sj["report"] = Json::parse(ReadTextFile(s.report));
+        } catch (const std::exception&) {
+        }
+      }
+      finish("up to date", "");
+      continue;
+    }
+    for (const auto& out : s.outputs) remade.insert(out.string());
+    if (o.dry_run) {
+      finish("would run", why_run);
+      std::printf("%-23s %s\n", "", s.tool.empty() ? s.does.c_str() : cmd.c_str());
+      continue;
+    }
+    if (!o.quiet) spdlog::info("[{}/{}] {}: running ({}): {}", current, p.stages.size(), s.name, why_run, s.does);
+    const auto t0 = std::chrono::steady_clock::now();
+    const fs::path log = p.work / "logs" / (s.name + ".log");
+    fs::remove(stamp, ec);
+    if (s.tool.empty()) {
+      WriteSceneJson(p, report);
+    } else {
+      const int rc = Spawn(argv, log);
+      if (rc != 0) {
+        report->SetMetric("stages", stages);
+        throw Error(FileLoc{p.file.string(), 0, 0, s.name},
+                    fmt::format("stage {} failed ({} exited with {}{}):\n  {}\n  full log: {}; finished stages' outputs are kept",
+                                s.name, s.tool, rc, rc == 127 ? ": not found" : "", ErrorLines(log), log.string()));
+      }
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    report->AddTiming(s.name, seconds);
+    sj["seconds"] = seconds;
+    sj["why_run"] = why_run;
+    if (fs::exists(s.report, ec)) {
+      sj["report"] = Json::parse(ReadTextFile(s.report));
+      for (const auto& w : sj["report"]["warnings"]) report->Warn(s.name + ": " + w.get<std::string>());
+    }
+    Json stamp_json = {{"key", key_hex}, {"command", cmd}, {"outputs", Json::object()}};
+    for (const auto& out : s.outputs) {
+      if (!fs::exists(out, ec))
+        throw Error(FileLoc{p.file.string(), 0, 0, s.name},
+                    fmt::format("stage {} finished but did not write {}", s.name, out.string()));
+      stamp_json["outputs"][out.string()] = Hex(ContentHash(out));
+      report->AddOutput(out.string());
+    }
+    WriteTextFile(stamp, stamp_json.dump(2) + "\n");
+    ++ran;
+    finish("ran", fmt::format("{:.1f} s", seconds));
+  }
+  report->SetMetric("stages", stages);
+  report->SetMetric("ran", ran);
+  report->SetMetric("work", p.work.string());
+}
+
+}  // namespace mr

@@ -1,0 +1,389 @@
+#include "camera/register.h"
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <Eigen/SVD>
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "core/error.h"
+#include "core/math.h"
+
+extern char** environ;
+
+namespace mr {
+
+Rigid3 Similarity3::Apply(const Rigid3& world_from_cam) const {
+  return Rigid3(rotation * world_from_cam.rotation, Apply(world_from_cam.translation));
+}
+
+namespace {
+
+// Residual of one pair: the centre (3) and the orientation (3, scaled).
+struct PairResidual {
+  PairResidual(const PosePair& p, double weight) : ca(p.a.translation), cb(p.b.translation), w(weight) {
+    // R_b R_a^T is what R should be; the residual is log(R R_a R_b^T).
+    Ra = p.a.rotation.toRotationMatrix();
+    Rb = p.b.rotation.toRotationMatrix();
+  }
+  template <typename T>
+  bool operator()(const T* r, const T* log_s, const T* t, T* res) const {
+    T p[3] = {T(ca.x()), T(ca.y()), T(ca.z())}, q[3];
+    ceres::AngleAxisRotatePoint(r, p, q);
+    const T s = exp(log_s[0]);
+    for (int i = 0; i < 3; ++i) res[i] = s * q[i] + t[i] - T(cb[i]);
+    if (w > 0) {
+      T R[9];
+      ceres::AngleAxisToRotationMatrix(r, R);  // column major
+      // M = R * Ra * Rb^T
+      T M[9];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          T acc = T(0);
+          for (int k = 0; k < 3; ++k) {
+            T rak = T(0);  // (Ra Rb^T)(k, j)
+            for (int l = 0; l < 3; ++l) rak += T(Ra(k, l) * Rb(j, l));
+            acc += R[k * 3 + i] * rak;  // R(i, k), column major
+          }
+          M[j * 3 + i] = acc;  // column major
+        }
+      T aa[3];
+      ceres::RotationMatrixToAngleAxis(M, aa);
+      for (int i = 0; i < 3; ++i) res[3 + i] = T(w) * aa[i];
+    } else {
+      for (int i = 0; i < 3; ++i) res[3 + i] = T(0);
+    }
+    return true;
+  }
+  Eigen::Vector3d ca, cb;
+  Eigen::Matrix3d Ra, Rb;
+  double w;
+};
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+}  // namespace
+
+SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const SimilarityFitOptions& o) {
+  const size_t n = pairs.size();
+  if (n < 3) throw Error(FileLoc{}, fmt::format("a similarity needs at least 3 corresponding cameras, got {}", n));
+  // Start: rotation from the chordal mean of R_b R_a^T (robust to collinear
+  // centres), then scale and translation by least squares on the centres.
+  Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d ma = Eigen::Vector3d::Zero(), mb = Eigen::Vector3d::Zero();
+  for (const auto& p : pairs) {
+    sum += p.b.rotation.toRotationMatrix() * p.a.rotation.toRotationMatrix().transpose();
+    ma += p.a.translation;
+    mb += p.b.translation;
+  }
+  ma /= static_cast<double>(n);
+  mb /= static_cast<double>(n);
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(sum, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
+  const Eigen::Matrix3d R0 = svd.matrixU() * D * svd.matrixV().transpose();
+  double num = 0, den = 0;
+  for (const auto& p : pairs) {
+    const Eigen::Vector3d da = R0 * (p.a.translation - ma), db = p.b.translation - mb;
+    num += da.dot(db);
+    den += da.squaredNorm();
+  }
+  if (!(den > 1e-18) || !(num > 0))
+    throw Error(FileLoc{}, "the cameras' centres do not fix the scale (they coincide, or run opposite ways in the two frames)");
+  const double s0 = num / den;
+  const Eigen::Vector3d t0 = mb - s0 * R0 * ma;
+
+  Eigen::AngleAxisd aa0(R0);
+  double r[3] = {aa0.angle() * aa0.axis().x(), aa0.angle() * aa0.axis().y(), aa0.angle() * aa0.axis().z()};
+  double log_s = std::log(s0);
+  double t[3] = {t0.x(), t0.y(), t0.z()};
+  ceres::Problem problem;
+  // Cauchy loss on the stacked residual; its scale mixes the two (centre in
+  // metres, orientation in weight x radians).
+  const double w = o.rotation_weight_m;
+  const double loss = std::hypot(o.centre_loss_m, w * o.rotation_loss_deg * kDegToRad);
+  for (const auto& p : pairs)
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PairResidual, 6, 3, 1, 3>(new PairResidual(p, w)),
+                             new ceres::CauchyLoss(loss), r, &log_s, t);
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::DENSE_QR;
+  so.max_num_iterations = 100;
+  so.num_threads = 1;  // tiny problem; deterministic
+  ceres::Solver::Summary summary;
+  ceres::Solve(so, &problem, &summary);
+
+  SimilarityFit fit;
+  fit.iterations = static_cast<int>(summary.iterations.size());
+  const Eigen::Vector3d rv(r[0], r[1], r[2]);
+  fit.b_from_a.rotation = rv.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(rv.norm(), rv.normalized()))
+                                        : Eigen::Quaterniond::Identity();
+  fit.b_from_a.scale = std::exp(log_s);
+  fit.b_from_a.translation = Eigen::Vector3d(t[0], t[1], t[2]);
+  double se = 0, sr = 0;
+  for (const auto& p : pairs) {
+    const Rigid3 moved = fit.b_from_a.Apply(p.a);
+    const double e = (moved.translation - p.b.translation).norm();
+    const double a = moved.rotation.angularDistance(p.b.rotation) / kDegToRad;
+    fit.centre_residual_m.push_back(e);
+    fit.rotation_residual_deg.push_back(a);
+    se += e * e;
+    sr += a * a;
+  }
+  fit.centre_rmse_m = std::sqrt(se / static_cast<double>(n));
+  fit.rotation_rmse_deg = std::sqrt(sr / static_cast<double>(n));
+  fit.centre_median_m = Median(fit.centre_residual_m);
+  return fit;
+}
+
+int FrameNumberOf(const std::string& name) {
+  const std::string stem = fs::path(name).stem().string();
+  int end = static_cast<int>(stem.size());
+  while (end > 0 && !std::isdigit(static_cast<unsigned char>(stem[static_cast<size_t>(end - 1)]))) --end;
+  int begin = end;
+  while (begin > 0 && std::isdigit(static_cast<unsigned char>(stem[static_cast<size_t>(begin - 1)]))) --begin;
+  if (begin == end || end - begin > 9) return -1;
+  return std::stoi(stem.substr(static_cast<size_t>(begin), static_cast<size_t>(end - begin)));
+}
+
+namespace {
+
+Rigid3 Interpolate(const Rigid3& a, const Rigid3& b, double u) {
+  return Rigid3(a.rotation.slerp(u, b.rotation), (1 - u) * a.translation + u * b.translation);
+}
+
+}  // namespace
+
+namespace {
+
+Trajectory ReadPoses(const fs::path& p) { return fs::is_directory(p) ? Read7ScenesFolder(p) : ReadTum(p); }
+
+}  // namespace
+
+void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report* report) {
+  if (model.images.empty()) throw Error(FileLoc{}, "the COLMAP model has no registered images");
+  // Registered frames: frame number -> world_from_cam in COLMAP's frame.
+  std::map<int, Rigid3> colmap_poses;
+  std::set<int64_t> camera_ids;
+  for (const auto& [id, im] : model.images) {
+    const int f = FrameNumberOf(im.name);
+    if (f < 0) throw Error(FileLoc{}, fmt::format("image {} has no frame number in its name", im.name));
+    if (colmap_poses.count(f)) throw Error(FileLoc{}, fmt::format("two images of frame {} (one is {})", f, im.name));
+    colmap_poses[f] = im.cam_from_world.Inverse();
+    camera_ids.insert(im.camera_id);
+  }
+  if (camera_ids.size() != 1)
+    throw Error(FileLoc{}, fmt::format("the video's frames use {} COLMAP cameras; one camera is expected (single_camera)",
+                                       camera_ids.size()));
+  const ColmapCamera& cam = model.cameras.at(*camera_ids.begin());
+  Similarity3 world_from_colmap;
+  if (o.trajectory) {
+    const Trajectory traj = ReadPoses(*o.trajectory);
+    std::vector<PosePair> by_timestamp, by_index;
+    for (const auto& [f, pose] : colmap_poses) {
+      for (const auto& tp : traj.poses)
+        if (std::abs(tp.timestamp - f) < 1e-6) {
+          by_timestamp.push_back({pose, tp.world_from_cam});
+          break;
+        }
+      if (f < static_cast<int>(traj.poses.size())) by_index.push_back({pose, traj.poses[static_cast<size_t>(f)].world_from_cam});
+    }
+    std::string match = o.match;
+    if (match == "auto") match = by_timestamp.size() >= 3 ? "timestamp" : "index";
+    const auto& pairs = match == "timestamp" ? by_timestamp : by_index;
+    if (pairs.size() < 3)
+      ThrowErrorAt(FileLoc{o.trajectory->string()}, "only {} registered frames meet a pose of the trajectory (match: {})",
+                   pairs.size(), match);
+    const SimilarityFit fit = FitSimilarity(pairs, o.fit);
+    world_from_colmap = fit.b_from_a;
+    report->SetMetric("alignment.match", match);
+    report->SetMetric("alignment.pairs", static_cast<int>(pairs.size()));
+    report->SetMetric("alignment.scale", fit.b_from_a.scale);
+    report->SetMetric("alignment.centre_rmse_m", fit.centre_rmse_m);
+    report->SetMetric("alignment.centre_median_m", fit.centre_median_m);
+    report->SetMetric("alignment.centre_max_m", *std::max_element(fit.centre_residual_m.begin(), fit.centre_residual_m.end()));
+    report->SetMetric("alignment.rotation_rmse_deg", fit.rotation_rmse_deg);
+    report->SetMetric("alignment.iterations", fit.iterations);
+    report->AddInput(o.trajectory->string());
+  } else {
+    report->Skip("alignment", "no trajectory given: the poses stay in COLMAP's frame (arbitrary scale)");
+  }
+  // Every frame's pose: registered ones moved, the rest interpolated.
+  const int last = colmap_poses.rbegin()->first;
+  const int frames = o.frames > 0 ? o.frames : last + 1;
+  Trajectory out;
+  std::vector<int> filled;
+  for (int f = 0; f < frames; ++f) {
+    Rigid3 pose;
+    auto hi = colmap_poses.lower_bound(f);
+    if (hi != colmap_poses.end() && hi->first == f) {
+      pose = hi->second;
+    } else {
+      filled.push_back(f);
+      if (hi == colmap_poses.begin()) pose = hi->second;
+      else if (hi == colmap_poses.end()) pose = std::prev(hi)->second;
+      else {
+        const auto lo = std::prev(hi);
+        pose = Interpolate(lo->second, hi->second, static_cast<double>(f - lo->first) / (hi->first - lo->first));
+      }
+    }
+    out.poses.push_back({static_cast<double>(f), world_from_colmap.Apply(pose)});
+  }
+  report->SetMetric("frames", frames);
+  report->SetMetric("registered", static_cast<int>(colmap_poses.size()));
+  if (!filled.empty()) {
+    report->Warn(fmt::format("{} of {} frames were not registered by COLMAP; their poses are interpolated", filled.size(), frames));
+    report->SetMetric("interpolated_frames", filled);
+  }
+  if (o.truth) {
+    const Trajectory truth = ReadPoses(*o.truth);
+    double se = 0, sr = 0;
+    int n = 0;
+    for (const auto& p : out.poses)
+      for (const auto& tp : truth.poses)
+        if (std::abs(tp.timestamp - p.timestamp) < 1e-6) {
+          se += (p.world_from_cam.translation - tp.world_from_cam.translation).squaredNorm();
+          const double a = p.world_from_cam.rotation.angularDistance(tp.world_from_cam.rotation) / kDegToRad;
+          sr += a * a;
+          ++n;
+        }
+    if (n == 0) ThrowErrorAt(FileLoc{o.truth->string()}, "no pose with a frame number's timestamp");
+    report->SetMetric("pose_error.frames", n);
+    report->SetMetric("pose_error.centre_rmse_m", std::sqrt(se / n));
+    report->SetMetric("pose_error.rotation_rmse_deg", std::sqrt(sr / n));
+    report->AddInput(o.truth->string());
+  }
+  WriteTum(o.out_poses, out);
+  report->AddOutput(o.out_poses.string());
+  if (!o.out_camera.empty()) {
+    ToCameraModel(cam).Write(o.out_camera, o.note);
+    report->AddOutput(o.out_camera.string());
+  }
+}
+
+// ---------------------------------------------------------------------------
+
+namespace {
+
+int RunLogged(const std::vector<std::string>& argv, const fs::path& log) {
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&fa, 1, 2);
+  std::vector<char*> args;
+  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  args.push_back(nullptr);
+  pid_t pid = 0;
+  const int err = posix_spawnp(&pid, args[0], &fa, nullptr, args.data(), environ);
+  posix_spawn_file_actions_destroy(&fa);
+  if (err != 0) return 127;
+  int status = 0;
+  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+}  // namespace
+
+ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOptions& o, Report* report) {
+  if (images.size() < 3) throw Error(FileLoc{}, fmt::format("COLMAP needs at least 3 frames, got {}", images.size()));
+  if (o.matcher != "sequential" && o.matcher != "exhaustive")
+    throw UsageError(fmt::format("matcher \"{}\": sequential or exhaustive", o.matcher));
+  const fs::path ws = o.workspace;
+  std::error_code ec;
+  fs::remove_all(ws / "sparse", ec);
+  fs::remove(ws / "database.db", ec);
+  fs::create_directories(ws / "sparse", ec);
+  fs::create_directories(ws / "text", ec);
+  if (!fs::is_directory(ws / "sparse")) ThrowErrorAt(FileLoc{ws.string()}, "cannot create the COLMAP workspace");
+  // The frames by name, relative to their (common) folder.
+  const fs::path dir = images.front().parent_path();
+  std::string list;
+  for (const auto& f : images) {
+    if (f.parent_path() != dir) ThrowErrorAt(FileLoc{f.string()}, "the frames must share one folder ({})", dir.string());
+    list += f.filename().string() + "\n";
+  }
+  WriteTextFile(ws / "images.txt", list);
+  const fs::path log = ws / "colmap.log";
+  fs::remove(log, ec);
+  auto step = [&](const std::string& name, std::vector<std::string> args) {
+    args.insert(args.begin(), {o.colmap, name});
+    ScopedTimer t(report, "colmap " + name);
+    const int rc = RunLogged(args, log);
+    if (rc != 0)
+      ThrowErrorAt(FileLoc{log.string()}, "colmap {} failed (exit {}{}); its output is in this log", name, rc,
+                   rc == 127 ? ": colmap not found, apt install colmap" : "");
+  };
+  const std::string db = (ws / "database.db").string();
+  std::vector<std::string> fe = {"--database_path", db, "--image_path", dir.string(), "--image_list_path",
+                                 (ws / "images.txt").string(), "--ImageReader.single_camera", "1",
+                                 "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "-1"};
+  bool fixed = false;
+  if (o.camera) {
+    const CameraModel m = CameraModel::Read(*o.camera);
+    const auto& k = m.intrinsics();
+    // mrcal's pixel centres are at integers, COLMAP's at +0.5.
+    if (m.lensmodel() == "LENSMODEL_PINHOLE") {
+      fe.insert(fe.end(), {"--ImageReader.camera_model", "PINHOLE", "--ImageReader.camera_params",
+                           fmt::format("{},{},{},{}", k[0], k[1], k[2] + 0.5, k[3] + 0.5)});
+      fixed = true;
+    } else if (m.lensmodel() == "LENSMODEL_OPENCV4") {
+      fe.insert(fe.end(), {"--ImageReader.camera_model", "OPENCV", "--ImageReader.camera_params",
+                           fmt::format("{},{},{},{},{},{},{},{}", k[0], k[1], k[2] + 0.5, k[3] + 0.5, k[4], k[5], k[6], k[7])});
+      fixed = true;
+    } else {
+      report->Warn(fmt::format("{}: COLMAP has no equivalent of {}; COLMAP estimates the intrinsics (OPENCV)",
+                               o.camera->string(), m.lensmodel()));
+      fe.insert(fe.end(), {"--ImageReader.camera_model", "OPENCV"});
+    }
+  } else {
+    fe.insert(fe.end(), {"--ImageReader.camera_model", "OPENCV"});
+  }
+  step("feature_extractor", fe);
+  if (o.matcher == "sequential")
+    step("sequential_matcher", {"--database_path", db, "--SiftMatching.use_gpu", "0", "--SequentialMatching.overlap",
+                                std::to_string(o.overlap)});
+  else
+    step("exhaustive_matcher", {"--database_path", db, "--SiftMatching.use_gpu", "0"});
+  std::vector<std::string> mapper = {"--database_path", db, "--image_path", dir.string(), "--output_path",
+                                     (ws / "sparse").string(), "--Mapper.num_threads", "-1"};
+  if (fixed)
+    mapper.insert(mapper.end(), {"--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",
+                                 "--Mapper.ba_refine_extra_params", "0"});
+  step("mapper", mapper);
+  // The largest model (COLMAP may split a video into several).
+  fs::path best;
+  size_t best_images = 0;
+  int models = 0;
+  for (const auto& e : fs::directory_iterator(ws / "sparse")) {
+    if (!e.is_directory()) continue;
+    ++models;
+    const fs::path txt = ws / "text" / e.path().filename();
+    fs::create_directories(txt, ec);
+    step("model_converter", {"--input_path", e.path().string(), "--output_path", txt.string(), "--output_type", "TXT"});
+    const ColmapModel m = ReadColmapText(txt);
+    if (m.images.size() > best_images) {
+      best_images = m.images.size();
+      best = txt;
+    }
+  }
+  if (best.empty()) ThrowErrorAt(FileLoc{log.string()}, "COLMAP registered no model from {} frames", images.size());
+  report->SetMetric("colmap.models", models);
+  report->SetMetric("colmap.registered", static_cast<int>(best_images));
+  report->SetMetric("colmap.frames", static_cast<int>(images.size()));
+  report->SetMetric("colmap.intrinsics", fixed ? "fixed to the given camera model" : "estimated by COLMAP");
+  if (models > 1) report->Warn(fmt::format("COLMAP split the frames into {} models; the largest ({} frames) is used", models, best_images));
+  return ReadColmapText(best);
+}
+
+}  // namespace mr

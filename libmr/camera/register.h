@@ -1,0 +1,100 @@
+// Video poses from COLMAP (mr-register): a COLMAP model of the video's
+// frames, made by the `colmap` command or given, aligned to the room's frame
+// by a similarity transform solved with Ceres, written as TUM poses (one per
+// frame) and a .cameramodel.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "camera/colmap_text.h"
+#include "camera/pose.h"
+#include "camera/trajectory.h"
+#include "core/file.h"
+#include "core/report.h"
+
+namespace mr {
+
+// p_b = scale * rotation * p_a + translation.
+struct Similarity3 {
+  double scale = 1;
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Vector3d Apply(const Eigen::Vector3d& p) const { return scale * (rotation * p) + translation; }
+  // A camera pose (world_from_cam, world = frame a) moved into frame b.
+  Rigid3 Apply(const Rigid3& world_from_cam) const;
+};
+
+// Corresponding camera poses in two frames (world_from_cam each).
+struct PosePair {
+  Rigid3 a, b;
+};
+
+struct SimilarityFitOptions {
+  // Robust (Cauchy) loss scales: camera-centre residuals in metres of frame
+  // b, orientation residuals in degrees.
+  double centre_loss_m = 0.05;
+  double rotation_loss_deg = 2;
+  // Orientation residuals enter as this many metres per radian, so that a
+  // camera moving on a line (rotation about it unobservable from centres)
+  // still fixes the rotation.  0: centres only.
+  double rotation_weight_m = 0.1;
+};
+
+struct SimilarityFit {
+  Similarity3 b_from_a;
+  std::vector<double> centre_residual_m;   // per pair, |s R c_a + t - c_b|
+  std::vector<double> rotation_residual_deg;
+  double centre_rmse_m = 0, centre_median_m = 0, rotation_rmse_deg = 0;
+  int iterations = 0;
+};
+
+// Closed-form start (chordal mean of the relative rotations; scale and
+// translation from the centres by least squares) refined by Ceres with
+// robust losses.  Throws mr::Error when fewer than 3 pairs are given or the
+// centres cannot fix the scale (all at one point).
+SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const SimilarityFitOptions& options = {});
+
+// The frame number in an image name: the last run of digits of its stem
+// ("frame-000010.color.jpg" -> 10); -1 if none.
+int FrameNumberOf(const std::string& image_name);
+
+struct RegisterOptions {
+  std::optional<fs::path> trajectory;  // align to this TUM trajectory (mr-fuse's)
+  // How a frame meets its trajectory pose: "timestamp" (the frame number is
+  // the timestamp, as in 7-Scenes), "index" (frame n is the n-th pose), or
+  // "auto" (timestamp when at least 3 frames match so, else index).
+  std::string match = "auto";
+  int frames = -1;                     // poses written for frames 0..frames-1 (-1: up to the last registered)
+  std::optional<fs::path> truth;       // TUM poses of the video frames: pose error reported
+  SimilarityFitOptions fit;
+  fs::path out_poses, out_camera;
+  std::string note;                    // provenance for the written camera model
+};
+
+// Aligns `model` to the trajectory (identity without one), writes TUM poses
+// for every frame (frames COLMAP did not register are interpolated between
+// their registered neighbours and listed in the report) and the camera
+// model; fills `report` with the alignment residuals (and the pose error
+// against the truth).
+void AlignColmapModel(const ColmapModel& model, const RegisterOptions& options, Report* report);
+
+struct ColmapRunOptions {
+  fs::path workspace;                   // database, sparse model, text model
+  std::string matcher = "sequential";   // sequential | exhaustive
+  std::optional<fs::path> camera;       // known intrinsics (kept fixed), else COLMAP estimates them
+  int overlap = 10;                     // sequential: neighbours matched
+  std::string colmap = "colmap";        // the executable
+};
+
+// Registers `images` (a folder's image files, or a printf pattern's frames)
+// with the colmap command (feature_extractor, sequential/exhaustive matcher,
+// mapper, model_converter; all on the CPU) and returns the largest model.
+// Throws mr::Error naming the failing colmap step and its log.
+ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOptions& options, Report* report);
+
+}  // namespace mr

@@ -199,7 +199,7 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
       if (f < static_cast<int>(traj.poses.size())) by_index.push_back({pose, traj.poses[static_cast<size_t>(f)].world_from_cam});
     }
     std::string match = o.match;
-    if (match == "auto") match = by_timestamp.size() >= 3 ? "timestamp" : "index";
+    if (match == "auto") match = by_timestamp.size() >= by_index.size() ? "timestamp" : "index";
     const auto& pairs = match == "timestamp" ? by_timestamp : by_index;
     if (pairs.size() < 3)
       ThrowErrorAt(FileLoc{o.trajectory->string()}, "only {} registered frames meet a pose of the trajectory (match: {})",

@@ -67,7 +67,7 @@ struct RegisterOptions {
   std::optional<fs::path> trajectory;  // align to this TUM trajectory (mr-fuse's)
   // How a frame meets its trajectory pose: "timestamp" (the frame number is
   // the timestamp, as in 7-Scenes), "index" (frame n is the n-th pose), or
-  // "auto" (timestamp when at least 3 frames match so, else index).
+  // "auto" (whichever pairs more frames; timestamp on a tie).
   std::string match = "auto";
   int frames = -1;                     // poses written for frames 0..frames-1 (-1: up to the last registered)
   std::optional<fs::path> truth;       // TUM poses of the video frames: pose error reported

@@ -423,7 +423,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     PipelineStage& s = stage("register");
     s.tool = "mr-register";
     const Node ps = video.Required("poses");
-    ps.RequireObject({"tum", "fuse", "colmap", "register", "align", "options"});
+    ps.RequireObject({"tum", "fuse", "colmap", "register", "options"});
     const int given = ps.Has("tum") + ps.Has("fuse") + ps.Has("colmap") + ps.Has("register");
     if (given != 1) ps.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
     if (ps.Has("tum")) {
@@ -435,32 +435,32 @@ Pipeline PlanPipeline(const fs::path& file) {
       s.skip = "the video is the RGB-D recording's colour: its poses are mr-fuse's trajectory";
     } else {
       poses = w / "video" / "poses.txt";
-      const fs::path model_out = w / "video" / "camera.cameramodel";
-      const std::string align = ps.Has("align") ? ps.Child("align").OneOf({"trajectory", "mesh"}) : "trajectory";
+      const fs::path model_out = w / "video" / "colmap.cameramodel";
+      if (fused_trajectory.empty())
+        ps.Fail("aligning COLMAP's poses to the room needs the room fused from RGB-D (room.rgbd): its trajectory");
       if (ps.Has("colmap")) {
         const fs::path m = pl.Path(ps.Child("colmap"), "COLMAP model");
         s.args = {"align", m.string()};
         s.inputs = {m};
-        s.does = "the COLMAP model aligned to the room (similarity, Ceres)";
+        s.does = "the COLMAP model aligned to the room (similarity to mr-fuse's trajectory, Ceres)";
       } else {
         if (!video.Has("frames")) ps.Fail("registration needs video.frames");
-        s.args = {"colmap", (p.base / video.Child("frames").String()).lexically_normal().string(), "--workspace",
-                  (w / "video" / "colmap").string()};
-        s.inputs = {fs::path(s.args[1]).parent_path()};
-        s.does = "the video's frames registered by COLMAP and aligned to the room (similarity, Ceres)";
+        const fs::path frames = pl.Pattern(video.Child("frames"), "video frames");
+        s.args = {"colmap", frames.string(), "--workspace", (w / "video" / "colmap").string(), "--camera",
+                  camera_model.string()};
+        s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, camera_model};
+        if (ps.Child("register").json().is_object()) {
+          const Node r = ps.Child("register");
+          r.RequireObject({"matcher", "overlap"});
+          if (r.Has("matcher")) Append(&s.args, {"--matcher", r.Child("matcher").OneOf({"sequential", "exhaustive"})});
+          if (r.Has("overlap")) Append(&s.args, {"--overlap", std::to_string(r.Child("overlap").Integer(1, 1000))});
+        } else if (!ps.Child("register").Bool()) {
+          ps.Child("register").Fail("expected true or {matcher, overlap}");
+        }
+        s.does = "the video's frames registered by COLMAP and aligned to the room (similarity to mr-fuse's trajectory, Ceres)";
       }
-      if (align == "trajectory") {
-        if (fused_trajectory.empty()) ps.Fail("align: trajectory needs the room fused from RGB-D (its trajectory); use align: mesh");
-        Append(&s.args, {"--trajectory", fused_trajectory.string()});
-        s.inputs.push_back(fused_trajectory);
-      } else {
-        const fs::path m = fused_mesh.empty() ? pl.Path(room.Child("real").json().is_array() ? room.Child("real").Index(0).Required("mesh")
-                                                                                              : room.Child("real").Required("mesh"),
-                                                        "room mesh")
-                                              : fused_mesh;
-        Append(&s.args, {"--mesh", m.string()});
-        s.inputs.push_back(m);
-      }
+      Append(&s.args, {"--trajectory", fused_trajectory.string()});
+      s.inputs.push_back(fused_trajectory);
       Append(&s.args, {"--out", poses.string(), "--camera-out", model_out.string()});
       Append(&s.args, pl.Options(ps));
       s.outputs = {poses, model_out};

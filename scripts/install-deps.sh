@@ -19,7 +19,7 @@ packages=(
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # the end-to-end pipeline: video registration, batch rendering, man pages
-  colmap parallel help2man
+  colmap parallel help2man dpkg-dev
 )
 
 missing=()

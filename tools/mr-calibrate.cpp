@@ -176,7 +176,7 @@ int CalibrateSphere(const std::string& camera_file, mr::SphereOptions so, const 
                    fit.rms_px, 100 * fit.visible_fraction);
       if (fit.visible_fraction < 0.9)
         report.Warn(fmt::format("{}: only {:.0f}% of the sphere's outline is in the image; the distance to it is less "
-                                "certain than its covariance says (docs/tools/mr-calibrate.md)",
+                                "certain than its covariance says (docs/guides/calibration.md)",
                                 f, 100 * fit.visible_fraction));
       fits.push_back(fit);
     }

@@ -26,7 +26,9 @@ int main(int argc, char** argv) {
       "  mr-pipeline capture/pipeline.json --force render --report pipeline-report.json");
   app.add_option("pipeline", file, "Pipeline file (docs/formats.md)")->required()->check(CLI::ExistingFile);
   app.add_option("--until", o.until, "Run the stages up to this one and leave out the rest");
-  app.add_option("--force", o.force, "Re-run this stage even when it is up to date (repeatable)");
+  app.add_option("--force", o.force, "Re-run this stage even when it is up to date (repeatable)")
+      ->expected(1)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   app.add_flag("--dry-run", o.dry_run, "Print the plan: each stage run, up to date, or skipped, with the reason");
   app.add_option("--bin", bin_dir, "Folder of the mr tools (default: beside mr-pipeline, else PATH)");
   return mr::RunTool("mr-pipeline", app, argc, argv, [&] {

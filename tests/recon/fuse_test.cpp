@@ -144,7 +144,7 @@ TEST(Fuse, FlatWallReportsDegeneracyAndDoesNotBlowUp) {
     // The rotation about the wall's normal has no information at all (eigenvalue
     // ratio ~1e-4) and is held to the prior.  The two translations along the
     // wall sit at ~1e-3: the fused surface's residual normal noise, right at
-    // the threshold (docs/tools/reconstruction.md); they show in the
+    // the threshold (docs/guides/reconstruction.md); they show in the
     // condition number, 20x that of a furnished room (7-Scenes: < 100).
     EXPECT_GE(fr.weak_directions, 1) << "frame " << fr.index;
     EXPECT_GT(fr.condition, 1500) << "frame " << fr.index;

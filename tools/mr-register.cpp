@@ -8,6 +8,9 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/video.h"
+#include "geometry/mesh.h"
+
+#include <Eigen/SVD>
 #include "render/render_job.h"
 #include "tool/cli.h"
 
@@ -78,6 +81,8 @@ int main(int argc, char** argv) {
       "  mr-register align colmap/sparse-text --trajectory room/trajectory.txt --out poses.txt");
   app.require_subcommand(1);
   std::string frames, model_dir, trajectory, truth, out, camera_out, camera, workspace;
+  std::vector<std::string> meshes;
+  std::vector<double> initial;
   mr::RegisterOptions ro;
   mr::ColmapRunOptions co;
   auto common = [&](CLI::App* c) {
@@ -91,6 +96,18 @@ int main(int argc, char** argv) {
     c->add_option("--truth", truth, "TUM poses (or a 7-Scenes folder) of the video's frames: report the pose error")->check(CLI::ExistingPath);
     c->add_option("--out", out, "TUM poses to write (world_from_cam, timestamp = frame number)")->required();
     c->add_option("--camera-out", camera_out, "The video camera's .cameramodel to write");
+    c->add_option("--mesh", meshes,
+                  "Align (or refine the alignment) by COLMAP's 3D points against this room mesh (repeatable: merged)")
+        ->check(CLI::ExistingFile)
+        ->expected(1)
+        ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+    c->add_option("--initial", initial,
+                  "Start of the mesh alignment without --trajectory: 16 numbers, row-major 4x4 [s*R t; 0 0 0 1] "
+                  "taking COLMAP's frame to the room's")
+        ->delimiter(',')
+        ->expected(16);
+    c->add_option("--mesh-gate", ro.mesh_fit.gate_m, "Mesh alignment: points farther than this (m) are not used")
+        ->default_val(0.15);
     c->add_option("--centre-loss", ro.fit.centre_loss_m, "Robust loss scale of centre residuals (m)")->default_val(0.05);
     c->add_option("--rotation-weight", ro.fit.rotation_weight_m, "Metres per radian of orientation residuals (0: centres only)")
         ->default_val(0.1);
@@ -111,6 +128,30 @@ int main(int argc, char** argv) {
     if (!trajectory.empty()) ro.trajectory = trajectory;
     if (!truth.empty()) ro.truth = truth;
     ro.out_poses = out;
+    if (!meshes.empty()) {
+      mr::Mesh merged;
+      for (const auto& m : meshes) {
+        const mr::Mesh one = mr::ReadMesh(m);
+        const int base = static_cast<int>(merged.positions.size());
+        merged.positions.insert(merged.positions.end(), one.positions.begin(), one.positions.end());
+        for (const auto& t : one.triangles) merged.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+        rep.AddInput(m);
+      }
+      ro.mesh = std::move(merged);
+    }
+    if (!initial.empty()) {
+      Eigen::Matrix4d m = Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(initial.data());
+      const Eigen::Matrix3d sr = m.topLeftCorner<3, 3>();
+      const double det = sr.determinant();
+      if (!(det > 0) || (m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-9)
+        throw mr::UsageError("--initial: expected [s*R t; 0 0 0 1] with s > 0 and R a rotation");
+      mr::Similarity3 si;
+      si.scale = std::cbrt(det);
+      Eigen::JacobiSVD<Eigen::Matrix3d> svd(sr / si.scale, Eigen::ComputeFullU | Eigen::ComputeFullV);
+      si.rotation = Eigen::Quaterniond(svd.matrixU() * svd.matrixV().transpose());
+      si.translation = m.topRightCorner<3, 1>();
+      ro.initial = si;
+    }
     ro.out_camera = camera_out;
     ro.note = "written by mr-register (" + rep.ToJson().value("command_line", "") + ")";
     mr::ColmapModel model;
@@ -128,11 +169,15 @@ int main(int argc, char** argv) {
     }
     mr::AlignColmapModel(model, ro, &rep);
     const auto& m = rep.metrics();
-    if (m.contains("alignment"))
+    if (m.contains("alignment") && m["alignment"].contains("pairs"))
       std::printf("aligned %d frames: scale %.6g, centre residual rmse %.4f m (median %.4f), rotation rmse %.3f deg\n",
                   m["alignment"]["pairs"].get<int>(), m["alignment"]["scale"].get<double>(),
                   m["alignment"]["centre_rmse_m"].get<double>(), m["alignment"]["centre_median_m"].get<double>(),
                   m["alignment"]["rotation_rmse_deg"].get<double>());
+    if (m.contains("alignment") && m["alignment"].contains("mesh"))
+      std::printf("against the mesh: %d of %d points within the gate, median distance %.4f m, %.1f%% within 5 cm\n",
+                  m["alignment"]["mesh"]["inliers"].get<int>(), m["alignment"]["mesh"]["points"].get<int>(),
+                  m["alignment"]["mesh"]["median_m"].get<double>(), 100 * m["alignment"]["mesh"]["within_5cm"].get<double>());
     if (m.contains("pose_error"))
       std::printf("pose error against the truth: centre rmse %.4f m, rotation rmse %.3f deg (%d frames)\n",
                   m["pose_error"]["centre_rmse_m"].get<double>(), m["pose_error"]["rotation_rmse_deg"].get<double>(),

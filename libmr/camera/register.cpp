@@ -15,6 +15,7 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "geometry/closest_point.h"
 
 extern char** environ;
 
@@ -146,6 +147,105 @@ SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const Similarity
   return fit;
 }
 
+namespace {
+
+// n . (s R a + t - q): the point's distance along the mesh's normal.
+struct PointPlaneResidual {
+  PointPlaneResidual(const Eigen::Vector3d& point, const Eigen::Vector3d& closest, const Eigen::Vector3d& normal)
+      : a(point), q(closest), n(normal) {}
+  template <typename T>
+  bool operator()(const T* r, const T* log_s, const T* t, T* res) const {
+    T p[3] = {T(a.x()), T(a.y()), T(a.z())}, x[3];
+    ceres::AngleAxisRotatePoint(r, p, x);
+    const T s = exp(log_s[0]);
+    res[0] = T(0);
+    for (int i = 0; i < 3; ++i) res[0] += T(n[i]) * (s * x[i] + t[i] - T(q[i]));
+    return true;
+  }
+  Eigen::Vector3d a, q, n;
+};
+
+}  // namespace
+
+MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const Mesh& mesh, const Similarity3& start,
+                               const MeshFitOptions& o) {
+  const TriangleGrid grid(mesh, o.gate_m);
+  Eigen::AngleAxisd aa0(start.rotation);
+  double r[3] = {aa0.angle() * aa0.axis().x(), aa0.angle() * aa0.axis().y(), aa0.angle() * aa0.axis().z()};
+  double log_s = std::log(start.scale);
+  double t[3] = {start.translation.x(), start.translation.y(), start.translation.z()};
+  auto current = [&] {
+    Similarity3 s;
+    const Eigen::Vector3d rv(r[0], r[1], r[2]);
+    s.rotation = rv.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(rv.norm(), rv.normalized())) : Eigen::Quaterniond::Identity();
+    s.scale = std::exp(log_s);
+    s.translation = Eigen::Vector3d(t[0], t[1], t[2]);
+    return s;
+  };
+  MeshFit fit;
+  fit.points = static_cast<int>(points.size());
+  {
+    std::vector<double> d0;
+    for (const auto& a : points) {
+      const ClosestPoint c = grid.Closest(start.Apply(a), o.gate_m);
+      if (c.triangle >= 0) d0.push_back(c.distance);
+    }
+    fit.start_median_m = Median(d0);
+    fit.start_inliers = static_cast<int>(d0.size());
+  }
+  for (int it = 0; it < o.max_iterations; ++it) {
+    const Similarity3 s = current();
+    ceres::Problem problem;
+    int used = 0;
+    for (const auto& a : points) {
+      const ClosestPoint c = grid.Closest(s.Apply(a), o.gate_m);
+      if (c.triangle < 0) continue;
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PointPlaneResidual, 1, 3, 1, 3>(new PointPlaneResidual(a, c.point, c.normal)),
+          new ceres::CauchyLoss(o.loss_m), r, &log_s, t);
+      ++used;
+    }
+    if (used < 6)
+      throw Error(FileLoc{}, fmt::format("only {} of {} points lie within {} m of the mesh: the start is too far off "
+                                         "(give a better initial similarity)", used, points.size(), o.gate_m));
+    // Point-to-plane distances shrink with the scale: without a bound,
+    // a poor start can collapse every point onto one surface.
+    problem.SetParameterLowerBound(&log_s, 0, std::log(start.scale) - std::log(1.25));
+    problem.SetParameterUpperBound(&log_s, 0, std::log(start.scale) + std::log(1.25));
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::DENSE_QR;
+    so.max_num_iterations = 10;
+    so.num_threads = 1;
+    ceres::Solver::Summary summary;
+    ceres::Solve(so, &problem, &summary);
+    fit.iterations = it + 1;
+    const Similarity3 after = current();
+    double moved = 0;
+    for (const auto& a : points) moved = std::max(moved, (after.Apply(a) - s.Apply(a)).norm());
+    if (moved < 1e-5) break;  // a hundredth of a millimetre: settled
+  }
+  fit.b_from_a = current();
+  if (std::abs(std::log(fit.b_from_a.scale / start.scale)) > std::log(1.25) - 1e-6)
+    throw Error(FileLoc{}, fmt::format("the mesh alignment ran to the bound of its scale (start x 1.25^{:+.0f}): the start "
+                                       "is too far off (give a better initial similarity)",
+                                       std::log(fit.b_from_a.scale / start.scale) / std::log(1.25)));
+  std::vector<double> d;
+  int close = 0;
+  double se = 0;
+  for (const auto& a : points) {
+    const ClosestPoint c = grid.Closest(fit.b_from_a.Apply(a), o.gate_m);
+    if (c.triangle < 0) continue;
+    d.push_back(c.distance);
+    se += c.distance * c.distance;
+    close += c.distance <= 0.05;
+  }
+  fit.inliers = static_cast<int>(d.size());
+  fit.median_m = Median(d);
+  fit.rmse_m = d.empty() ? 0 : std::sqrt(se / static_cast<double>(d.size()));
+  fit.within_5cm = points.empty() ? 0 : static_cast<double>(close) / static_cast<double>(points.size());
+  return fit;
+}
+
 int FrameNumberOf(const std::string& name) {
   const std::string stem = fs::path(name).stem().string();
   int end = static_cast<int>(stem.size());
@@ -215,8 +315,32 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
     report->SetMetric("alignment.rotation_rmse_deg", fit.rotation_rmse_deg);
     report->SetMetric("alignment.iterations", fit.iterations);
     report->AddInput(o.trajectory->string());
+  } else if (o.initial) {
+    world_from_colmap = *o.initial;
+  } else if (o.mesh) {
+    throw UsageError("aligning to a mesh needs a start: --trajectory, or --initial (a rough similarity)");
   } else {
     report->Skip("alignment", "no trajectory given: the poses stay in COLMAP's frame (arbitrary scale)");
+  }
+  if (o.mesh) {
+    std::vector<Eigen::Vector3d> pts;
+    for (const auto& [id, p] : model.points3d)
+      if (static_cast<int>(p.track.size()) >= o.mesh_fit.min_track && p.error <= o.mesh_fit.max_error_px) pts.push_back(p.xyz);
+    if (pts.size() < 6)
+      throw Error(FileLoc{}, fmt::format("the COLMAP model has {} well-observed 3D points (points3D.txt; track >= {}, "
+                                         "error <= {} px): too few to align to the mesh",
+                                         pts.size(), o.mesh_fit.min_track, o.mesh_fit.max_error_px));
+    const MeshFit mf = RefineSimilarityToMesh(pts, *o.mesh, world_from_colmap, o.mesh_fit);
+    world_from_colmap = mf.b_from_a;
+    report->SetMetric("alignment.mesh.points", mf.points);
+    report->SetMetric("alignment.mesh.inliers", mf.inliers);
+    report->SetMetric("alignment.mesh.median_m", mf.median_m);
+    report->SetMetric("alignment.mesh.rmse_m", mf.rmse_m);
+    report->SetMetric("alignment.mesh.within_5cm", mf.within_5cm);
+    report->SetMetric("alignment.mesh.iterations", mf.iterations);
+    report->SetMetric("alignment.mesh.start_median_m", mf.start_median_m);
+    report->SetMetric("alignment.mesh.start_inliers", mf.start_inliers);
+    report->SetMetric("alignment.scale", mf.b_from_a.scale);
   }
   // Every frame's pose: registered ones moved, the rest interpolated.
   const int last = colmap_poses.rbegin()->first;
@@ -263,6 +387,9 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
     report->SetMetric("pose_error.rotation_rmse_deg", std::sqrt(sr / n));
     report->AddInput(o.truth->string());
   }
+  std::error_code ec;
+  for (const fs::path& f : {o.out_poses, o.out_camera})
+    if (!f.empty() && !f.parent_path().empty()) fs::create_directories(f.parent_path(), ec);
   WriteTum(o.out_poses, out);
   report->AddOutput(o.out_poses.string());
   if (!o.out_camera.empty()) {

@@ -16,6 +16,7 @@
 #include "camera/trajectory.h"
 #include "core/file.h"
 #include "core/report.h"
+#include "geometry/mesh.h"
 
 namespace mr {
 
@@ -59,6 +60,32 @@ struct SimilarityFit {
 // centres cannot fix the scale (all at one point).
 SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const SimilarityFitOptions& options = {});
 
+struct MeshFitOptions {
+  double gate_m = 0.15;   // correspondences farther than this are not used
+  double loss_m = 0.02;   // Cauchy loss scale of point-to-plane residuals
+  int max_iterations = 30;
+  int min_track = 3;           // COLMAP points seen in fewer images are left out
+  double max_error_px = 2.0;   // ... and those with a larger reprojection error
+};
+
+struct MeshFit {
+  Similarity3 b_from_a;
+  int points = 0, inliers = 0, iterations = 0;  // inliers: within the gate at the end
+  double median_m = 0, rmse_m = 0;              // point-to-mesh distances of the inliers
+  double within_5cm = 0;                        // fraction of the points within 5 cm
+  double start_median_m = 0;                    // the same figures at the start
+  int start_inliers = 0;
+};
+
+// Refines a similarity that takes points (COLMAP's 3D points, frame a) onto
+// a mesh (the room, frame b), ICP-style: closest points on the mesh, then
+// robust point-to-plane least squares (Ceres) for scale, rotation and
+// translation, repeated until it settles.  Needs a start within about the
+// gate (from the trajectory, or given).  Throws mr::Error with fewer than 6
+// correspondences.
+MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const Mesh& mesh, const Similarity3& start,
+                               const MeshFitOptions& options = {});
+
 // The frame number in an image name: the last run of digits of its stem
 // ("frame-000010.color.jpg" -> 10); -1 if none.
 int FrameNumberOf(const std::string& image_name);
@@ -71,6 +98,11 @@ struct RegisterOptions {
   std::string match = "auto";
   int frames = -1;                     // poses written for frames 0..frames-1 (-1: up to the last registered)
   std::optional<fs::path> truth;       // TUM poses of the video frames: pose error reported
+  // Refine (or, without a trajectory, find from `initial`) the alignment
+  // by COLMAP's 3D points against the room's mesh.
+  std::optional<Mesh> mesh;
+  std::optional<Similarity3> initial;
+  MeshFitOptions mesh_fit;
   SimilarityFitOptions fit;
   fs::path out_poses, out_camera;
   std::string note;                    // provenance for the written camera model

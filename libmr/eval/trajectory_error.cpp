@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "geometry/closest_point.h"
 
 namespace mr {
 
@@ -121,72 +122,6 @@ RpeResult ComputeRpe(const Trajectory& estimate, const Trajectory& reference, do
 }
 
 namespace {
-
-// Closest point on triangle abc to p (Ericson, Real-Time Collision Detection 5.1.5).
-Eigen::Vector3d ClosestOnTriangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
-                                  const Eigen::Vector3d& c) {
-  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Eigen::Vector3d bp = p - b;
-  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Eigen::Vector3d cp = p - c;
-  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  const double denom = 1.0 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
-// Triangles bucketed in a uniform grid of `cell`-sized cells.
-class TriangleGrid {
- public:
-  TriangleGrid(const Mesh& m, double cell) : mesh_(m), cell_(cell) {
-    for (size_t t = 0; t < m.triangles.size(); ++t) {
-      Eigen::AlignedBox3d box;
-      for (int k = 0; k < 3; ++k) box.extend(m.positions[static_cast<size_t>(m.triangles[t][k])].cast<double>());
-      const Eigen::Vector3i lo = Cell(box.min()), hi = Cell(box.max());
-      for (int z = lo.z(); z <= hi.z(); ++z)
-        for (int y = lo.y(); y <= hi.y(); ++y)
-          for (int x = lo.x(); x <= hi.x(); ++x) cells_[Key({x, y, z})].push_back(static_cast<int32_t>(t));
-    }
-  }
-  double Distance(const Eigen::Vector3d& p, double cutoff) const {
-    const Eigen::Vector3i c = Cell(p);
-    double best = cutoff * cutoff;
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          auto it = cells_.find(Key(c + Eigen::Vector3i(dx, dy, dz)));
-          if (it == cells_.end()) continue;
-          for (int32_t t : it->second) {
-            const Eigen::Vector3i& tri = mesh_.triangles[static_cast<size_t>(t)];
-            const Eigen::Vector3d q = ClosestOnTriangle(p, mesh_.positions[static_cast<size_t>(tri[0])].cast<double>(),
-                                                        mesh_.positions[static_cast<size_t>(tri[1])].cast<double>(),
-                                                        mesh_.positions[static_cast<size_t>(tri[2])].cast<double>());
-            best = std::min(best, (p - q).squaredNorm());
-          }
-        }
-    return std::sqrt(best);
-  }
-
- private:
-  Eigen::Vector3i Cell(const Eigen::Vector3d& p) const { return (p / cell_).array().floor().cast<int>(); }
-  static uint64_t Key(const Eigen::Vector3i& c) {
-    return (static_cast<uint64_t>(static_cast<uint32_t>(c.x()) & 0x1fffff) << 42) |
-           (static_cast<uint64_t>(static_cast<uint32_t>(c.y()) & 0x1fffff) << 21) |
-           (static_cast<uint64_t>(static_cast<uint32_t>(c.z()) & 0x1fffff));
-  }
-  const Mesh& mesh_;
-  double cell_;
-  std::unordered_map<uint64_t, std::vector<int32_t>> cells_;
-};
 
 std::vector<Eigen::Vector3d> SampleSurface(const Mesh& m, int64_t n, uint64_t seed, const Eigen::AlignedBox3f* region) {
   std::vector<double> cdf;

@@ -423,7 +423,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     PipelineStage& s = stage("register");
     s.tool = "mr-register";
     const Node ps = video.Required("poses");
-    ps.RequireObject({"tum", "fuse", "colmap", "register", "options"});
+    ps.RequireObject({"tum", "fuse", "colmap", "register", "initial", "refine_mesh", "options"});
     const int given = ps.Has("tum") + ps.Has("fuse") + ps.Has("colmap") + ps.Has("register");
     if (given != 1) ps.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
     if (ps.Has("tum")) {
@@ -436,8 +436,6 @@ Pipeline PlanPipeline(const fs::path& file) {
     } else {
       poses = w / "video" / "poses.txt";
       const fs::path model_out = w / "video" / "colmap.cameramodel";
-      if (fused_trajectory.empty())
-        ps.Fail("aligning COLMAP's poses to the room needs the room fused from RGB-D (room.rgbd): its trajectory");
       if (ps.Has("colmap")) {
         const fs::path m = pl.Path(ps.Child("colmap"), "COLMAP model");
         s.args = {"align", m.string()};
@@ -459,8 +457,28 @@ Pipeline PlanPipeline(const fs::path& file) {
         }
         s.does = "the video's frames registered by COLMAP and aligned to the room (similarity to mr-fuse's trajectory, Ceres)";
       }
-      Append(&s.args, {"--trajectory", fused_trajectory.string()});
-      s.inputs.push_back(fused_trajectory);
+      // Aligned to the fused trajectory (and, asked, refined against the
+      // fused mesh); with room meshes, to the meshes from a given start.
+      if (!fused_trajectory.empty()) {
+        Append(&s.args, {"--trajectory", fused_trajectory.string()});
+        s.inputs.push_back(fused_trajectory);
+        if (ps.Has("refine_mesh") && ps.Child("refine_mesh").Bool()) {
+          Append(&s.args, {"--mesh", fused_mesh.string()});
+          s.inputs.push_back(fused_mesh);
+        }
+      } else {
+        if (!ps.Has("initial"))
+          ps.Fail("aligning COLMAP's poses to room meshes needs \"initial\": a rough similarity, 16 numbers "
+                  "(row-major [s*R t; 0 0 0 1], COLMAP's frame to the room's)");
+        std::string list;
+        for (double v : ps.Child("initial").Numbers(16, -1e30, 1e30)) list += (list.empty() ? "" : ",") + fmt::format("{}", v);
+        Append(&s.args, {"--initial", list});
+        for (const auto& r : scene["real"]) {
+          const fs::path m = (w / r["mesh"].get<std::string>()).lexically_normal();
+          Append(&s.args, {"--mesh", m.string()});
+          s.inputs.push_back(m);
+        }
+      }
       Append(&s.args, {"--out", poses.string(), "--camera-out", model_out.string()});
       Append(&s.args, pl.Options(ps));
       s.outputs = {poses, model_out};

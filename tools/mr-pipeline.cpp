@@ -34,6 +34,7 @@ int main(int argc, char** argv) {
   return mr::RunTool("mr-pipeline", app, argc, argv, [&] {
     o.bin_dir = bin_dir;
     o.quiet = app.count("--quiet") > 0;
+    if (app.count("--threads") > 0) o.threads = app.get_option("--threads")->as<int>();
     const mr::Pipeline p = mr::PlanPipeline(file);
     mr::RunPipeline(p, o, &mr::ToolReport());
     if (!o.dry_run && !o.quiet) std::printf("outputs in %s (scene.json, render/, reports/, logs/)\n", p.work.c_str());

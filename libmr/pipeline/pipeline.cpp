@@ -724,6 +724,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
       argv.push_back(ToolPath(s.tool, o.bin_dir).string());
       Append(&argv, s.args);
       Append(&argv, {"--report", s.report.string()});
+      if (o.threads > 0) Append(&argv, {"--threads", std::to_string(o.threads)});
     }
     std::string cmd;
     for (const auto& a : argv) {

@@ -56,6 +56,7 @@ struct PipelineRunOptions {
   bool dry_run = false;             // print the plan only
   fs::path bin_dir;                 // where the mr tools are; empty: beside mr-pipeline, else PATH
   bool quiet = false;
+  int threads = 0;                  // > 0: passed to every tool (not part of the up-to-date key: results do not depend on it)
 };
 
 // Runs (or, dry_run, describes) the plan; fills `report`: one entry per

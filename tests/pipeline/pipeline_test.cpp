@@ -1,0 +1,81 @@
+// mr-pipeline's planner and content hashes (the runs themselves are tested
+// as users run them, in tests/cli/pipeline.sh).
+#include "pipeline/pipeline.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "test_util.h"
+
+namespace mr {
+namespace {
+
+TEST(ContentHash, FilesAndFoldersByContent) {
+  test::TempDir dir;
+  WriteTextFile(dir / "a.txt", "one");
+  const uint64_t a = ContentHash(dir / "a.txt");
+  WriteTextFile(dir / "a.txt", "one");  // rewritten, same content
+  EXPECT_EQ(ContentHash(dir / "a.txt"), a);
+  WriteTextFile(dir / "a.txt", "onf");  // one byte
+  EXPECT_NE(ContentHash(dir / "a.txt"), a);
+  WriteTextFile(dir / "a.txt", "one\n");  // one byte more
+  EXPECT_NE(ContentHash(dir / "a.txt"), a);
+  // A folder: names and contents, whatever the order files were made in.
+  fs::create_directories(dir / "f1");
+  fs::create_directories(dir / "f2");
+  WriteTextFile(dir / "f1" / "x", "1");
+  WriteTextFile(dir / "f1" / "y", "2");
+  WriteTextFile(dir / "f2" / "y", "2");
+  WriteTextFile(dir / "f2" / "x", "1");
+  EXPECT_EQ(ContentHash(dir / "f1"), ContentHash(dir / "f2"));
+  fs::rename(dir / "f2" / "y", dir / "f2" / "z");  // same bytes, another name
+  EXPECT_NE(ContentHash(dir / "f1"), ContentHash(dir / "f2"));
+  // Empty and 8-byte-aligned inputs differ from their neighbours.
+  WriteTextFile(dir / "e", "");
+  WriteTextFile(dir / "z8", std::string(8, '\0'));
+  WriteTextFile(dir / "z9", std::string(9, '\0'));
+  EXPECT_NE(ContentHash(dir / "e"), ContentHash(dir / "z8"));
+  EXPECT_NE(ContentHash(dir / "z8"), ContentHash(dir / "z9"));
+}
+
+const PipelineStage& Stage(const Pipeline& p, const std::string& name) {
+  for (const auto& s : p.stages)
+    if (s.name == name) return s;
+  throw std::runtime_error("no stage " + name);
+}
+
+TEST(PlanPipeline, LeavesOutWhatTheInputsDoNotNeed) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "env.exr", "room.ply", "poses.txt", "ball.ply"}) WriteTextFile(dir / f, "x");
+  WriteTextFile(dir / "p.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"}, "lighting": {"environment": "env.exr"},
+    "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}], "render": {"method": "prt"}})");
+  const Pipeline p = PlanPipeline(dir / "p.json");
+  ASSERT_EQ(p.stages.size(), PipelineStageNames().size());
+  for (const char* s : {"calibrate", "sphere", "hdr", "probe", "lights", "fuse", "register", "sweep"})
+    EXPECT_FALSE(Stage(p, s).skip.empty()) << s;
+  for (const char* s : {"formfactor", "scene", "render"}) EXPECT_TRUE(Stage(p, s).skip.empty()) << s;
+  EXPECT_EQ(Stage(p, "formfactor").tool, "mr-formfactor");  // prt needs form factors
+  EXPECT_EQ(p.scene["virtual"][0]["formfactors"], "object0.ffc");
+  EXPECT_EQ(p.scene["real"][0]["mesh"], "../room.ply");  // relative to work/
+}
+
+TEST(PlanPipeline, ErrorsNameTheFileAndKey) {
+  test::TempDir dir;
+  WriteTextFile(dir / "p.json", R"({"version": 1, "camera": {"model": "nothere.cameramodel"}})");
+  try {
+    PlanPipeline(dir / "p.json");
+    FAIL() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("p.json"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("camera.model"), std::string::npos) << e.what();
+  }
+  WriteTextFile(dir / "q.json", R"({"version": 2})");
+  EXPECT_THROW(PlanPipeline(dir / "q.json"), Error);
+  WriteTextFile(dir / "r.json", R"({"version": 1, "camera": )");
+  EXPECT_THROW(PlanPipeline(dir / "r.json"), Error);
+}
+
+}  // namespace
+}  // namespace mr

@@ -1,6 +1,7 @@
 #include "camera/register.h"
 
 #include <ceres/ceres.h>
+#include <spdlog/spdlog.h>
 #include <ceres/rotation.h>
 #include <fcntl.h>
 #include <spawn.h>
@@ -17,11 +18,11 @@
 #include "core/math.h"
 #include "geometry/closest_point.h"
 
-extern char** environ;
+extern char **environ;
 
 namespace mr {
 
-Rigid3 Similarity3::Apply(const Rigid3& world_from_cam) const {
+Rigid3 Similarity3::Apply(const Rigid3 &world_from_cam) const {
   return Rigid3(rotation * world_from_cam.rotation, Apply(world_from_cam.translation));
 }
 
@@ -29,13 +30,13 @@ namespace {
 
 // Residual of one pair: the centre (3) and the orientation (3, scaled).
 struct PairResidual {
-  PairResidual(const PosePair& p, double weight) : ca(p.a.translation), cb(p.b.translation), w(weight) {
+  PairResidual(const PosePair &p, double weight) : ca(p.a.translation), cb(p.b.translation), w(weight) {
     // R_b R_a^T is what R should be; the residual is log(R R_a R_b^T).
     Ra = p.a.rotation.toRotationMatrix();
     Rb = p.b.rotation.toRotationMatrix();
   }
   template <typename T>
-  bool operator()(const T* r, const T* log_s, const T* t, T* res) const {
+  bool operator()(const T *r, const T *log_s, const T *t, T *res) const {
     T p[3] = {T(ca.x()), T(ca.y()), T(ca.z())}, q[3];
     ceres::AngleAxisRotatePoint(r, p, q);
     const T s = exp(log_s[0]);
@@ -76,14 +77,14 @@ double Median(std::vector<double> v) {
 
 }  // namespace
 
-SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const SimilarityFitOptions& o) {
+SimilarityFit FitSimilarity(const std::vector<PosePair> &pairs, const SimilarityFitOptions &o) {
   const size_t n = pairs.size();
   if (n < 3) throw Error(FileLoc{}, fmt::format("a similarity needs at least 3 corresponding cameras, got {}", n));
   // Start: rotation from the chordal mean of R_b R_a^T (robust to collinear
   // centres), then scale and translation by least squares on the centres.
   Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
   Eigen::Vector3d ma = Eigen::Vector3d::Zero(), mb = Eigen::Vector3d::Zero();
-  for (const auto& p : pairs) {
+  for (const auto &p : pairs) {
     sum += p.b.rotation.toRotationMatrix() * p.a.rotation.toRotationMatrix().transpose();
     ma += p.a.translation;
     mb += p.b.translation;
@@ -95,13 +96,15 @@ SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const Similarity
   D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
   const Eigen::Matrix3d R0 = svd.matrixU() * D * svd.matrixV().transpose();
   double num = 0, den = 0;
-  for (const auto& p : pairs) {
+  for (const auto &p : pairs) {
     const Eigen::Vector3d da = R0 * (p.a.translation - ma), db = p.b.translation - mb;
     num += da.dot(db);
     den += da.squaredNorm();
   }
   if (!(den > 1e-18) || !(num > 0))
-    throw Error(FileLoc{}, "the cameras' centres do not fix the scale (they coincide, or run opposite ways in the two frames)");
+    throw Error(FileLoc{},
+                "the cameras' centres do not fix the scale (they "
+                "coincide, or run opposite ways in the two frames)");
   const double s0 = num / den;
   const Eigen::Vector3d t0 = mb - s0 * R0 * ma;
 
@@ -114,9 +117,13 @@ SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const Similarity
   // metres, orientation in weight x radians).
   const double w = o.rotation_weight_m;
   const double loss = std::hypot(o.centre_loss_m, w * o.rotation_loss_deg * kDegToRad);
-  for (const auto& p : pairs)
+  for (const auto &p : pairs)
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PairResidual, 6, 3, 1, 3>(new PairResidual(p, w)),
                              new ceres::CauchyLoss(loss), r, &log_s, t);
+  // The robust loss makes every residual cheap far away, and a scale near 0
+  // maps all centres to one point: keep the scale within x2 of its start.
+  problem.SetParameterLowerBound(&log_s, 0, std::log(s0) - std::log(2.0));
+  problem.SetParameterUpperBound(&log_s, 0, std::log(s0) + std::log(2.0));
   ceres::Solver::Options so;
   so.linear_solver_type = ceres::DENSE_QR;
   so.max_num_iterations = 100;
@@ -132,7 +139,7 @@ SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const Similarity
   fit.b_from_a.scale = std::exp(log_s);
   fit.b_from_a.translation = Eigen::Vector3d(t[0], t[1], t[2]);
   double se = 0, sr = 0;
-  for (const auto& p : pairs) {
+  for (const auto &p : pairs) {
     const Rigid3 moved = fit.b_from_a.Apply(p.a);
     const double e = (moved.translation - p.b.translation).norm();
     const double a = moved.rotation.angularDistance(p.b.rotation) / kDegToRad;
@@ -144,6 +151,8 @@ SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const Similarity
   fit.centre_rmse_m = std::sqrt(se / static_cast<double>(n));
   fit.rotation_rmse_deg = std::sqrt(sr / static_cast<double>(n));
   fit.centre_median_m = Median(fit.centre_residual_m);
+  fit.start_scale = s0;
+  fit.scale_at_bound = std::abs(std::log(fit.b_from_a.scale / s0)) > std::log(2.0) - 1e-6;
   return fit;
 }
 
@@ -151,10 +160,10 @@ namespace {
 
 // n . (s R a + t - q): the point's distance along the mesh's normal.
 struct PointPlaneResidual {
-  PointPlaneResidual(const Eigen::Vector3d& point, const Eigen::Vector3d& closest, const Eigen::Vector3d& normal)
+  PointPlaneResidual(const Eigen::Vector3d &point, const Eigen::Vector3d &closest, const Eigen::Vector3d &normal)
       : a(point), q(closest), n(normal) {}
   template <typename T>
-  bool operator()(const T* r, const T* log_s, const T* t, T* res) const {
+  bool operator()(const T *r, const T *log_s, const T *t, T *res) const {
     T p[3] = {T(a.x()), T(a.y()), T(a.z())}, x[3];
     ceres::AngleAxisRotatePoint(r, p, x);
     const T s = exp(log_s[0]);
@@ -167,8 +176,8 @@ struct PointPlaneResidual {
 
 }  // namespace
 
-MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const Mesh& mesh, const Similarity3& start,
-                               const MeshFitOptions& o) {
+MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const Mesh &mesh, const Similarity3 &start,
+                               const MeshFitOptions &o) {
   const TriangleGrid grid(mesh, o.gate_m);
   Eigen::AngleAxisd aa0(start.rotation);
   double r[3] = {aa0.angle() * aa0.axis().x(), aa0.angle() * aa0.axis().y(), aa0.angle() * aa0.axis().z()};
@@ -177,7 +186,8 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const
   auto current = [&] {
     Similarity3 s;
     const Eigen::Vector3d rv(r[0], r[1], r[2]);
-    s.rotation = rv.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(rv.norm(), rv.normalized())) : Eigen::Quaterniond::Identity();
+    s.rotation = rv.norm() > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(rv.norm(), rv.normalized()))
+                               : Eigen::Quaterniond::Identity();
     s.scale = std::exp(log_s);
     s.translation = Eigen::Vector3d(t[0], t[1], t[2]);
     return s;
@@ -186,7 +196,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const
   fit.points = static_cast<int>(points.size());
   {
     std::vector<double> d0;
-    for (const auto& a : points) {
+    for (const auto &a : points) {
       const ClosestPoint c = grid.Closest(start.Apply(a), o.gate_m);
       if (c.triangle >= 0) d0.push_back(c.distance);
     }
@@ -197,7 +207,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const
     const Similarity3 s = current();
     ceres::Problem problem;
     int used = 0;
-    for (const auto& a : points) {
+    for (const auto &a : points) {
       const ClosestPoint c = grid.Closest(s.Apply(a), o.gate_m);
       if (c.triangle < 0) continue;
       problem.AddResidualBlock(
@@ -206,8 +216,10 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const
       ++used;
     }
     if (used < 6)
-      throw Error(FileLoc{}, fmt::format("only {} of {} points lie within {} m of the mesh: the start is too far off "
-                                         "(give a better initial similarity)", used, points.size(), o.gate_m));
+      throw Error(FileLoc{}, fmt::format("only {} of {} points lie within {} m of the "
+                                         "mesh: the start is too far off "
+                                         "(give a better initial similarity)",
+                                         used, points.size(), o.gate_m));
     // Point-to-plane distances shrink with the scale: without a bound,
     // a poor start can collapse every point onto one surface.
     problem.SetParameterLowerBound(&log_s, 0, std::log(start.scale) - std::log(1.25));
@@ -221,18 +233,19 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const
     fit.iterations = it + 1;
     const Similarity3 after = current();
     double moved = 0;
-    for (const auto& a : points) moved = std::max(moved, (after.Apply(a) - s.Apply(a)).norm());
+    for (const auto &a : points) moved = std::max(moved, (after.Apply(a) - s.Apply(a)).norm());
     if (moved < 1e-5) break;  // a hundredth of a millimetre: settled
   }
   fit.b_from_a = current();
   if (std::abs(std::log(fit.b_from_a.scale / start.scale)) > std::log(1.25) - 1e-6)
-    throw Error(FileLoc{}, fmt::format("the mesh alignment ran to the bound of its scale (start x 1.25^{:+.0f}): the start "
+    throw Error(FileLoc{}, fmt::format("the mesh alignment ran to the bound of its scale "
+                                       "(start x 1.25^{:+.0f}): the start "
                                        "is too far off (give a better initial similarity)",
                                        std::log(fit.b_from_a.scale / start.scale) / std::log(1.25)));
   std::vector<double> d;
   int close = 0;
   double se = 0;
-  for (const auto& a : points) {
+  for (const auto &a : points) {
     const ClosestPoint c = grid.Closest(fit.b_from_a.Apply(a), o.gate_m);
     if (c.triangle < 0) continue;
     d.push_back(c.distance);
@@ -246,7 +259,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const
   return fit;
 }
 
-int FrameNumberOf(const std::string& name) {
+int FrameNumberOf(const std::string &name) {
   const std::string stem = fs::path(name).stem().string();
   int end = static_cast<int>(stem.size());
   while (end > 0 && !std::isdigit(static_cast<unsigned char>(stem[static_cast<size_t>(end - 1)]))) --end;
@@ -258,7 +271,7 @@ int FrameNumberOf(const std::string& name) {
 
 namespace {
 
-Rigid3 Interpolate(const Rigid3& a, const Rigid3& b, double u) {
+Rigid3 Interpolate(const Rigid3 &a, const Rigid3 &b, double u) {
   return Rigid3(a.rotation.slerp(u, b.rotation), (1 - u) * a.translation + u * b.translation);
 }
 
@@ -266,16 +279,16 @@ Rigid3 Interpolate(const Rigid3& a, const Rigid3& b, double u) {
 
 namespace {
 
-Trajectory ReadPoses(const fs::path& p) { return fs::is_directory(p) ? Read7ScenesFolder(p) : ReadTum(p); }
+Trajectory ReadPoses(const fs::path &p) { return fs::is_directory(p) ? Read7ScenesFolder(p) : ReadTum(p); }
 
 }  // namespace
 
-void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report* report) {
+void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report *report) {
   if (model.images.empty()) throw Error(FileLoc{}, "the COLMAP model has no registered images");
   // Registered frames: frame number -> world_from_cam in COLMAP's frame.
   std::map<int, Rigid3> colmap_poses;
   std::set<int64_t> camera_ids;
-  for (const auto& [id, im] : model.images) {
+  for (const auto &[id, im] : model.images) {
     const int f = FrameNumberOf(im.name);
     if (f < 0) throw Error(FileLoc{}, fmt::format("image {} has no frame number in its name", im.name));
     if (colmap_poses.count(f)) throw Error(FileLoc{}, fmt::format("two images of frame {} (one is {})", f, im.name));
@@ -283,51 +296,80 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
     camera_ids.insert(im.camera_id);
   }
   if (camera_ids.size() != 1)
-    throw Error(FileLoc{}, fmt::format("the video's frames use {} COLMAP cameras; one camera is expected (single_camera)",
+    throw Error(FileLoc{}, fmt::format("the video's frames use {} COLMAP cameras; one "
+                                       "camera is expected (single_camera)",
                                        camera_ids.size()));
-  const ColmapCamera& cam = model.cameras.at(*camera_ids.begin());
+  const ColmapCamera &cam = model.cameras.at(*camera_ids.begin());
   Similarity3 world_from_colmap;
   if (o.trajectory) {
     const Trajectory traj = ReadPoses(*o.trajectory);
     std::vector<PosePair> by_timestamp, by_index;
-    for (const auto& [f, pose] : colmap_poses) {
-      for (const auto& tp : traj.poses)
+    for (const auto &[f, pose] : colmap_poses) {
+      for (const auto &tp : traj.poses)
         if (std::abs(tp.timestamp - f) < 1e-6) {
           by_timestamp.push_back({pose, tp.world_from_cam});
           break;
         }
-      if (f < static_cast<int>(traj.poses.size())) by_index.push_back({pose, traj.poses[static_cast<size_t>(f)].world_from_cam});
+      if (f < static_cast<int>(traj.poses.size()))
+        by_index.push_back({pose, traj.poses[static_cast<size_t>(f)].world_from_cam});
     }
     std::string match = o.match;
     if (match == "auto") match = by_timestamp.size() >= by_index.size() ? "timestamp" : "index";
-    const auto& pairs = match == "timestamp" ? by_timestamp : by_index;
+    const auto &pairs = match == "timestamp" ? by_timestamp : by_index;
     if (pairs.size() < 3)
-      ThrowErrorAt(FileLoc{o.trajectory->string()}, "only {} registered frames meet a pose of the trajectory (match: {})",
-                   pairs.size(), match);
+      ThrowErrorAt(FileLoc{o.trajectory->string()},
+                   "only {} registered frames meet a pose of the trajectory (match: {})", pairs.size(), match);
     const SimilarityFit fit = FitSimilarity(pairs, o.fit);
     world_from_colmap = fit.b_from_a;
+    // A COLMAP model that does not fit the trajectory (a broken
+    // reconstruction; RANSAC occasionally builds one) is refused rather
+    // than written: the scale ran to its bound, the orientations disagree,
+    // or the centres miss by more than a tenth of the path's extent.
+    Eigen::AlignedBox3d extent;
+    for (const auto &pp : pairs) extent.extend(pp.b.translation);
+    const double size = extent.diagonal().norm();
+    std::string bad;
+    if (fit.scale_at_bound)
+      bad = fmt::format("the scale ran from {:.4g} to its bound {:.4g}", fit.start_scale, fit.b_from_a.scale);
+    else if (fit.rotation_rmse_deg > o.max_rotation_rmse_deg)
+      bad = fmt::format("orientations differ by {:.1f} degrees RMS (at most {})", fit.rotation_rmse_deg,
+                        o.max_rotation_rmse_deg);
+    else if (fit.centre_median_m > o.max_centre_median_fraction * size)
+      bad = fmt::format(
+          "camera centres miss by {:.3f} m (median; at most {} of "
+          "the path's extent {:.3f} m)",
+          fit.centre_median_m, o.max_centre_median_fraction, size);
+    if (!bad.empty())
+      throw AlignmentError(FileLoc{o.trajectory->string()}, "the COLMAP model does not fit this trajectory: " + bad);
     report->SetMetric("alignment.match", match);
     report->SetMetric("alignment.pairs", static_cast<int>(pairs.size()));
     report->SetMetric("alignment.scale", fit.b_from_a.scale);
     report->SetMetric("alignment.centre_rmse_m", fit.centre_rmse_m);
     report->SetMetric("alignment.centre_median_m", fit.centre_median_m);
-    report->SetMetric("alignment.centre_max_m", *std::max_element(fit.centre_residual_m.begin(), fit.centre_residual_m.end()));
+    report->SetMetric("alignment.centre_max_m",
+                      *std::max_element(fit.centre_residual_m.begin(), fit.centre_residual_m.end()));
     report->SetMetric("alignment.rotation_rmse_deg", fit.rotation_rmse_deg);
     report->SetMetric("alignment.iterations", fit.iterations);
     report->AddInput(o.trajectory->string());
   } else if (o.initial) {
     world_from_colmap = *o.initial;
   } else if (o.mesh) {
-    throw UsageError("aligning to a mesh needs a start: --trajectory, or --initial (a rough similarity)");
+    throw UsageError(
+        "aligning to a mesh needs a start: --trajectory, or "
+        "--initial (a rough similarity)");
   } else {
-    report->Skip("alignment", "no trajectory given: the poses stay in COLMAP's frame (arbitrary scale)");
+    report->Skip("alignment",
+                 "no trajectory given: the poses stay in COLMAP's "
+                 "frame (arbitrary scale)");
   }
   if (o.mesh) {
     std::vector<Eigen::Vector3d> pts;
-    for (const auto& [id, p] : model.points3d)
-      if (static_cast<int>(p.track.size()) >= o.mesh_fit.min_track && p.error <= o.mesh_fit.max_error_px) pts.push_back(p.xyz);
+    for (const auto &[id, p] : model.points3d)
+      if (static_cast<int>(p.track.size()) >= o.mesh_fit.min_track && p.error <= o.mesh_fit.max_error_px)
+        pts.push_back(p.xyz);
     if (pts.size() < 6)
-      throw Error(FileLoc{}, fmt::format("the COLMAP model has {} well-observed 3D points (points3D.txt; track >= {}, "
+      throw Error(FileLoc{}, fmt::format("the COLMAP model has {} well-observed 3D points "
+                                         "(points3D.txt; track >= {}, "
                                          "error <= {} px): too few to align to the mesh",
                                          pts.size(), o.mesh_fit.min_track, o.mesh_fit.max_error_px));
     const MeshFit mf = RefineSimilarityToMesh(pts, *o.mesh, world_from_colmap, o.mesh_fit);
@@ -354,8 +396,10 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
       pose = hi->second;
     } else {
       filled.push_back(f);
-      if (hi == colmap_poses.begin()) pose = hi->second;
-      else if (hi == colmap_poses.end()) pose = std::prev(hi)->second;
+      if (hi == colmap_poses.begin())
+        pose = hi->second;
+      else if (hi == colmap_poses.end())
+        pose = std::prev(hi)->second;
       else {
         const auto lo = std::prev(hi);
         pose = Interpolate(lo->second, hi->second, static_cast<double>(f - lo->first) / (hi->first - lo->first));
@@ -366,15 +410,18 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
   report->SetMetric("frames", frames);
   report->SetMetric("registered", static_cast<int>(colmap_poses.size()));
   if (!filled.empty()) {
-    report->Warn(fmt::format("{} of {} frames were not registered by COLMAP; their poses are interpolated", filled.size(), frames));
+    report->Warn(
+        fmt::format("{} of {} frames were not registered by COLMAP; "
+                    "their poses are interpolated",
+                    filled.size(), frames));
     report->SetMetric("interpolated_frames", filled);
   }
   if (o.truth) {
     const Trajectory truth = ReadPoses(*o.truth);
     double se = 0, sr = 0;
     int n = 0;
-    for (const auto& p : out.poses)
-      for (const auto& tp : truth.poses)
+    for (const auto &p : out.poses)
+      for (const auto &tp : truth.poses)
         if (std::abs(tp.timestamp - p.timestamp) < 1e-6) {
           se += (p.world_from_cam.translation - tp.world_from_cam.translation).squaredNorm();
           const double a = p.world_from_cam.rotation.angularDistance(tp.world_from_cam.rotation) / kDegToRad;
@@ -388,7 +435,7 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
     report->AddInput(o.truth->string());
   }
   std::error_code ec;
-  for (const fs::path& f : {o.out_poses, o.out_camera})
+  for (const fs::path &f : {o.out_poses, o.out_camera})
     if (!f.empty() && !f.parent_path().empty()) fs::create_directories(f.parent_path(), ec);
   WriteTum(o.out_poses, out);
   report->AddOutput(o.out_poses.string());
@@ -402,13 +449,13 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
 
 namespace {
 
-int RunLogged(const std::vector<std::string>& argv, const fs::path& log) {
+int RunLogged(const std::vector<std::string> &argv, const fs::path &log) {
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
   posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
   posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+  std::vector<char *> args;
+  for (const auto &a : argv) args.push_back(const_cast<char *>(a.c_str()));
   args.push_back(nullptr);
   pid_t pid = 0;
   const int err = posix_spawnp(&pid, args[0], &fa, nullptr, args.data(), environ);
@@ -422,7 +469,7 @@ int RunLogged(const std::vector<std::string>& argv, const fs::path& log) {
 
 }  // namespace
 
-ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOptions& o, Report* report) {
+ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOptions &o, Report *report) {
   if (images.size() < 3) throw Error(FileLoc{}, fmt::format("COLMAP needs at least 3 frames, got {}", images.size()));
   if (o.matcher != "sequential" && o.matcher != "exhaustive")
     throw UsageError(fmt::format("matcher \"{}\": sequential or exhaustive", o.matcher));
@@ -436,14 +483,15 @@ ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOption
   // The frames by name, relative to their (common) folder.
   const fs::path dir = images.front().parent_path();
   std::string list;
-  for (const auto& f : images) {
-    if (f.parent_path() != dir) ThrowErrorAt(FileLoc{f.string()}, "the frames must share one folder ({})", dir.string());
+  for (const auto &f : images) {
+    if (f.parent_path() != dir)
+      ThrowErrorAt(FileLoc{f.string()}, "the frames must share one folder ({})", dir.string());
     list += f.filename().string() + "\n";
   }
   WriteTextFile(ws / "images.txt", list);
   const fs::path log = ws / "colmap.log";
   fs::remove(log, ec);
-  auto step = [&](const std::string& name, std::vector<std::string> args) {
+  auto step = [&](const std::string &name, std::vector<std::string> args) {
     args.insert(args.begin(), {o.colmap, name});
     ScopedTimer t(report, "colmap " + name);
     const int rc = RunLogged(args, log);
@@ -452,25 +500,39 @@ ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOption
                    rc == 127 ? ": colmap not found, apt install colmap" : "");
   };
   const std::string db = (ws / "database.db").string();
-  std::vector<std::string> fe = {"--database_path", db, "--image_path", dir.string(), "--image_list_path",
-                                 (ws / "images.txt").string(), "--ImageReader.single_camera", "1",
-                                 "--SiftExtraction.use_gpu", "0", "--SiftExtraction.num_threads", "-1"};
+  std::vector<std::string> fe = {"--database_path",
+                                 db,
+                                 "--image_path",
+                                 dir.string(),
+                                 "--image_list_path",
+                                 (ws / "images.txt").string(),
+                                 "--ImageReader.single_camera",
+                                 "1",
+                                 "--SiftExtraction.use_gpu",
+                                 "0",
+                                 "--SiftExtraction.num_threads",
+                                 "-1",
+                                 "--random_seed",
+                                 std::to_string(o.seed)};
   bool fixed = false;
   if (o.camera) {
     const CameraModel m = CameraModel::Read(*o.camera);
-    const auto& k = m.intrinsics();
+    const auto &k = m.intrinsics();
     // mrcal's pixel centres are at integers, COLMAP's at +0.5.
     if (m.lensmodel() == "LENSMODEL_PINHOLE") {
       fe.insert(fe.end(), {"--ImageReader.camera_model", "PINHOLE", "--ImageReader.camera_params",
                            fmt::format("{},{},{},{}", k[0], k[1], k[2] + 0.5, k[3] + 0.5)});
       fixed = true;
     } else if (m.lensmodel() == "LENSMODEL_OPENCV4") {
-      fe.insert(fe.end(), {"--ImageReader.camera_model", "OPENCV", "--ImageReader.camera_params",
-                           fmt::format("{},{},{},{},{},{},{},{}", k[0], k[1], k[2] + 0.5, k[3] + 0.5, k[4], k[5], k[6], k[7])});
+      fe.insert(fe.end(),
+                {"--ImageReader.camera_model", "OPENCV", "--ImageReader.camera_params",
+                 fmt::format("{},{},{},{},{},{},{},{}", k[0], k[1], k[2] + 0.5, k[3] + 0.5, k[4], k[5], k[6], k[7])});
       fixed = true;
     } else {
-      report->Warn(fmt::format("{}: COLMAP has no equivalent of {}; COLMAP estimates the intrinsics (OPENCV)",
-                               o.camera->string(), m.lensmodel()));
+      report->Warn(
+          fmt::format("{}: COLMAP has no equivalent of {}; COLMAP "
+                      "estimates the intrinsics (OPENCV)",
+                      o.camera->string(), m.lensmodel()));
       fe.insert(fe.end(), {"--ImageReader.camera_model", "OPENCV"});
     }
   } else {
@@ -479,11 +541,13 @@ ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOption
   step("feature_extractor", fe);
   if (o.matcher == "sequential")
     step("sequential_matcher", {"--database_path", db, "--SiftMatching.use_gpu", "0", "--SequentialMatching.overlap",
-                                std::to_string(o.overlap)});
+                                std::to_string(o.overlap), "--random_seed", std::to_string(o.seed)});
   else
-    step("exhaustive_matcher", {"--database_path", db, "--SiftMatching.use_gpu", "0"});
-  std::vector<std::string> mapper = {"--database_path", db, "--image_path", dir.string(), "--output_path",
-                                     (ws / "sparse").string(), "--Mapper.num_threads", "-1"};
+    step("exhaustive_matcher",
+         {"--database_path", db, "--SiftMatching.use_gpu", "0", "--random_seed", std::to_string(o.seed)});
+  std::vector<std::string> mapper = {
+      "--database_path",      db,   "--image_path",  dir.string(),          "--output_path", (ws / "sparse").string(),
+      "--Mapper.num_threads", "-1", "--random_seed", std::to_string(o.seed)};
   if (fixed)
     mapper.insert(mapper.end(), {"--Mapper.ba_refine_focal_length", "0", "--Mapper.ba_refine_principal_point", "0",
                                  "--Mapper.ba_refine_extra_params", "0"});
@@ -492,7 +556,7 @@ ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOption
   fs::path best;
   size_t best_images = 0;
   int models = 0;
-  for (const auto& e : fs::directory_iterator(ws / "sparse")) {
+  for (const auto &e : fs::directory_iterator(ws / "sparse")) {
     if (!e.is_directory()) continue;
     ++models;
     const fs::path txt = ws / "text" / e.path().filename();
@@ -509,8 +573,29 @@ ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOption
   report->SetMetric("colmap.registered", static_cast<int>(best_images));
   report->SetMetric("colmap.frames", static_cast<int>(images.size()));
   report->SetMetric("colmap.intrinsics", fixed ? "fixed to the given camera model" : "estimated by COLMAP");
-  if (models > 1) report->Warn(fmt::format("COLMAP split the frames into {} models; the largest ({} frames) is used", models, best_images));
+  if (models > 1)
+    report->Warn(
+        fmt::format("COLMAP split the frames into {} models; the "
+                    "largest ({} frames) is used",
+                    models, best_images));
   return ReadColmapText(best);
+}
+
+void RegisterFrames(const std::vector<fs::path>& images, ColmapRunOptions co, const RegisterOptions& ro, int attempts,
+                    Report* report) {
+  for (int attempt = 1;; ++attempt) {
+    co.seed = attempt;
+    const ColmapModel model = RunColmap(images, co, report);
+    report->SetMetric("colmap.attempts", attempt);
+    try {
+      AlignColmapModel(model, ro, report);
+      return;
+    } catch (const AlignmentError& e) {
+      if (attempt >= attempts) throw;
+      report->Warn(fmt::format("COLMAP attempt {} (seed {}): {}; running it again", attempt, co.seed, e.message()));
+      spdlog::warn("COLMAP attempt {}: {}; running it again", attempt, e.message());
+    }
+  }
 }
 
 }  // namespace mr

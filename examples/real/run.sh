@@ -39,6 +39,9 @@ cat > "$out/kitchen.cameramodel" <<'CAM'
     'extrinsics': [ 0, 0, 0, 0, 0, 0, ],
 }
 CAM
+# The room's frame is the first camera's (y down): the probe's zenith goes
+# against gravity (7-Scenes gives it in that frame).
+up=$(/usr/bin/python3 -c "import numpy as n, sys; g = n.loadtxt(sys.argv[1]); g /= n.linalg.norm(g); print('[%.6f, %.6f, %.6f]' % tuple(-g))" "$kitchen/gravity-direction.txt")
 write_pipeline() {  # write_pipeline TRANSFORM_JSON
   cat > "$out/pipeline.json" <<JSON
 {
@@ -47,7 +50,7 @@ write_pipeline() {  # write_pipeline TRANSFORM_JSON
   "work": "work",
   "camera": {"model": "kitchen.cameramodel"},
   "lighting": {
-    "environment": "$data/probes-latlong/grace.hdr",
+    "environment": "$data/probes-latlong/grace.hdr", "environment_up": $up,
     "lights": {"options": {"method": "blobs", "count": 4, "threshold": 20, "residual-width": 128}}
   },
   "room": {"rgbd": "$kitchen", "options": {"stride": 10, "voxel": 0.02, "albedo-rays": 32}},
@@ -55,7 +58,7 @@ write_pipeline() {  # write_pipeline TRANSFORM_JSON
             "poses": {"register": {"matcher": "sequential", "overlap": 10}}},
   "virtual": [{"name": "bunny", "mesh": "$data/meshes/bun_zipper_res2.ply", "transform": $1,
                "material": {"albedo": [0.75, 0.72, 0.68]}}],
-  "render": {"method": "vct", "spp": 4, "seed": 1}
+  "render": {"method": "vct", "spp": 8, "seed": 1}
 }
 JSON
 }

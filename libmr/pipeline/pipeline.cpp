@@ -264,7 +264,7 @@ Pipeline PlanPipeline(const fs::path& file) {
   // The lighting: a map, or a probe (photographs -> HDR -> unwrapped map),
   // and optionally lights extracted from it.
   const Node light = root.Required("lighting");
-  light.RequireObject({"environment", "probe", "lights"});
+  light.RequireObject({"environment", "probe", "lights", "environment_up", "environment_rotation_deg", "environment_scale"});
   if (light.Has("environment") == light.Has("probe")) light.Fail("give either lighting.environment or lighting.probe");
   fs::path env, probe_json, probe_raw;
   std::optional<Node> probe;
@@ -372,6 +372,8 @@ Pipeline PlanPipeline(const fs::path& file) {
       lighting = {{"environment", pl.Rel(residual)}, {"lights", pl.Rel(out)}};
     }
   }
+  for (const char* k : {"environment_up", "environment_rotation_deg", "environment_scale"})
+    if (light.Has(k)) lighting[k] = light.Child(k).json();
   scene["lighting"] = lighting;
 
   // The room: meshes given, or fused from an RGB-D recording.

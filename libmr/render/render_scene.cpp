@@ -95,8 +95,13 @@ void LoadRenderScene(const Scene& scene, RenderScene* out) {
     out->SetEnvironment(EnvironmentMap(ReadImage(*scene.lighting.environment, opt), name,
                                        scene.lighting.environment_scale, scene.lighting.world_from_env));
   }
+  // Distant lights are directions of the map they came from (mr-lights):
+  // they turn with it.  Point and spot lights stand in the world.
   if (scene.lighting.lights)
-    for (const Light& l : ReadLights(*scene.lighting.lights)) out->AddLight(l);
+    for (Light l : ReadLights(*scene.lighting.lights)) {
+      if (l.type == LightType::kDistant) l.direction = scene.lighting.world_from_env * l.direction;
+      out->AddLight(l);
+    }
   out->Commit();
 }
 

@@ -171,12 +171,21 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
 
   if (root.Has("lighting")) {
     Node l = root.Child("lighting");
-    l.RequireObject({"environment", "environment_scale", "environment_rotation_deg", "lights"});
+    l.RequireObject({"environment", "environment_scale", "environment_rotation_deg", "environment_up", "lights"});
     if (l.Has("environment")) s.lighting.environment = ResolveFile(l.Child("environment"), base, check, "environment map");
     if (l.Has("environment_scale")) s.lighting.environment_scale = l.Child("environment_scale").Number(0, kHuge);
     if (l.Has("environment_rotation_deg")) {
       double yaw = l.Child("environment_rotation_deg").Number(-360, 360) * kDegToRad;
       s.lighting.world_from_env = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    }
+    if (l.Has("environment_up")) {
+      // The world direction of the map's zenith (+y): for rooms whose frame
+      // is not +y up (a reconstruction in its first camera's frame).
+      const Eigen::Vector3d up = l.Child("environment_up").Vec3(-kHuge, kHuge);
+      if (!(up.norm() > 1e-9)) l.Child("environment_up").Fail("a zero vector has no direction");
+      s.lighting.world_from_env =
+          Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), up.normalized()).toRotationMatrix() *
+          s.lighting.world_from_env;
     }
     if (l.Has("lights")) s.lighting.lights = ResolveFile(l.Child("lights"), base, check, "lights file");
   }

@@ -59,6 +59,24 @@ TEST_F(SceneFiles, ValidSceneParses) {
   EXPECT_EQ(s.output.layers.size(), 2u);
 }
 
+TEST_F(SceneFiles, EnvironmentUpTurnsTheMap) {
+  Json j = Valid();
+  // A room in its first camera's frame (y down, tilted): the map's zenith
+  // goes where gravity's opposite is (7-Scenes kitchen's gravity direction).
+  const Eigen::Vector3d up = -Eigen::Vector3d(-0.0088746, 0.9044256, 0.4265392).normalized();
+  j["lighting"]["environment_up"] = {up.x(), up.y(), up.z()};
+  j["lighting"]["environment_rotation_deg"] = 30;
+  const Scene s = ParseScene(j, dir_.path(), "scene.json", true);
+  // Exact up to round-off of a 3x3 rotation (1e-12).
+  EXPECT_LT((s.lighting.world_from_env * Eigen::Vector3d::UnitY() - up).norm(), 1e-12);
+  EXPECT_LT((s.lighting.world_from_env.transpose() * s.lighting.world_from_env - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  j["lighting"]["environment_up"] = {0, -1, 0};  // upside down: the antiparallel case
+  EXPECT_LT((ParseScene(j, dir_.path(), "scene.json", true).lighting.world_from_env * Eigen::Vector3d::UnitY() -
+             Eigen::Vector3d(0, -1, 0)).norm(), 1e-12);
+  j["lighting"]["environment_up"] = {0, 0, 0};
+  EXPECT_NE(ErrorOf(j).find("lighting.environment_up: a zero vector"), std::string::npos) << ErrorOf(j);
+}
+
 TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   Json j = Valid();
   j["virtual"][1]["material"]["albedo"] = {0.1, 0.2, 0.3, 0.4};

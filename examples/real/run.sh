@@ -6,7 +6,8 @@
 # fused trajectory, extracts lights from a real light probe (grace.hdr; the
 # kitchen's own light was not captured), and renders the Stanford bunny, set
 # upright on a surface in front of the first camera, into the colour frames
-# with vct.  About 3 minutes on 2 cores after the build.
+# with vct.  About 5 minutes on 2 cores after the build (COLMAP may run up
+# to 3 times: see docs/benchmarks.md).
 # Usage: examples/real/run.sh [OUT] [SHARED_DATA]
 set -euo pipefail
 cd "$(dirname "$0")/../.."

@@ -708,19 +708,21 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
       else if (!o.quiet)
         spdlog::info("[{}/{}] {}: {}{}", current, p.stages.size(), s.name, status, why.empty() ? "" : " (" + why + ")");
     };
+    // --until STAGE holds even when STAGE itself is left out.
+    const bool after_until = past_until;
+    if (s.name == o.until) past_until = true;
     if (!s.skip.empty()) {
       report->Skip(s.name, s.skip);
       ++skipped;
       finish("skipped", s.skip);
       continue;
     }
-    if (past_until) {
+    if (after_until) {
       const std::string why = fmt::format("after --until {}", o.until);
       report->Skip(s.name, why);
       finish("skipped", why);
       continue;
     }
-    if (s.name == o.until) past_until = true;
     std::vector<std::string> argv;
     if (!s.tool.empty()) {
       argv.push_back(ToolPath(s.tool, o.bin_dir).string());
@@ -841,6 +843,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
   }
   report->SetMetric("stages", stages);
   report->SetMetric("ran", ran);
+  report->SetMetric("left_out", skipped);
   report->SetMetric("work", p.work.string());
 }
 

@@ -52,6 +52,7 @@ check "given: an output edited: re-made" 0 "" -- "$P" "$tmp/given.json" -q
 echo garbage >> "$tmp/given-work/scene.json"
 check "given: edited output detected" 0 "output changed since" -- "$P" "$tmp/given.json" --dry-run
 check "given: --until scene" 0 "after --until scene" -- "$P" "$tmp/given.json" --until scene --dry-run
+check "given: --until a stage left out" 0 "render      skipped     after --until fuse" -- "$P" "$tmp/given.json" --until fuse --dry-run
 check "given: unknown stage" 2 "no such stage" -- "$P" "$tmp/given.json" --until paint
 
 # 2. A probe bracket (HDR merge, unwrapping with a given probe.json, lights),

@@ -150,6 +150,9 @@ print(a); sys.exit(0 if a['centre_rmse_m'] < 1e-3 and abs(a['scale'] - 1/3.0) < 
 sed 's#"poses": {"colmap": "colmap"}#"poses": {"register": true}#; s#"rgbd": "rgbd", "options": {"poses": "reference", "no-albedo": true, "voxel": 0.04}#"real": [{"mesh": "capture/meshes/floor.ply"}]#' "$tmp/colmap.json" > "$tmp/bad6.json"
 check "bad: register to meshes needs a start" 1 "needs \"initial\"" -- "$P" "$tmp/bad6.json" --dry-run
 
+# The real-data example skips cleanly where ../shared/data is absent.
+check "real example without the data" 0 "examples/real: skipped: the real data is not at $tmp/none" -- bash "$src/examples/real/run.sh" "$tmp/real" "$tmp/none"
+
 # Bad pipeline files: one message naming the file and the key.
 echo '{"version": 1, "camera": {"model": "capture/camera.cameramodel"}, "colour": 1}' > "$tmp/bad1.json"
 check "bad: unknown key" 1 "bad1.json: colour: unknown key" -- "$P" "$tmp/bad1.json" --dry-run

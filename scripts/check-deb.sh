@@ -21,5 +21,5 @@ chroot "$root" /bin/bash -euc '
   apt-get update -qq
   apt-get install -y -qq --no-install-recommends /tmp/mr.deb > /tmp/install.log
   cd /tmp && mr-synth --preset small --out cap -q && mr-render cap/scene.json --spp 2 --out r -q
-  test -s r/00001.png && colmap -h > /dev/null && man -w mr-pipeline > /dev/null
+  test -s r/00001.png && colmap -h > /dev/null && test -s /usr/share/man/man1/mr-pipeline.1
   echo "check-deb: $(mr-info --version) installs on a fresh Debian 12 and renders"'

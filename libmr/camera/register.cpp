@@ -3,9 +3,6 @@
 #include <ceres/ceres.h>
 #include <spdlog/spdlog.h>
 #include <ceres/rotation.h>
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
 
 #include <Eigen/SVD>
 #include <algorithm>
@@ -16,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "core/process.h"
 #include "geometry/closest_point.h"
 
 extern char **environ;
@@ -447,28 +445,6 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
 
 // ---------------------------------------------------------------------------
 
-namespace {
-
-int RunLogged(const std::vector<std::string> &argv, const fs::path &log) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  std::vector<char *> args;
-  for (const auto &a : argv) args.push_back(const_cast<char *>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = 0;
-  const int err = posix_spawnp(&pid, args[0], &fa, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (err != 0) return 127;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-}
-
-}  // namespace
-
 ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOptions &o, Report *report) {
   if (images.size() < 3) throw Error(FileLoc{}, fmt::format("COLMAP needs at least 3 frames, got {}", images.size()));
   if (o.matcher != "sequential" && o.matcher != "exhaustive")
@@ -494,7 +470,7 @@ ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOption
   auto step = [&](const std::string &name, std::vector<std::string> args) {
     args.insert(args.begin(), {o.colmap, name});
     ScopedTimer t(report, "colmap " + name);
-    const int rc = RunLogged(args, log);
+    const int rc = RunProcess(args, log, true);
     if (rc != 0)
       ThrowErrorAt(FileLoc{log.string()}, "colmap {} failed (exit {}{}); its output is in this log", name, rc,
                    rc == 127 ? ": colmap not found, apt install colmap" : "");

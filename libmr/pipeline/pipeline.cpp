@@ -1,9 +1,6 @@
 #include "pipeline/pipeline.h"
 
-#include <fcntl.h>
 #include <fnmatch.h>
-#include <spawn.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <spdlog/spdlog.h>
@@ -17,11 +14,10 @@
 
 #include "core/error.h"
 #include "core/json_node.h"
+#include "core/process.h"
 #include "core/version.h"
 #include "geometry/mesh.h"
 #include "scene/scene.h"
-
-extern char** environ;
 
 namespace mr {
 
@@ -608,26 +604,6 @@ fs::path ToolPath(const std::string& tool, const fs::path& bin_dir) {
   return tool;  // PATH
 }
 
-// Runs argv with stdout and stderr into `log`; returns the exit status.
-int Spawn(const std::vector<std::string>& argv, const fs::path& log) {
-  posix_spawn_file_actions_t fa;
-  posix_spawn_file_actions_init(&fa);
-  posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&fa, 1, 2);
-  std::vector<char*> args;
-  for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
-  args.push_back(nullptr);
-  pid_t pid = 0;
-  const int err = posix_spawnp(&pid, args[0], &fa, nullptr, args.data(), environ);
-  posix_spawn_file_actions_destroy(&fa);
-  if (err != 0) return 127;
-  int status = 0;
-  while (waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (WIFEXITED(status)) return WEXITSTATUS(status);
-  return 128 + (WIFSIGNALED(status) ? WTERMSIG(status) : 0);
-}
-
 // The tool's own error lines from its log (the last few).
 std::string ErrorLines(const fs::path& log) {
   std::ifstream in(log);
@@ -813,7 +789,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
     if (s.tool.empty()) {
       WriteSceneJson(p, report);
     } else {
-      const int rc = Spawn(argv, log);
+      const int rc = RunProcess(argv, log);
       if (rc != 0) {
         report->SetMetric("stages", stages);
         throw Error(FileLoc{p.file.string(), 0, 0, s.name},

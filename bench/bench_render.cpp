@@ -12,6 +12,7 @@
 #include "core/report.h"
 #include "core/sampling.h"
 #include "render/path_tracer.h"
+#include "render/pt.h"
 #include "render/render_scene.h"
 #include "scene/scene.h"
 #include "synth/synth.h"
@@ -49,7 +50,7 @@ void BM_RenderPt(benchmark::State& state, const std::string& preset) {
   mr::PathTracerSettings st;
   st.max_depth = 8;
   int64_t samples = 0;
-  mr::FrameRenderer fr(c.scene, c.camera, c.pose, st);  // camera rays are set up once per frame
+  mr::PtFrameRenderer fr(c.scene, c.camera, c.pose, st);  // camera rays are set up once per frame
   for (auto _ : state) {
     fr.RenderPass(1);
     samples += static_cast<int64_t>(c.camera.width()) * c.camera.height();
@@ -102,11 +103,11 @@ void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
   st.skip_environment_pixels = false;  // every pass traces the rays of the recorded one
   {
     st.ray_log = &log;
-    mr::FrameRenderer fr(c.scene, c.camera, c.pose, st);
+    mr::PtFrameRenderer fr(c.scene, c.camera, c.pose, st);
     fr.RenderPass(1);
   }
   st.ray_log = nullptr;
-  mr::FrameRenderer fr(c.scene, c.camera, c.pose, st);
+  mr::PtFrameRenderer fr(c.scene, c.camera, c.pose, st);
   double render_s = 0, bare_s = 0;
   int64_t hits = 0;
   for (auto _ : state) {

@@ -11,6 +11,7 @@
 
 #include "core/image.h"
 #include "core/math.h"
+#include "eval/transfer_reference.h"
 #include "transfer/formfactor.h"
 #include "geometry/primitives.h"
 

@@ -6,7 +6,7 @@ set -euo pipefail
 
 packages=(
   # toolchain
-  build-essential cmake ninja-build ccache pkg-config git
+  build-essential cmake ninja-build ccache pkg-config git clang-format
   clang libclang-rt-14-dev            # libFuzzer targets and sanitizer runtimes
   # core: images, maths, threading, JSON, logging, command lines
   libopenimageio-dev openimageio-tools libopenexr-dev libeigen3-dev libtbb-dev

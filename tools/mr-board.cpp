@@ -4,7 +4,7 @@
 #include "calib/board.h"
 #include "core/error.h"
 #include "core/file.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;

@@ -7,14 +7,16 @@
 
 #include "core/error.h"
 #include "core/image.h"
-#include "eval/merge.h"
-#include "eval/metrics.h"
+#include "eval/shards.h"
+#include "core/image_metrics.h"
 #include "eval/plot.h"
 #include "eval/sweep.h"
+#include "render/method.h"
+#include "scene/frames.h"
 #include "scene/scene.h"
 #include "eval/trajectory_error.h"
 #include "geometry/mesh.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
@@ -90,26 +92,21 @@ int main(int argc, char** argv) {
       "diff/METHOD-SETTING.png (|composite - reference| x --diff-scale, first frame) into --out.");
   sweep->fallthrough();
   sweep->add_option("SCENE", sweep_scene, "scene.json with a reference (mr-synth writes one)")->required()->check(CLI::ExistingFile);
-  sweep->add_option("--methods", methods, "Comma-separated: pt, ic, vpl, vct, prt")->default_val("pt,ic,vpl,vct");
+  sweep->add_option("--methods", methods, "Comma-separated: " + mr::RenderMethodNames())->default_val("pt,ic,vpl,vct");
   sweep->add_option("--out", sweep_out, "Output folder")->required();
-  sweep->add_option("--pt-spp", so.pt_spp, "pt: samples per pixel")->delimiter(',')->default_str("1,4,16,64,256");
-  sweep->add_option("--ic-rays", so.ic_rays, "ic: rays per record")->delimiter(',')->default_str("32,64,128,256");
-  sweep->add_option("--ic-spp", so.ic_spp, "ic: camera samples per pixel, one per --ic-rays value or one for all")
-      ->delimiter(',')
-      ->default_str("4,8,16,32");
-  sweep->add_option("--vpl-paths", so.vpl_paths, "vpl: light paths (directional VPLs: a quarter, at least 16)")
-      ->delimiter(',')
-      ->default_str("64,128,256,512");
-  sweep->add_option("--vct-resolution", so.vct_resolution, "vct: voxels along the volume's longest side")
-      ->delimiter(',')
-      ->default_str("32,64,128");
-  sweep->add_option("--vct-spp", so.vct_spp, "vct: camera samples per pixel, one per --vct-resolution value or one for all")
-      ->delimiter(',')
-      ->default_str("4");
-  sweep->add_option("--vpl-spp", so.vpl_spp, "vpl: camera samples per pixel, one per --vpl-paths value or one for all")
-      ->delimiter(',')
-      ->default_str("2,4,8,16");
-  sweep->add_option("--prt-spp", so.prt_spp, "prt: samples per pixel")->delimiter(',')->default_str("1,4,16");
+  std::vector<std::string> sweep_set;
+  sweep->add_option("--set", sweep_set,
+                    "METHOD.KEY=V1,V2,...: the values KEY takes (spp, or a key of render.METHOD), replacing\n"
+                    "the method's default axis; the i-th setting takes the i-th value of each axis (one value:\n"
+                    "all). The defaults:\n" + mr::SweepDefaultsText())
+      ->take_all();
+  // The flags of earlier versions, as --set.
+  std::map<std::string, std::string> alias;
+  for (const auto& [flag, key] : std::vector<std::pair<std::string, std::string>>{
+           {"pt-spp", "pt.spp"}, {"ic-rays", "ic.rays"}, {"ic-spp", "ic.spp"}, {"vpl-paths", "vpl.paths"},
+           {"vpl-spp", "vpl.spp"}, {"vct-resolution", "vct.resolution"}, {"vct-spp", "vct.spp"}, {"prt-spp", "prt.spp"}})
+    sweep->add_option("--" + flag, alias[key], "= --set " + key + "=L" +
+                      (flag == "vpl-paths" ? " (and vpl.directions: a quarter of each, at least 16)" : ""));
   sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
   mr::MergeOptions mo;
@@ -142,15 +139,19 @@ int main(int argc, char** argv) {
       std::stringstream ss(methods);
       for (std::string m; std::getline(ss, m, ',');)
         if (!m.empty()) so.methods.push_back(m);
-      if (!frames.empty()) {
-        const auto colon = frames.find(':');
-        try {
-          so.frame_begin = std::stoi(frames.substr(0, colon));
-          so.frame_end = colon == std::string::npos ? so.frame_begin + 1 : std::stoi(frames.substr(colon + 1));
-        } catch (const std::exception&) {
-          throw mr::UsageError(fmt::format("--frames {}: expected BEGIN:END", frames));
+      if (!frames.empty() && !mr::ParseFrameRange(frames, &so.frame_begin, &so.frame_end))
+        throw mr::UsageError(fmt::format("--frames {}: expected BEGIN:END", frames));
+      for (const auto& [key, values] : alias) {
+        if (values.empty()) continue;
+        mr::AddSweepAxis(key + "=" + values, &so);
+        if (key == "vpl.paths") {  // as before --set: directional VPLs a quarter of the paths, at least 16
+          std::string d;
+          for (const auto& v : so.set["vpl.paths"])
+            if (v.is_number_integer()) d += (d.empty() ? "" : ",") + std::to_string(std::max<int64_t>(16, v.get<int64_t>() / 4));
+          mr::AddSweepAxis("vpl.directions=" + d, &so);
         }
       }
+      for (const auto& spec : sweep_set) mr::AddSweepAxis(spec, &so);
       so.out = sweep_out;
       so.command_line = mr::ToolReport().ToJson().value("command_line", "");
       const mr::Scene scene = mr::ReadScene(sweep_scene);
@@ -222,45 +223,7 @@ int main(int argc, char** argv) {
       return mr::kExitOk;
     }
     if (plot->parsed()) {
-      std::istringstream in(mr::ReadTextFile(csv));
-      std::string line;
-      auto split = [](const std::string& l) {
-        std::vector<std::string> f;
-        std::stringstream ss(l);
-        for (std::string x; std::getline(ss, x, ',');) f.push_back(x);
-        return f;
-      };
-      if (!std::getline(in, line)) mr::ThrowErrorAt(mr::FileLoc{csv}, "is empty");
-      const std::vector<std::string> header = split(line);
-      auto column = [&](const std::string& name) -> int {
-        for (size_t i = 0; i < header.size(); ++i)
-          if (header[i] == name) return static_cast<int>(i);
-        mr::ThrowErrorAt(mr::FileLoc{csv}, "has no column \"{}\" (it has: {})", name, fmt::join(header, ", "));
-      };
-      const int xi = column(x_col), yi = column(y_col), gi = group_col.empty() ? -1 : column(group_col);
-      std::map<std::string, mr::PlotSeries> groups;
-      std::vector<std::string> order;
-      int n = 1;
-      while (std::getline(in, line)) {
-        ++n;
-        if (line.empty()) continue;
-        const std::vector<std::string> f = split(line);
-        if (f.size() != header.size())
-          mr::ThrowErrorAt(mr::FileLoc{csv, n}, "has {} fields, the header {}", f.size(), header.size());
-        const std::string g = gi >= 0 ? f[static_cast<size_t>(gi)] : y_col;
-        if (!groups.count(g)) {
-          order.push_back(g);
-          groups[g].name = g;
-        }
-        try {
-          groups[g].points.push_back({std::stod(f[static_cast<size_t>(xi)]), std::stod(f[static_cast<size_t>(yi)])});
-        } catch (const std::exception&) {
-          mr::ThrowErrorAt(mr::FileLoc{csv, n}, "\"{}\" or \"{}\" is not a number", f[static_cast<size_t>(xi)],
-                           f[static_cast<size_t>(yi)]);
-        }
-      }
-      std::vector<mr::PlotSeries> series;
-      for (const auto& g : order) series.push_back(groups[g]);
+      const std::vector<mr::PlotSeries> series = mr::ReadPlotSeries(csv, x_col, y_col, group_col);
       mr::PlotOptions po;
       po.title = title.empty() ? y_col + " against " + x_col : title;
       po.x_label = x_col;

@@ -9,9 +9,11 @@
 #include "core/math.h"
 #include "core/report.h"
 #include "core/spherical.h"
+#include "eval/transfer_reference.h"
 #include "render/prt.h"
 #include "scene/scene.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
+#include "eval/transfer_reference.h"
 #include "transfer/formfactor.h"
 
 namespace {
@@ -99,28 +101,14 @@ int main(int argc, char** argv) {
         auto ref = mr::ReferenceVertexRadiance(mesh, env, shade, world_from_env, a, t.header.bounces, reference_rays, 1);
         for (auto& r : ref) r /= a;
         report.AddTiming("reference", Seconds(t0));
-        double num = 0, den = 0, rel = 0;
-        for (size_t v = 0; v < ref.size(); ++v) {
-          const Eigen::Vector3d r = ref[v].cwiseProduct(vertex_albedo ? colours[v].cast<double>() : albedo);
-          num += (radiance[v] - r).squaredNorm();
-          den += r.squaredNorm();
-          for (int c = 0; c < 3; ++c) rel += (radiance[v][c] - r[c]) * (radiance[v][c] - r[c]) / (r[c] * r[c] + 0.01);
-        }
-        report.SetMetric("vertex_relative_rms", std::sqrt(num / std::max(den, 1e-300)));
-        report.SetMetric("vertex_relmse", rel / (3.0 * static_cast<double>(std::max<size_t>(1, ref.size()))));
-        spdlog::info("error against the {}-ray reference: relative RMS {:.4g}", reference_rays,
-                     std::sqrt(num / std::max(den, 1e-300)));
+        for (size_t v = 0; v < ref.size(); ++v)
+          ref[v] = ref[v].cwiseProduct(vertex_albedo ? colours[v].cast<double>() : albedo);
+        const mr::VertexError e = mr::CompareVertexRadiance(radiance, ref);
+        report.SetMetric("vertex_relative_rms", e.relative_rms);
+        report.SetMetric("vertex_relmse", e.relmse);
+        spdlog::info("error against the {}-ray reference: relative RMS {:.4g}", reference_rays, e.relative_rms);
       }
-      // Vertex colours: radiance scaled so that the 99th percentile is 1, sRGB-encoded by the PLY writer's convention.
-      std::vector<double> lum;
-      for (const auto& r : radiance) lum.push_back(0.2126 * r.x() + 0.7152 * r.y() + 0.0722 * r.z());
-      std::sort(lum.begin(), lum.end());
-      const double p99 = lum.empty() ? 1.0 : lum[lum.size() * 99 / 100];
-      const double exposure = p99 > 0 ? 1.0 / p99 : 1.0;
-      mesh.colors.resize(mesh.positions.size());
-      for (size_t v = 0; v < radiance.size(); ++v)
-        mesh.colors[v] = (radiance[v] * exposure).cwiseMin(1.0).cwiseMax(0.0).cast<float>();
-      report.SetMetric("color_exposure", exposure);
+      report.SetMetric("color_exposure", mr::ColorVerticesByRadiance(radiance, &mesh));
       mr::WritePly(out, mesh, "shaded by " + command_line);
       report.AddOutput(out);
       return mr::kExitOk;

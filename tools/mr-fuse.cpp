@@ -10,7 +10,7 @@
 #include "recon/albedo.h"
 #include "recon/fusion.h"
 #include "scene/scene.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
 namespace {
 

@@ -7,73 +7,11 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/report.h"
-#include "hdr/merge.h"
+#include "hdr/exposure_merge.h"
+#include "hdr/exposures_file.h"
 #include "hdr/response.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
-namespace {
-
-// "0.125", "1/8" or "8" (seconds).
-double ParseTime(const std::string& s, const std::string& where) {
-  try {
-    size_t used = 0;
-    const size_t slash = s.find('/');
-    double v;
-    if (slash != std::string::npos) {
-      const double a = std::stod(s.substr(0, slash), &used);
-      if (used != slash) throw std::invalid_argument(s);
-      const double b = std::stod(s.substr(slash + 1), &used);
-      if (used != s.size() - slash - 1) throw std::invalid_argument(s);
-      v = a / b;
-    } else {
-      v = std::stod(s, &used);
-      if (used != s.size()) throw std::invalid_argument(s);
-    }
-    if (!(v > 0) || !std::isfinite(v)) throw std::invalid_argument(s);
-    return v;
-  } catch (const std::exception&) {
-    mr::ThrowErrorAt(mr::FileLoc{where}, "\"{}\" is not a positive exposure time (seconds, or a fraction like 1/8)", s);
-  }
-}
-
-// The sidecar: one time per line in the order the images are given, or
-// "FILENAME TIME" lines; '#' starts a comment.
-std::vector<double> ReadExposures(const std::string& path, const std::vector<std::string>& images) {
-  const std::string text = mr::ReadTextFile(path);
-  std::istringstream in(text);
-  std::string line;
-  std::vector<double> ordered;
-  std::map<std::string, double> named;
-  int n = 0;
-  while (std::getline(in, line)) {
-    ++n;
-    if (const size_t h = line.find('#'); h != std::string::npos) line.resize(h);
-    std::istringstream ls(line);
-    std::vector<std::string> words;
-    for (std::string w; ls >> w;) words.push_back(w);
-    const std::string where = fmt::format("{}:{}", path, n);
-    if (words.empty()) continue;
-    if (words.size() == 1) ordered.push_back(ParseTime(words[0], where));
-    else if (words.size() == 2) named[words[0]] = ParseTime(words[1], where);
-    else mr::ThrowErrorAt(mr::FileLoc{where}, "expected TIME or FILENAME TIME, got {} words", words.size());
-  }
-  if (!ordered.empty() && !named.empty()) mr::ThrowErrorAt(mr::FileLoc{path}, "mixes TIME lines and FILENAME TIME lines");
-  std::vector<double> out;
-  if (!ordered.empty()) {
-    if (ordered.size() != images.size())
-      mr::ThrowErrorAt(mr::FileLoc{path}, "has {} exposure times for {} images", ordered.size(), images.size());
-    return ordered;
-  }
-  for (const std::string& img : images) {
-    const std::string f = mr::fs::path(img).filename().string();
-    auto it = named.find(f);
-    if (it == named.end()) mr::ThrowErrorAt(mr::FileLoc{path}, "gives no exposure time for {}", f);
-    out.push_back(it->second);
-  }
-  return out;
-}
-
-}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app;
@@ -125,7 +63,7 @@ int main(int argc, char** argv) {
     if (!response_in.empty() && !response_out.empty()) throw mr::UsageError("--save-response needs a recovered response, not --response");
     std::vector<double> times;
     if (!exposures_file.empty()) {
-      times = ReadExposures(exposures_file, images);
+      times = mr::ReadExposures(exposures_file, images);
       report.AddInput(exposures_file);
     }
     std::vector<mr::Exposure> bracket;

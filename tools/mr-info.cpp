@@ -2,8 +2,8 @@
 #include <cstdio>
 
 #include "core/json.h"
-#include "tool/cli.h"
-#include "tool/info.h"
+#include "cli/tool.h"
+#include "cli/info.h"
 
 int main(int argc, char** argv) {
   CLI::App app;

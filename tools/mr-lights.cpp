@@ -7,9 +7,9 @@
 #include "core/image.h"
 #include "core/report.h"
 #include "eval/plot.h"
-#include "probe/lights.h"
-#include "scene/lights.h"
-#include "tool/cli.h"
+#include "probe/light_extraction.h"
+#include "light/lights_file.h"
+#include "cli/tool.h"
 
 namespace {
 

@@ -4,7 +4,7 @@
 
 #include "core/error.h"
 #include "pipeline/pipeline.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;

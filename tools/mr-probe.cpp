@@ -10,7 +10,7 @@
 #include "core/spherical.h"
 #include "core/report.h"
 #include "probe/unwrap.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;

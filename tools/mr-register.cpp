@@ -10,55 +10,10 @@
 #include "core/image.h"
 #include "core/video.h"
 #include "geometry/mesh.h"
-#include "render/render_job.h"
-#include "tool/cli.h"
+#include "scene/frames.h"
+#include "cli/tool.h"
 
 namespace {
-
-// The frames to register: a folder's images, a printf pattern's frames
-// (0, 1, ... while they exist), or a video's frames written as PNG into the
-// workspace.
-std::vector<mr::fs::path> ListFrames(const std::string &frames, const mr::fs::path &workspace) {
-  namespace fs = mr::fs;
-  std::vector<fs::path> out;
-  std::error_code ec;
-  if (fs::is_directory(frames, ec)) {
-    for (const auto &e : fs::directory_iterator(frames)) {
-      const std::string x = mr::LowerExtension(e.path());
-      if (e.is_regular_file() && (x == ".png" || x == ".jpg" || x == ".jpeg" || x == ".tif" || x == ".tiff"))
-        out.push_back(e.path());
-    }
-    std::sort(out.begin(), out.end());
-  } else if (frames.find('%') != std::string::npos) {
-    for (int f = 0;; ++f) {
-      const fs::path p = mr::FramePath(frames, f);
-      if (!fs::exists(p, ec)) break;
-      const std::string x = mr::LowerExtension(p);
-      if (x == ".exr" || x == ".hdr")
-        mr::ThrowErrorAt(mr::FileLoc{p.string()}, "COLMAP reads 8/16-bit images; give the PNG or JPEG frames");
-      out.push_back(p);
-    }
-  } else if (fs::is_regular_file(frames, ec)) {
-    mr::VideoReader video(frames);
-    const fs::path dir = workspace / "frames";
-    fs::create_directories(dir, ec);
-    for (int f = 0; f < video.frame_count(); ++f) {
-      mr::Image im;
-      try {
-        im = video.Frame(f);
-      } catch (const mr::Error &) {
-        break;  // the container's count may be approximate
-      }
-      const fs::path p = dir / fmt::format("{:05d}.png", f);
-      mr::WriteImage(p, im);
-      out.push_back(p);
-    }
-  } else {
-    mr::ThrowErrorAt(mr::FileLoc{frames}, "not a folder, a frame pattern or a video");
-  }
-  if (out.empty()) mr::ThrowErrorAt(mr::FileLoc{frames}, "no frames found");
-  return out;
-}
 
 int PrintAlignment(const mr::Report &rep) {
   const auto &m = rep.metrics();
@@ -212,7 +167,7 @@ int main(int argc, char **argv) {
     if (run->parsed()) {
       co.workspace = workspace;
       if (!camera.empty()) co.camera = camera;
-      const auto list = ListFrames(frames, workspace);
+      const auto list = mr::ListFrameFiles(frames, workspace);
       spdlog::info("registering {} frames with COLMAP ({} matching)", list.size(), co.matcher);
       if (ro.frames < 0) ro.frames = static_cast<int>(list.size());
       rep.AddInput(frames);

@@ -1,9 +1,11 @@
 // mr-render: renders virtual objects into every frame of a scene and
 // composites them differentially.
 #include "core/error.h"
+#include "render/method.h"
 #include "render/render_job.h"
+#include "scene/frames.h"
 #include "scene/scene.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
@@ -21,7 +23,9 @@ int main(int argc, char** argv) {
       "  mr-render capture/scene.json --out render --spp 64 --report render/report.json");
   app.add_option("scene", scene_file, "Scene description (docs/formats.md)")->required()->check(CLI::ExistingFile);
   app.add_option("--out", out, "Output folder (default: the scene's output.dir)");
-  app.add_option("--method", method, "Rendering method (default: the scene's render.method); pt, ic, vpl, vct, prt");
+  std::string methods_help;
+  for (const auto& m : mr::RenderMethodRegistry()) methods_help += "\n  " + m.name + ": " + m.summary;
+  app.add_option("--method", method, "Rendering method (default: the scene's render.method):" + methods_help);
   auto* spp_opt = app.add_option("--spp", spp, "Samples per pixel (default: the scene's render.spp)")->check(CLI::PositiveNumber);
   app.add_option("--time-budget", budget, "Seconds per frame; stops sampling when reached (0 = none)")
       ->check(CLI::NonNegativeNumber)->excludes(spp_opt);
@@ -37,12 +41,8 @@ int main(int argc, char** argv) {
       if (spp == 0) o.spp = 1 << 20;  // a budget alone: sample until it is spent
     }
     if (!frames.empty()) {
-      int a = -1, b = -1;
-      char colon = 0;
-      if (std::sscanf(frames.c_str(), "%d%c%d", &a, &colon, &b) != 3 || colon != ':' || a < 0 || b <= a)
+      if (!mr::ParseFrameRange(frames, &o.frame_begin, &o.frame_end))
         throw mr::UsageError("--frames must be A:B with 0 <= A < B");
-      o.frame_begin = a;
-      o.frame_end = b;
     }
     if (!reference.empty()) o.reference = reference;
     o.out_dir = out;

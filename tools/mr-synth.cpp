@@ -4,7 +4,7 @@
 #include "calib/board.h"
 #include "synth/board_view.h"
 #include "synth/synth.h"
-#include "tool/cli.h"
+#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;

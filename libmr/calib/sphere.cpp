@@ -21,11 +21,11 @@ namespace {
 // reflectance is the same size in the log whatever the exposure or the
 // dynamic range; the linear one places the step without the log's bias
 // towards the darker side.
-struct Luminance {
+struct LuminanceImage {
   cv::Mat linear, log;
 };
 
-Luminance LogLuminance(const Image& photo, const std::string& name) {
+LuminanceImage LogLuminance(const Image& photo, const std::string& name) {
   const int W = photo.width(), H = photo.height();
   cv::Mat L(H, W, CV_32F);
   float peak = 0;
@@ -33,7 +33,7 @@ Luminance LogLuminance(const Image& photo, const std::string& name) {
     for (int x = 0; x < W; ++x) {
       float v = 0;
       if (photo.channels() >= 3)
-        v = 0.2126f * photo.at(x, y, 0) + 0.7152f * photo.at(x, y, 1) + 0.0722f * photo.at(x, y, 2);
+        v = LuminanceF(photo.at(x, y, 0), photo.at(x, y, 1), photo.at(x, y, 2));
       else
         v = photo.at(x, y, 0);
       if (!std::isfinite(v)) ThrowErrorAt(FileLoc{name}, "pixel ({}, {}) is not finite", x, y);
@@ -42,7 +42,7 @@ Luminance LogLuminance(const Image& photo, const std::string& name) {
     }
   if (!(peak > 0)) ThrowErrorAt(FileLoc{name}, "the photograph is black");
   const float floor = 1e-6f * peak;
-  Luminance out;
+  LuminanceImage out;
   cv::GaussianBlur(L, out.linear, cv::Size(0, 0), 1.0);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) L.at<float>(y, x) = std::log(std::max(floor, L.at<float>(y, x)));
@@ -66,7 +66,7 @@ struct Edge {
 // Along each normal, within +-band px: the strongest log-luminance step,
 // refined by a parabola through its neighbours.  Curve points whose search
 // would leave the image are not visible; `visible` counts the others.
-std::vector<Edge> SearchEdges(const Luminance& lum, const CameraModel& camera, const std::vector<Eigen::Vector2d>& p,
+std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& camera, const std::vector<Eigen::Vector2d>& p,
                               const std::vector<Eigen::Vector2d>& n, const std::vector<char>& ok, double band,
                               int* visible) {
   const cv::Mat& L = lum.log;
@@ -242,7 +242,7 @@ void CirclePoints(const Eigen::Vector3d& c, int n, std::vector<Eigen::Vector2d>*
 // Hough candidates (OpenCV), each scored by the share of its whole outline
 // where the image darkens inwards (a mirror's rim): a sphere seen whole
 // beats a long arc of the scene (a fish-eye's horizon is a circle too).
-Eigen::Vector3d FirstCircle(const Luminance& lum, const CameraModel& camera, const std::string& name) {
+Eigen::Vector3d FirstCircle(const LuminanceImage& lum, const CameraModel& camera, const std::string& name) {
   const cv::Mat& L = lum.log;
   // 8 bits over the 1st to 99th percentile of the log luminance: a sun
   // must not flatten the rest.
@@ -285,7 +285,7 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
   if (photo.width() != camera.width() || photo.height() != camera.height())
     ThrowErrorAt(FileLoc{name}, "is {}x{}; the camera model is for {}x{}", photo.width(), photo.height(), camera.width(),
                  camera.height());
-  const Luminance L = LogLuminance(photo, name);
+  const LuminanceImage L = LogLuminance(photo, name);
   SphereFit fit;
   fit.first_circle = o.circle ? *o.circle : FirstCircle(L, camera, name);
   const Eigen::Vector3d c0 = fit.first_circle;

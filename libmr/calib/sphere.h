@@ -1,22 +1,6 @@
-// A mirror sphere located from its silhouette under a calibrated lens.
-//
-// The rays that graze a sphere of radius R centred at c form a cone with
-// axis c/|c| and half-angle asin(R/|c|), whatever the lens; the silhouette
-// in the image is that cone through the lens model (an ellipse-like curve
-// under a fish-eye, not a circle).  So:
-//  1. a first circle: OpenCV's Hough transform on the log luminance, or one
-//     given by the user;
-//  2. edge points: the strongest log-luminance step along the curve's normal
-//     at 360 places, to a fraction of a pixel (a parabola through the peak);
-//  3. each edge point unprojected through the lens to a ray, and the cone
-//     fitted to the rays with Ceres under a Cauchy loss (outliers: specular
-//     highlights, reflections of edges near the rim);
-//  4. steps 2-3 again along the fitted cone's own silhouette in a narrow band;
-//  5. with the known radius, c = axis R / sin(half-angle); its covariance
-//     from the fit's Jacobian over the inliers, scaled by their residuals
-//     and by their correlation along the silhouette.
-// Partly visible spheres use the visible part of the silhouette; less than
-// `min_visible` of it inside the image (and the lens's domain) is refused.
+// A mirror sphere located from its silhouette under a calibrated lens: its
+// centre with covariance, from a cone fitted to the silhouette's rays.
+// The steps of the fit: docs/methods.md, "Locating the mirror sphere".
 #pragma once
 
 #include <optional>

@@ -13,7 +13,6 @@ Eigen::Matrix4d Rigid3::ToMatrix() const {
   return m;
 }
 
-Eigen::Matrix<double, 3, 4> Rigid3::ToMatrix3x4() const { return ToMatrix().topRows<3>(); }
 
 Rigid3 Rigid3::FromMatrix(const Eigen::Matrix<double, 3, 4>& m, double* orthonormality_error) {
   Eigen::Matrix3d r = m.leftCols<3>();

@@ -25,7 +25,6 @@ struct Rigid3 {
     return Rigid3(qi, -(qi * translation));
   }
   Eigen::Matrix4d ToMatrix() const;
-  Eigen::Matrix<double, 3, 4> ToMatrix3x4() const;
 
   // From a 3x4 or 4x4 matrix whose rotation block may be slightly
   // non-orthonormal (7-Scenes poses): projects it to the nearest rotation

@@ -121,16 +121,6 @@ int64_t CountNonFinite(const Image& img) {
 
 const char* ToString(Transfer t) { return t == Transfer::kSrgb ? "sRGB" : "linear"; }
 
-float SrgbToLinear(float v) {
-  if (v <= 0.04045f) return v / 12.92f;
-  return std::pow((v + 0.055f) / 1.055f, 2.4f);
-}
-
-float LinearToSrgb(float v) {
-  if (v <= 0.0031308f) return 12.92f * v;
-  return 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
-}
-
 void GaussianBlur(Image* img, double sigma_px) {
   if (!(sigma_px > 0)) return;
   const int r = static_cast<int>(std::ceil(3 * sigma_px));

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "core/color.h"
 #include "core/file.h"
 
 namespace mr {
@@ -72,8 +73,6 @@ void GaussianBlur(Image* img, double sigma_px);
 // The transfer function of stored integer pixels.
 enum class Transfer { kSrgb, kLinear };
 const char* ToString(Transfer t);
-float SrgbToLinear(float v);
-float LinearToSrgb(float v);
 
 enum class NonFinite { kReject, kAllow };
 

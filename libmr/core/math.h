@@ -11,15 +11,6 @@
 
 namespace mr {
 
-// Render code computes in mr::Float; a build option switches it to double to
-// diagnose precision problems.  Calibration, poses, reconstruction and form
-// factors always use double; pixel buffers always float.
-#ifdef MR_FLOAT_AS_DOUBLE
-using Float = double;
-#else
-using Float = float;
-#endif
-
 inline constexpr double kPi = std::numbers::pi;
 inline constexpr double kInvPi = std::numbers::inv_pi;
 inline constexpr double kTwoPi = 2.0 * std::numbers::pi;
@@ -72,15 +63,6 @@ inline T DifferenceOfProducts(T a, T b, T c, T d) {
   T err = std::fma(-c, d, cd);
   T dop = std::fma(a, b, -cd);
   return dop + err;
-}
-
-// a*b + c*d with one rounding error.
-template <typename T>
-inline T SumOfProducts(T a, T b, T c, T d) {
-  T cd = c * d;
-  T err = std::fma(c, d, -cd);
-  T sop = std::fma(a, b, cd);
-  return sop + err;
 }
 
 // Neumaier's compensated summation: the error does not grow with the number

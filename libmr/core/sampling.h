@@ -10,24 +10,10 @@
 #include <cmath>
 #include <cstdint>
 
+#include "core/hash.h"
 #include "core/math.h"
 
 namespace mr {
-
-// 64-bit finaliser (splitmix64): a bijective hash with good avalanche.
-inline uint64_t MixBits(uint64_t v) {
-  v ^= v >> 30;
-  v *= 0xbf58476d1ce4e5b9ULL;
-  v ^= v >> 27;
-  v *= 0x94d049bb133111ebULL;
-  v ^= v >> 31;
-  return v;
-}
-
-// Hash of several integers, for seeding per (seed, pixel, frame, ...).
-inline uint64_t HashCombine(uint64_t a, uint64_t b) {
-  return MixBits(a ^ (MixBits(b) + 0x9e3779b97f4a7c15ULL + (a << 6) + (a >> 2)));
-}
 
 // PCG32 (O'Neill 2014, pcg32_random_r): 64-bit state, 2^63 selectable streams.
 class Pcg32 {

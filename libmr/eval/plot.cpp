@@ -6,12 +6,62 @@
 
 #include <fmt/format.h>
 
+#include <map>
+#include <sstream>
+
+#include <fmt/ranges.h>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "core/error.h"
 
 namespace mr {
+
+std::vector<PlotSeries> ReadPlotSeries(const fs::path& path, const std::string& x, const std::string& y,
+                                       const std::string& group) {
+  const std::string csv = path.string();
+  std::istringstream in(ReadTextFile(csv));
+  std::string line;
+  auto split = [](const std::string& l) {
+    std::vector<std::string> f;
+    std::stringstream ss(l);
+    for (std::string field; std::getline(ss, field, ',');) f.push_back(field);
+    return f;
+  };
+  if (!std::getline(in, line)) ThrowErrorAt(FileLoc{csv}, "is empty");
+  const std::vector<std::string> header = split(line);
+  auto column = [&](const std::string& name) -> int {
+    for (size_t i = 0; i < header.size(); ++i)
+      if (header[i] == name) return static_cast<int>(i);
+    ThrowErrorAt(FileLoc{csv}, "has no column \"{}\" (it has: {})", name, fmt::join(header, ", "));
+  };
+  const int xi = column(x), yi = column(y), gi = group.empty() ? -1 : column(group);
+  std::map<std::string, PlotSeries> groups;
+  std::vector<std::string> order;
+  int n = 1;
+  while (std::getline(in, line)) {
+    ++n;
+    if (line.empty()) continue;
+    const std::vector<std::string> f = split(line);
+    if (f.size() != header.size())
+      ThrowErrorAt(FileLoc{csv, n}, "has {} fields, the header {}", f.size(), header.size());
+    const std::string g = gi >= 0 ? f[static_cast<size_t>(gi)] : y;
+    if (!groups.count(g)) {
+      order.push_back(g);
+      groups[g].name = g;
+    }
+    try {
+      groups[g].points.push_back({std::stod(f[static_cast<size_t>(xi)]), std::stod(f[static_cast<size_t>(yi)])});
+    } catch (const std::exception&) {
+      ThrowErrorAt(FileLoc{csv, n}, "\"{}\" or \"{}\" is not a number", f[static_cast<size_t>(xi)],
+                       f[static_cast<size_t>(yi)]);
+    }
+  }
+  std::vector<PlotSeries> series;
+  for (const auto& g : order) series.push_back(groups[g]);
+  return series;
+}
 
 namespace {
 std::string Escape(const std::string& s) {

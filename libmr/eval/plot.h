@@ -21,6 +21,12 @@ struct PlotOptions {
   int width = 720, height = 480;
 };
 
+// Series from columns of a CSV table with a header line: y against x, one
+// series per value of column `group` (empty: one series named y), in order
+// of first appearance.  Errors name the file and line.
+std::vector<PlotSeries> ReadPlotSeries(const fs::path& csv, const std::string& x, const std::string& y,
+                                       const std::string& group);
+
 // Atomic write of an SVG with one polyline (and markers) per series.
 void WriteSvgPlot(const fs::path& path, const std::vector<PlotSeries>& series, const PlotOptions& options);
 

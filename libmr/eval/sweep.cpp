@@ -2,12 +2,18 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <map>
+#include <sstream>
 
+#include <fmt/ranges.h>
+
+#include "scene/frames.h"
 #include "core/error.h"
 #include "core/image.h"
-#include "eval/metrics.h"
+#include "core/image_metrics.h"
 #include "eval/plot.h"
+#include "render/method.h"
 #include "render/render_job.h"
 
 namespace mr {
@@ -20,50 +26,63 @@ struct Setting {
   int spp = 0;
 };
 
-int Paired(const std::vector<int>& spp, size_t i, const char* name, size_t n) {
-  if (spp.size() == 1) return spp[0];
-  if (spp.size() != n) throw UsageError(fmt::format("{} has {} values for {} settings (give one, or one per setting)", name, spp.size(), n));
-  return spp[i];
-}
+std::string ValueText(const Json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
 
 std::vector<Setting> Settings(const Scene& base, const SweepOptions& o) {
+  for (const auto& [key, values] : o.set) {
+    const std::string m = key.substr(0, key.find('.'));
+    if (std::find(o.methods.begin(), o.methods.end(), m) == o.methods.end())
+      throw UsageError(fmt::format("--set {}: {} is not among the methods swept ({})", key, m, fmt::join(o.methods, ",")));
+  }
   std::vector<Setting> out;
   for (const std::string& m : o.methods) {
-    auto add = [&](const std::string& name, const std::string& dir, int spp, const std::function<void(Scene*)>& edit) {
-      Setting s{m, name, m + "-" + dir, base, spp};
+    const MethodInfo& info = FindRenderMethod(m);
+    // The method's axes: its defaults, then what --set replaces or adds.
+    std::vector<std::pair<std::string, std::vector<Json>>> axes;
+    for (const auto& [key, values] : info.sweep) {
+      std::vector<Json> v;
+      for (const Json& x : values) v.push_back(x);
+      axes.emplace_back(key, v);
+    }
+    for (const auto& [name, values] : o.set) {
+      if (name.rfind(m + ".", 0) != 0) continue;
+      const std::string key = name.substr(m.size() + 1);
+      auto it = std::find_if(axes.begin(), axes.end(), [&](const auto& a) { return a.first == key; });
+      if (it == axes.end()) axes.emplace_back(key, values);
+      else it->second = values;
+    }
+    size_t n = 1;
+    for (const auto& [key, values] : axes) n = std::max(n, values.size());
+    for (const auto& [key, values] : axes)
+      if (values.size() != 1 && values.size() != n)
+        throw UsageError(fmt::format("{}.{} has {} values for {} settings (give one, or one per setting)", m, key,
+                                     values.size(), n));
+    for (size_t i = 0; i < n; ++i) {
+      Setting s{m, "", m, base, base.render.spp};
       s.scene.render.method = m;
-      s.scene.render.spp = spp;
       s.scene.render.time_budget_s = 0;
-      edit(&s.scene);
+      std::string name, dir;
+      // Keys other than spp first, in axis order: "rays=256 spp=4", "ic-rays256-spp4".
+      for (int pass = 0; pass < 2; ++pass)
+        for (const auto& [key, values] : axes) {
+          if ((key == "spp") != (pass == 1)) continue;
+          const Json& v = values.size() == 1 ? values[0] : values[i];
+          if (key == "spp") {
+            if (!v.is_number_integer() || v.get<int64_t>() < 1)
+              throw UsageError(fmt::format("{}.spp: {} is not a positive whole number", m, v.dump()));
+            s.spp = v.get<int>();
+          } else {
+            Json& block = s.scene.render.method_settings[m];
+            if (!block.is_object()) block = Json::object();
+            block[key] = v;
+          }
+          name += (name.empty() ? "" : " ") + key + "=" + ValueText(v);
+          dir += "-" + key + ValueText(v);
+        }
+      s.scene.render.spp = s.spp;
+      s.name = name;
+      s.dir = m + dir;
       out.push_back(std::move(s));
-    };
-    if (m == "pt") {
-      for (int spp : o.pt_spp) add(fmt::format("spp={}", spp), fmt::format("spp{}", spp), spp, [](Scene*) {});
-    } else if (m == "prt") {
-      for (int spp : o.prt_spp) add(fmt::format("spp={}", spp), fmt::format("spp{}", spp), spp, [](Scene*) {});
-    } else if (m == "ic") {
-      for (size_t i = 0; i < o.ic_rays.size(); ++i) {
-        const int rays = o.ic_rays[i], spp = Paired(o.ic_spp, i, "--ic-spp", o.ic_rays.size());
-        add(fmt::format("rays={} spp={}", rays, spp), fmt::format("rays{}-spp{}", rays, spp), spp,
-            [&](Scene* s) { s->render.ic.rays = rays; });
-      }
-    } else if (m == "vpl") {
-      for (size_t i = 0; i < o.vpl_paths.size(); ++i) {
-        const int paths = o.vpl_paths[i], spp = Paired(o.vpl_spp, i, "--vpl-spp", o.vpl_paths.size());
-        add(fmt::format("paths={} directions={} spp={}", paths, std::max(16, paths / 4), spp),
-            fmt::format("paths{}-spp{}", paths, spp), spp, [&](Scene* s) {
-              s->render.vpl.paths = paths;
-              s->render.vpl.directions = std::max(16, paths / 4);
-            });
-      }
-    } else if (m == "vct") {
-      for (size_t i = 0; i < o.vct_resolution.size(); ++i) {
-        const int res = o.vct_resolution[i], spp = Paired(o.vct_spp, i, "--vct-spp", o.vct_resolution.size());
-        add(fmt::format("resolution={} spp={}", res, spp), fmt::format("res{}-spp{}", res, spp), spp,
-            [&](Scene* s) { s->render.vct.resolution = res; });
-      }
-    } else {
-      throw UsageError(fmt::format("unknown method \"{}\" (pt, ic, vpl, vct, prt)", m));
     }
   }
   return out;
@@ -74,6 +93,35 @@ double Timing(const Json& timings, const char* part) {
 }
 
 }  // namespace
+
+std::string SweepDefaultsText() {
+  std::vector<std::string> methods;
+  for (const MethodInfo& m : RenderMethodRegistry()) {
+    std::vector<std::string> axes;
+    for (const auto& [key, values] : m.sweep) {
+      std::vector<std::string> v;
+      for (const Json& x : values) v.push_back(ValueText(x));
+      axes.push_back(fmt::format("{}.{}={}", m.name, key, fmt::join(v, ",")));
+    }
+    methods.push_back(fmt::format("{}", fmt::join(axes, " ")));
+  }
+  return fmt::format("{}", fmt::join(methods, "\n"));
+}
+
+void AddSweepAxis(const std::string& spec, SweepOptions* o) {
+  const auto eq = spec.find('='), dot = spec.find('.');
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq || dot == 0 || eq == dot + 1 || eq + 1 == spec.size())
+    throw UsageError(fmt::format("--set {}: expected METHOD.KEY=V1,V2,... (e.g. vpl.paths=64,256)", spec));
+  FindRenderMethod(spec.substr(0, dot));
+  std::vector<Json> values;
+  std::stringstream ss(spec.substr(eq + 1));
+  for (std::string t; std::getline(ss, t, ',');) {
+    if (t.empty()) throw UsageError(fmt::format("--set {}: an empty value", spec));
+    const Json v = Json::parse(t, nullptr, false);
+    values.push_back(v.is_discarded() || v.is_object() || v.is_array() ? Json(t) : v);
+  }
+  o->set[spec.substr(0, eq)] = values;
+}
 
 std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report* report) {
   if (!scene.reference) throw UsageError(fmt::format("{} names no reference: a sweep needs ground truth", scene.file.string()));
@@ -101,7 +149,8 @@ std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report
     // Rendering and the per-render preparation (VPLs, prt shading); not
     // loading, compositing or writing, which every method shares.
     const Json& t = j["timings"];
-    row.seconds = (Timing(t, "render") + Timing(t, "build vpls") + Timing(t, "build volumes") + Timing(t, "prepare prt")) / std::max(1, row.frames);
+    const std::string& prepare = FindRenderMethod(s.method).prepare_timing;
+    row.seconds = (Timing(t, "render") + (prepare.empty() ? 0.0 : Timing(t, prepare.c_str()))) / std::max(1, row.frames);
     row.relmse = m.value("relmse", NAN);
     row.region_relmse = m.value("region_relmse", NAN);
     row.rmse = m.value("rmse", NAN);

@@ -4,9 +4,11 @@
 // region the virtual objects change, and timed.
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
+#include "core/json.h"
 #include "core/report.h"
 #include "scene/scene.h"
 
@@ -14,22 +16,24 @@ namespace mr {
 
 struct SweepOptions {
   std::vector<std::string> methods = {"pt", "ic", "vpl", "vct"};
-  std::vector<int> pt_spp = {1, 4, 16, 64, 256};
-  // ic and vpl: the i-th setting takes the i-th rays/paths and spp (one spp
-  // value: the same for all), since their per-pixel part needs samples too.
-  std::vector<int> ic_rays = {32, 64, 128, 256};
-  std::vector<int> ic_spp = {4, 8, 16, 32};
-  std::vector<int> vpl_paths = {64, 128, 256, 512};
-  std::vector<int> vpl_spp = {2, 4, 8, 16};
-  // vct: voxels along the volume's longest side, paired with spp as above.
-  std::vector<int> vct_resolution = {32, 64, 128};
-  std::vector<int> vct_spp = {4};
-  std::vector<int> prt_spp = {1, 4, 16};
+  // "METHOD.KEY" -> the values it takes, replacing the method's default axis
+  // for KEY (MethodInfo::sweep) or adding one.  KEY "spp" is the render's
+  // samples per pixel, any other a key of the method's render.<method>
+  // block.  The i-th setting of a method takes the i-th value of each of its
+  // axes; an axis of one value holds for all.
+  std::map<std::string, std::vector<Json>> set;
   int frame_begin = -1, frame_end = -1;  // -1: the scene's
   double diff_scale = 5;
   fs::path out;
   std::string command_line;
 };
+
+// The methods' default axes, a line each: "pt.spp=1,4,16,64,256\nic.rays=... ic.spp=...".
+std::string SweepDefaultsText();
+
+// Adds `spec` ("METHOD.KEY=v1,v2,...": numbers, true/false or strings) to
+// options->set; a UsageError names what is wrong.
+void AddSweepAxis(const std::string& spec, SweepOptions* options);
 
 struct SweepRow {
   std::string method, setting;  // e.g. "ic", "rays=256 spp=4"

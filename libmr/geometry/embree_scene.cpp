@@ -152,10 +152,6 @@ void EmbreeScene::Commit() {
   impl_->committed = true;
 }
 
-bool EmbreeScene::IsVirtual(uint32_t id) const {
-  return id < impl_->is_virtual.size() && impl_->is_virtual[id];
-}
-
 size_t EmbreeScene::geometry_count() const { return impl_->is_virtual.size(); }
 
 bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {

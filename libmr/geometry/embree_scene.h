@@ -58,7 +58,6 @@ class EmbreeScene {
   // Builds the acceleration structures; call after the last Add and before any query.
   void Commit();
 
-  bool IsVirtual(uint32_t geometry_id) const;
   size_t geometry_count() const;
 
   // Closest hit; false (and hit->valid() false) when the ray escapes.

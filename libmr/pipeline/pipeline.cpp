@@ -13,10 +13,12 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/json_node.h"
 #include "core/process.h"
 #include "core/version.h"
 #include "geometry/mesh.h"
+#include "render/method.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -35,8 +37,8 @@ namespace {
 // FNV-1a over 8-byte words with a final avalanche (splitmix64): fast enough
 // for gigabytes of recordings, and any changed byte changes the hash.
 struct Hasher {
-  uint64_t h = 0xcbf29ce484222325ull;
-  void Word(uint64_t w) { h = (h ^ w) * 0x100000001b3ull; }
+  Fnv1a fnv;
+  void Word(uint64_t w) { fnv.Word(w); }
   void Bytes(const char* p, size_t n) {
     size_t i = 0;
     for (; i + 8 <= n; i += 8) {
@@ -52,12 +54,7 @@ struct Hasher {
     Word(s.size());
     Bytes(s.data(), s.size());
   }
-  uint64_t Final() const {
-    uint64_t z = h + 0x9e3779b97f4a7c15ull;
-    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
-    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
-    return z ^ (z >> 31);
-  }
+  uint64_t Final() const { return fnv.Mixed(); }
 };
 
 void HashFile(const fs::path& path, Hasher* h) {
@@ -547,7 +544,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     p.fused_room = fused_mesh;
   }
   // Validate the assembled scene now (files that stages make need not exist yet).
-  ParseScene(scene, w, (w / "scene.json").string(), false);
+  CheckRenderSettings(ParseScene(scene, w, (w / "scene.json").string(), false));
   p.scene = scene;
 
   const Json outputs = root.Has("outputs") ? root.Child("outputs").json() : Json{{"render", true}};
@@ -646,7 +643,7 @@ void WriteSceneJson(const Pipeline& p, Report* report) {
                              "methods read one albedo per mesh",
                              mean[0], mean[1], mean[2]));
   }
-  ParseScene(scene, p.work, (p.work / "scene.json").string(), true);
+  CheckRenderSettings(ParseScene(scene, p.work, (p.work / "scene.json").string(), true));
   WriteTextFile(p.work / "scene.json", scene.dump(2) + "\n");
 }
 

@@ -15,30 +15,6 @@
 
 namespace mr {
 
-ProbeGeometry ReadProbe(const fs::path& path) {
-  const Json j = ReadJsonFile(path);
-  const std::string name = path.string();
-  JsonNode root(j, "", &name);
-  root.RequireObject({"format", "version", "camera", "radius_m", "centre_cam_m", "centre_covariance_m2",
-                      "world_from_cam", "photographs", "consistency_chi2", "provenance"});
-  if (root.Required("format").String() != "mr-probe") root.Child("format").Fail("expected \"mr-probe\"");
-  if (root.Required("version").Integer(1, 1000) != 1) root.Child("version").Fail("this mr reads probe version 1");
-  ProbeGeometry g;
-  g.path = path;
-  const fs::path cam = path.parent_path() / root.Required("camera").String();
-  g.camera = CameraModel::Read(cam);
-  g.radius_m = root.Required("radius_m").Number(1e-6, 100);
-  g.centre_cam = root.Required("centre_cam_m").Vec3(-1e3, 1e3);
-  if (g.centre_cam.norm() <= g.radius_m) root.Child("centre_cam_m").Fail("the camera is inside the sphere");
-  JsonNode w = root.Required("world_from_cam");
-  w.RequireObject({"quaternion_wxyz", "camera_in_world_m", "source"});
-  const std::vector<double> q = w.Required("quaternion_wxyz").Numbers(4, -1, 1);
-  const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-  if (std::abs(quat.norm() - 1) > 1e-6) w.Child("quaternion_wxyz").Fail(fmt::format("not a unit quaternion (norm {})", quat.norm()));
-  g.world_from_cam = quat.normalized().toRotationMatrix();
-  return g;
-}
-
 void UnwrapOptions::Check() const {
   if (width < 8 || width > 16384 || width % 2 != 0) throw UsageError(fmt::format("map width {} must be even, 8-16384", width));
   if (!(reflectance > 0 && reflectance <= 1)) throw UsageError(fmt::format("reflectance {} not in (0, 1]", reflectance));

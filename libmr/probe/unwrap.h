@@ -1,29 +1,7 @@
-// Unwrapping light-probe photographs into world-aligned lat-long maps.
-//
-// Mirror sphere: the camera is at a finite distance, so the reflection
-// geometry is solved exactly (no orthographic approximation).  For a world
-// direction d, the point of the sphere that reflects d into the camera lies
-// in the plane of the camera, the sphere's centre and d; its normal's angle
-// from the direction back to the camera is found by bisection (the
-// reflected direction's angle grows monotonically with it, from 0 at the
-// sphere's centre to the rim).  The point is projected through the
-// camera's mrcal model.  Directions behind the sphere, that no point
-// reflects, are blind (confidence 0).
-//
-// Fish-eye: the direction is projected through the camera's model directly
-// (fields of view past 180 degrees included).
-//
-// Resampling is filtered by the mapping's Jacobian (EWA, Heckbert 1989):
-// each map pixel averages the photograph over the Gaussian footprint of its
-// own cell, J J^T / 4 + (1/2)^2 I in pixels^2, so a compressed rim is
-// averaged over all the photograph's pixels it covers (not aliased), and a
-// stretched centre is interpolated (not falsely sharp).  J is taken in
-// steps of one map pixel's height along two tangents of the direction, so
-// it is defined at the poles.  The confidence layer is |det J|: photograph
-// pixels per (pi/H)^2 steradians (how well that direction is seen), times a
-// factor that falls smoothly to 1e-3 within 15 degrees of the direction
-// back to the camera, where the camera and photographer are reflected;
-// several views merge by it.
+// Unwrapping light-probe photographs (a mirror sphere at a finite distance,
+// or a fish-eye view) into world-aligned lat-long maps with a confidence
+// layer, resampled with the mapping's Jacobian.  The reflection geometry, the
+// filter and the confidence: docs/methods.md, "Probe unwrapping".
 #pragma once
 
 #include <string>
@@ -32,20 +10,11 @@
 #include <Eigen/Core>
 
 #include "camera/camera_model.h"
+#include "calib/probe_file.h"
 #include "core/file.h"
 #include "core/image.h"
 
 namespace mr {
-
-// probe.json (docs/formats.md) with its camera model loaded.
-struct ProbeGeometry {
-  fs::path path;
-  CameraModel camera;
-  double radius_m = 0;
-  Eigen::Vector3d centre_cam = Eigen::Vector3d::Zero();
-  Eigen::Matrix3d world_from_cam = Eigen::Matrix3d::Identity();
-};
-ProbeGeometry ReadProbe(const fs::path& path);
 
 struct UnwrapOptions {
   int width = 512;                 // the map's width; height = width / 2

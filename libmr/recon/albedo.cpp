@@ -12,9 +12,9 @@
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "geometry/embree_scene.h"
-#include "render/environment.h"
-#include "render/light_source.h"
-#include "scene/lights.h"
+#include "light/environment.h"
+#include "light/light_source.h"
+#include "light/lights_file.h"
 
 namespace mr {
 

@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/parallel.h"
 
 namespace mr {
@@ -27,14 +28,7 @@ uint64_t PackKey(const Eigen::Vector3i& c) {
 }
 
 struct KeyHash {
-  size_t operator()(uint64_t x) const {  // splitmix64 finaliser
-    x ^= x >> 30;
-    x *= 0xbf58476d1ce4e5b9ull;
-    x ^= x >> 27;
-    x *= 0x94d049bb133111ebull;
-    x ^= x >> 31;
-    return static_cast<size_t>(x);
-  }
+  size_t operator()(uint64_t x) const { return static_cast<size_t>(MixBits(x)); }
 };
 
 int FloorDiv(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }

@@ -1,5 +1,7 @@
 #include "render/bsdf.h"
 
+#include "core/color.h"
+
 #include <cmath>
 
 #include "core/math.h"
@@ -8,7 +10,7 @@
 namespace mr {
 
 namespace {
-double Lum(const Eigen::Vector3d& c) { return 0.2126 * c.x() + 0.7152 * c.y() + 0.0722 * c.z(); }
+double Lum(const Eigen::Vector3d& c) { return Luminance(c); }
 }  // namespace
 
 Bsdf::Bsdf(const Material& m) : albedo_(m.albedo), specular_(m.specular), alpha_(m.roughness * m.roughness) {

@@ -22,6 +22,13 @@ PathTracerSettings TracerSettings(const IcSettings& s) {
   return p;
 }
 
+// The glossy lobe's path: glossy_depth bounces, at most max_depth.
+PathTracerSettings GlossyTracerSettings(const IcSettings& s) {
+  PathTracerSettings p = TracerSettings(s);
+  if (s.glossy_depth >= 0) p.max_depth = std::min(p.max_depth, s.glossy_depth);
+  return p;
+}
+
 // Tabellion & Lamorlette's weight of record r at (p, n); <= 0: no contribution.
 double Weight(const IcRecord& r, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double inv_accuracy) {
   const double eps_p = (p - r.p).norm() / r.r;
@@ -96,43 +103,41 @@ void IrradianceCache::Describe(Report* report) const {
 
 IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
                                  const Rigid3& world_from_cam, uint64_t seed, int frame)
-    : scene_(scene),
+    : PixelLoopMethod(camera, world_from_cam, seed, frame),
+      scene_(scene),
       cache_(cache),
       camera_(camera),
-      sampler_(camera, world_from_cam, seed, frame),
-      width_(camera.width()),
-      height_(camera.height()),
-      frame_(frame),
-      acc_(width_, height_) {}
+      glossy_tracer_(scene, GlossyTracerSettings(cache->settings())),
+      frame_(frame) {}
 
 void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
   // The record's influence sphere (weight > 0 within accuracy x R_i) projected
   // into the image; a sphere around or behind the camera covers every pixel.
   const double rho = cache_->settings_.accuracy * r.r;
-  const Rigid3& pose = sampler_.pose();
+  const Rigid3& pose = sampler().pose();
   const Eigen::Vector3d pc = pose.rotation.conjugate() * (r.p - pose.translation);
   const double dist = pc.norm();
-  int x0 = 0, x1 = width_ - 1, ya = static_cast<int>(y0), yb = static_cast<int>(y1) - 1;
+  int x0 = 0, x1 = width() - 1, ya = static_cast<int>(y0), yb = static_cast<int>(y1) - 1;
   Eigen::Vector2d q;
   if (dist > rho && camera_.Project(pc, &q) && q.allFinite()) {
-    const int cx = static_cast<int>(std::clamp(std::round(q.x()), 0.0, width_ - 1.0));
-    const int cy = static_cast<int>(std::clamp(std::round(q.y()), 0.0, height_ - 1.0));
+    const int cx = static_cast<int>(std::clamp(std::round(q.x()), 0.0, width() - 1.0));
+    const int cy = static_cast<int>(std::clamp(std::round(q.y()), 0.0, height() - 1.0));
     Eigen::Vector3d c[4];
-    sampler_.CornerDirections(cx, cy, c);
+    sampler().CornerDirections(cx, cy, c);
     const double pixel_angle = std::max(1e-9, std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0));
     const double rpx = std::asin(std::min(1.0, rho / dist)) / pixel_angle * 1.25 + 2;
     // Clamped as doubles first: a point near the camera plane projects far out.
     auto px = [](double v, int hi) { return static_cast<int>(std::clamp(v, -1.0, static_cast<double>(hi) + 1)); };
-    x0 = std::max(0, px(std::floor(q.x() - rpx), width_));
-    x1 = std::min(width_ - 1, px(std::ceil(q.x() + rpx), width_));
-    ya = std::max(ya, px(std::floor(q.y() - rpx), height_));
-    yb = std::min(yb, px(std::ceil(q.y() + rpx), height_));
+    x0 = std::max(0, px(std::floor(q.x() - rpx), width()));
+    x1 = std::min(width() - 1, px(std::ceil(q.x() + rpx), width()));
+    ya = std::max(ya, px(std::floor(q.y() - rpx), height()));
+    yb = std::min(yb, px(std::ceil(q.y() + rpx), height()));
   }
   const double inv_a = 1 / cache_->settings_.accuracy;
   for (int y = ya; y <= yb; ++y)
     for (int x = x0; x <= x1; ++x)
       for (int s = 0; s < samples_; ++s) {
-        const size_t k = (static_cast<size_t>(y) * width_ + x) * samples_ + s;
+        const size_t k = (static_cast<size_t>(y) * width() + x) * samples_ + s;
         // The mixed entry: virtual records on virtual points, real ones on real.
         Entry& m = mixed_[k];
         if (m.valid && m.is_virtual == r.on_virtual) {
@@ -156,9 +161,9 @@ void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
 
 void IcFrameRenderer::SplatAll(const std::vector<size_t>& which) {
   // Bands of rows in parallel; each band visits every record.
-  const int64_t band = 8, bands = (height_ + band - 1) / band;
+  const int64_t band = 8, bands = (height() + band - 1) / band;
   ParallelFor(0, bands, [&](int64_t b) {
-    const int64_t y0 = b * band, y1 = std::min<int64_t>(height_, y0 + band);
+    const int64_t y0 = b * band, y1 = std::min<int64_t>(height(), y0 + band);
     for (size_t i : which) Splat(cache_->records_[i], y0, y1);
   });
   splatted_ += static_cast<int64_t>(which.size());
@@ -168,22 +173,23 @@ void IcFrameRenderer::RenderPass(int spp) {
   const IcSettings& st = cache_->settings_;
   const EmbreeScene& embree = scene_.embree();
   samples_ = spp;
-  const size_t n = static_cast<size_t>(width_) * height_ * spp;
+  first_ = samples_per_pixel();
+  const size_t n = static_cast<size_t>(width()) * height() * spp;
   mixed_.assign(n, Entry());
   real_.assign(n, Entry());
   // G-buffer: the first hits of each camera sample's mixed ray and, where it
   // meets a virtual object, of its real ray.
   std::atomic<int64_t> outside{0};
-  ParallelFor(0, height_, [&](int64_t y) {
-    for (int x = 0; x < width_; ++x) {
-      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
+  ParallelFor(0, height(), [&](int64_t y) {
+    for (int x = 0; x < width(); ++x) {
+      if (!sampler().PixelValid(x, static_cast<int>(y))) continue;
       Eigen::Vector3d c[4];
-      sampler_.CornerDirections(x, static_cast<int>(y), c);
+      sampler().CornerDirections(x, static_cast<int>(y), c);
       const double pixel_angle = std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0);
       for (int s = 0; s < spp; ++s) {
-        const size_t k = (static_cast<size_t>(y) * width_ + x) * spp + s;
+        const size_t k = (static_cast<size_t>(y) * width() + x) * spp + s;
         Ray ray;
-        sampler_.Sample(x, static_cast<int>(y), s, &ray);
+        sampler().Sample(x, static_cast<int>(y), first_ + s, &ray);
         auto fill = [&](Ray r, uint32_t mask, Entry* e) {
           r.mask = mask;
           Hit hit;
@@ -221,7 +227,7 @@ void IcFrameRenderer::RenderPass(int spp) {
   // Miss detection: per tile, the first needed sample of zero weight gets a
   // record; passes repeat until none is left.
   const int tile = st.tile;
-  const int tiles_x = (width_ + tile - 1) / tile, tiles_y = (height_ + tile - 1) / tile;
+  const int tiles_x = (width() + tile - 1) / tile, tiles_y = (height() + tile - 1) / tile;
   std::vector<int64_t> resume(static_cast<size_t>(tiles_x) * tiles_y, 0);
   // A spatial hash of the records for neighbour clamping.
   const double cell = [&] {
@@ -243,12 +249,12 @@ void IcFrameRenderer::RenderPass(int spp) {
     std::vector<char> made(resume.size(), 0);
     ParallelFor(0, static_cast<int64_t>(resume.size()), [&](int64_t t) {
       const int tx = static_cast<int>(t % tiles_x), ty = static_cast<int>(t / tiles_x);
-      const int w = std::min(tile, width_ - tx * tile), h = std::min(tile, height_ - ty * tile);
+      const int w = std::min(tile, width() - tx * tile), h = std::min(tile, height() - ty * tile);
       const int64_t total = static_cast<int64_t>(w) * h * samples_ * 2;
       for (int64_t& j = resume[static_cast<size_t>(t)]; j < total; ++j) {
         const int64_t s2 = j % (samples_ * 2), px = j / (samples_ * 2);
         const int x = tx * tile + static_cast<int>(px % w), y = ty * tile + static_cast<int>(px / w);
-        const size_t k = (static_cast<size_t>(y) * width_ + x) * samples_ + static_cast<size_t>(s2 / 2);
+        const size_t k = (static_cast<size_t>(y) * width() + x) * samples_ + static_cast<size_t>(s2 / 2);
         const Entry& e = s2 % 2 == 0 ? mixed_[k] : real_[k];
         if (!e.valid || !e.needed || e.w > 0) continue;
         if (s2 % 2 == 1 && !mixed_[k].is_virtual) continue;
@@ -305,111 +311,98 @@ void IcFrameRenderer::RenderPass(int spp) {
   cache_->passes_ += miss_passes_;
   cache_->record_rays_ += (new_records_ + reevaluated_) * st.rays;
 
-  // Shading.
-  DifferentialPathTracer tracer(scene_, TracerSettings(st));
-  interpolated_.assign(static_cast<size_t>(width_) * height_, NAN);
-  positions_.assign(static_cast<size_t>(width_) * height_, Eigen::Vector3f::Constant(NAN));
-  std::atomic<int64_t> nonfinite{0}, rays{0};
-  ParallelFor(0, height_, [&](int64_t y) {
-    int64_t row_rays = 0;
-    for (int x = 0; x < width_; ++x) {
-      const size_t pi = static_cast<size_t>(y) * width_ + x;
-      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
-      acc_.Count(pi, spp);
-      for (int s = 0; s < spp; ++s) {
-        const size_t k = pi * spp + s;
-        Ray ray;
-        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), s, &ray);
-        Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
-        bool primary_virtual = false;
-        // One surface point for the wanted solutions: emission, direct light,
-        // cached indirect diffuse light, and the glossy lobe's path.
-        auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, const Eigen::Vector3d& e_m,
-                         const Eigen::Vector3d& e_r, Pcg32& g) {
-          PathVertex v = MakeVertex(scene_, r, hit);
-          const bool xv = hit.is_virtual;
-          if (want_m) mixed += v.material->emission;
-          if (want_r) real += v.material->emission;
-          if (v.bsdf->IsBlack()) return;
-          const bool glossy = v.material->IsGlossy();
-          PathVertex vd = v;
-          vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
-          row_rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real,
-                                    [&](Ray r) {
-                                      r.mask = kMaskVirtual;
-                                      ++row_rays;
-                                      return embree.Occluded(r) ? 0.0 : 1.0;
-                                    });
-          const Eigen::Vector3d f = v.material->albedo * kInvPi;
-          if (want_m) mixed += f.cwiseProduct(e_m);
-          if (want_r) real += f.cwiseProduct(e_r);
-          if (!glossy) return;
-          PathVertex vg = v;
-          vg.bsdf = &scene_.glossy_bsdf(v.geometry_id);
-          NextEvent(scene_, vg, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
-            row_rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
-          });
-          BsdfSample bs;
-          const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
-          if (!vg.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return;
-          const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
-          const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
-          if (want_r && !want_m) {
-            int nr = 0;
-            real += tracer.RealRadiance(next, beta, bs.pdf, 1, g, &nr);
-            row_rays += nr;
-          } else {
-            PathSample ps = tracer.TraceFrom(next, beta, bs.pdf, 1, g);
-            row_rays += ps.rays;
-            mixed += ps.mixed;
-            if (want_r) real += ps.real;
-          }
-        };
-        const Entry& me = mixed_[k];
-        Hit hit;
-        ++row_rays;
-        if (!embree.Intersect(ray, &hit)) {
-          const Eigen::Vector3d e = Escaped(scene_, ray, 0, kRealLights);
-          mixed += e + Escaped(scene_, ray, 0, kVirtualLights);
-          real += e;
-        } else if (hit.is_virtual) {
-          primary_virtual = true;
-          const Entry& re = real_[k];
-          Pcg32 real_rng = rng;
-          Ray rr = ray;
-          rr.mask = kMaskReal;
-          Hit rh;
-          ++row_rays;
-          if (embree.Intersect(rr, &rh)) {
-            const Eigen::Vector3d er = re.w > 0 ? Eigen::Vector3d(re.sum_r / re.w) : Eigen::Vector3d::Zero();
-            shade(rr, rh, false, true, Eigen::Vector3d::Zero(), er, real_rng);
-          } else {
-            real += Escaped(scene_, rr, 0, kRealLights);
-          }
-          const Eigen::Vector3d em = me.w > 0 ? Eigen::Vector3d(me.sum_m / me.w) : Eigen::Vector3d::Zero();
-          shade(ray, hit, true, false, em, Eigen::Vector3d::Zero(), rng);
-          if (s == 0) interpolated_[pi] = static_cast<float>(Luminance(em));
-        } else {
-          // A real point: E_m and E_r interpolated with the same weights, so
-          // that their difference is the interpolated differential irradiance.
-          const double inv = me.w > 0 ? 1 / me.w : 0;
-          const Eigen::Vector3d em = me.sum_m * inv, er = me.sum_r * inv;
-          shade(ray, hit, true, true, em, er, rng);
-          if (s == 0) interpolated_[pi] = static_cast<float>(Luminance(em - er));
-        }
-        if (s == 0 && me.valid) positions_[pi] = me.p.cast<float>();
-        if (!mixed.allFinite() || !real.allFinite()) {
-          ++nonfinite;
-          continue;
-        }
-        acc_.Add(pi, mixed, real, primary_virtual);
-      }
+  interpolated_.assign(static_cast<size_t>(width()) * height(), NAN);
+  positions_.assign(static_cast<size_t>(width()) * height(), Eigen::Vector3f::Constant(NAN));
+  ShadePixels(spp);
+}
+
+void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int sample, PathSample* out) {
+  const EmbreeScene& embree = scene_.embree();
+  const size_t k = pi * static_cast<size_t>(samples_) + static_cast<size_t>(sample - first_);
+  int64_t row_rays = 0;
+  Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
+  bool primary_virtual = false;
+  // One surface point for the wanted solutions: emission, direct light,
+  // cached indirect diffuse light, and the glossy lobe's path.
+  auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, const Eigen::Vector3d& e_m,
+                   const Eigen::Vector3d& e_r, Pcg32& g) {
+    PathVertex v = MakeVertex(scene_, r, hit);
+    const bool xv = hit.is_virtual;
+    if (want_m) mixed += v.material->emission;
+    if (want_r) real += v.material->emission;
+    if (v.bsdf->IsBlack()) return;
+    const bool glossy = v.material->IsGlossy();
+    PathVertex vd = v;
+    vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
+    row_rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real,
+                              [&](Ray sr) {
+                                sr.mask = kMaskVirtual;
+                                ++row_rays;
+                                return embree.Occluded(sr) ? 0.0 : 1.0;
+                              });
+    const Eigen::Vector3d f = v.material->albedo * kInvPi;
+    if (want_m) mixed += f.cwiseProduct(e_m);
+    if (want_r) real += f.cwiseProduct(e_r);
+    if (!glossy) return;
+    PathVertex vg = v;
+    vg.bsdf = &scene_.glossy_bsdf(v.geometry_id);
+    NextEvent(scene_, vg, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
+      row_rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
+    });
+    if (cache_->settings().glossy_depth == 0) return;  // next-event light only
+    BsdfSample bs;
+    const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
+    if (!vg.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return;
+    const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
+    const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
+    if (want_r && !want_m) {
+      int nr = 0;
+      real += glossy_tracer_.RealRadiance(next, beta, bs.pdf, 1, g, &nr);
+      row_rays += nr;
+    } else {
+      PathSample ps = glossy_tracer_.TraceFrom(next, beta, bs.pdf, 1, g);
+      row_rays += ps.rays;
+      mixed += ps.mixed;
+      if (want_r) real += ps.real;
     }
-    rays += row_rays;
-  });
-  spp_ += spp;
-  nonfinite_ += nonfinite.load();
-  rays_ += rays.load();
+  };
+  const Entry& me = mixed_[k];
+  Hit hit;
+  ++row_rays;
+  if (!embree.Intersect(ray, &hit)) {
+    const Eigen::Vector3d e = Escaped(scene_, ray, 0, kRealLights);
+    mixed += e + Escaped(scene_, ray, 0, kVirtualLights);
+    real += e;
+  } else if (hit.is_virtual) {
+    primary_virtual = true;
+    const Entry& re = real_[k];
+    Pcg32 real_rng = rng;
+    Ray rr = ray;
+    rr.mask = kMaskReal;
+    Hit rh;
+    ++row_rays;
+    if (embree.Intersect(rr, &rh)) {
+      const Eigen::Vector3d er = re.w > 0 ? Eigen::Vector3d(re.sum_r / re.w) : Eigen::Vector3d::Zero();
+      shade(rr, rh, false, true, Eigen::Vector3d::Zero(), er, real_rng);
+    } else {
+      real += Escaped(scene_, rr, 0, kRealLights);
+    }
+    const Eigen::Vector3d em = me.w > 0 ? Eigen::Vector3d(me.sum_m / me.w) : Eigen::Vector3d::Zero();
+    shade(ray, hit, true, false, em, Eigen::Vector3d::Zero(), rng);
+    if (sample == first_) interpolated_[pi] = static_cast<float>(Luminance(em));
+  } else {
+    // A real point: E_m and E_r interpolated with the same weights, so
+    // that their difference is the interpolated differential irradiance.
+    const double inv = me.w > 0 ? 1 / me.w : 0;
+    const Eigen::Vector3d em = me.sum_m * inv, er = me.sum_r * inv;
+    shade(ray, hit, true, true, em, er, rng);
+    if (sample == first_) interpolated_[pi] = static_cast<float>(Luminance(em - er));
+  }
+  if (sample == first_ && me.valid) positions_[pi] = me.p.cast<float>();
+  out->mixed = mixed;
+  out->real = real;
+  out->primary_virtual = primary_virtual;
+  out->rays = static_cast<int>(row_rays);
 }
 
 void IcFrameRenderer::Describe(Report* report, int frame) const {
@@ -418,7 +411,7 @@ void IcFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "records_reevaluated", reevaluated_);
   report->SetMetric(k + "records_splatted", splatted_);
   report->SetMetric(k + "miss_passes", miss_passes_);
-  report->SetMetric(k + "pixel_rays", rays_);
+  report->SetMetric(k + "pixel_rays", rays_traced());
   if (reevaluated_ == 0 && frame > 0)
     report->Skip(fmt::format("frame {}: record re-evaluation", frame),
                  "no record is t_max frames old: the records of earlier frames are reused as they are");
@@ -427,6 +420,95 @@ void IcFrameRenderer::Describe(Report* report, int frame) const {
                  fmt::format("real points where the virtual objects' form factor bound is below {}: their indirect "
                              "difference is taken as zero",
                              cache_->settings_.influence_threshold));
+}
+
+double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const std::vector<float>& prev,
+                      const std::vector<Eigen::Vector3f>& prev_positions, const std::vector<Eigen::Vector3f>& positions,
+                      const std::vector<float>& now) {
+  double diff = 0, sum = 0;
+  const int w = camera.width(), h = camera.height();
+  for (size_t i = 0; i < now.size(); ++i) {
+    if (!std::isfinite(now[i]) || !positions[i].allFinite()) continue;
+    const Eigen::Vector3d pc = prev_pose.rotation.conjugate() * (positions[i].cast<double>() - prev_pose.translation);
+    Eigen::Vector2d q;
+    if (!camera.Project(pc, &q) || !q.allFinite()) continue;
+    if (!(q.x() > -0.5 && q.y() > -0.5 && q.x() < w - 0.5 && q.y() < h - 0.5)) continue;
+    const long x = std::lround(q.x()), y = std::lround(q.y());
+    if (x < 0 || y < 0 || x >= w || y >= h) continue;
+    const size_t j = static_cast<size_t>(y) * w + x;
+    const float p = prev[j];
+    // The same surface (not one hidden in the previous frame): within 1% of the distance.
+    if (!std::isfinite(p) || !((prev_positions[j] - positions[i]).norm() < 0.01 * pc.norm())) continue;
+    diff += std::abs(now[i] - p);
+    sum += std::abs(now[i]);
+  }
+  return sum > 0 ? diff / sum : NAN;
+}
+
+namespace {
+
+IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
+  v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold",
+                   "glossy_depth"});
+  IcSettings o;
+  if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
+  if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
+  if (v.Has("min_spacing_px")) o.min_spacing_px = v.Child("min_spacing_px").Number(0.1, 1e4);
+  if (v.Has("max_spacing_px")) o.max_spacing_px = v.Child("max_spacing_px").Number(0.1, 1e5);
+  if (v.Has("t_max")) o.t_max = static_cast<int>(v.Child("t_max").Integer(1, 1 << 20));
+  if (v.Has("tile")) o.tile = static_cast<int>(v.Child("tile").Integer(1, 1024));
+  if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
+  if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
+  if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
+  o.max_depth = scene.render.max_depth;
+  o.seed = scene.render.seed;
+  return o;
+}
+
+class IcMethod : public RenderMethod {
+ public:
+  explicit IcMethod(const IcSettings& st) : st_(st) {}
+  void Prepare(const JobContext& job) override {
+    st_.photograph = job.photograph;
+    cache_ = std::make_unique<IrradianceCache>(job.rs, st_);
+    if (job.frame_begin > 0)
+      job.report->Warn(fmt::format("ic: the cache starts empty at frame {} (records carry over between frames), so "
+                                   "frames of this shard differ from an unsharded run within ic's accuracy",
+                                   job.frame_begin));
+  }
+  std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
+    return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame);
+  }
+  void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* fj) override {
+    const auto& ic = static_cast<const IcFrameRenderer&>(fm);
+    ic.Describe(report, f.frame);
+    if (!prev_irradiance_.empty()) {
+      const double change =
+          TemporalChange(f.camera, prev_pose_, prev_irradiance_, prev_positions_, ic.positions(), ic.interpolated());
+      (*fj)["temporal_change"] = change;
+      report->SetMetric(fmt::format("ic.frames.{}.temporal_change", f.frame), change);
+    }
+    prev_irradiance_ = ic.interpolated();
+    prev_positions_ = ic.positions();
+    prev_pose_ = f.world_from_cam;
+  }
+  void Finish(Report* report) override {
+    if (cache_) cache_->Describe(report);
+  }
+
+ private:
+  IcSettings st_;
+  std::unique_ptr<IrradianceCache> cache_;
+  // The temporal figure: the previous frame's interpolated irradiance.
+  std::vector<float> prev_irradiance_;
+  std::vector<Eigen::Vector3f> prev_positions_;
+  Rigid3 prev_pose_;
+};
+
+}  // namespace
+
+std::unique_ptr<RenderMethod> MakeIcMethod(const JsonNode& block, const Scene& scene) {
+  return std::make_unique<IcMethod>(ParseIcSettings(block, scene));
 }
 
 }  // namespace mr

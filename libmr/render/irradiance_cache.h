@@ -1,32 +1,9 @@
 // `ic`: differential irradiance caching (Kán & Kaufmann 2013,
 // ../shared/papers/differential-irradiance-caching.txt), offline on the CPU.
-//
-// Indirect diffuse light comes from a linear cache of records.  Each record
-// holds the mixed and the real indirect irradiance at its point, E_m and E_r,
-// integrated from `rays` cosine-distributed mixed rays that are followed as
-// differential paths (pt's: real and mixed ray types, several bounces in one
-// pass; the first segment's escape to the environment is direct light and is
-// left to the pixel), and R_i, the least distance those rays met, clamped
-// so that the record's influence radius (accuracy x R_i) spans
-// [min_spacing_px, max_spacing_px] pixels where it was made, and by its
-// neighbours (R_i <= R_j + |x_i - x_j|, Křivánek et al. 2006).
-//
-// Records are splatted into the frame's G-buffer with the weight of
-// Tabellion & Lamorlette (2004), w_i(x) = 1 - max(eps_p, eps_n) / accuracy,
-// eps_p = |x - x_i| / R_i, eps_n = sqrt(1 - n.n_i) / sqrt(1 - cos 10°):
-// mixed irradiance where the first hit is virtual, mixed and real (so their
-// difference) where it is real.  Misses are found in the splat buffer:
-// tiles are scanned for a G-buffer sample of zero accumulated weight, one
-// record is made per tile and pass, and passes repeat until every sample is
-// covered.  Direct light (next-event estimation and a cosine-sampled ray that
-// counts only the environment it sees, combined by MIS, with the blocker
-// tests st_r and st_v) and glossy lobes (a BSDF-sampled differential path,
-// as in pt) are traced per camera sample.
-//
-// Over a video the records stay in world space: a frame splats every record
-// made by earlier frames, adds records only where it finds misses, and
-// re-evaluates a record t_max frames after its last evaluation with the same
-// random numbers, so that a static scene does not flicker.
+// Indirect diffuse light comes from world-space cache records of mixed and
+// real irradiance, kept across the frames of a render; direct light and
+// glossy lobes are traced per camera sample.  How records are made, weighted,
+// splatted and re-evaluated: docs/methods.md, "ic".
 #pragma once
 
 #include <cstdint>
@@ -34,7 +11,9 @@
 
 #include "camera/camera_model.h"
 #include "core/report.h"
+#include "render/method.h"
 #include "render/path_tracer.h"
+#include "render/pixel_loop.h"
 
 namespace mr {
 
@@ -48,6 +27,10 @@ struct IcSettings {
   // spheres subtend a form factor below this (and no virtual light exists):
   // there the indirect difference is taken as zero.  Only with a photograph.
   double influence_threshold = 1e-3;
+  // Bounces of the glossy lobe's path from a camera hit (a BSDF-sampled
+  // differential path, as pt's), at most max_depth; 0: the glossy lobe takes
+  // next-event light only; -1: max_depth.
+  int glossy_depth = -1;
   bool photograph = true;  // I_c is given: real pixels need only I_m - I_r
   int max_depth = 5;
   uint64_t seed = 0;
@@ -87,17 +70,12 @@ class IrradianceCache {
   int64_t created_ = 0, reevaluated_ = 0, record_rays_ = 0, passes_ = 0;
 };
 
-class IcFrameRenderer : public FrameMethod {
+class IcFrameRenderer : public PixelLoopMethod {
  public:
   IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
                   const Rigid3& world_from_cam, uint64_t seed, int frame);
+  // The G-buffer, misses and new records, then shading: one pass per frame.
   void RenderPass(int spp) override;
-  Image Mixed() const override { return acc_.Mixed(); }
-  Image Real() const override { return acc_.Real(); }
-  Image Mask() const override { return acc_.Mask(); }
-  Image DifferenceVariance() const override { return acc_.DifferenceVariance(); }
-  Image SampleCount() const override { return acc_.SampleCount(); }
-  int64_t nonfinite_samples() const override { return nonfinite_; }
   // Indirect irradiance the frame interpolated (luminance, per pixel, first
   // sample; NaN where nothing was interpolated), for the temporal figure.
   const std::vector<float>& interpolated() const { return interpolated_; }
@@ -112,22 +90,32 @@ class IcFrameRenderer : public FrameMethod {
     double w = 0;
     Eigen::Vector3d sum_m = Eigen::Vector3d::Zero(), sum_r = Eigen::Vector3d::Zero();  // sums of w E_m, w E_r
   };
+  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   void Splat(const IcRecord& r, int64_t first_row, int64_t last_row);
   void SplatAll(const std::vector<size_t>& records);
 
   const RenderScene& scene_;
   IrradianceCache* cache_;
   CameraModel camera_;  // a copy: renderers may outlive the caller's model
-  CameraSampler sampler_;
-  int width_, height_, frame_;
-  PixelAccumulator acc_;
-  int spp_ = 0;
-  int64_t nonfinite_ = 0, new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0,
-          outside_influence_ = 0, rays_ = 0;
-  int samples_ = 0;                 // G-buffer samples per pixel
+  DifferentialPathTracer glossy_tracer_;
+  int frame_;
+  int64_t new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0, outside_influence_ = 0;
+  int samples_ = 0, first_ = 0;      // G-buffer samples per pixel, and the first one's index
   std::vector<Entry> mixed_, real_;  // [pixel * samples_ + s]
   std::vector<float> interpolated_;
   std::vector<Eigen::Vector3f> positions_;
 };
+
+// ic's temporal stability on a static scene: each pixel's world point
+// (`positions`) is projected into the previous frame; where it lands on a
+// pixel that interpolated irradiance at the same point, the relative mean
+// absolute change of the interpolated irradiance, sum |E_f - E_f-1| / sum |E_f|.
+// NaN: no overlap.
+double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const std::vector<float>& prev,
+                      const std::vector<Eigen::Vector3f>& prev_positions, const std::vector<Eigen::Vector3f>& positions,
+                      const std::vector<float>& now);
+
+// The registry's `ic` (render.ic: IcSettings' fields).
+std::unique_ptr<RenderMethod> MakeIcMethod(const JsonNode& block, const Scene& scene);
 
 }  // namespace mr

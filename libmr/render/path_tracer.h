@@ -17,7 +17,6 @@
 #include "camera/pose.h"
 #include "core/image.h"
 #include "core/sampling.h"
-#include "render/pixel_accumulator.h"
 #include "render/render_scene.h"
 
 namespace mr {
@@ -89,81 +88,6 @@ class DifferentialPathTracer {
   }
   const RenderScene& scene_;
   PathTracerSettings settings_;
-};
-
-// What every rendering method produces for a frame, progressively.
-class FrameMethod {
- public:
-  virtual ~FrameMethod() = default;
-  virtual void RenderPass(int spp) = 0;
-  virtual Image Mixed() const = 0;               // mean I_m, RGB
-  virtual Image Real() const = 0;                // mean I_r, RGB
-  virtual Image Mask() const = 0;                // fraction of camera samples whose first hit is virtual, "Y"
-  virtual Image DifferenceVariance() const = 0;  // variance of the mean of luminance(I_m - I_r), "Y"
-  virtual Image SampleCount() const = 0;         // samples per pixel, "Y"
-  virtual int64_t nonfinite_samples() const { return 0; }
-  virtual int64_t skipped_pixels() const { return 0; }
-};
-
-// Camera sample positions shared by the methods: sample s of pixel i of a
-// frame has its own generator, seeded by (seed, frame, s, i), and its
-// direction is the bilinear blend of the pixel's unprojected corners at the
-// generator's first two numbers.
-class CameraSampler {
- public:
-  CameraSampler(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame);
-  int width() const { return width_; }
-  int height() const { return height_; }
-  // False for pixels outside the lens's valid region.
-  bool PixelValid(int x, int y) const;
-  // The generator of sample `s` of pixel (x, y), already advanced past the
-  // two numbers that placed the camera ray `ray`.
-  Pcg32 Sample(int x, int y, int s, Ray* ray) const;
-  // World-space unit directions through the pixel's corners, in order around it.
-  void CornerDirections(int x, int y, Eigen::Vector3d c[4]) const;
-  const Rigid3& pose() const { return world_from_cam_; }
-
- private:
-  int width_, height_;
-  Rigid3 world_from_cam_;
-  Eigen::Matrix3d R_;
-  std::vector<Eigen::Vector3d> corner_dirs_;  // (W+1) x (H+1) unprojected pixel corners, camera frame
-  std::vector<char> corner_ok_;
-  uint64_t frame_seed_ = 0;
-};
-
-// `pt`.  Renders a frame progressively: each pass adds samples to every
-// pixel, each sample with its own generator (CameraSampler), so the result
-// does not depend on the thread count or on how the samples are split into
-// passes.
-class FrameRenderer : public FrameMethod {
- public:
-  FrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
-                const PathTracerSettings& settings);
-  void RenderPass(int spp) override;
-  int samples_per_pixel() const { return spp_; }
-  int64_t nonfinite_samples() const override { return nonfinite_; }
-  int64_t rays_traced() const { return rays_; }
-  // Pixels sampled in the first pass only, their difference provably zero.
-  int64_t skipped_pixels() const override { return skipped_pixels_; }
-
-  Image Mixed() const override;
-  Image Real() const override;
-  Image Mask() const override;
-  Image DifferenceVariance() const override;
-  Image SampleCount() const override;
-
- private:
-  const RenderScene& scene_;
-  DifferentialPathTracer tracer_;
-  CameraSampler sampler_;
-  int width_, height_;
-  PixelAccumulator acc_;
-  std::vector<char> skip_;   // provably zero difference
-  int64_t skipped_pixels_ = 0;
-  int spp_ = 0;
-  int64_t nonfinite_ = 0;
-  int64_t rays_ = 0;
 };
 
 }  // namespace mr

@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 
 #include "core/image.h"
-#include "render/environment.h"
+#include "light/environment.h"
 
 namespace mr {
 

@@ -2,14 +2,14 @@
 
 #include <Eigen/SVD>
 
+#include "scene/frames.h"
 #include "core/error.h"
 #include "core/parallel.h"
-#include "render/render_job.h"
 #include "render/render_scene.h"
 #include <atomic>
 #include "geometry/mesh.h"
 #include "transfer/formfactor.h"
-#include "transfer/sh.h"
+#include "core/sh.h"
 
 namespace mr {
 
@@ -185,6 +185,31 @@ Image PrtFrameRenderer::SampleCount() const {
   Image img = Image::Gray(width_, height_);
   for (size_t i = 0; i < count_.size(); ++i) img.values()[i] = static_cast<float>(count_[i]);
   return img;
+}
+
+namespace {
+
+class PrtMethod : public RenderMethod {
+ public:
+  void Prepare(const JobContext& job) override {
+    objects_ = PreparePrt(job.scene, job.rs, job.spp, job.report);
+    if (!job.photograph)
+      job.report->Skip("background", "the scene names no camera frames: prt composites the objects over black");
+  }
+  std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
+    return std::make_unique<PrtFrameRenderer>(f.rs, objects_, f.camera, f.world_from_cam, f.seed, f.frame,
+                                              f.photo_radiance);
+  }
+
+ private:
+  std::map<uint32_t, PrtObject> objects_;
+};
+
+}  // namespace
+
+std::unique_ptr<RenderMethod> MakePrtMethod(const JsonNode& block, const Scene&) {
+  block.RequireObject({});
+  return std::make_unique<PrtMethod>();
 }
 
 }  // namespace mr

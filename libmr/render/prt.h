@@ -13,6 +13,8 @@
 #include <vector>
 
 #include "core/report.h"
+#include "render/camera_sampler.h"
+#include "render/method.h"
 #include "render/path_tracer.h"
 #include "scene/scene.h"
 
@@ -60,5 +62,8 @@ class PrtFrameRenderer : public FrameMethod {
   std::vector<int> count_, coverage_;
   int spp_ = 0;
 };
+
+// The registry's `prt` (render.prt: no settings; the transfer's are the .ffc's).
+std::unique_ptr<RenderMethod> MakePrtMethod(const JsonNode& block, const Scene& scene);
 
 }  // namespace mr

@@ -9,6 +9,7 @@
 
 #include "camera/pose.h"
 #include "core/report.h"
+#include "scene/frames.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -22,14 +23,6 @@ struct RenderOptions {
   fs::path out_dir;                    // empty: the scene's output.dir
   std::string tool = "mr-render", command_line;
 };
-
-// Frame `i` of a printf-style pattern ("frames/%05d.exr"), or the path itself
-// when it has no conversion.
-fs::path FramePath(const fs::path& pattern, int i);
-
-// The camera poses (world_from_cam) of the scene's frames; one identity pose
-// when the scene names none.
-std::vector<Rigid3> LoadScenePoses(const Scene& scene);
 
 // Renders; fills `report`.  Throws mr::Error / mr::UsageError.
 void RunRenderJob(const Scene& scene, const RenderOptions& options, Report* report);

@@ -12,8 +12,8 @@
 #include "geometry/enclosure.h"
 #include "geometry/mesh.h"
 #include "render/bsdf.h"
-#include "render/environment.h"
-#include "render/light_source.h"
+#include "light/environment.h"
+#include "light/light_source.h"
 #include "scene/scene.h"
 
 namespace mr {

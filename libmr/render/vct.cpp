@@ -38,7 +38,7 @@ void AddScaled(Voxel* acc, const Voxel& v, float w) {
 // How much of a voxel's light leaves towards a cone along d: max(0, -N.d)
 // for a coherent lit-side normal N, 1/2 where they disagree.
 double Emitting(const Eigen::Vector3f& nl, const Eigen::Vector3f& l, const Eigen::Vector3d& d) {
-  const double lum = 0.2126 * l.x() + 0.7152 * l.y() + 0.0722 * l.z();
+  const double lum = Luminance(l.x(), l.y(), l.z());
   if (!(lum > 0)) return 1;
   const Eigen::Vector3d n = nl.cast<double>() / lum;
   const double m = std::min(1.0, n.norm());
@@ -571,14 +571,15 @@ void VctVolumes::Describe(Report* report) const {
 
 VctFrameRenderer::VctFrameRenderer(const RenderScene& scene, std::shared_ptr<const VctVolumes> volumes,
                                    const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
-    : scene_(scene),
-      vol_(std::move(volumes)),
-      sampler_(camera, world_from_cam, seed, frame),
-      width_(camera.width()),
-      height_(camera.height()),
-      acc_(width_, height_) {}
+    : PixelLoopMethod(camera, world_from_cam, seed, frame), scene_(scene), vol_(std::move(volumes)) {}
 
 void VctFrameRenderer::RenderPass(int spp) {
+  rows_.assign(static_cast<size_t>(height()), Counters());
+  ShadePixels(spp);
+  for (const Counters& c : rows_) counters_ += c;
+}
+
+void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, int, PathSample* out) {
   const EmbreeScene& embree = scene_.embree();
   const VctVolumes& vol = *vol_;
   const VctSettings& st = vol.settings();
@@ -588,153 +589,121 @@ void VctFrameRenderer::RenderPass(int spp) {
   const double diffuse_half = 30 * kDegToRad;
   const double cos60 = 0.5, sin60 = std::sqrt(0.75);
   const std::vector<Eigen::AlignedBox3d>& vbounds = scene_.virtual_bounds();
-  std::atomic<int64_t> nonfinite{0}, diffuse{0}, specular{0}, shadow{0}, shadow_skipped{0}, steps{0}, rays{0},
-      relight_skipped{0};
-  ParallelFor(0, height_, [&](int64_t y) {
-    Counters c;
-    int64_t row_nonfinite = 0;
-    for (int x = 0; x < width_; ++x) {
-      const size_t pi = static_cast<size_t>(y) * width_ + x;
-      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
-      acc_.Count(pi, spp);
-      for (int s = spp_; s < spp_ + spp; ++s) {  // after the earlier passes' samples
-        Ray ray;
-        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), s, &ray);
-        Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
-        bool primary_virtual = false;
-        auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, Pcg32& g) {
-          PathVertex v = MakeVertex(scene_, r, hit);
-          const bool xv = hit.is_virtual;
-          if (want_m) mixed += v.material->emission;
-          if (want_r) real += v.material->emission;
-          if (v.bsdf->IsBlack()) return;
-          // Direct light; a real point's virtual shadows by shadow cone.
-          PathVertex vd = v;
-          vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
-          c.rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
-            const Eigen::Vector3d o = sr.origin.cast<double>(), d = sr.direction.cast<double>().normalized();
-            const double tfar = sr.tfar;
-            if (!SegmentMeetsBoxes(o, d, tfar, vbounds)) {
-              ++c.shadow_cones_skipped;
-              return 1.0;
-            }
-            ++c.shadow_cones;
-            const ConeResult cr = vol.March(o, d, shadow_half, 0.5 * voxel, tfar, VctVolumes::Cone::kShadow);
-            c.steps += cr.steps;
-            return 1 - cr.occ_mixed;
-          });
-          // Indirect diffuse: six cones, turned about the normal per sample.
-          const Eigen::Vector3d origin = v.p + v.frame.n * lift;
-          const double phi0 = kTwoPi * g.NextDouble();
-          Eigen::Vector3d em = Eigen::Vector3d::Zero(), er = em, ed = em;
-          bool reaches = false;
-          for (int k = 0; k < 6; ++k) {
-            Eigen::Vector3d d = v.frame.n;
-            double w = kPi / 4;
-            if (k > 0) {
-              const double phi = phi0 + kTwoPi * (k - 1) / 5;
-              d = v.frame.ToWorld(Eigen::Vector3d(sin60 * std::cos(phi), sin60 * std::sin(phi), cos60));
-              w = 3 * kPi / 20;
-            }
-            const ConeResult cr = vol.March(origin, d, diffuse_half, 0.5 * voxel, INFINITY, VctVolumes::Cone::kDiffuse);
-            ++c.diffuse_cones;
-            c.steps += cr.steps;
-            reaches = reaches || cr.steps > 0;
-            em += w * cr.mixed;
-            er += w * cr.real;
-            ed += w * cr.delta;
-          }
-          const Eigen::Vector3d f = v.material->albedo * kInvPi;
-          if (xv) {
-            if (want_m) mixed += f.cwiseProduct(em);
-          } else {
-            if (want_r) real += f.cwiseProduct(er);
-            if (want_m) mixed += f.cwiseProduct(er + (st.split_relighting ? Eigen::Vector3d(em - er) : ed));
-            if (!reaches) ++c.relight_skipped;
-          }
-          if (!v.material->IsGlossy()) return;
-          // Glossy lobe: point and spot lights by next-event estimation,
-          // the rest through the specular cone, weighted by the lobe's
-          // reflectance (one BSDF sample's f cos / pdf).
-          PathVertex vg = v;
-          vg.bsdf = &scene_.glossy_bsdf(v.geometry_id);
-          const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
-          for (const LightSource& l : scene_.lights()) {
-            if (l.light().type == LightType::kDistant) continue;
-            LightSample ls;
-            if (!l.Sample(v.p, 0.5, 0.5, &ls)) continue;
-            const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
-            if (wi_l.z() <= 0) continue;
-            const Eigen::Vector3d fg = vg.bsdf->Eval(wo_l, wi_l);
-            if (fg.maxCoeff() <= 0) continue;
-            c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / ls.pdf)),
-                                   MakeRay(v.p + v.frame.n * v.offset, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)),
-                                   l.is_virtual(), xv, want_m, want_r, &mixed, &real);
-          }
-          BsdfSample bs;
-          const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
-          if (!vg.bsdf->Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
-          const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
-          const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
-          const double alpha = v.material->roughness;
-          const double half = std::clamp(std::atan(alpha), 0.5 * st.min_specular_aperture_deg * kDegToRad, 45 * kDegToRad);
-          const ConeResult cr = vol.March(origin, refl, half, 0.5 * voxel, INFINITY, VctVolumes::Cone::kSpecular);
-          ++c.specular_cones;
-          c.steps += cr.steps;
-          if (xv) {
-            if (want_m) mixed += beta.cwiseProduct(cr.mixed);
-          } else {
-            if (want_r) real += beta.cwiseProduct(cr.real);
-            if (want_m)
-              mixed += beta.cwiseProduct(cr.real + (st.split_relighting ? Eigen::Vector3d(cr.mixed - cr.real) : cr.delta));
-          }
-        };
-        Hit hit;
-        ++c.rays;
-        if (!embree.Intersect(ray, &hit)) {
-          const Eigen::Vector3d e = Escaped(scene_, ray, 0, kRealLights);
-          mixed += e + Escaped(scene_, ray, 0, kVirtualLights);
-          real += e;
-        } else if (hit.is_virtual) {
-          primary_virtual = true;
-          Pcg32 real_rng = rng;
-          Ray rr = ray;
-          rr.mask = kMaskReal;
-          Hit rh;
-          ++c.rays;
-          if (embree.Intersect(rr, &rh))
-            shade(rr, rh, false, true, real_rng);
-          else
-            real += Escaped(scene_, rr, 0, kRealLights);
-          shade(ray, hit, true, false, rng);
-        } else {
-          shade(ray, hit, true, true, rng);
-        }
-        if (!mixed.allFinite() || !real.allFinite()) {
-          ++row_nonfinite;
-          continue;
-        }
-        acc_.Add(pi, mixed, real, primary_virtual);
+  Counters c;
+  Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
+  bool primary_virtual = false;
+  auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, Pcg32& g) {
+    PathVertex v = MakeVertex(scene_, r, hit);
+    const bool xv = hit.is_virtual;
+    if (want_m) mixed += v.material->emission;
+    if (want_r) real += v.material->emission;
+    if (v.bsdf->IsBlack()) return;
+    // Direct light; a real point's virtual shadows by shadow cone.
+    PathVertex vd = v;
+    vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
+    c.rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
+      const Eigen::Vector3d o = sr.origin.cast<double>(), d = sr.direction.cast<double>().normalized();
+      const double tfar = sr.tfar;
+      if (!SegmentMeetsBoxes(o, d, tfar, vbounds)) {
+        ++c.shadow_cones_skipped;
+        return 1.0;
       }
+      ++c.shadow_cones;
+      const ConeResult cr = vol.March(o, d, shadow_half, 0.5 * voxel, tfar, VctVolumes::Cone::kShadow);
+      c.steps += cr.steps;
+      return 1 - cr.occ_mixed;
+    });
+    // Indirect diffuse: six cones, turned about the normal per sample.
+    const Eigen::Vector3d origin = v.p + v.frame.n * lift;
+    const double phi0 = kTwoPi * g.NextDouble();
+    Eigen::Vector3d em = Eigen::Vector3d::Zero(), er = em, ed = em;
+    bool reaches = false;
+    for (int k = 0; k < 6; ++k) {
+      Eigen::Vector3d d = v.frame.n;
+      double w = kPi / 4;
+      if (k > 0) {
+        const double phi = phi0 + kTwoPi * (k - 1) / 5;
+        d = v.frame.ToWorld(Eigen::Vector3d(sin60 * std::cos(phi), sin60 * std::sin(phi), cos60));
+        w = 3 * kPi / 20;
+      }
+      const ConeResult cr = vol.March(origin, d, diffuse_half, 0.5 * voxel, INFINITY, VctVolumes::Cone::kDiffuse);
+      ++c.diffuse_cones;
+      c.steps += cr.steps;
+      reaches = reaches || cr.steps > 0;
+      em += w * cr.mixed;
+      er += w * cr.real;
+      ed += w * cr.delta;
     }
-    nonfinite += row_nonfinite;
-    diffuse += c.diffuse_cones;
-    specular += c.specular_cones;
-    shadow += c.shadow_cones;
-    shadow_skipped += c.shadow_cones_skipped;
-    steps += c.steps;
-    rays += c.rays;
-    relight_skipped += c.relight_skipped;
-  });
-  spp_ += spp;
-  nonfinite_ += nonfinite.load();
-  counters_.diffuse_cones += diffuse.load();
-  counters_.specular_cones += specular.load();
-  counters_.shadow_cones += shadow.load();
-  counters_.shadow_cones_skipped += shadow_skipped.load();
-  counters_.steps += steps.load();
-  counters_.rays += rays.load();
-  counters_.relight_skipped += relight_skipped.load();
+    const Eigen::Vector3d f = v.material->albedo * kInvPi;
+    if (xv) {
+      if (want_m) mixed += f.cwiseProduct(em);
+    } else {
+      if (want_r) real += f.cwiseProduct(er);
+      if (want_m) mixed += f.cwiseProduct(er + (st.split_relighting ? Eigen::Vector3d(em - er) : ed));
+      if (!reaches) ++c.relight_skipped;
+    }
+    if (!v.material->IsGlossy()) return;
+    // Glossy lobe: point and spot lights by next-event estimation,
+    // the rest through the specular cone, weighted by the lobe's
+    // reflectance (one BSDF sample's f cos / pdf).
+    PathVertex vg = v;
+    vg.bsdf = &scene_.glossy_bsdf(v.geometry_id);
+    const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
+    for (const LightSource& l : scene_.lights()) {
+      if (l.light().type == LightType::kDistant) continue;
+      LightSample ls;
+      if (!l.Sample(v.p, 0.5, 0.5, &ls)) continue;
+      const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
+      if (wi_l.z() <= 0) continue;
+      const Eigen::Vector3d fg = vg.bsdf->Eval(wo_l, wi_l);
+      if (fg.maxCoeff() <= 0) continue;
+      c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / ls.pdf)),
+                             MakeRay(v.p + v.frame.n * v.offset, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)),
+                             l.is_virtual(), xv, want_m, want_r, &mixed, &real);
+    }
+    BsdfSample bs;
+    const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
+    if (!vg.bsdf->Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
+    const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
+    const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
+    const double alpha = v.material->roughness;
+    const double half = std::clamp(std::atan(alpha), 0.5 * st.min_specular_aperture_deg * kDegToRad, 45 * kDegToRad);
+    const ConeResult cr = vol.March(origin, refl, half, 0.5 * voxel, INFINITY, VctVolumes::Cone::kSpecular);
+    ++c.specular_cones;
+    c.steps += cr.steps;
+    if (xv) {
+      if (want_m) mixed += beta.cwiseProduct(cr.mixed);
+    } else {
+      if (want_r) real += beta.cwiseProduct(cr.real);
+      if (want_m)
+        mixed += beta.cwiseProduct(cr.real + (st.split_relighting ? Eigen::Vector3d(cr.mixed - cr.real) : cr.delta));
+    }
+  };
+  Hit hit;
+  ++c.rays;
+  if (!embree.Intersect(ray, &hit)) {
+    const Eigen::Vector3d e = Escaped(scene_, ray, 0, kRealLights);
+    mixed += e + Escaped(scene_, ray, 0, kVirtualLights);
+    real += e;
+  } else if (hit.is_virtual) {
+    primary_virtual = true;
+    Pcg32 real_rng = rng;
+    Ray rr = ray;
+    rr.mask = kMaskReal;
+    Hit rh;
+    ++c.rays;
+    if (embree.Intersect(rr, &rh))
+      shade(rr, rh, false, true, real_rng);
+    else
+      real += Escaped(scene_, rr, 0, kRealLights);
+    shade(ray, hit, true, false, rng);
+  } else {
+    shade(ray, hit, true, true, rng);
+  }
+  out->mixed = mixed;
+  out->real = real;
+  out->primary_virtual = primary_virtual;
+  rows_[static_cast<size_t>(row)] += c;
 }
 
 void VctFrameRenderer::Describe(Report* report, int frame) const {
@@ -752,6 +721,55 @@ void VctFrameRenderer::Describe(Report* report, int frame) const {
                  "none of their diffuse cones meets the volume: the change they see is taken as zero");
   if (!scene_.has_glossy())
     report->Skip(fmt::format("frame {}: specular cones", frame), "no material has a glossy lobe");
+}
+
+namespace {
+
+VctSettings ParseVctSettings(const JsonNode& v, const Scene& scene) {
+  v.RequireObject({"resolution", "directions", "injection_spacing", "shadow_aperture_deg", "min_specular_aperture_deg",
+                   "cone_offset", "accumulation", "relight", "far_field_width", "far_field_samples"});
+  VctSettings o;
+  if (v.Has("resolution")) o.resolution = static_cast<int>(v.Child("resolution").Integer(2, 1024));
+  if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 16));
+  if (v.Has("injection_spacing")) o.injection_spacing = v.Child("injection_spacing").Number(0.05, 8);
+  if (v.Has("shadow_aperture_deg")) o.shadow_aperture_deg = v.Child("shadow_aperture_deg").Number(0, 90);
+  if (v.Has("min_specular_aperture_deg"))
+    o.min_specular_aperture_deg = v.Child("min_specular_aperture_deg").Number(0, 90);
+  if (v.Has("cone_offset")) o.cone_offset = v.Child("cone_offset").Number(0, 16);
+  if (v.Has("accumulation")) o.paper_accumulation = v.Child("accumulation").OneOf({"front_to_back", "paper"}) == "paper";
+  if (v.Has("relight")) o.split_relighting = v.Child("relight").OneOf({"delta", "split"}) == "split";
+  if (v.Has("far_field_width")) o.far_field_width = static_cast<int>(v.Child("far_field_width").Integer(8, 1024));
+  if (v.Has("far_field_samples")) o.far_field_samples = static_cast<int>(v.Child("far_field_samples").Integer(1, 1 << 16));
+  o.max_depth = scene.render.max_depth;
+  o.seed = scene.render.seed;
+  return o;
+}
+
+class VctMethod : public RenderMethod {
+ public:
+  explicit VctMethod(const VctSettings& st) : st_(st) {}
+  void Prepare(const JobContext& job) override {
+    volumes_ = VctVolumes::Build(job.rs, st_);
+    volumes_->Describe(job.report);
+    if (AnyEmissive(job.scene))
+      job.report->Warn("vct: emissive surfaces are seen and lit but inject no light into the volumes");
+  }
+  std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
+    return std::make_unique<VctFrameRenderer>(f.rs, volumes_, f.camera, f.world_from_cam, f.seed, f.frame);
+  }
+  void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json*) override {
+    static_cast<const VctFrameRenderer&>(fm).Describe(report, f.frame);
+  }
+
+ private:
+  VctSettings st_;
+  std::shared_ptr<const VctVolumes> volumes_;
+};
+
+}  // namespace
+
+std::unique_ptr<RenderMethod> MakeVctMethod(const JsonNode& block, const Scene& scene) {
+  return std::make_unique<VctMethod>(ParseVctSettings(block, scene));
 }
 
 }  // namespace mr

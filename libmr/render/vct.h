@@ -1,47 +1,8 @@
 // `vct`: delta global illumination by voxel cone tracing (Thöner & Kuijper
 // 2016, ../shared/papers/delta-gi-voxel-cone-tracing.txt), on the CPU.
-//
-// Four volumes cover twice the virtual objects' bounding box (cubic voxels,
-// `resolution` along its longest side; the whole scene when a virtual light
-// relights it), stored interleaved, one record per voxel:
-//  - the light volume: the light that real and virtual surfaces reflect once
-//    (diffuse), injected from ray-traced equivalents of reflective shadow
-//    maps: a grid of parallel rays per environment or distant-light
-//    direction (vpl's DirectionalLights: half importance-sampled, half
-//    uniform, balance heuristic) and a fan of rays per point or spot light;
-//  - the real light volume, the same injection into the real geometry
-//    alone; the delta volume is their difference, negative where the object
-//    takes light away (the paper's relighting volume);
-//  - two visibility volumes, real and virtual: occupancy (1 where geometry
-//    is, voxelised by rays along the three axes) and average normal.
-// Light is stored as radiance premultiplied by occupancy, so that the 3D mip
-// chains (box filter, 2x2x2) hold the fraction of occupied sub-voxels and
-// their mean light.  A cone reads the level whose voxel matches its
-// diameter, quadrilinearly, and accumulates front to back,
-//   light += (1 - occ_acc) light_local occ_local,  occ_acc += (1 - occ_acc) occ_local,
-// with occ_local scaled by how squarely the voxel's average normal faces the
-// cone (a wall seen edge-on hides little) and light_local by how much its lit
-// sides face the cone (the mean normal of the lit sides: a wall lit from
-// behind sends nothing; the paper's voxels are isotropic, which leaks the
-// lit side of an object through to its shadow).  `paper_accumulation` uses the
-// paper's literal rule, light_acc = light_acc occ_acc + light_local occ_local (1 - occ_acc).
-//
-// A fragment traces six diffuse cones (60 degrees; weights pi/4 along the
-// normal, 3 pi/20 for the five at 60 degrees from it, summing to pi), a
-// specular cone along the mirror direction whose aperture follows the
-// roughness, and shadow cones.  A virtual fragment reads the light volume
-// through both visibility volumes (I_m).  A real fragment reads the real
-// light volume through the real visibility volume (I_r) and adds the
-// relighting: the mixed cone minus the real one ("split", the default), or
-// the paper's delta volume through both visibility volumes ("delta"), which
-// leaves out the real light the object hides from the fragment (the bunny
-// room's umbra: 1.2 units too bright of 5.5; docs/benchmarks.md).  Beyond the volume a cone sees the far field: the radiance of
-// the surfaces (and, for specular cones, the sky) around the volume, path
-// traced once from its centre and prefiltered to the cone's aperture.
-// Direct light is next-event estimation as in ic, except that the virtual
-// objects' shadows on real fragments come from a shadow cone through the
-// virtual visibility volume.  Glossy lobes take point and spot lights by
-// next-event estimation and everything else through the specular cone.
+// Light, delta and visibility volumes around the virtual objects, read by
+// diffuse, specular and shadow cones.  The volumes, the accumulation rules
+// and the relighting modes, with their measured effect: docs/methods.md, "vct".
 #pragma once
 
 #include <array>
@@ -51,7 +12,9 @@
 
 #include "camera/camera_model.h"
 #include "core/report.h"
+#include "render/method.h"
 #include "render/path_tracer.h"
+#include "render/pixel_loop.h"
 
 namespace mr {
 
@@ -132,34 +95,39 @@ class VctVolumes {
   int64_t injection_rays_ = 0, voxelisation_rays_ = 0, far_field_paths_ = 0, occupied_ = 0;
 };
 
-class VctFrameRenderer : public FrameMethod {
+class VctFrameRenderer : public PixelLoopMethod {
  public:
   VctFrameRenderer(const RenderScene& scene, std::shared_ptr<const VctVolumes> volumes, const CameraModel& camera,
                    const Rigid3& world_from_cam, uint64_t seed, int frame);
   void RenderPass(int spp) override;
-  Image Mixed() const override { return acc_.Mixed(); }
-  Image Real() const override { return acc_.Real(); }
-  Image Mask() const override { return acc_.Mask(); }
-  Image DifferenceVariance() const override { return acc_.DifferenceVariance(); }
-  Image SampleCount() const override { return acc_.SampleCount(); }
-  int64_t nonfinite_samples() const override { return nonfinite_; }
   void Describe(Report* report, int frame) const;
 
   struct Counters {
     int64_t diffuse_cones = 0, specular_cones = 0, shadow_cones = 0, shadow_cones_skipped = 0, steps = 0, rays = 0,
             relight_skipped = 0;
+    Counters& operator+=(const Counters& o) {
+      diffuse_cones += o.diffuse_cones;
+      specular_cones += o.specular_cones;
+      shadow_cones += o.shadow_cones;
+      shadow_cones_skipped += o.shadow_cones_skipped;
+      steps += o.steps;
+      rays += o.rays;
+      relight_skipped += o.relight_skipped;
+      return *this;
+    }
   };
   const Counters& counters() const { return counters_; }
 
  private:
+  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   const RenderScene& scene_;
   std::shared_ptr<const VctVolumes> vol_;
-  CameraSampler sampler_;
-  int width_, height_;
-  PixelAccumulator acc_;
-  int spp_ = 0;
-  int64_t nonfinite_ = 0;
+  std::vector<Counters> rows_;  // this pass's, per image row
   Counters counters_;
 };
+
+// The registry's `vct` (render.vct: VctSettings' fields; accumulation
+// "front_to_back" or "paper", relight "split" or "delta").
+std::unique_ptr<RenderMethod> MakeVctMethod(const JsonNode& block, const Scene& scene);
 
 }  // namespace mr

@@ -487,57 +487,32 @@ class VplShader {
 
 VplFrameRenderer::VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls,
                                    const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
-    : scene_(scene),
-      set_(std::move(vpls)),
-      sampler_(camera, world_from_cam, seed, frame),
-      width_(camera.width()),
-      height_(camera.height()),
-      acc_(width_, height_) {
-  const size_t n = static_cast<size_t>(width_) * height_;
+    : PixelLoopMethod(camera, world_from_cam, seed, frame), scene_(scene), set_(std::move(vpls)) {
+  const size_t n = static_cast<size_t>(width()) * height();
   for (auto* v : {&bias_m_, &bias_r_, &lum_m_, &lum_r_}) v->assign(n, 0);
 }
 
 void VplFrameRenderer::RenderPass(int spp) {
-  VplShader shader(scene_, *set_);
-  std::vector<Counters> rows(static_cast<size_t>(height_));
-  std::atomic<int64_t> nonfinite{0};
-  ParallelFor(0, height_, [&](int64_t y) {
-    Counters& rc = rows[static_cast<size_t>(y)];
-    for (int x = 0; x < width_; ++x) {
-      const size_t i = static_cast<size_t>(y) * width_ + x;
-      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;
-      acc_.Count(i, spp);
-      for (int s = 0; s < spp; ++s) {
-        Ray ray;
-        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), spp_ + s, &ray);
-        Accum acc;
-        shader.ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
-        rc.rays += acc.c.rays + acc.c.shadow_rays + acc.c.compensation_rays;
-        rc.shadow_rays += acc.c.shadow_rays;
-        rc.dropped += acc.c.dropped;
-        rc.virtual_tests_skipped += acc.c.virtual_tests_skipped;
-        rc.compensation_rays += acc.c.compensation_rays;
-        if (!acc.mixed.allFinite() || !acc.real.allFinite()) {
-          ++nonfinite;
-          continue;
-        }
-        acc_.Add(i, acc.mixed, acc.real, acc.primary_virtual);
-        bias_m_[i] += Luminance(acc.bias_m);
-        bias_r_[i] += Luminance(acc.bias_r);
-        lum_m_[i] += Luminance(acc.mixed);
-        lum_r_[i] += Luminance(acc.real);
-      }
-    }
-  });
-  for (const Counters& c : rows) {
-    counters_.rays += c.rays;
-    counters_.shadow_rays += c.shadow_rays;
-    counters_.dropped += c.dropped;
-    counters_.virtual_tests_skipped += c.virtual_tests_skipped;
-    counters_.compensation_rays += c.compensation_rays;
-  }
-  spp_ += spp;
-  nonfinite_ += nonfinite.load();
+  rows_.assign(static_cast<size_t>(height()), Counters());
+  ShadePixels(spp);
+  for (const Counters& c : rows_) counters_ += c;
+}
+
+void VplFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t i, int, PathSample* out) {
+  Counters& rc = rows_[static_cast<size_t>(row)];
+  Accum acc;
+  VplShader(scene_, *set_).ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
+  Counters c = acc.c;
+  c.rays += acc.c.shadow_rays + acc.c.compensation_rays;  // every ray the sample traced
+  rc += c;
+  out->mixed = acc.mixed;
+  out->real = acc.real;
+  out->primary_virtual = acc.primary_virtual;
+  if (!acc.mixed.allFinite() || !acc.real.allFinite()) return;  // dropped by the loop
+  bias_m_[i] += Luminance(acc.bias_m);
+  bias_r_[i] += Luminance(acc.bias_r);
+  lum_m_[i] += Luminance(acc.mixed);
+  lum_r_[i] += Luminance(acc.real);
 }
 
 namespace {
@@ -575,10 +550,50 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
                  "the shadow segment misses every virtual object's bounding box: st_v = 1 exactly");
 }
 
-Image VplFrameRenderer::Mixed() const { return acc_.Mixed(); }
-Image VplFrameRenderer::Real() const { return acc_.Real(); }
-Image VplFrameRenderer::Mask() const { return acc_.Mask(); }
-Image VplFrameRenderer::DifferenceVariance() const { return acc_.DifferenceVariance(); }
-Image VplFrameRenderer::SampleCount() const { return acc_.SampleCount(); }
+namespace {
+
+VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
+  v.RequireObject({"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate"});
+  VplSettings o;
+  if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
+  if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
+  if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
+  if (v.Has("clamp_distance")) o.clamp_distance = v.Child("clamp_distance").Number(0, 1e9);
+  if (v.Has("drop_threshold")) o.drop_threshold = v.Child("drop_threshold").Number(0, 1);
+  if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
+  o.max_depth = scene.render.max_depth;
+  o.seed = scene.render.seed;
+  return o;
+}
+
+class VplMethod : public RenderMethod {
+ public:
+  explicit VplMethod(const VplSettings& st) : st_(st) {}
+  void Prepare(const JobContext& job) override {
+    vpls_ = VplSet::Build(job.rs, st_);
+    vpls_->Describe(job.report);
+    if (AnyEmissive(job.scene))
+      job.report->Warn("vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights only)");
+  }
+  std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
+    return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame);
+  }
+  void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* fj) override {
+    const auto& v = static_cast<const VplFrameRenderer&>(fm);
+    v.Describe(report, f.frame);
+    (*fj)["clamp_bias_mixed"] = v.clamp_bias_mixed();
+    (*fj)["clamp_bias_real"] = v.clamp_bias_real();
+  }
+
+ private:
+  VplSettings st_;
+  std::shared_ptr<const VplSet> vpls_;
+};
+
+}  // namespace
+
+std::unique_ptr<RenderMethod> MakeVplMethod(const JsonNode& block, const Scene& scene) {
+  return std::make_unique<VplMethod>(ParseVplSettings(block, scene));
+}
 
 }  // namespace mr

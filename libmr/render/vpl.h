@@ -1,32 +1,8 @@
 // `vpl`: differential instant radiosity (Knecht et al. 2010,
 // ../shared/papers/differential-instant-radiosity.txt), offline on the CPU.
-//
-// Light paths leave the emitters (the environment, importance-sampled, and
-// lights.json's lights) and leave a virtual point light (VPL) at each
-// surface they meet.  Half the parallel light's paths are aimed at the
-// virtual objects' bounding sphere (a stratum of the entry disc), since the
-// VPLs that carry the difference arise where paths meet the objects.  Every VPL carries the flags of the paper:
-//  - the path flag x̄ = r(x̄_prev)·r(p_VPL): a path that has met only real
-//    surfaces (and started at a real emitter) lights both solutions, I_r and
-//    I_m; once it meets a virtual surface (or starts at a virtual light) it
-//    lights I_m only;
-//  - ir(VPL): where a shared path meets a virtual object, the real-only
-//    solution's path goes on behind it (a real ray, with a copy of the random
-//    stream), and the VPLs it leaves light I_r only: they cancel, in
-//    I_m − I_r, the colour bleeding the object has taken away.
-// A shading point gathers every VPL through the two blocker tests st_r (real
-// geometry) and st_v (virtual): I_r uses st_r, I_m uses st_rv = min(st_r, st_v).
-// Visibility is exact (Embree shadow rays), not imperfect shadow maps.
-//
-// Direct light from the environment and disc lights comes from directional
-// VPLs (a fixed set of directions, half importance-sampled from the map and
-// half uniform, combined by the balance heuristic); point and spot lights
-// are VPLs at the light itself.  The 1/d² singularity of the geometry term
-// is clamped at `clamp_distance`; the energy the clamp removes at the first
-// gather is measured per pixel and reported as bias, and `compensate` adds
-// it back by a short path-traced correction (Kollig & Keller 2004).  Glossy
-// lobes, which VPLs render badly, are followed by one BSDF-sampled ray
-// (next-event estimation with MIS, as in `pt`) and gathered at its hit.
+// Virtual point lights with the paper's real/virtual flags, built once per
+// render and gathered with exact shadow rays; the clamp's bias is measured
+// and reported.  The method in full: docs/methods.md, "vpl".
 #pragma once
 
 #include <cstdint>
@@ -35,7 +11,9 @@
 
 #include "core/report.h"
 #include "render/path_common.h"
+#include "render/method.h"
 #include "render/path_tracer.h"
+#include "render/pixel_loop.h"
 
 namespace mr {
 
@@ -99,17 +77,11 @@ class VplSet {
   int64_t paths_ended_below_ = 0;  // VPLs not stored: flux below the drop threshold
 };
 
-class VplFrameRenderer : public FrameMethod {
+class VplFrameRenderer : public PixelLoopMethod {
  public:
   VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls, const CameraModel& camera,
                    const Rigid3& world_from_cam, uint64_t seed, int frame);
   void RenderPass(int spp) override;
-  Image Mixed() const override;
-  Image Real() const override;
-  Image Mask() const override;
-  Image DifferenceVariance() const override;
-  Image SampleCount() const override;
-  int64_t nonfinite_samples() const override { return nonfinite_; }
   // Energy the clamp removed, over the energy rendered (luminance, I_m and I_r).
   double clamp_bias_mixed() const;
   double clamp_bias_real() const;
@@ -117,18 +89,26 @@ class VplFrameRenderer : public FrameMethod {
 
   struct Counters {
     int64_t shadow_rays = 0, dropped = 0, virtual_tests_skipped = 0, rays = 0, compensation_rays = 0;
+    Counters& operator+=(const Counters& o) {
+      shadow_rays += o.shadow_rays;
+      dropped += o.dropped;
+      virtual_tests_skipped += o.virtual_tests_skipped;
+      rays += o.rays;
+      compensation_rays += o.compensation_rays;
+      return *this;
+    }
   };
 
  private:
+  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   const RenderScene& scene_;
   std::shared_ptr<const VplSet> set_;
-  CameraSampler sampler_;
-  int width_, height_;
-  PixelAccumulator acc_;
   std::vector<double> bias_m_, bias_r_, lum_m_, lum_r_;
-  int spp_ = 0;
-  int64_t nonfinite_ = 0;
+  std::vector<Counters> rows_;  // this pass's, per image row
   Counters counters_;
 };
+
+// The registry's `vpl` (render.vpl: VplSettings' fields).
+std::unique_ptr<RenderMethod> MakeVplMethod(const JsonNode& block, const Scene& scene);
 
 }  // namespace mr

@@ -1,20 +1,18 @@
 #include "scene/scene.h"
 
+#include <algorithm>
 #include <set>
 
 #include "core/error.h"
 #include "core/json_node.h"
 #include "core/math.h"
+#include "scene/frames.h"
 
 namespace mr {
 
-const std::vector<std::string>& RenderMethods() {
-  static const std::vector<std::string> m = {"pt", "ic", "vpl", "vct", "prt"};
-  return m;
-}
-
 const std::vector<std::string>& OutputLayers() {
-  static const std::vector<std::string> l = {"composite", "mixed", "real", "mask", "difference", "photo"};
+  static const std::vector<std::string> l = {"composite", "mixed",    "real",    "mask",
+                                             "difference", "variance", "samples", "photo"};
   return l;
 }
 
@@ -80,27 +78,6 @@ Eigen::Affine3d ParseTransform(const Node& n) {
     else a.scale(s.Vec3(1e-9, kHuge));
   }
   return a;
-}
-
-// "A:B" or "A:" -> [A, B); -1 for an open end.
-void ParseFrames(const Node& n, int* begin, int* end) {
-  std::string s = n.String();
-  auto colon = s.find(':');
-  auto parse = [&](const std::string& t, int dflt) {
-    if (t.empty()) return dflt;
-    char* e = nullptr;
-    long v = std::strtol(t.c_str(), &e, 10);
-    if (*e != '\0' || v < 0 || v > 100000000) n.Fail(fmt::format("\"{}\" is not of the form A:B with 0 <= A < B", s));
-    return static_cast<int>(v);
-  };
-  if (colon == std::string::npos) {
-    *begin = parse(s, 0);
-    *end = *begin + 1;
-  } else {
-    *begin = parse(s.substr(0, colon), 0);
-    *end = parse(s.substr(colon + 1), -1);
-  }
-  if (*end != -1 && *end <= *begin) n.Fail(fmt::format("\"{}\": the range is empty", s));
 }
 
 bool IsFramePattern(const std::string& s) { return s.find('%') != std::string::npos; }
@@ -227,57 +204,33 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   }
 
   if (root.Has("render")) {
+    // The generic settings; any other key holding an object is a method's
+    // block (render.vpl, ...), kept as written for the method to parse.
     Node r = root.Child("render");
-    r.RequireObject({"method", "spp", "max_depth", "seed", "frames", "time_budget_s", "vpl", "ic", "vct"});
-    if (r.Has("vct")) {
-      Node v = r.Child("vct");
-      v.RequireObject({"resolution", "directions", "injection_spacing", "shadow_aperture_deg",
-                       "min_specular_aperture_deg", "cone_offset", "accumulation", "relight", "far_field_width",
-                       "far_field_samples"});
-      auto& o = s.render.vct;
-      if (v.Has("resolution")) o.resolution = static_cast<int>(v.Child("resolution").Integer(2, 1024));
-      if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 16));
-      if (v.Has("injection_spacing")) o.injection_spacing = v.Child("injection_spacing").Number(0.05, 8);
-      if (v.Has("shadow_aperture_deg")) o.shadow_aperture_deg = v.Child("shadow_aperture_deg").Number(0, 90);
-      if (v.Has("min_specular_aperture_deg"))
-        o.min_specular_aperture_deg = v.Child("min_specular_aperture_deg").Number(0, 90);
-      if (v.Has("cone_offset")) o.cone_offset = v.Child("cone_offset").Number(0, 16);
-      if (v.Has("accumulation")) o.accumulation = v.Child("accumulation").OneOf({"front_to_back", "paper"});
-      if (v.Has("relight")) o.relight = v.Child("relight").OneOf({"delta", "split"});
-      if (v.Has("far_field_width")) o.far_field_width = static_cast<int>(v.Child("far_field_width").Integer(8, 1024));
-      if (v.Has("far_field_samples")) o.far_field_samples = static_cast<int>(v.Child("far_field_samples").Integer(1, 1 << 16));
+    static const std::initializer_list<const char*> generic = {"method", "spp", "max_depth", "seed", "frames",
+                                                               "time_budget_s"};
+    if (!r.json().is_object()) r.Fail(fmt::format("expected an object, got {}", r.TypeName()));
+    for (auto& [k, v] : r.json().items()) {
+      bool known = false;
+      for (const char* g : generic) known = known || k == g;
+      if (known) continue;
+      if (!v.is_object()) {
+        std::string list;
+        for (const char* g : generic) list += (list.empty() ? "" : ", ") + std::string(g);
+        r.Child(k).Fail(fmt::format("unknown key (allowed here: {}, or a method's settings object)", list));
+      }
+      s.render.method_settings[k] = v;
     }
-    if (r.Has("vpl")) {
-      Node v = r.Child("vpl");
-      v.RequireObject({"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate"});
-      auto& o = s.render.vpl;
-      if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
-      if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
-      if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
-      if (v.Has("clamp_distance")) o.clamp_distance = v.Child("clamp_distance").Number(0, 1e9);
-      if (v.Has("drop_threshold")) o.drop_threshold = v.Child("drop_threshold").Number(0, 1);
-      if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
-    }
-    if (r.Has("ic")) {
-      Node v = r.Child("ic");
-      v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold",
-                       "glossy_depth"});
-      auto& o = s.render.ic;
-      if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
-      if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
-      if (v.Has("min_spacing_px")) o.min_spacing_px = v.Child("min_spacing_px").Number(0.1, 1e4);
-      if (v.Has("max_spacing_px")) o.max_spacing_px = v.Child("max_spacing_px").Number(0.1, 1e5);
-      if (v.Has("t_max")) o.t_max = static_cast<int>(v.Child("t_max").Integer(1, 1 << 20));
-      if (v.Has("tile")) o.tile = static_cast<int>(v.Child("tile").Integer(1, 1024));
-      if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
-      if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
-      if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
-    }
-    if (r.Has("method")) s.render.method = r.Child("method").OneOf(RenderMethods());
+    if (r.Has("method")) s.render.method = r.Child("method").String();
     if (r.Has("spp")) s.render.spp = static_cast<int>(r.Child("spp").Integer(1, 1 << 24));
     if (r.Has("max_depth")) s.render.max_depth = static_cast<int>(r.Child("max_depth").Integer(0, 1000));
     if (r.Has("seed")) s.render.seed = static_cast<uint64_t>(r.Child("seed").Integer(0, INT64_MAX));
-    if (r.Has("frames")) ParseFrames(r.Child("frames"), &s.render.frame_begin, &s.render.frame_end);
+    if (r.Has("frames")) {
+      const Node f = r.Child("frames");
+      const std::string v = f.String();
+      std::string why;
+      if (!ParseFrameRange(v, &s.render.frame_begin, &s.render.frame_end, &why)) f.Fail(why);
+    }
     if (r.Has("time_budget_s")) s.render.time_budget_s = r.Child("time_budget_s").Number(0, 1e9);
   }
 
@@ -297,6 +250,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
       if (!l.json().is_array() || l.json().empty()) l.Fail("expected a non-empty array of layer names");
       s.output.layers.clear();
       for (size_t i = 0; i < l.json().size(); ++i) s.output.layers.push_back(l.Index(i).OneOf(OutputLayers()));
+      if (std::find(s.output.layers.begin(), s.output.layers.end(), "composite") == s.output.layers.end())
+        l.Fail("must include \"composite\", the render's result");
     }
   } else {
     s.output.dir = base / "out";

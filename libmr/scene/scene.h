@@ -6,6 +6,7 @@
 // Relative paths resolve against the scene file's folder.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -68,41 +69,12 @@ struct SceneVirtual {
   std::optional<fs::path> formfactors;  // .ffc from mr-formfactor
 };
 
-// Quality settings of `vpl` (render/vpl.h has what each does).
-struct SceneVplSettings {
-  int paths = 1024, directions = 128, glossy_depth = 2;
-  double clamp_distance = 0, drop_threshold = 1e-3;
-  bool compensate = false;
-};
-
-// Quality settings of `ic` (render/irradiance_cache.h).
-struct SceneIcSettings {
-  int rays = 256;            // hemisphere rays per record
-  double accuracy = 0.3;     // a of the record weight w = 1 - max(eps_p, eps_n) / a
-  double min_spacing_px = 2, max_spacing_px = 32;  // influence radius clamp, pixels at the record
-  int t_max = 8;             // frames between re-evaluations of a record
-  int tile = 16;             // miss-detection tile, pixels
-  double influence_threshold = 1e-3;  // records skipped where the objects' form factor bound is below
-  int glossy_depth = 2;
-};
-
-// Quality settings of `vct` (render/vct.h).
-struct SceneVctSettings {
-  int resolution = 32;              // voxels along the volume's longest side
-  int directions = 64;              // environment directions injected
-  double injection_spacing = 0.5;   // voxels between injection rays
-  double shadow_aperture_deg = 2, min_specular_aperture_deg = 1;
-  double cone_offset = 1.0;         // voxels
-  std::string accumulation = "front_to_back";  // or "paper"
-  std::string relight = "split";    // or "delta" (the paper's)
-  int far_field_width = 64, far_field_samples = 16;
-};
-
 struct SceneRender {
-  std::string method = "pt";  // pt, ic, vpl, vct, prt
-  SceneVplSettings vpl;
-  SceneIcSettings ic;
-  SceneVctSettings vct;
+  // The method's name (render/method.h's registry checks it) and each
+  // method's settings block, render.<name>, as written: the method parses
+  // and validates its own (CheckRenderSettings).
+  std::string method = "pt";
+  std::map<std::string, Json> method_settings;
   int spp = 64;
   int max_depth = 5;
   uint64_t seed = 0;
@@ -110,11 +82,15 @@ struct SceneRender {
   double time_budget_s = 0;             // 0 = none
 };
 
+// The layers a frame's EXR can hold, in the order they are written.
+const std::vector<std::string>& OutputLayers();
+
 struct SceneOutput {
   fs::path dir = "out";
   bool png = true;
   bool half = false;  // EXR layers as half floats (refused where values exceed 65504)
-  std::vector<std::string> layers = {"composite", "mixed", "real", "mask", "difference"};
+  // EXR layers written (OutputLayers(); composite is required): all by default.
+  std::vector<std::string> layers = OutputLayers();
 };
 
 struct Scene {
@@ -128,6 +104,15 @@ struct Scene {
   std::optional<fs::path> reference;  // ground truth (mr-synth)
 };
 
+// Whether any real or virtual material emits light.
+inline bool AnyEmissive(const Scene& s) {
+  for (const auto& r : s.reals)
+    if (r.material.IsEmissive()) return true;
+  for (const auto& v : s.virtuals)
+    if (v.material.IsEmissive()) return true;
+  return false;
+}
+
 // Reads and validates a scene file; `check_files` also requires every named
 // input file to exist.
 Scene ReadScene(const fs::path& path, bool check_files = true);
@@ -135,8 +120,5 @@ Scene ReadScene(const fs::path& path, bool check_files = true);
 // the file name used in messages.
 Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, bool check_files);
 
-// The valid method names and layers.
-const std::vector<std::string>& RenderMethods();
-const std::vector<std::string>& OutputLayers();
 
 }  // namespace mr

@@ -11,6 +11,7 @@
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "render/path_tracer.h"
+#include "render/pt.h"
 
 namespace mr {
 
@@ -68,7 +69,7 @@ DepthMap RenderDepth(const RenderScene& scene, const PinholeIntrinsics& K, const
       const Eigen::Vector3d n = scene.WorldNormal(h);
       cos_view[i] = static_cast<float>(std::abs(n.dot((R * dc).normalized())));
       const Material& m = scene.material(h.geometry_id);
-      const double lum = 0.2126 * m.albedo.x() + 0.7152 * m.albedo.y() + 0.0722 * m.albedo.z();
+      const double lum = Luminance(m.albedo);
       float p = 0;
       if (lum < 0.1) p = static_cast<float>(sensor.dark_dropout);
       if (m.IsGlossy()) p = std::max(p, static_cast<float>(sensor.glossy_dropout));
@@ -147,7 +148,7 @@ void WriteRgbdSequence(const fs::path& dir, const RenderScene& scene, const Traj
     depth_txt += fmt::format("{} depth/{}.png\n", stamp, stamp);
     if (o.color_spp > 0) {
       st.frame = static_cast<int>(i);
-      FrameRenderer fr(scene, cam, tp.world_from_cam, st);
+      PtFrameRenderer fr(scene, cam, tp.world_from_cam, st);
       fr.RenderPass(o.color_spp);
       Image c = fr.Real();
       for (float& v : c.values()) v = Clamp(v * static_cast<float>(o.exposure), 0.0f, 1.0f);

@@ -9,7 +9,7 @@
 
 #include "camera/camera_model.h"
 #include "core/image.h"
-#include "render/environment.h"
+#include "light/environment.h"
 
 namespace mr {
 

@@ -15,10 +15,12 @@
 #include "core/spherical.h"
 #include "core/video.h"
 #include "geometry/mesh.h"
+#include "hdr/exposures_file.h"
 #include "geometry/primitives.h"
 #include "render/path_tracer.h"
+#include "render/pt.h"
 #include "render/render_scene.h"
-#include "scene/lights.h"
+#include "light/lights_file.h"
 
 namespace mr {
 
@@ -101,16 +103,16 @@ void WriteBracket(const fs::path& dir, const std::string& prefix, const Image& r
   bo.seed = seed;
   const std::vector<Exposure> bracket = SynthesiseBracket(radiance, bo);
   fs::create_directories(dir);
-  std::string sidecar = "# exposure times (s) of the bracket, for mr-hdr --exposures\n";
+  std::vector<std::pair<std::string, double>> times;
   ImageWriteOptions raw = wo;
   raw.ldr_transfer = Transfer::kLinear;  // the values are already the camera's codes
   for (size_t k = 0; k < bracket.size(); ++k) {
     const std::string name = fmt::format("{}-{}.png", prefix, k);
     WriteImage(dir / name, bracket[k].codes, raw);
-    sidecar += fmt::format("{} {}\n", name, bracket[k].time_s);
+    times.emplace_back(name, bracket[k].time_s);
     report->AddOutput((dir / name).string());
   }
-  WriteTextFile(dir / "exposures.txt", sidecar);
+  WriteExposures(dir / "exposures.txt", times, "exposure times (s) of the bracket, for mr-hdr --exposures");
 }
 
 }  // namespace
@@ -202,20 +204,15 @@ void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
     report->AddOutput((o.out / f2).string());
 }
 
-void RunSynth(const SynthOptions& o, Report* report) {
-  SynthPreset p = GetSynthPreset(o.preset);
+SynthCapture MakeSynthCapture(const SynthOptions& o) {
+  SynthCapture c;
+  SynthPreset& p = c.preset;
+  p = GetSynthPreset(o.preset);
   if (o.frames > 0) p.frames = o.frames;
-  const int truth_spp = o.truth_spp > 0 ? o.truth_spp : p.truth_spp;
-  if (o.out.empty()) throw UsageError("--out is required");
-  std::error_code ec;
-  for (const char* sub : {"", "meshes", "photos", "truth"}) fs::create_directories(o.out / sub, ec);
-  if (!fs::is_directory(o.out / "truth")) ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the capture folder");
-  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
-
-  std::vector<SynthPart> parts = SynthRoom();
-
+  c.truth_spp = o.truth_spp > 0 ? o.truth_spp : p.truth_spp;
+  c.parts = SynthRoom();
   // The virtual object, resting on the table.
-  Mesh object;
+  Mesh& object = c.object;
   fs::path object_file;
   if (o.object == "sphere") {
     object = Sphere(0.15f, 24);
@@ -228,13 +225,15 @@ void RunSynth(const SynthOptions& o, Report* report) {
   const auto ob = object.Bounds();
   const double size = static_cast<double>((ob.max() - ob.min()).maxCoeff());
   const double scale = 0.3 / std::max(size, 1e-9);  // about 30 cm across
-  Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();
+  Eigen::Affine3d& world_from_object = c.world_from_object;
+  world_from_object = Eigen::Affine3d::Identity();
   world_from_object.translate(Eigen::Vector3d(0.1, 0.75 - scale * ob.min().y(), 0.0));
   world_from_object.rotate(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()));
   world_from_object.scale(scale);
   Eigen::Vector3d oc = 0.5 * (ob.min() + ob.max()).cast<double>();
   world_from_object.translate(Eigen::Vector3d(-oc.x(), 0, -oc.z()));
-  Material object_material = Diffuse(0.8, 0.75, 0.7);
+  Material& object_material = c.object_material;
+  object_material = Diffuse(0.8, 0.75, 0.7);
   if (o.object_material == "glossy") {
     object_material = Diffuse(0.25, 0.22, 0.2);
     object_material.specular = Eigen::Vector3d::Constant(0.6);
@@ -249,8 +248,8 @@ void RunSynth(const SynthOptions& o, Report* report) {
 
   // Lighting, camera and path.
   int sun_x, sun_y;
-  Image sky = SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y);
-  std::vector<Light> lights;
+  c.sky = SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y);
+  std::vector<Light>& lights = c.lights;
   if (o.spot_light) {  // a warm lamp up and to the right, aimed at the table
     Light spot;
     spot.name = "spot";
@@ -264,9 +263,9 @@ void RunSynth(const SynthOptions& o, Report* report) {
     lights.push_back(spot);
   }
   const double f = 0.9 * p.width;  // ~58 degree horizontal field of view
-  CameraModel camera("LENSMODEL_OPENCV4", {f, f, (p.width - 1) / 2.0, (p.height - 1) / 2.0, -0.02, 0.005, 0, 0},
+  c.camera = CameraModel("LENSMODEL_OPENCV4", {f, f, (p.width - 1) / 2.0, (p.height - 1) / 2.0, -0.02, 0.005, 0, 0},
                      p.width, p.height);
-  Trajectory traj;
+  Trajectory& traj = c.trajectory;
   const Eigen::Vector3d target(0, 0.8, 0.2);
   for (int i = 0; i < p.frames; ++i) {
     const Eigen::Vector3d eye(-0.4 + 0.8 * i / std::max(1, p.frames - 1), 1.5, -2.2);
@@ -280,64 +279,77 @@ void RunSynth(const SynthOptions& o, Report* report) {
     traj.poses.push_back({i / 30.0, Rigid3(Eigen::Quaterniond(R), eye)});
   }
 
-  // Write the inputs.
-  {
-    ScopedTimer t(report, "write inputs");
-    Json reals = Json::array();
-    for (const auto& part : parts) {
-      const fs::path mesh_path = o.out / "meshes" / (part.name + ".ply");
-      WritePly(mesh_path, part.mesh, note);
-      reals.push_back({{"mesh", "meshes/" + part.name + ".ply"}, {"material", MaterialJson(part.material)}});
-      report->AddOutput(mesh_path.string());
-    }
-    WritePly(o.out / "meshes" / "object.ply", object, note);
-    camera.Write(o.out / "camera.cameramodel", note);
-    WriteTum(o.out / "trajectory.txt", traj);
-    ImageWriteOptions wo;
-    wo.tool = o.tool;
-    wo.command_line = o.command_line;
-    WriteImage(o.out / "env.exr", sky, wo);
-    if (!lights.empty()) {
-      WriteTextFile(o.out / "lights.json", LightsToJson(lights, note).dump(2) + "\n");
-      report->AddOutput((o.out / "lights.json").string());
-    }
-    Json scene = {
-        {"version", 1},
-        {"comment", "synthetic capture (" + note + ")"},
-        {"camera", {{"model", "camera.cameramodel"}, {"frames", "photos/%05d.exr"}, {"frames_transfer", "linear"},
-                    {"poses", {{"format", "tum"}, {"path", "trajectory.txt"}}}}},
-        {"lighting", {{"environment", "env.exr"}}},
-        {"real", reals},
-        {"virtual", Json::array({{{"name", "object"}, {"mesh", "meshes/object.ply"},
-                                  {"transform", {{"matrix", Json::array()}}},
-                                  {"material", MaterialJson(object_material)}}})},
-        {"render", {{"method", "pt"}, {"spp", p.render_spp}, {"max_depth", 8}, {"seed", o.seed}}},
-        {"output", {{"dir", "render"}, {"png", true}}},
-        {"reference", "truth/%05d.exr"}};
-    if (!lights.empty()) scene["lighting"]["lights"] = "lights.json";
-    Json& mat = scene["virtual"][0]["transform"]["matrix"];
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) mat.push_back(world_from_object.matrix()(r, c));
-    WriteTextFile(o.out / "scene.json", scene.dump(2) + "\n");
-    for (const char* f2 : {"scene.json", "camera.cameramodel", "trajectory.txt", "env.exr", "meshes/object.ply"})
-      report->AddOutput((o.out / f2).string());
-    // The light probe: a 2-inch mirror sphere photographed by a 200-degree
-    // stereographic fish-eye (the "light camera", looking along the world's
-    // -z, +y up: its extrinsics say so), for mr-calibrate sphere;
-    // probe/truth.json holds the answer.  Then the same sphere as a bracket
-    // of 8-bit photographs through the sRGB curve (the camera's response),
-    // with lens blur, noise and the camera's own body reflected, the sun
-    // saturating every exposure (mr-hdr, then mr-probe: the result should
-    // be env.exr); and a bracket of the fish-eye pointed at the zenith.
-    WriteProbe(o, sky, report);
+  return c;
+}
+
+void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::string& note, Report* report) {
+  ScopedTimer t(report, "write inputs");
+  Json reals = Json::array();
+  for (const auto& part : c.parts) {
+    const fs::path mesh_path = o.out / "meshes" / (part.name + ".ply");
+    WritePly(mesh_path, part.mesh, note);
+    reals.push_back({{"mesh", "meshes/" + part.name + ".ply"}, {"material", MaterialJson(part.material)}});
+    report->AddOutput(mesh_path.string());
   }
+  WritePly(o.out / "meshes" / "object.ply", c.object, note);
+  c.camera.Write(o.out / "camera.cameramodel", note);
+  WriteTum(o.out / "trajectory.txt", c.trajectory);
+  ImageWriteOptions wo;
+  wo.tool = o.tool;
+  wo.command_line = o.command_line;
+  WriteImage(o.out / "env.exr", c.sky, wo);
+  if (!c.lights.empty()) {
+    WriteTextFile(o.out / "lights.json", LightsToJson(c.lights, note).dump(2) + "\n");
+    report->AddOutput((o.out / "lights.json").string());
+  }
+  Json scene = {
+      {"version", 1},
+      {"comment", "synthetic capture (" + note + ")"},
+      {"camera", {{"model", "camera.cameramodel"}, {"frames", "photos/%05d.exr"}, {"frames_transfer", "linear"},
+                  {"poses", {{"format", "tum"}, {"path", "trajectory.txt"}}}}},
+      {"lighting", {{"environment", "env.exr"}}},
+      {"real", reals},
+      {"virtual", Json::array({{{"name", "object"}, {"mesh", "meshes/object.ply"},
+                                {"transform", {{"matrix", Json::array()}}},
+                                {"material", MaterialJson(c.object_material)}}})},
+      {"render", {{"method", "pt"}, {"spp", c.preset.render_spp}, {"max_depth", 8}, {"seed", o.seed}}},
+      {"output", {{"dir", "render"}, {"png", true}}},
+      {"reference", "truth/%05d.exr"}};
+  if (!c.lights.empty()) scene["lighting"]["lights"] = "lights.json";
+  Json& mat = scene["virtual"][0]["transform"]["matrix"];
+  for (int r = 0; r < 4; ++r)
+    for (int k = 0; k < 4; ++k) mat.push_back(c.world_from_object.matrix()(r, k));
+  WriteTextFile(o.out / "scene.json", scene.dump(2) + "\n");
+  for (const char* f2 : {"scene.json", "camera.cameramodel", "trajectory.txt", "env.exr", "meshes/object.ply"})
+    report->AddOutput((o.out / f2).string());
+  // The light probe: a 2-inch mirror sphere photographed by a 200-degree
+  // stereographic fish-eye (the "light camera", looking along the world's
+  // -z, +y up: its extrinsics say so), for mr-calibrate sphere;
+  // probe/truth.json holds the answer.  Then the same sphere as a bracket
+  // of 8-bit photographs through the sRGB curve (the camera's response),
+  // with lens blur, noise and the camera's own body reflected, the sun
+  // saturating every exposure (mr-hdr, then mr-probe: the result should
+  // be env.exr); and a bracket of the fish-eye pointed at the zenith.
+  WriteProbe(o, c.sky, report);
+}
+
+void RunSynth(const SynthOptions& o, Report* report) {
+  if (o.out.empty()) throw UsageError("--out is required");
+  const SynthCapture c = MakeSynthCapture(o);
+  const SynthPreset& p = c.preset;
+  const int truth_spp = c.truth_spp;
+  std::error_code ec;
+  for (const char* sub : {"", "meshes", "photos", "truth"}) fs::create_directories(o.out / sub, ec);
+  if (!fs::is_directory(o.out / "truth")) ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the capture folder");
+  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
+  WriteSynthInputs(o, c, note, report);
 
   // Render the truth; its real-only paths are the photographs.
   RenderScene rs;
-  for (const auto& part : parts) rs.AddReal(part.mesh, part.material);
-  rs.AddVirtual(object, world_from_object, object_material);
-  rs.SetEnvironment(EnvironmentMap(sky, (o.out / "env.exr").string()));
-  for (const Light& l : lights) rs.AddLight(l);
+  for (const auto& part : c.parts) rs.AddReal(part.mesh, part.material);
+  rs.AddVirtual(c.object, c.world_from_object, c.object_material);
+  rs.SetEnvironment(EnvironmentMap(c.sky, (o.out / "env.exr").string()));
+  for (const Light& l : c.lights) rs.AddLight(l);
   rs.Commit();
   PathTracerSettings st;
   st.max_depth = 8;
@@ -347,7 +359,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
   VideoWriter video(o.out / "photos.mp4", p.width, p.height, 30.0);
   for (int i = 0; i < p.frames; ++i) {
     st.frame = i;
-    FrameRenderer fr(rs, camera, traj.poses[static_cast<size_t>(i)].world_from_cam, st);
+    PtFrameRenderer fr(rs, c.camera, c.trajectory.poses[static_cast<size_t>(i)].world_from_cam, st);
     {
       ScopedTimer t(report, "render truth");
       fr.RenderPass(truth_spp);
@@ -367,18 +379,18 @@ void RunSynth(const SynthOptions& o, Report* report) {
     std::vector<float> lum;
     for (int y = 0; y < photo.height(); ++y)
       for (int x = 0; x < photo.width(); ++x)
-        lum.push_back(0.2126f * photo.at(x, y, 0) + 0.7152f * photo.at(x, y, 1) + 0.0722f * photo.at(x, y, 2));
+        lum.push_back(LuminanceF(photo.at(x, y, 0), photo.at(x, y, 1), photo.at(x, y, 2)));
     std::nth_element(lum.begin(), lum.begin() + static_cast<long>(lum.size() * 99 / 100), lum.end());
     if (i == 0) exposure = 0.9f / std::max(1e-6f, lum[lum.size() * 99 / 100]);
     Image ldr = Image::Rgb(photo.width(), photo.height());
     for (int y = 0; y < photo.height(); ++y)
       for (int x = 0; x < photo.width(); ++x) {
         Pcg32 rng(HashCombine(o.seed, static_cast<uint64_t>(i)), static_cast<uint64_t>(y) * photo.width() + x);
-        for (int c = 0; c < 3; ++c) {
+        for (int ch = 0; ch < 3; ++ch) {
           const double u1 = std::max(1e-12, rng.NextDouble()), u2 = rng.NextDouble();
           const double gauss = std::sqrt(-2 * std::log(u1)) * std::cos(kTwoPi * u2);
-          const float v = LinearToSrgb(Clamp(photo.at(x, y, c) * exposure, 0.0f, 1.0f)) + static_cast<float>(gauss / 255.0);
-          ldr.at(x, y, c) = SrgbToLinear(Clamp(v, 0.0f, 1.0f));  // WriteImage re-encodes sRGB
+          const float v = LinearToSrgb(Clamp(photo.at(x, y, ch) * exposure, 0.0f, 1.0f)) + static_cast<float>(gauss / 255.0);
+          ldr.at(x, y, ch) = SrgbToLinear(Clamp(v, 0.0f, 1.0f));  // WriteImage re-encodes sRGB
         }
       }
     WriteImage(o.out / "photos" / fmt::format("{:05d}.png", i), ldr, wo);

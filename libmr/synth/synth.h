@@ -15,7 +15,10 @@
 #include "core/file.h"
 #include "core/image.h"
 #include "core/report.h"
+#include "camera/camera_model.h"
+#include "camera/trajectory.h"
 #include "geometry/mesh.h"
+#include "light/lights_file.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -45,7 +48,8 @@ SynthPreset GetSynthPreset(const std::string& name);
 // and a bracket of the fish-eye at the zenith, and truth.json (docs/formats.md).
 void WriteProbe(const SynthOptions& options, const Image& sky, Report* report);
 
-// Writes the capture; fills `report`.
+// Writes the capture; fills `report`.  MakeSynthCapture, WriteSynthInputs,
+// then per frame the truth rendered and written with its photographs.
 void RunSynth(const SynthOptions& options, Report* report);
 
 // The room's real parts: floor, back and left walls, a table with a glossy
@@ -56,6 +60,27 @@ struct SynthPart {
   Material material;
 };
 std::vector<SynthPart> SynthRoom();
+// A capture as computed, before anything is written: the room, the object
+// on the table, the sky and lights, the camera and its path.
+struct SynthCapture {
+  SynthPreset preset{};
+  int truth_spp = 0;
+  std::vector<SynthPart> parts;
+  Mesh object;
+  Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();
+  Material object_material;
+  Image sky;
+  std::vector<Light> lights;
+  CameraModel camera;
+  Trajectory trajectory;
+};
+SynthCapture MakeSynthCapture(const SynthOptions& options);
+
+// The capture's inputs: meshes, camera model, trajectory, env.exr,
+// lights.json, scene.json and the probe (WriteProbe); `note` is their provenance.
+void WriteSynthInputs(const SynthOptions& options, const SynthCapture& capture, const std::string& note,
+                      Report* report);
+
 // The parts' geometry as one mesh (the reference for mr-eval mesh).
 Mesh MergeParts(const std::vector<SynthPart>& parts);
 

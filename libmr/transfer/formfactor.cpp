@@ -1,5 +1,6 @@
 #include "transfer/formfactor.h"
 
+#include <algorithm>
 #include <atomic>
 #include <bit>
 #include <cstring>
@@ -7,34 +8,30 @@
 #include <array>
 #include <map>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
 #include "core/spherical.h"
 #include "geometry/embree_scene.h"
-#include "render/environment.h"
-#include "render/path_tracer.h"
-#include "render/render_scene.h"
+#include "light/environment.h"
 #include "transfer/cube.h"
-#include "transfer/sh.h"
+#include "core/hash.h"
+#include "core/sh.h"
 
 namespace mr {
 
 static_assert(std::endian::native == std::endian::little, "the .ffc reader and writer assume a little-endian machine");
 
 uint64_t MeshHash(const Mesh& mesh) {
-  uint64_t h = 1469598103934665603ULL;  // FNV-1a
-  auto bytes = [&](const void* p, size_t n) {
-    const auto* c = static_cast<const unsigned char*>(p);
-    for (size_t i = 0; i < n; ++i) h = (h ^ c[i]) * 1099511628211ULL;
-  };
+  Fnv1a h;
   const uint64_t nv = mesh.positions.size(), nt = mesh.triangles.size();
-  bytes(&nv, sizeof nv);
-  bytes(&nt, sizeof nt);
-  for (const auto& p : mesh.positions) bytes(p.data(), 3 * sizeof(float));
-  for (const auto& t : mesh.triangles) bytes(t.data(), 3 * sizeof(int));
-  return h;
+  h.Bytes(&nv, sizeof nv);
+  h.Bytes(&nt, sizeof nt);
+  for (const auto& p : mesh.positions) h.Bytes(p.data(), 3 * sizeof(float));
+  for (const auto& t : mesh.triangles) h.Bytes(t.data(), 3 * sizeof(int));
+  return h.value();
 }
 
 int TransferCoefficients(const TransferOptions& o) {
@@ -540,64 +537,16 @@ std::vector<Eigen::Vector3d> ShadeVertices(const VertexTransfer& t, const Enviro
   return out;
 }
 
-std::vector<Eigen::Vector3d> ReferenceVertexRadiance(const Mesh& mesh, const Image& env, const std::string& env_name,
-                                                     const Eigen::Matrix3d& world_from_object, double albedo,
-                                                     int bounces, int rays, uint64_t seed) {
-  TransferStats stats;
-  const std::vector<Eigen::Vector3d> normals = TransferNormals(mesh, &stats);
-  RenderScene scene;
-  Material m;
-  m.albedo = Eigen::Vector3d::Constant(albedo);
-  Mesh world = mesh;
-  for (auto& p : world.positions) p = (world_from_object * p.cast<double>()).cast<float>();
-  world.normals.clear();
-  scene.AddReal(world, m);
-  scene.SetEnvironment(EnvironmentMap(env, env_name));
-  scene.Commit();
-  PathTracerSettings st;
-  st.max_depth = bounces;
-  st.seed = seed;
-  DifferentialPathTracer tracer(scene, st);
-  const EnvironmentMap& em = scene.environment();
-  const auto bounds = world.Bounds();
-  const double offset = std::max(1e-6, 1e-5 * static_cast<double>((bounds.max() - bounds.min()).norm()));
-  std::vector<Eigen::Vector3d> out(mesh.positions.size(), Eigen::Vector3d::Zero());
-  ParallelFor(0, static_cast<int64_t>(mesh.positions.size()), [&](int64_t v) {
-    const Eigen::Vector3d n = (world_from_object * normals[static_cast<size_t>(v)]).normalized();
-    if (!n.allFinite() || normals[static_cast<size_t>(v)].squaredNorm() == 0) return;
-    const Eigen::Vector3d p = world.positions[static_cast<size_t>(v)].cast<double>() + offset * n;
-    Eigen::Vector3d t, b;
-    CoordinateSystem(n, &t, &b);
-    Eigen::Vector3d e = Eigen::Vector3d::Zero();  // estimate of irradiance E
-    for (int s = 0; s < rays; ++s) {
-      Pcg32 rng(HashCombine(seed, static_cast<uint64_t>(s)), static_cast<uint64_t>(v));
-      // Environment sample, MIS against cosine sampling.
-      Eigen::Vector3d wi;
-      double pdf_l = 0;
-      const Eigen::Vector3d le = em.Sample(rng.NextDouble(), rng.NextDouble(), rng.NextDouble(), &wi, &pdf_l);
-      const double cos_l = wi.dot(n);
-      if (pdf_l > 0 && cos_l > 0) {
-        Ray r;
-        r.origin = p.cast<float>();
-        r.direction = wi.cast<float>();
-        if (!scene.embree().Occluded(r)) {
-          const double pb = cos_l / kPi;
-          e += le * (cos_l / pdf_l * pdf_l * pdf_l / (pdf_l * pdf_l + pb * pb));
-        }
-      }
-      // Cosine sample: the path tracer weighs an escape against the
-      // environment pdf, and follows hits on the object for `bounces`.
-      const auto c = SampleCosineHemisphere(rng.NextDouble(), rng.NextDouble());
-      const Eigen::Vector3d d = c[0] * t + c[1] * b + c[2] * n;
-      if (c[2] <= 0) continue;
-      Ray r;
-      r.origin = p.cast<float>();
-      r.direction = d.cast<float>();
-      e += kPi * tracer.Radiance(r, c[2] / kPi, rng);
-    }
-    out[static_cast<size_t>(v)] = albedo / kPi * e / rays;
-  });
-  return out;
+double ColorVerticesByRadiance(const std::vector<Eigen::Vector3d>& radiance, Mesh* mesh) {
+  std::vector<double> lum;
+  for (const auto& r : radiance) lum.push_back(Luminance(r));
+  std::sort(lum.begin(), lum.end());
+  const double p99 = lum.empty() ? 1.0 : lum[lum.size() * 99 / 100];
+  const double exposure = p99 > 0 ? 1.0 / p99 : 1.0;
+  mesh->colors.resize(mesh->positions.size());
+  for (size_t v = 0; v < radiance.size(); ++v)
+    mesh->colors[v] = (radiance[v] * exposure).cwiseMin(1.0).cwiseMax(0.0).cast<float>();
+  return exposure;
 }
 
 }  // namespace mr

@@ -136,12 +136,10 @@ std::vector<Eigen::Vector3d> ShadeVertices(const VertexTransfer& t, const Enviro
                                            double* most_negative = nullptr,
                                            const std::vector<Eigen::Vector3f>* vertex_albedo = nullptr);
 
-// The reference: L_out per vertex by path tracing the object alone in the
-// environment (`rays` samples per vertex, environment and cosine sampling
-// combined by MIS, `bounces` interreflections at albedo `albedo`).
-std::vector<Eigen::Vector3d> ReferenceVertexRadiance(const Mesh& mesh, const Image& env, const std::string& env_name,
-                                                     const Eigen::Matrix3d& world_from_object, double albedo,
-                                                     int bounces, int rays, uint64_t seed);
+// Sets the mesh's vertex colours to `radiance` (per vertex) times the
+// exposure that brings its 99th luminance percentile to 1, clamped to
+// [0, 1] (a preview of the shading); returns the exposure.
+double ColorVerticesByRadiance(const std::vector<Eigen::Vector3d>& radiance, Mesh* mesh);
 
 // Vertex normals as the transfer uses them: the mesh's own where they agree
 // with the faces, else area-weighted face normals; zero where none exists.

@@ -9,6 +9,8 @@
 #include "core/math.h"
 #include "calib/calibrate.h"
 #include "calib/corners.h"
+#include "calib/probe_file.h"
+#include "core/json.h"
 #include "synth/board_view.h"
 #include "synth/sphere_view.h"
 #include "synthetic_board.h"
@@ -263,5 +265,34 @@ TEST(Sphere, BadInputIsRefused) {
   EXPECT_THROW(FitMirrorSphere(Image::Rgb(640, 480, 0.5f), cam, so, "flat.exr"), Error);  // no sphere at all
 }
 
+}  // namespace
+}  // namespace mr
+
+// probe.json is written and read by libmr (calib/probe_file.h): what
+// mr-calibrate sphere writes, mr-probe reads back.
+namespace mr {
+namespace {
+TEST(ProbeFile, RoundTrip) {
+  test::TempDir dir;
+  const CameraModel cam("LENSMODEL_PINHOLE", {100, 100, 63.5, 47.5}, 128, 96);
+  fs::create_directories(dir.path() / "models");
+  cam.Write(dir.path() / "models" / "light.cameramodel", "test");
+  ProbeFile p;
+  p.camera = dir.path() / "models" / "light.cameramodel";
+  p.radius_m = 0.0254;
+  p.centre_cam = Eigen::Vector3d(0.01, -0.02, 0.5);
+  p.centre_covariance = Eigen::Matrix3d::Identity() * 1e-8;
+  p.world_from_cam = Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY()));
+  p.world_source = "the rig's reference frame";
+  p.provenance = "test";
+  WriteProbeFile(dir.path() / "probe.json", p);
+  const Json j = ReadJsonFile(dir.path() / "probe.json");
+  EXPECT_EQ(j["camera"], "models/light.cameramodel");  // relative to probe.json's folder
+  const ProbeGeometry g = ReadProbe(dir.path() / "probe.json");
+  EXPECT_EQ(g.radius_m, p.radius_m);
+  EXPECT_EQ(g.centre_cam, p.centre_cam);
+  EXPECT_LT((g.world_from_cam - p.world_from_cam.toRotationMatrix()).norm(), 1e-15);
+  EXPECT_EQ(g.camera.width(), 128);
+}
 }  // namespace
 }  // namespace mr

@@ -91,6 +91,17 @@ check "sweep outputs" 0 "sweep.csv" -- ls "$tmp/sweep"
 check "sweep plot" 0 "" -- test -s "$tmp/sweep/error-vs-time.png"
 sed 's/"render": {/"render": {"vpl": {"paths": 16, "clamp": 0.1},/' "$tmp/cap/scene.json" > "$tmp/cap/scene-badvpl.json"
 check "unknown vpl key" 1 "clamp" -- "$bin/mr-render" "$tmp/cap/scene-badvpl.json" --out "$tmp/rbad" -q
+check "mr-info checks method blocks" 1 "render.vpl.clamp: unknown key" -- "$bin/mr-info" "$tmp/cap/scene-badvpl.json"
+sed 's/"render": {/"render": {"vlp": {"paths": 16},/' "$tmp/cap/scene.json" > "$tmp/cap/scene-badblock.json"
+check "block of no method" 1 "render.vlp: unknown key" -- "$bin/mr-render" "$tmp/cap/scene-badblock.json" --out "$tmp/rbad" -q
+check "mr-render --method lists the registry" 0 "vct: delta global illumination" -- "$bin/mr-render" --help
+check "unknown --method" 2 'unknown method "magic" (pt, ic, vpl, vct, prt)' -- "$bin/mr-render" "$tmp/cap/scene.json" --method magic --out "$tmp/rbad" -q
+# A generic sweep axis: any key of a method's block.
+check "sweep --set" 0 "relight=delta spp=1" -- "$bin/mr-eval" sweep "$tmp/cap/scene.json" --out "$tmp/sweep-set" --methods vct --set vct.resolution=8 --set vct.relight=split,delta --set vct.spp=1 --frames 0:1
+check "sweep --set dirs" 0 "vct-resolution8-relightdelta-spp1.png" -- ls "$tmp/sweep-set/diff"
+check "sweep --set bad key" 1 "render.vct.resolutoin: unknown key" -- "$bin/mr-eval" sweep "$tmp/cap/scene.json" --out "$tmp/sweep-bad" --methods vct --set vct.resolutoin=8 --frames 0:1
+check "sweep --set bad form" 2 "expected METHOD.KEY=V1,V2" -- "$bin/mr-eval" sweep "$tmp/cap/scene.json" --out "$tmp/sweep-bad" --set spp=1
+check "sweep --set lengths" 2 "vct.spp has 2 values for 3 settings" -- "$bin/mr-eval" sweep "$tmp/cap/scene.json" --out "$tmp/sweep-bad" --methods vct --set vct.resolution=8,16,32 --set vct.spp=1,2
 # Deterministic: the same command writes the same bytes (provenance names the
 # command line, so the command must be the same, output folder included).
 cp -r "$tmp/cap" "$tmp/cap.first"

@@ -8,7 +8,8 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
-#include "hdr/merge.h"
+#include "hdr/exposure_merge.h"
+#include "hdr/exposures_file.h"
 #include "hdr/response.h"
 #include "synth/bracket.h"
 #include "test_util.h"
@@ -421,5 +422,27 @@ TEST(Response, FileRoundTripAndStrictness) {
   EXPECT_THROW(ParseResponse(j, "bad.json"), Error);
 }
 
+}  // namespace
+}  // namespace mr
+
+// exposures.txt is written and read by libmr (hdr/exposures_file.h): by
+// name or in order, fractions allowed, errors naming file and line.
+namespace mr {
+namespace {
+TEST(ExposuresFile, RoundTripAndErrors) {
+  test::TempDir dir;
+  const fs::path f = dir.path() / "exposures.txt";
+  WriteExposures(f, {{"a-0.png", 1}, {"a-1.png", 0.25}}, "test");
+  EXPECT_EQ(ReadExposures(f.string(), {"x/a-1.png", "x/a-0.png"}), (std::vector<double>{0.25, 1}));
+  WriteTextFile(f, "# bracket\n1/8\n0.5  # long\n");
+  EXPECT_EQ(ReadExposures(f.string(), {"p.png", "q.png"}), (std::vector<double>{0.125, 0.5}));
+  WriteTextFile(f, "1/8\nfast\n");
+  try {
+    ReadExposures(f.string(), {"p.png", "q.png"});
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(f.string() + ":2"), std::string::npos) << e.what();
+  }
+}
 }  // namespace
 }  // namespace mr

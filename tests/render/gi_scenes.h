@@ -6,7 +6,8 @@
 #include "core/math.h"
 #include "geometry/primitives.h"
 #include "render/path_tracer.h"
-#include "scene/lights.h"
+#include "render/pt.h"
+#include "light/lights_file.h"
 
 namespace mr::gi_test {
 

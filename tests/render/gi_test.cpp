@@ -3,12 +3,12 @@
 #include <gtest/gtest.h>
 
 #include "core/math.h"
-#include "eval/metrics.h"
+#include "core/image_metrics.h"
 #include "geometry/primitives.h"
 #include "render/irradiance_cache.h"
 #include "render/vpl.h"
 #include "render/gi_scenes.h"
-#include "scene/lights.h"
+#include "light/lights_file.h"
 
 namespace mr {
 namespace {
@@ -89,7 +89,7 @@ TEST(Gi, IcAndVplMatchPathTracerAroundAnObjectOnTheFloor) {
   const CameraModel cam = Pinhole(40, 30, 34);
   PathTracerSettings ps;
   ps.max_depth = 5;  // as IcSettings and VplSettings
-  FrameRenderer pt(s, cam, kCornerCamera, ps);
+  PtFrameRenderer pt(s, cam, kCornerCamera, ps);
   pt.RenderPass(1024);
   const Image photo = pt.Real(), truth = pt.Mixed();
   auto composite = [&](const FrameMethod& r) {
@@ -104,7 +104,7 @@ TEST(Gi, IcAndVplMatchPathTracerAroundAnObjectOnTheFloor) {
     return out;
   };
   ps.seed = 2;
-  FrameRenderer pt_region(s, cam, kCornerCamera, ps);
+  PtFrameRenderer pt_region(s, cam, kCornerCamera, ps);
   pt_region.RenderPass(256);
   const Image pt_diff = Difference(pt_region), mask = pt.Mask();
   auto shadow = [&](const Image& d) {
@@ -117,7 +117,7 @@ TEST(Gi, IcAndVplMatchPathTracerAroundAnObjectOnTheFloor) {
   const double pt_shadow = shadow(Difference(pt));
   ASSERT_LT(pt_shadow, -1.0);
   ps.seed = 1;
-  FrameRenderer pt16(s, cam, kCornerCamera, ps);
+  PtFrameRenderer pt16(s, cam, kCornerCamera, ps);
   pt16.RenderPass(16);
   const double pt16_error = CompareImages(composite(pt16), truth).relmse;
   EXPECT_GT(CompareImages(photo, truth).relmse, 3 * pt16_error);  // leaving the object out is far worse
@@ -161,7 +161,7 @@ TEST(Gi, VirtualSpotLightRelightsTheRealRoom) {
   const CameraModel cam = Pinhole(32, 24, 28);
   PathTracerSettings ps;
   ps.max_depth = 5;  // as IcSettings and VplSettings
-  FrameRenderer pt(s, cam, kCornerCamera, ps);
+  PtFrameRenderer pt(s, cam, kCornerCamera, ps);
   pt.RenderPass(256);
   const double expected = Mean(Difference(pt));
   ASSERT_GT(expected, 0.01);

@@ -6,7 +6,8 @@
 #include "core/error.h"
 #include "core/math.h"
 #include "render/path_tracer.h"
-#include "scene/lights.h"
+#include "render/pt.h"
+#include "light/lights_file.h"
 
 namespace mr {
 namespace {
@@ -45,7 +46,7 @@ Image RenderPlane(const std::vector<Light>& lights, int spp, Image* real = nullp
   scene.Commit();
   PathTracerSettings st;
   st.max_depth = max_depth;
-  FrameRenderer r(scene, Narrow(), LookDown(), st);
+  PtFrameRenderer r(scene, Narrow(), LookDown(), st);
   r.RenderPass(spp);
   EXPECT_EQ(r.nonfinite_samples(), 0);
   if (real) *real = r.Real();

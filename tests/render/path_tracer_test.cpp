@@ -1,4 +1,5 @@
 #include "render/path_tracer.h"
+#include "render/pt.h"
 
 #include <gtest/gtest.h>
 
@@ -8,7 +9,7 @@
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/spherical.h"
-#include "scene/lights.h"
+#include "light/lights_file.h"
 
 namespace mr {
 namespace {
@@ -56,7 +57,7 @@ void Furnace(double albedo, int spp) {
   scene.Commit();
   PathTracerSettings st;
   st.max_depth = 100000;  // Russian roulette ends the paths; no truncation bias
-  FrameRenderer r(scene, Pinhole(32, 24, 20), Rigid3(), st);
+  PtFrameRenderer r(scene, Pinhole(32, 24, 20), Rigid3(), st);
   r.RenderPass(spp);
   Image img = r.Mixed();
   EXPECT_EQ(r.nonfinite_samples(), 0);
@@ -106,7 +107,7 @@ TEST(PathTracer, SunAndSkyOverAGroundPlaneMatchTheClosedForm) {
   // Camera 1 m up, looking straight down (camera z = world -y).
   Eigen::Matrix3d R;
   R << 1, 0, 0, 0, 0, -1, 0, 1, 0;  // columns: cam x -> world x, cam y -> world -z, cam z -> world -y
-  FrameRenderer r(scene, Pinhole(8, 8, 20), Rigid3(Eigen::Quaterniond(R), Eigen::Vector3d(0, 1, 0)), st);
+  PtFrameRenderer r(scene, Pinhole(8, 8, 20), Rigid3(Eigen::Quaterniond(R), Eigen::Vector3d(0, 1, 0)), st);
   r.RenderPass(64);
   const double expected_l = 0.5 / kPi * expected_e;
   // Environment sampling puts nearly all samples on the sun, whose
@@ -145,7 +146,7 @@ Rigid3 LookDownFrom(double height) {
 
 TEST(PathTracer, WithoutVirtualObjectsMixedEqualsRealExactly) {
   TwoObjects s(false);
-  FrameRenderer r(s.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
+  PtFrameRenderer r(s.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
   r.RenderPass(8);
   EXPECT_EQ(r.Mixed().values(), r.Real().values());
   EXPECT_EQ(MeanOf(r.Mask(), 0), 0.0);
@@ -157,8 +158,8 @@ TEST(PathTracer, WithoutVirtualObjectsMixedEqualsRealExactly) {
 // scene alone (what mr-synth relies on for its photographs).
 TEST(PathTracer, RealPathsIgnoreVirtualObjectsExactly) {
   TwoObjects with(true), without(false);
-  FrameRenderer a(with.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
-  FrameRenderer b(without.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
+  PtFrameRenderer a(with.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
+  PtFrameRenderer b(without.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
   a.RenderPass(8);
   b.RenderPass(8);
   EXPECT_TRUE(a.Real().values() == b.Mixed().values());
@@ -167,7 +168,7 @@ TEST(PathTracer, RealPathsIgnoreVirtualObjectsExactly) {
 
 TEST(PathTracer, VirtualObjectCoversPixelsAndShadowsTheRealPlane) {
   TwoObjects s(true);
-  FrameRenderer r(s.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
+  PtFrameRenderer r(s.scene, Pinhole(24, 16, 12), LookDownFrom(2), PathTracerSettings());
   r.RenderPass(16);
   Image m = r.Mixed(), rl = r.Real(), mask = r.Mask();
   EXPECT_EQ(mask.at(12, 8, 0), 1.0f);  // the box is below the camera's centre
@@ -190,7 +191,7 @@ TEST(PathTracer, ResultsDoNotDependOnThreadsOrPassSplits) {
   TwoObjects s(true);
   auto render = [&](int threads, std::vector<int> passes) {
     SetThreadCount(threads);
-    FrameRenderer r(s.scene, Pinhole(20, 12, 10), LookDownFrom(2), PathTracerSettings());
+    PtFrameRenderer r(s.scene, Pinhole(20, 12, 10), LookDownFrom(2), PathTracerSettings());
     for (int p : passes) r.RenderPass(p);
     SetThreadCount(0);
     return std::make_pair(r.Mixed().values(), r.Real().values());
@@ -205,7 +206,7 @@ TEST(PathTracer, ResultsDoNotDependOnThreadsOrPassSplits) {
 TEST(PathTracer, VirtualObjectOutOfViewChangesOnlyLighting) {
   TwoObjects s(true);
   // Camera far to the side looking away from the box: the mask is empty.
-  FrameRenderer r(s.scene, Pinhole(16, 12, 10), Rigid3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 1, 5)),
+  PtFrameRenderer r(s.scene, Pinhole(16, 12, 10), Rigid3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 1, 5)),
                   PathTracerSettings());
   r.RenderPass(4);
   EXPECT_EQ(MeanOf(r.Mask(), 0), 0.0);
@@ -247,7 +248,7 @@ TEST(PathTracer, ObjectsOutsideAClosedRoomCannotChangeIt) {
     // Looking at the +x wall (camera z = world +x).
     Eigen::Matrix3d R;
     R << 0, 0, 1, 0, 1, 0, -1, 0, 0;
-    FrameRenderer r(scene, Pinhole(16, 12, 10), Rigid3(Eigen::Quaterniond(R), eye), PathTracerSettings());
+    PtFrameRenderer r(scene, Pinhole(16, 12, 10), Rigid3(Eigen::Quaterniond(R), eye), PathTracerSettings());
     r.RenderPass(4);
     if (closed) {
       EXPECT_EQ(r.Mixed().values(), r.Real().values());
@@ -269,7 +270,7 @@ TEST(PathTracer, EnvironmentPixelsAreSampledOnceAndChangeNothing) {
   auto render = [&](bool skip) {
     PathTracerSettings st;
     st.skip_environment_pixels = skip;
-    auto r = std::make_unique<FrameRenderer>(s.scene, Pinhole(32, 24, 20), pose, st);
+    auto r = std::make_unique<PtFrameRenderer>(s.scene, Pinhole(32, 24, 20), pose, st);
     for (int p : {1, 1, 2, 4}) r->RenderPass(p);
     return r;
   };
@@ -277,7 +278,7 @@ TEST(PathTracer, EnvironmentPixelsAreSampledOnceAndChangeNothing) {
   EXPECT_GT(on->skipped_pixels(), 32 * 4);   // the upper rows see only sky
   EXPECT_LT(on->skipped_pixels(), 32 * 20);  // the plane fills the lower rows
   EXPECT_EQ(off->skipped_pixels(), 0);
-  auto difference = [](const FrameRenderer& r) {
+  auto difference = [](const PtFrameRenderer& r) {
     Image m = r.Mixed(), re = r.Real();
     std::vector<float> d(m.values().size());
     for (size_t i = 0; i < d.size(); ++i) d[i] = m.values()[i] - re.values()[i];

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 
 #include "core/error.h"
@@ -9,7 +10,7 @@
 #include "core/parallel.h"
 #include "core/math.h"
 #include "core/video.h"
-#include "eval/metrics.h"
+#include "core/image_metrics.h"
 #include "geometry/mesh.h"
 #include "hdr/response.h"
 #include "render/composite.h"
@@ -119,6 +120,27 @@ TEST_F(Capture, NoVirtualObjectsGiveThePhotographExactly) {
   EXPECT_TRUE(skipped);
   EXPECT_FALSE(r.ToJson()["timings"].contains("render"));  // nothing was rendered
   EXPECT_EQ(r.metrics()["frames"][0]["copied_through"], true);
+}
+
+// output.layers decides which layers a frame's EXR holds (it was validated
+// and documented, but every layer was always written); by default all.
+TEST_F(Capture, OutputLayersDecideWhatIsWritten) {
+  Scene s = ReadScene(Cap() / "scene.json");
+  EXPECT_EQ(s.output.layers, OutputLayers());
+  RenderOptions o;
+  o.spp = 1;
+  o.frame_end = 1;
+  for (const auto& [name, layers] : std::vector<std::pair<std::string, std::vector<std::string>>>{
+           {"all", OutputLayers()}, {"two", {"mask", "composite"}}}) {
+    s.output.layers = layers;
+    o.out_dir = dir_->path() / ("layers-" + name);
+    Report r("mr-render", "test");
+    RunRenderJob(s, o, &r);
+    std::vector<std::string> got = ReadImage(o.out_dir / "00000.exr").LayerNames(), want = layers;
+    std::sort(got.begin(), got.end());  // EXR keeps channels sorted by name
+    std::sort(want.begin(), want.end());
+    EXPECT_EQ(got, want);  // "all": the scene names photographs, so "photo" too
+  }
 }
 
 // The object shut in a closed real cupboard: no path from the camera can

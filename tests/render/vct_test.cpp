@@ -6,11 +6,11 @@
 #include <functional>
 
 #include "core/math.h"
-#include "eval/metrics.h"
+#include "core/image_metrics.h"
 #include "geometry/primitives.h"
 #include "render/vct.h"
 #include "render/gi_scenes.h"
-#include "scene/lights.h"
+#include "light/lights_file.h"
 
 namespace mr {
 namespace {
@@ -80,7 +80,7 @@ TEST(Vct, ContactShadowAgainstPathTracer) {
   const CameraModel cam = Pinhole(40, 30, 34);
   PathTracerSettings ps;
   ps.max_depth = 5;
-  FrameRenderer pt(s, cam, kCornerCamera, ps);
+  PtFrameRenderer pt(s, cam, kCornerCamera, ps);
   pt.RenderPass(512);
   const Image pt_diff = Difference(pt), mask = pt.Mask();
   VctFrameRenderer v(s, VctVolumes::Build(s, Settings(32)), cam, kCornerCamera, 0, 0);
@@ -126,7 +126,7 @@ TEST(Vct, ThinWallLeakMeasuredAgainstPathTracer) {
   const Rigid3 pose = LookAt({0.0, 1.9, 1.2}, {0, 0.2, 0.2});
   PathTracerSettings ps;
   ps.max_depth = 5;
-  FrameRenderer pt(s, cam, pose, ps);
+  PtFrameRenderer pt(s, cam, pose, ps);
   pt.RenderPass(256);
   const Image pt_diff = Difference(pt);
   // The hidden strip: real pixels whose first hit lies behind the screen (z > 0.2).
@@ -181,7 +181,7 @@ TEST(Vct, MirrorSphereSpecularConeAgainstPathTracer) {
   const CameraModel cam = Pinhole(40, 30, 34);
   PathTracerSettings ps;
   ps.max_depth = 5;
-  FrameRenderer pt(s, cam, kCornerCamera, ps);
+  PtFrameRenderer pt(s, cam, kCornerCamera, ps);
   pt.RenderPass(256);
   const Image mask = pt.Mask();
   auto on_object = [&](int x, int y) { return mask.at(x, y, 0) == 1; };

@@ -92,8 +92,17 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   j["render"]["spp"] = "many";
   EXPECT_EQ(ErrorOf(j), "scene.json: render.spp: expected an integer in [1, 16777216], got string");
   j = Valid();
-  j["render"]["method"] = "magic";
-  EXPECT_EQ(ErrorOf(j), "scene.json: render.method: \"magic\" is not one of pt, ic, vpl, vct, prt");
+  j["render"]["method"] = 3;
+  EXPECT_EQ(ErrorOf(j), "scene.json: render.method: expected a string, got number");
+  j = Valid();  // a method's block is kept for its method to check (tests/render/method_test.cpp)
+  j["render"]["vpl"] = {{"paths", 16}};
+  EXPECT_EQ(ParseScene(j, dir_.path(), "scene.json", true).render.method_settings.at("vpl")["paths"], 16);
+  j = Valid();
+  j["render"]["vpl"] = 16;
+  EXPECT_EQ(ErrorOf(j).rfind("scene.json: render.vpl: unknown key (allowed here: method, spp", 0), 0u) << ErrorOf(j);
+  j = Valid();
+  j["output"]["layers"] = {"mask"};
+  EXPECT_EQ(ErrorOf(j), "scene.json: output.layers: must include \"composite\", the render's result");
   j = Valid();
   j["real"]["mesh"] = "nowhere.ply";
   EXPECT_EQ(ErrorOf(j), "scene.json: real.mesh: mesh " + (dir_ / "nowhere.ply").string() + " does not exist");

@@ -1,5 +1,6 @@
 // Form-factor transfer: the bases against closed forms, the transfer
 // against a path-traced reference, the .ffc file, and the stiff cases.
+#include "eval/transfer_reference.h"
 #include "transfer/formfactor.h"
 
 #include "geometry/primitives.h"
@@ -10,7 +11,7 @@
 #include "core/math.h"
 #include "test_util.h"
 #include "transfer/cube.h"
-#include "transfer/sh.h"
+#include "core/sh.h"
 
 namespace mr {
 namespace {

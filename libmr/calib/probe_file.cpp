@@ -1,0 +1,53 @@
+#include "calib/probe_file.h"
+
+#include "core/error.h"
+#include "core/json_node.h"
+
+namespace mr {
+
+ProbeGeometry ReadProbe(const fs::path& path) {
+  const Json j = ReadJsonFile(path);
+  const std::string name = path.string();
+  JsonNode root(j, "", &name);
+  root.RequireObject({"format", "version", "camera", "radius_m", "centre_cam_m", "centre_covariance_m2",
+                      "world_from_cam", "photographs", "consistency_chi2", "provenance"});
+  if (root.Required("format").String() != "mr-probe") root.Child("format").Fail("expected \"mr-probe\"");
+  if (root.Required("version").Integer(1, 1000) != 1) root.Child("version").Fail("this mr reads probe version 1");
+  ProbeGeometry g;
+  g.path = path;
+  const fs::path cam = path.parent_path() / root.Required("camera").String();
+  g.camera = CameraModel::Read(cam);
+  g.radius_m = root.Required("radius_m").Number(1e-6, 100);
+  g.centre_cam = root.Required("centre_cam_m").Vec3(-1e3, 1e3);
+  if (g.centre_cam.norm() <= g.radius_m) root.Child("centre_cam_m").Fail("the camera is inside the sphere");
+  JsonNode w = root.Required("world_from_cam");
+  w.RequireObject({"quaternion_wxyz", "camera_in_world_m", "source"});
+  const std::vector<double> q = w.Required("quaternion_wxyz").Numbers(4, -1, 1);
+  const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
+  if (std::abs(quat.norm() - 1) > 1e-6) w.Child("quaternion_wxyz").Fail(fmt::format("not a unit quaternion (norm {})", quat.norm()));
+  g.world_from_cam = quat.normalized().toRotationMatrix();
+  return g;
+}
+
+void WriteProbeFile(const fs::path& out, const ProbeFile& p) {
+  Json cov = Json::array();
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) cov.push_back(p.centre_covariance(i, j));
+  const Eigen::Quaterniond& q = p.world_from_cam;
+  const Json probe = {
+      {"format", "mr-probe"},
+      {"version", 1},
+      {"camera", fs::relative(fs::absolute(p.camera), fs::absolute(out).parent_path()).generic_string()},
+      {"radius_m", p.radius_m},
+      {"centre_cam_m", {p.centre_cam.x(), p.centre_cam.y(), p.centre_cam.z()}},
+      {"centre_covariance_m2", cov},
+      {"world_from_cam", {{"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}},
+                          {"camera_in_world_m", {p.camera_in_world.x(), p.camera_in_world.y(), p.camera_in_world.z()}},
+                          {"source", p.world_source}}},
+      {"photographs", p.photographs},
+      {"consistency_chi2", p.consistency_chi2},
+      {"provenance", p.provenance}};
+  WriteTextFile(out, probe.dump(2) + "\n");
+}
+
+}  // namespace mr

@@ -1,0 +1,61 @@
+// A lat-long environment map (OpenEXR's LATLONG convention, docs/conventions.md)
+// with luminance importance sampling.
+//
+// Radiance is piecewise constant over the pixels' cells (each cell bounded
+// halfway to its neighbours, so that the nearest pixel of a direction is the
+// cell it lies in), and directions are sampled by choosing a cell in
+// proportion to luminance x solid angle and then uniformly in solid angle
+// inside it: Eval, Sample and Pdf are exactly consistent, which the tests check.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/color.h"
+#include "core/image.h"
+
+namespace mr {
+
+class EnvironmentMap {
+ public:
+  EnvironmentMap() = default;
+  // `img` must have R, G, B channels and finite, non-negative values: a
+  // NaN/Inf/negative pixel is an error naming `name` and the pixel.
+  // `world_from_env` rotates map directions into the world.
+  EnvironmentMap(const Image& img, const std::string& name, double scale = 1.0,
+                 const Eigen::Matrix3d& world_from_env = Eigen::Matrix3d::Identity());
+  static EnvironmentMap Constant(const Eigen::Vector3d& radiance);
+
+  bool empty() const { return width_ == 0; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  // Radiance arriving from world direction `dir` (unit).
+  Eigen::Vector3d Eval(const Eigen::Vector3d& dir) const;
+  // Samples a world direction; returns the radiance and sets the solid-angle pdf.
+  Eigen::Vector3d Sample(double u0, double u1, double u2, Eigen::Vector3d* dir, double* pdf) const;
+  double Pdf(const Eigen::Vector3d& dir) const;
+  // Eval and Pdf with one lookup (what an escaped path needs).
+  Eigen::Vector3d EvalWithPdf(const Eigen::Vector3d& dir, double* pdf) const;
+  // Total power proxy: integral of luminance over the sphere.
+  double LuminanceIntegral() const { return total_; }
+
+ private:
+  int Cell(const Eigen::Vector3d& env_dir, int* px, int* py) const;
+  int width_ = 0, height_ = 0;
+  std::vector<Eigen::Vector3f> radiance_;  // per pixel, scaled
+  std::vector<double> cdf_;                 // over cells, luminance x solid angle
+  std::vector<double> solid_angle_;
+  std::vector<double> pdf_;           // per cell, solid angle
+  std::vector<double> row_sin_;       // sin(latitude) of the row edges
+  std::vector<double> alias_prob_;    // Vose alias table
+  std::vector<uint32_t> alias_;
+  uint32_t FirstPositiveCell() const;
+  double total_ = 0;
+  Eigen::Matrix3d world_from_env_ = Eigen::Matrix3d::Identity();
+};
+
+
+}  // namespace mr

@@ -1,0 +1,82 @@
+#include "light/light_source.h"
+
+#include <cmath>
+
+#include "core/math.h"
+#include "core/spherical.h"
+
+namespace mr {
+
+LightSource::LightSource(const Light& light) : light_(light) {
+  CoordinateSystem(light_.direction, &t_, &b_);
+  if (light_.type == LightType::kSpot) {
+    cos_cone_ = std::cos(light_.cone_deg * kDegToRad);
+    cos_falloff_ = std::cos(light_.falloff_start_deg * kDegToRad);
+  }
+  if (light_.type == LightType::kDistant && light_.angular_radius_deg > 0) {
+    const double th = light_.angular_radius_deg * kDegToRad;
+    const double s = std::sin(0.5 * th);
+    one_minus_cos_max_ = 2 * s * s;  // 1 - cos(th) without cancellation for the sun's 0.27 degrees
+    cos_max_ = 1 - one_minus_cos_max_;
+    const double sin2 = std::sin(th) * std::sin(th);
+    radiance_ = light_.irradiance / (kPi * sin2);  // a uniform disc: E = L pi sin^2(th)
+  }
+}
+
+bool LightSource::Sample(const Eigen::Vector3d& p, double u0, double u1, LightSample* s) const {
+  switch (light_.type) {
+    case LightType::kPoint:
+    case LightType::kSpot: {
+      const Eigen::Vector3d d = light_.position - p;
+      const double d2 = d.squaredNorm();
+      if (!(d2 > 0)) return false;
+      s->distance = std::sqrt(d2);
+      s->wi = d / s->distance;
+      double falloff = 1;
+      if (light_.type == LightType::kSpot) {
+        const double c = -s->wi.dot(light_.direction);
+        if (c <= cos_cone_) return false;
+        if (c < cos_falloff_) {
+          const double x = (c - cos_cone_) / (cos_falloff_ - cos_cone_);
+          falloff = x * x * (3 - 2 * x);  // smoothstep
+        }
+      }
+      s->li = light_.intensity * (falloff / d2);
+      s->pdf = 1;
+      s->delta = true;
+      return s->li.maxCoeff() > 0;
+    }
+    case LightType::kDistant: {
+      s->distance = INFINITY;
+      if (light_.angular_radius_deg <= 0) {
+        s->wi = light_.direction;
+        s->li = light_.irradiance;
+        s->pdf = 1;
+        s->delta = true;
+        return s->li.maxCoeff() > 0;
+      }
+      // Uniform in the cone: 1 - cos(theta) uniform in [0, 1 - cos_max].
+      const double omc = u0 * one_minus_cos_max_;
+      const double sin_t = SafeSqrt(omc * (2 - omc)), cos_t = 1 - omc;
+      const double phi = kTwoPi * u1;
+      s->wi = (cos_t * light_.direction + sin_t * (std::cos(phi) * t_ + std::sin(phi) * b_)).normalized();
+      s->li = radiance_;
+      s->pdf = 1 / (kTwoPi * one_minus_cos_max_);
+      s->delta = false;
+      return s->li.maxCoeff() > 0;
+    }
+  }
+  return false;
+}
+
+Eigen::Vector3d LightSource::EvalDistant(const Eigen::Vector3d& dir, double* pdf) const {
+  *pdf = 0;
+  if (light_.type != LightType::kDistant || light_.angular_radius_deg <= 0) return Eigen::Vector3d::Zero();
+  // 1 - cos of the angle to the axis, computed from the chord to avoid cancellation.
+  const double omc = 0.5 * (dir - light_.direction).squaredNorm();
+  if (omc > one_minus_cos_max_) return Eigen::Vector3d::Zero();
+  *pdf = 1 / (kTwoPi * one_minus_cos_max_);
+  return radiance_;
+}
+
+}  // namespace mr

@@ -1,0 +1,71 @@
+// Light sources extracted from a lat-long environment map (median cut,
+// variance cut, hierarchical importance, blobs), and the residual they leave
+// out: lights + residual integrate to the map exactly.  Each method:
+// docs/methods.md, "Light extraction".
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "core/image.h"
+#include "light/lights_file.h"
+
+namespace mr {
+
+struct ExtractOptions {
+  std::string method = "median-cut";  // median-cut, variance-cut, importance, blobs
+  int count = 16;
+  double threshold = 8;               // blobs: times the map's mean radiance
+  double max_blob_sr = 0.05;          // blobs: larger components split (a disc of 7.2 degrees)
+  int sh_order = 3;                   // the residual's spherical harmonics
+  uint32_t seed = 0;                  // importance: the point set's scramble
+  void Check() const;
+};
+
+struct ExtractedLight {
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitY();  // towards the light, world
+  Eigen::Vector3d power = Eigen::Vector3d::Zero();       // integral of L dOmega, RGB: irradiance at normal incidence (W/m^2)
+  double solid_angle = 0;                                // sr of the pixels it took
+  bool area = false;                                     // a disc of that solid angle (blobs) or a delta
+};
+
+struct Extraction {
+  std::vector<ExtractedLight> lights;
+  Image residual;                        // the map minus what the lights took (R G B), same size
+  std::vector<Eigen::Vector3d> residual_sh;  // its SH projection, sh_order^2 RGB coefficients
+  double taken_fraction = 0;            // of the map's luminance energy
+  double seconds = 0;
+};
+
+// `env`: R G B first (other layers ignored), finite and non-negative.
+Extraction ExtractLights(const Image& env, const ExtractOptions& options);
+
+// lights.json entries (distant lights, real): `name_prefix` + index.
+std::vector<Light> ToLights(const Extraction& e, const std::string& name_prefix = "light");
+
+// Diffuse irradiance (luminance) at `normals`: exact from the map, and from
+// the lights (deltas at their directions; area lights as uniform discs of
+// their solid angle, as mr-render sees them) plus, when
+// `with_residual`, the residual's SH (Ramamoorthi-Hanrahan cosine lobe).
+std::vector<double> MapIrradiance(const Image& env, const std::vector<Eigen::Vector3d>& normals);
+std::vector<double> LightsIrradiance(const Extraction& e, const std::vector<Eigen::Vector3d>& normals,
+                                     bool with_residual);
+// Normals spread evenly over the sphere (a Fibonacci lattice).
+std::vector<Eigen::Vector3d> SphereNormals(int n);
+
+struct IrradianceError {
+  double rms_relative = 0;   // RMS of (E - E_ref) over RMS of E_ref
+  double max_relative = 0;   // max |E - E_ref| over max E_ref
+};
+IrradianceError CompareIrradiance(const std::vector<double>& e, const std::vector<double>& ref);
+
+// A lat-long map's luminance energy (integral of luminance dOmega).
+double MapEnergy(const Image& env);
+
+// Area-weighted downsampling (keeps every region's energy): a map of
+// `width` x width/2.
+Image DownsampleEnergy(const Image& env, int width);
+
+}  // namespace mr

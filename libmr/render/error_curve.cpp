@@ -1,0 +1,56 @@
+#include "render/error_curve.h"
+
+#include "core/image_metrics.h"
+
+namespace mr {
+
+Image ChangedRegion(const Image& ref, const Image& photo) {
+  Image region = Image::Gray(ref.width(), ref.height());
+  for (int y = 0; y < ref.height(); ++y)
+    for (int x = 0; x < ref.width(); ++x)
+      for (int c = 0; c < 3; ++c)
+        if (ref.at(x, y, c) != photo.at(x, y, c)) region.at(x, y, 0) = 1;
+  return region;
+}
+
+FrameError MeasureFrame(const Image& composite, const Image& reference, const Image* region) {
+  const ImageMetrics m = CompareImages(composite, reference);
+  FrameError e;
+  e.rmse = m.rmse;
+  e.relmse = m.relmse;
+  e.region_relmse = region ? CompareImages(composite, reference, region).relmse : m.relmse;
+  return e;
+}
+
+void ErrorCurve::Checkpoint(double seconds, int spp, const FrameError& e) {
+  frame_.push_back({{"seconds", seconds}, {"spp", spp}, {"relmse", e.relmse}, {"region_relmse", e.region_relmse}});
+}
+
+Json ErrorCurve::EndFrame(const FrameError& e) {
+  sum_rmse_ += e.rmse;
+  sum_relmse_ += e.relmse;
+  sum_region_ += e.region_relmse;
+  ++frames_;
+  for (size_t k = 0; k < frame_.size(); ++k) {
+    if (sum_.size() <= k)
+      sum_.push_back({{"seconds", 0.0}, {"spp", frame_[k]["spp"]}, {"relmse", 0.0}, {"region_relmse", 0.0}, {"frames", 0}});
+    for (const char* key : {"seconds", "relmse", "region_relmse"})
+      sum_[k][key] = sum_[k][key].get<double>() + frame_[k][key].get<double>();
+    sum_[k]["frames"] = sum_[k]["frames"].get<int>() + 1;
+  }
+  Json out = frame_;
+  frame_ = Json::array();
+  return out;
+}
+
+Json ErrorCurve::MeanCurve() const {
+  Json curve = Json::array();
+  for (const Json& c : sum_) {
+    const int nf = c["frames"].get<int>();
+    curve.push_back({{"seconds", c["seconds"].get<double>() / nf}, {"spp", c["spp"]},
+                     {"relmse", c["relmse"].get<double>() / nf}, {"region_relmse", c["region_relmse"].get<double>() / nf}});
+  }
+  return curve;
+}
+
+}  // namespace mr

@@ -1,0 +1,133 @@
+#include "render/frame_io.h"
+
+#include <algorithm>
+
+#include "core/error.h"
+#include "core/image_metrics.h"
+#include "core/math.h"
+#include "scene/frames.h"
+
+namespace mr {
+
+FrameDecoding FrameDecoding::FromScene(const Scene& scene, Report* report) {
+  FrameDecoding d;
+  d.photograph = scene.camera.frames.has_value();
+  d.display_space = d.photograph && scene.camera.frames_transfer == "display";
+  d.file_transfer = scene.camera.frames_transfer == "srgb" ? Transfer::kSrgb : Transfer::kLinear;
+  d.exposure = scene.camera.exposure;
+  if (d.photograph && scene.camera.frames_transfer == "response") {
+    d.response = ReadResponse(*scene.camera.response);
+    report->AddInput(scene.camera.response->string());
+  }
+  d.raw_codes = d.display_space || d.response.has_value();
+  if (d.photograph)
+    report->SetMetric("compositing", d.display_space ? "display space (camera response unknown)"
+                                     : d.response    ? "linear radiance (frames through the camera's response)"
+                                                     : "linear radiance");
+  return d;
+}
+
+Image FrameDecoding::ToRadiance(const Image& photo) const {
+  Image out = photo;
+  if (display_space)
+    for (float& v : out.values()) v = SrgbToLinear(Clamp(v, 0.0f, 1.0f)) / static_cast<float>(exposure);
+  return out;
+}
+
+CompositeResult FrameDecoding::Compose(const FrameMethod& frame, const Image* photo) const {
+  Image real = frame.Real(), mixed = frame.Mixed();
+  if (!display_space) return Composite(photo ? *photo : real, mixed, real, frame.Mask());
+  const float e = static_cast<float>(exposure);
+  auto tm = [e](Image img) {
+    for (float& v : img.values()) v = LinearToSrgb(Clamp(v * e, 0.0f, 1.0f));
+    return img;
+  };
+  CompositeResult r = Composite(*photo, tm(mixed), tm(real), frame.Mask());
+  for (float& v : r.composite.values()) v = SrgbToLinear(Clamp(v, 0.0f, 1.0f)) / e;
+  return r;
+}
+
+namespace {
+
+// A photograph or reference, checked against the camera's size.
+Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool raw = false) {
+  Image img = ReadRgbForComparison(path, transfer, raw);
+  if (img.width() != w || img.height() != h)
+    ThrowErrorAt(FileLoc{path.string()}, "image is {}x{}, the camera model says {}x{}", img.width(), img.height(), w, h);
+  return img;
+}
+
+}  // namespace
+
+FrameReader::FrameReader(const Scene& scene, const CameraModel& camera, const FrameDecoding& decoding)
+    : scene_(scene), width_(camera.width()), height_(camera.height()), decoding_(decoding) {
+  if (scene.camera.frames && scene.camera.frames_are_video) {
+    video_ = std::make_unique<VideoReader>(*scene.camera.frames);
+    if (video_->width() != width_ || video_->height() != height_)
+      ThrowErrorAt(FileLoc{scene.camera.frames->string()}, "video is {}x{}, the camera model says {}x{}",
+                   video_->width(), video_->height(), width_, height_);
+  }
+}
+
+FrameReader::~FrameReader() = default;
+
+double FrameReader::fps() const { return video_ && video_->fps() > 0 ? video_->fps() : 30.0; }
+
+std::optional<Image> FrameReader::Photo(int f) {
+  std::optional<Image> photo;
+  if (video_) {
+    photo = video_->Frame(f);  // decoded through sRGB
+    if (decoding_.raw_codes)
+      for (float& v : photo->values()) v = LinearToSrgb(v);  // back to code values
+  } else if (scene_.camera.frames) {
+    photo = ReadRgb(FramePath(*scene_.camera.frames, f), width_, height_, decoding_.file_transfer, decoding_.raw_codes);
+  }
+  if (photo && decoding_.response) {
+    *photo = Linearise(*photo, *decoding_.response);
+    for (float& v : photo->values()) v /= static_cast<float>(decoding_.exposure);
+  }
+  return photo;
+}
+
+Image ReadReferenceFrame(const fs::path& path, int width, int height) {
+  return ReadRgb(path, width, height, Transfer::kLinear);
+}
+
+const std::vector<std::string>& FrameLayerNames() {
+  static const std::vector<std::string> names = {"composite", "mixed",    "real",    "mask",
+                                                 "difference", "variance", "samples", "photo"};
+  return names;
+}
+
+void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, const SceneOutput& output,
+                     const std::string& tool, const std::string& provenance, Report* report) {
+  auto wanted = [&](const char* name) {
+    return std::find(output.layers.begin(), output.layers.end(), name) != output.layers.end();
+  };
+  Image layers;
+  const std::pair<const char*, const Image*> all[] = {
+      {"composite", l.composite}, {"mixed", l.mixed},       {"real", l.real},       {"mask", l.mask},
+      {"difference", l.difference}, {"variance", l.variance}, {"samples", l.samples}, {"photo", l.photo}};
+  for (const auto& [name, img] : all)
+    if (img && (wanted(name) || std::string(name) == "composite")) layers.AppendLayer(name, *img);
+  ImageWriteOptions wo;
+  wo.tool = tool;
+  // A frame's provenance is what decides its pixels, not how the job was
+  // split: no command line (it names --frames), so that a frame rendered in
+  // a shard is byte-identical to the same frame rendered in one run
+  // (docs/cluster.md).  The report keeps the command line.
+  wo.attributes["mr:render"] = provenance;
+  wo.pixel_type = output.half ? PixelType::kHalf : PixelType::kFloat;
+  const fs::path exr = out_dir / fmt::format("{:05d}.exr", frame);
+  WriteImage(exr, layers, wo);
+  report->AddOutput(exr.string());
+  if (output.png) {
+    const fs::path png = out_dir / fmt::format("{:05d}.png", frame);
+    ImageWriteOptions po = wo;
+    po.pixel_type = PixelType::kUint8;
+    WriteImage(png, *l.composite, po);
+    report->AddOutput(png.string());
+  }
+}
+
+}  // namespace mr

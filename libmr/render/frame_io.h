@@ -1,0 +1,84 @@
+// mr-render's frame files: the photographs decoded as scene.json's
+// camera.frames_transfer says, the composite made in the matching space, and
+// the outputs (layered EXR, PNG, video) written as output.* says.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "camera/camera_model.h"
+#include "core/image.h"
+#include "core/report.h"
+#include "core/video.h"
+#include "hdr/response.h"
+#include "render/composite.h"
+#include "render/method.h"
+#include "scene/scene.h"
+
+namespace mr {
+
+// How the photographs relate to radiance.
+//  - "srgb", "linear": decoded to radiance; the composite is linear.
+//  - "display": the camera response is unknown, so the photograph stays in
+//    display values and the renders are brought to display space by the tone
+//    map TM(L) = sRGB(clamp(exposure L)); the composite is
+//    M TM(I_m) + (1 - M)(I_c + TM(I_m) - TM(I_r)), stored back as radiance.
+//  - "response": raw codes through the camera's response (mr-hdr), over the
+//    frames' exposure time; the composite is linear.
+struct FrameDecoding {
+  bool photograph = false;     // the scene names camera frames
+  bool display_space = false;  // "display"
+  bool raw_codes = false;      // "display" or "response": files read as code values
+  Transfer file_transfer = Transfer::kSrgb;
+  std::optional<CameraResponse> response;
+  double exposure = 1;
+
+  // From the scene; reads the response file (added to the report's inputs)
+  // and states the compositing space in the report.
+  static FrameDecoding FromScene(const Scene& scene, Report* report);
+  // `photo` (as Photo() gives it) as linear radiance.
+  Image ToRadiance(const Image& photo) const;
+  // The composite of a rendered frame over `photo` (null: over its own I_r),
+  // in the compositing space, returned as radiance.
+  CompositeResult Compose(const FrameMethod& frame, const Image* photo) const;
+};
+
+// The scene's photographs, frame by frame: an image sequence or a video.
+class FrameReader {
+ public:
+  FrameReader(const Scene& scene, const CameraModel& camera, const FrameDecoding& decoding);
+  ~FrameReader();
+  bool is_video() const { return video_ != nullptr; }
+  double fps() const;
+  // Frame `f` in the compositing space (radiance, or display code values),
+  // checked against the camera's size; nullopt when the scene names none.
+  std::optional<Image> Photo(int f);
+
+ private:
+  const Scene& scene_;
+  int width_, height_;
+  const FrameDecoding& decoding_;
+  std::unique_ptr<VideoReader> video_;
+};
+
+// A reference (ground-truth) frame, checked against the camera's size.
+Image ReadReferenceFrame(const fs::path& path, int width, int height);
+
+// Every layer a frame file can hold, in the order they are written.
+const std::vector<std::string>& FrameLayerNames();
+
+// What a frame file holds.
+struct FrameLayers {
+  const Image* composite = nullptr;
+  const Image *mixed = nullptr, *real = nullptr, *mask = nullptr, *difference = nullptr, *variance = nullptr,
+              *samples = nullptr, *photo = nullptr;  // photo: null when the scene names no frames
+};
+
+// Writes OUT/NNNNN.exr (the layers output.layers names, composite always)
+// and, with output.png, OUT/NNNNN.png; adds them to the report.
+// `provenance` goes into the files' mr:render attribute.
+void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& layers, const SceneOutput& output,
+                     const std::string& tool, const std::string& provenance, Report* report);
+
+}  // namespace mr

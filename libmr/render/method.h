@@ -1,0 +1,116 @@
+// The interface every rendering method implements, and the registry that is
+// the one list of methods (docs/architecture.md, "How to add a render method").
+//
+// A method has two parts:
+//  - RenderMethod, one per job: parses its settings from the scene's
+//    render.<name> block, does the view-independent work once (Prepare:
+//    VPLs, volumes, a cache, vertex shading), makes a FrameMethod per frame
+//    and reports what each frame did;
+//  - FrameMethod, one per frame: renders I_m, I_r and the mask M
+//    progressively (RenderPass adds samples to every pixel).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "camera/camera_model.h"
+#include "camera/pose.h"
+#include "core/image.h"
+#include "core/json.h"
+#include "core/json_node.h"
+#include "core/report.h"
+#include "scene/scene.h"
+
+namespace mr {
+
+class RenderScene;
+
+// What every rendering method produces for a frame, progressively.
+class FrameMethod {
+ public:
+  virtual ~FrameMethod() = default;
+  virtual void RenderPass(int spp) = 0;
+  virtual Image Mixed() const = 0;               // mean I_m, RGB
+  virtual Image Real() const = 0;                // mean I_r, RGB
+  virtual Image Mask() const = 0;                // fraction of camera samples whose first hit is virtual, "Y"
+  virtual Image DifferenceVariance() const = 0;  // variance of the mean of luminance(I_m - I_r), "Y"
+  virtual Image SampleCount() const = 0;         // samples per pixel, "Y"
+  virtual int64_t nonfinite_samples() const { return 0; }
+  virtual int64_t skipped_pixels() const { return 0; }
+};
+
+// What a job knows before its first frame.
+struct JobContext {
+  const Scene& scene;
+  const RenderScene& rs;
+  const CameraModel& camera;
+  int spp = 0;
+  int frame_begin = 0;
+  bool photograph = false;  // the scene names camera frames (I_c is given)
+  Report* report = nullptr;
+};
+
+// One frame to render.
+struct FrameContext {
+  const RenderScene& rs;
+  const CameraModel& camera;
+  const Rigid3& world_from_cam;
+  uint64_t seed = 0;
+  int frame = 0;
+  // The frame's photograph as linear radiance (prt's background); null when
+  // the scene names no frames.
+  const Image* photo_radiance = nullptr;
+};
+
+class RenderMethod {
+ public:
+  virtual ~RenderMethod() = default;
+  // View-independent work, once per job, timed as prepare_timing() (never
+  // called when no frame is rendered).
+  virtual void Prepare(const JobContext& job) { (void)job; }
+  virtual std::unique_ptr<FrameMethod> NewFrame(const FrameContext& frame) = 0;
+  // After a frame: its counters and skipped parts into the report and the
+  // frame's entry of the report's "frames".
+  virtual void FrameDone(const FrameMethod& f, const FrameContext& frame, Report* report, Json* frame_json) {
+    (void)f, (void)frame, (void)report, (void)frame_json;
+  }
+  // After the last frame.
+  virtual void Finish(Report* report) { (void)report; }
+};
+
+struct MethodInfo {
+  std::string name;     // scene.json render.method, mr-render --method
+  std::string summary;  // one line, for --help and docs
+  // Frames take all their samples in one pass (their per-frame work is not
+  // progressive); otherwise passes of 1, 1, 2, 4, ... samples, with an
+  // error-curve checkpoint after each.
+  bool one_pass = false;
+  // The report's timing key of Prepare ("" when the method prepares nothing).
+  std::string prepare_timing;
+  // mr-eval sweep's default settings: key -> values, the i-th setting taking
+  // the i-th value of each (one value: the same for all); "spp" is the
+  // render's samples per pixel, other keys are render.<name> keys.
+  std::vector<std::pair<std::string, std::vector<Json>>> sweep;
+  // Parses the method's settings from `block` (the scene's render.<name>
+  // object, or an empty one), rejecting unknown keys and bad values with the
+  // key path, and makes the job's method.
+  std::function<std::unique_ptr<RenderMethod>(const JsonNode& block, const Scene& scene)> create;
+};
+
+// Every method, in the order docs and --help list them.
+const std::vector<MethodInfo>& RenderMethodRegistry();
+// "pt, ic, vpl, vct, prt".
+std::string RenderMethodNames();
+// The method called `name`; a UsageError naming the valid ones otherwise.
+const MethodInfo& FindRenderMethod(std::string_view name);
+// Checks the scene's render.method and every render.<method> block by
+// parsing each with its method: errors name the scene file and key.
+void CheckRenderSettings(const Scene& scene);
+// The job's method `name` (empty: the scene's), settings from the scene.
+std::unique_ptr<RenderMethod> CreateRenderMethod(const Scene& scene, const std::string& name);
+
+}  // namespace mr

@@ -1,0 +1,45 @@
+#include "render/pixel_loop.h"
+
+#include <atomic>
+
+#include "core/parallel.h"
+
+namespace mr {
+
+PixelLoopMethod::PixelLoopMethod(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
+    : sampler_(camera, world_from_cam, seed, frame),
+      width_(camera.width()),
+      height_(camera.height()),
+      acc_(width_, height_) {}
+
+void PixelLoopMethod::ShadePixels(int spp) {
+  std::atomic<int64_t> nonfinite{0}, rays{0};
+  ParallelFor(0, height_, [&](int64_t y) {
+    int64_t row_rays = 0, row_nonfinite = 0;
+    for (int x = 0; x < width_; ++x) {
+      const size_t i = static_cast<size_t>(y) * width_ + x;
+      if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;  // outside the lens
+      if (PixelDone(i)) continue;
+      acc_.Count(i, spp);
+      for (int s = spp_; s < spp_ + spp; ++s) {  // after the earlier passes' samples
+        Ray ray;
+        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), s, &ray);
+        PathSample ps;
+        Shade(ray, rng, y, i, s, &ps);
+        row_rays += ps.rays;
+        if (!ps.mixed.allFinite() || !ps.real.allFinite()) {
+          ++row_nonfinite;  // dropped and counted: never NaN in the image
+          continue;
+        }
+        acc_.Add(i, ps.mixed, ps.real, ps.primary_virtual);
+      }
+    }
+    rays += row_rays;
+    nonfinite += row_nonfinite;
+  });
+  spp_ += spp;
+  nonfinite_ += nonfinite.load();
+  rays_ += rays.load();
+}
+
+}  // namespace mr

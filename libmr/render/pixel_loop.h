@@ -1,0 +1,60 @@
+// The part every sampled method shares: the camera sampler, the pixel
+// accumulator and the loop over pixels and samples.  A method derived from
+// PixelLoopMethod implements Shade (one camera sample); RenderPass calls it
+// for every valid pixel and sample, in parallel over rows, drops and counts
+// non-finite samples, and accumulates the rest.  A method whose pass needs
+// more (ic's cache records) overrides RenderPass and calls ShadePixels.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "render/camera_sampler.h"
+#include "render/method.h"
+#include "render/path_tracer.h"
+#include "render/pixel_accumulator.h"
+
+namespace mr {
+
+class PixelLoopMethod : public FrameMethod {
+ public:
+  void RenderPass(int spp) override { ShadePixels(spp); }
+  Image Mixed() const final { return acc_.Mixed(); }
+  Image Real() const final { return acc_.Real(); }
+  Image Mask() const final { return acc_.Mask(); }
+  Image DifferenceVariance() const final { return acc_.DifferenceVariance(); }
+  Image SampleCount() const final { return acc_.SampleCount(); }
+  int64_t nonfinite_samples() const final { return nonfinite_; }
+  int samples_per_pixel() const { return spp_; }
+  // Closest-hit and occlusion queries of the samples (PathSample::rays).
+  int64_t rays_traced() const { return rays_; }
+
+ protected:
+  PixelLoopMethod(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame);
+  // Sample `sample` of pixel `pixel` (in image row `row`) along camera ray
+  // `ray` with its generator: fills mixed, real, primary_virtual and rays.
+  // Called concurrently for different rows; a row's samples in order.
+  virtual void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) = 0;
+  // True for a pixel that needs no more samples (pt: provably no difference).
+  virtual bool PixelDone(size_t pixel) const {
+    (void)pixel;
+    return false;
+  }
+  // `spp` more samples of every pixel that needs them, numbered after the
+  // earlier passes' samples.
+  void ShadePixels(int spp);
+
+  const CameraSampler& sampler() const { return sampler_; }
+  const PixelAccumulator& accumulator() const { return acc_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+ private:
+  CameraSampler sampler_;
+  int width_, height_;
+  PixelAccumulator acc_;
+  int spp_ = 0;
+  int64_t nonfinite_ = 0, rays_ = 0;
+};
+
+}  // namespace mr

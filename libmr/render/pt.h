@@ -1,0 +1,35 @@
+// `pt`: differential path tracing (render/path_tracer.h) of every pixel,
+// the unbiased reference of mr-render.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "render/method.h"
+#include "render/path_tracer.h"
+#include "render/pixel_loop.h"
+
+namespace mr {
+
+// Renders a frame progressively: each pass adds samples to every pixel,
+// each sample with its own generator (CameraSampler), so the result does not
+// depend on the thread count or on how the samples are split into passes.
+class PtFrameRenderer : public PixelLoopMethod {
+ public:
+  PtFrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
+                  const PathTracerSettings& settings);
+  // Pixels sampled in the first pass only, their difference provably zero.
+  int64_t skipped_pixels() const override { return skipped_pixels_; }
+
+ private:
+  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
+  bool PixelDone(size_t pixel) const override { return skip_[pixel] && accumulator().count(pixel) > 0; }
+  DifferentialPathTracer tracer_;
+  std::vector<char> skip_;  // provably zero difference
+  int64_t skipped_pixels_ = 0;
+};
+
+// The registry's `pt` (render.pt: {skip_environment_pixels}).
+std::unique_ptr<RenderMethod> MakePtMethod(const JsonNode& block, const Scene& scene);
+
+}  // namespace mr

@@ -1,6 +1,8 @@
 // mr-eval: image comparison, and plots of error tables (error against time or count).
 #include <spdlog/spdlog.h>
 
+#include <fmt/ranges.h>
+
 #include <map>
 #include <optional>
 #include <sstream>
@@ -81,7 +83,7 @@ int main(int argc, char** argv) {
   mesh->add_option("--cutoff", cutoff, "Distances are capped here (m)")->default_val(0.1);
   mesh->add_option("--samples", samples, "Samples per surface")->default_val(200000);
   mesh->add_option("--region", box, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")->delimiter(',')->expected(6);
-  std::string sweep_scene, methods = "pt,ic,vpl,vct", frames;
+  std::string sweep_scene, methods = fmt::format("{}", fmt::join(mr::DefaultSweepMethods(), ",")), frames;
   mr::SweepOptions so;
   std::string sweep_out;
   CLI::App* sweep = app.add_subcommand(
@@ -92,7 +94,7 @@ int main(int argc, char** argv) {
       "diff/METHOD-SETTING.png (|composite - reference| x --diff-scale, first frame) into --out.");
   sweep->fallthrough();
   sweep->add_option("SCENE", sweep_scene, "scene.json with a reference (mr-synth writes one)")->required()->check(CLI::ExistingFile);
-  sweep->add_option("--methods", methods, "Comma-separated: " + mr::RenderMethodNames())->default_val("pt,ic,vpl,vct");
+  sweep->add_option("--methods", methods, "Comma-separated: " + mr::RenderMethodNames())->default_val(methods);
   sweep->add_option("--out", sweep_out, "Output folder")->required();
   std::vector<std::string> sweep_set;
   sweep->add_option("--set", sweep_set,

@@ -28,7 +28,9 @@ struct Setting {
 
 std::string ValueText(const Json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); }
 
-std::vector<Setting> Settings(const Scene& base, const SweepOptions& o) {
+std::vector<Setting> Settings(const Scene& base, const SweepOptions& options) {
+  SweepOptions o = options;
+  if (o.methods.empty()) o.methods = DefaultSweepMethods();
   for (const auto& [key, values] : o.set) {
     const std::string m = key.substr(0, key.find('.'));
     if (std::find(o.methods.begin(), o.methods.end(), m) == o.methods.end())

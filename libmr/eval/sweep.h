@@ -15,7 +15,7 @@
 namespace mr {
 
 struct SweepOptions {
-  std::vector<std::string> methods = {"pt", "ic", "vpl", "vct"};
+  std::vector<std::string> methods;  // empty: DefaultSweepMethods()
   // "METHOD.KEY" -> the values it takes, replacing the method's default axis
   // for KEY (MethodInfo::sweep) or adding one.  KEY "spp" is the render's
   // samples per pixel, any other a key of the method's render.<method>

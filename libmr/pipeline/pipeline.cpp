@@ -489,13 +489,20 @@ Pipeline PlanPipeline(const fs::path& file) {
   {
     PipelineStage& s = stage("formfactor");
     s.tool = "mr-formfactor";
+    bool uses_ffc = false;
+    std::string ffc_methods;
+    for (const MethodInfo& m : RenderMethodRegistry())
+      if (m.uses_formfactors) {
+        ffc_methods += (ffc_methods.empty() ? "" : ", ") + m.name;
+        uses_ffc = uses_ffc || m.name == method;
+      }
     const Node v = root.Required("virtual");
     if (!v.json().is_array()) v.Fail("expected a list of virtual objects");
     const auto opts = root.Has("formfactor") ? pl.Options(root, "formfactor") : std::vector<std::string>();
     for (size_t i = 0; i < v.json().size(); ++i) {
       const Node o = v.Index(i);
       Json e = Rebase(pl, o, {"mesh", "formfactors"});
-      const bool wants = method == "prt" ? !(o.Has("formfactors") && o.Child("formfactors").json().is_string())
+      const bool wants = uses_ffc ? !(o.Has("formfactors") && o.Child("formfactors").json().is_string())
                                          : o.Has("formfactors") && o.Child("formfactors").json().is_boolean() &&
                                                o.Child("formfactors").Bool();
       if (o.Has("formfactors") && o.Child("formfactors").json().is_boolean() && !o.Child("formfactors").Bool())
@@ -515,8 +522,8 @@ Pipeline PlanPipeline(const fs::path& file) {
       virtuals.push_back(e);
     }
     if (s.args.empty())
-      s.skip = method == "prt" ? "every virtual object names its form factors"
-                               : fmt::format("render.method is {}: form factors are only used by prt", method);
+      s.skip = uses_ffc ? "every virtual object names its form factors"
+                        : fmt::format("render.method is {}: form factors are only used by {}", method, ffc_methods);
   }
   scene["virtual"] = virtuals;
   scene["render"] = render;

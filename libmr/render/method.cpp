@@ -34,11 +34,20 @@ const std::vector<MethodInfo>& RenderMethodRegistry() {
        .create = MakeVctMethod},
       {.name = "prt",
        .summary = "the virtual objects shaded from precomputed form factors (no light on the room)",
+       .uses_formfactors = true,
+       .default_sweep = false,
        .prepare_timing = "prepare prt",
        .sweep = {{"spp", {1, 4, 16}}},
        .create = MakePrtMethod},
   };
   return methods;
+}
+
+std::vector<std::string> DefaultSweepMethods() {
+  std::vector<std::string> out;
+  for (const MethodInfo& m : RenderMethodRegistry())
+    if (m.default_sweep) out.push_back(m.name);
+  return out;
 }
 
 std::string RenderMethodNames() {

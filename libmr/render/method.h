@@ -85,6 +85,12 @@ class RenderMethod {
 struct MethodInfo {
   std::string name;     // scene.json render.method, mr-render --method
   std::string summary;  // one line, for --help and docs
+  // The method shades virtual objects from their precomputed form factors
+  // (virtual[i].formfactors): mr-pipeline plans the formfactor stage for it.
+  bool uses_formfactors = false;
+  // In mr-eval sweep's default --methods (a method that does not render the
+  // objects' light on the room is not comparable on the same error).
+  bool default_sweep = true;
   // Frames take all their samples in one pass (their per-frame work is not
   // progressive); otherwise passes of 1, 1, 2, 4, ... samples, with an
   // error-curve checkpoint after each.
@@ -103,6 +109,8 @@ struct MethodInfo {
 
 // Every method, in the order docs and --help list them.
 const std::vector<MethodInfo>& RenderMethodRegistry();
+// The methods mr-eval sweep renders unless told (MethodInfo::default_sweep).
+std::vector<std::string> DefaultSweepMethods();
 // "pt, ic, vpl, vct, prt".
 std::string RenderMethodNames();
 // The method called `name`; a UsageError naming the valid ones otherwise.

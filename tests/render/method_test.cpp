@@ -44,6 +44,10 @@ TEST(MethodRegistry, IsTheOneListOfMethods) {
     EXPECT_FALSE(m.sweep.empty()) << m.name << ": mr-eval sweep needs a default axis";
   }
   EXPECT_EQ(RenderMethodNames(), "pt, ic, vpl, vct, prt");
+  // prt shades the objects only: not in the default sweep; the one method
+  // that reads form factors (mr-pipeline plans the formfactor stage for it).
+  EXPECT_EQ(DefaultSweepMethods(), (std::vector<std::string>{"pt", "ic", "vpl", "vct"}));
+  for (const MethodInfo& m : RenderMethodRegistry()) EXPECT_EQ(m.uses_formfactors, m.name == "prt") << m.name;
   EXPECT_EQ(&FindRenderMethod("vct"), &RenderMethodRegistry()[3]);
   try {
     FindRenderMethod("magic");

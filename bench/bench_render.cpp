@@ -125,12 +125,13 @@ void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
   }
   benchmark::DoNotOptimize(hits);
   mr::SetThreadCount(0);
-  const double n = static_cast<double>(log.closest.size() + log.occlusion.size()) * static_cast<double>(state.iterations());
+  const double n =
+      static_cast<double>(log.closest.size() + log.occlusion.size()) * static_cast<double>(state.iterations());
   state.counters["render_rays_per_s"] = n / render_s;
   state.counters["bare_rays_per_s"] = n / bare_s;
   state.counters["efficiency"] = bare_s / render_s;
-  state.counters["occlusion_share"] = static_cast<double>(log.occlusion.size()) /
-                                      static_cast<double>(log.closest.size() + log.occlusion.size());
+  state.counters["occlusion_share"] =
+      static_cast<double>(log.occlusion.size()) / static_cast<double>(log.closest.size() + log.occlusion.size());
 }
 BENCHMARK_CAPTURE(BM_EfficiencyRatio, small, std::string("small"))->Unit(benchmark::kMillisecond)->Iterations(20);
 BENCHMARK_CAPTURE(BM_EfficiencyRatio, room, std::string("room"))->Unit(benchmark::kMillisecond)->Iterations(3);

@@ -6,11 +6,11 @@
 
 #include <chrono>
 
-#include "core/parallel.h"
 #include "core/math.h"
+#include "core/parallel.h"
 #include "geometry/embree_scene.h"
-#include "transfer/formfactor.h"
 #include "geometry/primitives.h"
+#include "transfer/formfactor.h"
 
 namespace {
 
@@ -37,8 +37,14 @@ void BM_Transfer(benchmark::State& state, const mr::Mesh& (*mesh)(), int supersa
   state.counters["rays_per_s"] = benchmark::Counter(static_cast<double>(rays), benchmark::Counter::kIsRate);
 }
 BENCHMARK_CAPTURE(BM_Transfer, dragon_8x8x6, &Dragon, 1)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
-BENCHMARK_CAPTURE(BM_Transfer, dragon_8x8x6_ss2, &Dragon, 2)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
-BENCHMARK_CAPTURE(BM_Transfer, bumpy30k_8x8x6, &Bumpy30k, 1)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+BENCHMARK_CAPTURE(BM_Transfer, dragon_8x8x6_ss2, &Dragon, 2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
+BENCHMARK_CAPTURE(BM_Transfer, bumpy30k_8x8x6, &Bumpy30k, 1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(3);
 
 // The same rays, one thread: the transfer's rate against rtcOccluded1M over
 // the rays it traced, in the same chunks of one vertex's hemisphere.

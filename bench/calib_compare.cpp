@@ -29,12 +29,16 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
     mr::ReadImageHeader(files[0], &w, &h, &ch);
   }
   mr::ParallelFor(0, static_cast<int64_t>(files.size()), [&](int64_t i) {
-    det[static_cast<size_t>(i)] = mr::DetectCorners(mr::ReadImage(files[static_cast<size_t>(i)]), b, files[static_cast<size_t>(i)].filename().string());
+    det[static_cast<size_t>(i)] = mr::DetectCorners(mr::ReadImage(files[static_cast<size_t>(i)]), b,
+                                                    files[static_cast<size_t>(i)].filename().string());
   });
   int found = 0;
   for (const auto& d : det) found += d.found;
-  std::printf("\n%s: %zu photographs, board found in %d\n\n| solver | model | fx | fy | cx | cy | RMS px | worst px | outliers | time s | sigma centre px | sigma corner px | grid < 1 px |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
-              name.c_str(), files.size(), found);
+  std::printf(
+      "\n%s: %zu photographs, board found in %d\n\n| solver | model | fx | fy | cx | cy | RMS px | worst px | outliers "
+      "| time s | sigma centre px | sigma corner px | grid < 1 px "
+      "|\n|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+      name.c_str(), files.size(), found);
   for (const auto& m : models) {
     mr::CalibrationOptions o;
     o.lensmodel = m;
@@ -48,8 +52,8 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
         const double sg = r.uncertainty->StdevPx(Eigen::Vector2d((w - 1) * i / 8.0, (h - 1) * j / 6.0), r.model);
         valid += std::isfinite(sg) && sg < 1.0;
       }
-    std::printf("| mr (mrcal) | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %d | %.2f | %.3f | %.2f | %d%% |\n", m.c_str(),
-                k[0], k[1], k[2], k[3], r.rms_px, r.worst_px, r.outliers, s,
+    std::printf("| mr (mrcal) | %s | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | %d | %.2f | %.3f | %.2f | %d%% |\n",
+                m.c_str(), k[0], k[1], k[2], k[3], r.rms_px, r.worst_px, r.outliers, s,
                 r.uncertainty->StdevPx(Eigen::Vector2d(0.5 * (w - 1), 0.5 * (h - 1)), r.model),
                 r.uncertainty->StdevPx(Eigen::Vector2d(0, 0), r.model), 100 * valid / 63);
   }
@@ -73,9 +77,9 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
   cv::Vec4d D;
   std::vector<cv::Vec3d> rv, tv;
   const auto t0 = std::chrono::steady_clock::now();
-  const double rms = cv::fisheye::calibrate(obj, img, cv::Size(w, h), K, D, rv, tv,
-                                            cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW,
-                                            cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-9));
+  const double rms = cv::fisheye::calibrate(
+      obj, img, cv::Size(w, h), K, D, rv, tv, cv::fisheye::CALIB_RECOMPUTE_EXTRINSIC | cv::fisheye::CALIB_FIX_SKEW,
+      cv::TermCriteria(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 100, 1e-9));
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   // OpenCV's figure is per coordinate; report the residual length as mr does.
   double sum2 = 0, worst = 0;
@@ -84,14 +88,17 @@ void Run(const std::string& name, const std::string& dir, const std::string& pre
     std::vector<cv::Point2d> proj;
     cv::fisheye::projectPoints(obj[v], proj, rv[v], tv[v], K, D);
     for (size_t i = 0; i < proj.size(); ++i) {
-      const double e2 = (proj[i].x - img[v][i].x) * (proj[i].x - img[v][i].x) + (proj[i].y - img[v][i].y) * (proj[i].y - img[v][i].y);
+      const double e2 =
+          (proj[i].x - img[v][i].x) * (proj[i].x - img[v][i].x) + (proj[i].y - img[v][i].y) * (proj[i].y - img[v][i].y);
       sum2 += e2;
       worst = std::max(worst, std::sqrt(e2));
       ++n;
     }
   }
-  std::printf("| OpenCV cv::fisheye | Kannala-Brandt k1..k4 | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | (none) | %.2f | | | |\n",
-              K(0, 0), K(1, 1), K(0, 2), K(1, 2), std::sqrt(sum2 / static_cast<double>(n)), worst, s);
+  std::printf(
+      "| OpenCV cv::fisheye | Kannala-Brandt k1..k4 | %.2f | %.2f | %.2f | %.2f | %.3f | %.3f | (none) | %.2f | | | "
+      "|\n",
+      K(0, 0), K(1, 1), K(0, 2), K(1, 2), std::sqrt(sum2 / static_cast<double>(n)), worst, s);
   (void)rms;
 }
 

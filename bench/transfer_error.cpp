@@ -12,14 +12,13 @@
 #include "core/image.h"
 #include "core/math.h"
 #include "eval/transfer_reference.h"
-#include "transfer/formfactor.h"
 #include "geometry/primitives.h"
+#include "transfer/formfactor.h"
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
 double Since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
-
 
 double RelativeRms(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b) {
   double num = 0, den = 0;
@@ -51,7 +50,8 @@ int main(int argc, char** argv) {
     std::string name;
     mr::Image img;
   };
-  std::vector<NamedEnv> envs = {{"grace probe", mr::ReadImage(data + "/probes-latlong/grace.hdr")}, {"synthetic sun", sun}};
+  std::vector<NamedEnv> envs = {{"grace probe", mr::ReadImage(data + "/probes-latlong/grace.hdr")},
+                                {"synthetic sun", sun}};
   struct Config {
     mr::TransferBasis basis;
     int n, order, ss;
@@ -61,16 +61,20 @@ int main(int argc, char** argv) {
   for (int l : {2, 4, 6, 8}) configs.push_back({mr::TransferBasis::kSh, 16, l, 1});
   std::ofstream csv(argv[1]);
   csv << "mesh,environment,basis,size,bounces,precompute_s,shade_s,relative_rms,reference_noise\n";
-  std::printf("| mesh | environment | basis | bounces | precompute s | shade ms | relative RMS error |\n|---|---|---|---|---|---|---|\n");
+  std::printf(
+      "| mesh | environment | basis | bounces | precompute s | shade ms | relative RMS error "
+      "|\n|---|---|---|---|---|---|---|\n");
   const int kRefRays = 1024;
   for (const auto& m : meshes)
     for (const auto& e : envs)
       for (int bounces : {0, 2}) {
-        const auto ref = mr::ReferenceVertexRadiance(m.mesh, e.img, e.name, Eigen::Matrix3d::Identity(), 0.8, bounces, kRefRays, 1);
-        const auto ref2 = mr::ReferenceVertexRadiance(m.mesh, e.img, e.name, Eigen::Matrix3d::Identity(), 0.8, bounces, kRefRays, 2);
+        const auto ref =
+            mr::ReferenceVertexRadiance(m.mesh, e.img, e.name, Eigen::Matrix3d::Identity(), 0.8, bounces, kRefRays, 1);
+        const auto ref2 =
+            mr::ReferenceVertexRadiance(m.mesh, e.img, e.name, Eigen::Matrix3d::Identity(), 0.8, bounces, kRefRays, 2);
         const double noise = RelativeRms(ref2, ref) / std::sqrt(2.0);  // one reference's own error
-        std::printf("| %s | %s | reference (%d rays, MIS) | %d | | | %.4f (its own noise) |\n", m.name.c_str(), e.name.c_str(),
-                    kRefRays, bounces, noise);
+        std::printf("| %s | %s | reference (%d rays, MIS) | %d | | | %.4f (its own noise) |\n", m.name.c_str(),
+                    e.name.c_str(), kRefRays, bounces, noise);
         for (const Config& c : configs) {
           if (bounces > 0 && c.basis == mr::TransferBasis::kCube && c.n > 16) continue;
           mr::TransferOptions o;
@@ -89,13 +93,14 @@ int main(int argc, char** argv) {
           const auto lit = mr::ShadeVertices(t, ec, Eigen::Vector3d::Constant(0.8), nullptr);
           const double shade = Since(t0);
           const double err = RelativeRms(lit, ref);  // both at albedo 0.8
-          const std::string size = c.basis == mr::TransferBasis::kCube ? std::to_string(c.n) + "x" + std::to_string(c.n) + "x6"
-                                                                      : "order " + std::to_string(c.order);
-          std::printf("| %s | %s | %s | %d | %.3f | %.1f | %.4f |\n", m.name.c_str(), e.name.c_str(), size.c_str(), bounces,
-                      pre, 1e3 * shade, err);
+          const std::string size = c.basis == mr::TransferBasis::kCube
+                                       ? std::to_string(c.n) + "x" + std::to_string(c.n) + "x6"
+                                       : "order " + std::to_string(c.order);
+          std::printf("| %s | %s | %s | %d | %.3f | %.1f | %.4f |\n", m.name.c_str(), e.name.c_str(), size.c_str(),
+                      bounces, pre, 1e3 * shade, err);
           std::fflush(stdout);
-          csv << '"' << m.name << "\",\"" << e.name << "\"," << (c.basis == mr::TransferBasis::kCube ? "cube" : "sh") << ','
-              << size << ',' << bounces << ',' << pre << ',' << shade << ',' << err << ',' << noise << '\n';
+          csv << '"' << m.name << "\",\"" << e.name << "\"," << (c.basis == mr::TransferBasis::kCube ? "cube" : "sh")
+              << ',' << size << ',' << bounces << ',' << pre << ',' << shade << ',' << err << ',' << noise << '\n';
         }
       }
   return 0;

@@ -42,11 +42,11 @@ inline std::filesystem::path SharedData(const std::string& sub) {
   return p;
 }
 
-#define MR_REQUIRE_SHARED_DATA(sub)                                                      \
-  do {                                                                                   \
-    if (!std::filesystem::exists(::mr::test::SharedData(sub)))                           \
-      GTEST_SKIP() << "shared test data " << ::mr::test::SharedData(sub)                 \
-                   << " is absent (set MR_SHARED_DATA to ../shared/data)";               \
+#define MR_REQUIRE_SHARED_DATA(sub)                                        \
+  do {                                                                     \
+    if (!std::filesystem::exists(::mr::test::SharedData(sub)))             \
+      GTEST_SKIP() << "shared test data " << ::mr::test::SharedData(sub)   \
+                   << " is absent (set MR_SHARED_DATA to ../shared/data)"; \
   } while (false)
 
 }  // namespace mr::test

@@ -2,34 +2,38 @@
 #include <spdlog/spdlog.h>
 
 #include "calib/board.h"
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/file.h"
-#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
   std::string board_file, out;
   int nx = 0, ny = 0;
   double square_mm = 0, margin_mm = 10;
-  mr::ConfigureApp(
-      app, "mr-board",
-      "Writes a calibration board as an SVG at its physical size, to print at 100% scale.\n"
-      "Give a board definition (calib/boards/*.json: chessboard or ChArUco) or\n"
-      "--inner-corners and --square-mm for a chessboard.",
-      "  mr-board calib/boards/mrgingham-10x10-30mm.json --out board.svg\n"
-      "  mr-board calib/boards/charuco-8x11-A4.json --out charuco.svg\n"
-      "  mr-board --inner-corners 9x6 --square-mm 24.23 --out board.svg");
+  mr::ConfigureApp(app, "mr-board",
+                   "Writes a calibration board as an SVG at its physical size, to print at 100% scale.\n"
+                   "Give a board definition (calib/boards/*.json: chessboard or ChArUco) or\n"
+                   "--inner-corners and --square-mm for a chessboard.",
+                   "  mr-board calib/boards/mrgingham-10x10-30mm.json --out board.svg\n"
+                   "  mr-board calib/boards/charuco-8x11-A4.json --out charuco.svg\n"
+                   "  mr-board --inner-corners 9x6 --square-mm 24.23 --out board.svg");
   app.add_option("board", board_file, "Board definition (JSON)")->check(CLI::ExistingFile);
   app.add_option_function<std::string>(
-      "--inner-corners", [&](const std::string& s) {
-        if (std::sscanf(s.c_str(), "%dx%d", &nx, &ny) != 2) throw CLI::ValidationError("--inner-corners", "expected NxM");
+      "--inner-corners",
+      [&](const std::string& s) {
+        if (std::sscanf(s.c_str(), "%dx%d", &nx, &ny) != 2)
+          throw CLI::ValidationError("--inner-corners", "expected NxM");
       },
       "Inner corners, NxM (e.g. 10x10)");
   app.add_option("--square-mm", square_mm, "Square side in millimetres")->check(CLI::PositiveNumber);
-  app.add_option("--margin-mm", margin_mm, "White margin around the board, millimetres")->default_val(10)->check(CLI::NonNegativeNumber);
+  app.add_option("--margin-mm", margin_mm, "White margin around the board, millimetres")
+      ->default_val(10)
+      ->check(CLI::NonNegativeNumber);
   double ppmm = 20;
   app.add_option("--charuco-ppmm", ppmm, "ChArUco raster resolution, pixels per millimetre")
-      ->default_val(20)->check(CLI::Range(1.0, 100.0));
+      ->default_val(20)
+      ->check(CLI::Range(1.0, 100.0));
   app.add_option("--out", out, "Output SVG")->required();
   return mr::RunTool("mr-board", app, argc, argv, [&] {
     mr::BoardSpec b;
@@ -38,7 +42,8 @@ int main(int argc, char** argv) {
     } else {
       if (nx == 0 || square_mm == 0) throw mr::UsageError("give a board file, or --inner-corners and --square-mm");
       mr::Json j = {{"name", fmt::format("chessboard-{}x{}-{}mm", nx, ny, square_mm)},
-                    {"inner_corners", {nx, ny}}, {"square_mm", square_mm}};
+                    {"inner_corners", {nx, ny}},
+                    {"square_mm", square_mm}};
       b = mr::ParseBoard(j, "command line");
     }
     if (!board_file.empty()) mr::ToolReport().AddInput(board_file);

@@ -7,18 +7,18 @@
 #include <optional>
 #include <sstream>
 
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"
-#include "eval/shards.h"
 #include "core/image_metrics.h"
 #include "eval/plot.h"
+#include "eval/shards.h"
 #include "eval/sweep.h"
+#include "eval/trajectory_error.h"
+#include "geometry/mesh.h"
 #include "render/method.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
-#include "eval/trajectory_error.h"
-#include "geometry/mesh.h"
-#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
@@ -28,11 +28,11 @@ int main(int argc, char** argv) {
                    "  mr-eval compare render/00000.exr capture/truth/00000.exr --diff diff.png --scale 10 "
                    "--report compare.json");
   app.require_subcommand(1);
-  CLI::App* cmp = app.add_subcommand(
-      "compare",
-      "RMSE, relative MSE, PSNR and SSIM of A against the reference B (metric definitions in\n"
-      "docs/formats.md), over the image or the pixels where --region is > 0. EXR renders are\n"
-      "compared by their composite layer.");
+  CLI::App* cmp =
+      app.add_subcommand("compare",
+                         "RMSE, relative MSE, PSNR and SSIM of A against the reference B (metric definitions in\n"
+                         "docs/formats.md), over the image or the pixels where --region is > 0. EXR renders are\n"
+                         "compared by their composite layer.");
   cmp->fallthrough();  // --report, --threads ... after the subcommand
   cmp->add_option("A", a, "Estimate (image, or mr-render EXR)")->required()->check(CLI::ExistingFile);
   cmp->add_option("B", b, "Reference")->required()->check(CLI::ExistingFile);
@@ -41,10 +41,10 @@ int main(int argc, char** argv) {
   cmp->add_option("--scale", scale, "Scale of the difference image")->default_val(10)->check(CLI::PositiveNumber);
   std::string csv, x_col, y_col, group_col, plot_out, title;
   bool linear_x = false, linear_y = false;
-  CLI::App* plot = app.add_subcommand(
-      "plot",
-      "Plots columns of a CSV table (mr-lights --sweep, bench/lights_render.sh, ...) as an SVG:\n"
-      "one line per value of --group, log axes unless --linear-x/--linear-y.");
+  CLI::App* plot =
+      app.add_subcommand("plot",
+                         "Plots columns of a CSV table (mr-lights --sweep, bench/lights_render.sh, ...) as an SVG:\n"
+                         "one line per value of --group, log axes unless --linear-x/--linear-y.");
   plot->fallthrough();
   plot->add_option("table", csv, "CSV with a header line")->required()->check(CLI::ExistingFile);
   plot->add_option("--x", x_col, "Column on the x axis")->required();
@@ -93,22 +93,32 @@ int main(int argc, char** argv) {
       "change), times it, and writes sweep.csv, sweep.json, error-vs-time[-region].svg/.png and\n"
       "diff/METHOD-SETTING.png (|composite - reference| x --diff-scale, first frame) into --out.");
   sweep->fallthrough();
-  sweep->add_option("SCENE", sweep_scene, "scene.json with a reference (mr-synth writes one)")->required()->check(CLI::ExistingFile);
+  sweep->add_option("SCENE", sweep_scene, "scene.json with a reference (mr-synth writes one)")
+      ->required()
+      ->check(CLI::ExistingFile);
   sweep->add_option("--methods", methods, "Comma-separated: " + mr::RenderMethodNames())->default_val(methods);
   sweep->add_option("--out", sweep_out, "Output folder")->required();
   std::vector<std::string> sweep_set;
-  sweep->add_option("--set", sweep_set,
-                    "METHOD.KEY=V1,V2,...: the values KEY takes (spp, or a key of render.METHOD), replacing\n"
-                    "the method's default axis; the i-th setting takes the i-th value of each axis (one value:\n"
-                    "all). The defaults:\n" + mr::SweepDefaultsText())
+  sweep
+      ->add_option("--set", sweep_set,
+                   "METHOD.KEY=V1,V2,...: the values KEY takes (spp, or a key of render.METHOD), replacing\n"
+                   "the method's default axis; the i-th setting takes the i-th value of each axis (one value:\n"
+                   "all). The defaults:\n" +
+                       mr::SweepDefaultsText())
       ->take_all();
   // The flags of earlier versions, as --set.
   std::map<std::string, std::string> alias;
-  for (const auto& [flag, key] : std::vector<std::pair<std::string, std::string>>{
-           {"pt-spp", "pt.spp"}, {"ic-rays", "ic.rays"}, {"ic-spp", "ic.spp"}, {"vpl-paths", "vpl.paths"},
-           {"vpl-spp", "vpl.spp"}, {"vct-resolution", "vct.resolution"}, {"vct-spp", "vct.spp"}, {"prt-spp", "prt.spp"}})
-    sweep->add_option("--" + flag, alias[key], "= --set " + key + "=L" +
-                      (flag == "vpl-paths" ? " (and vpl.directions: a quarter of each, at least 16)" : ""));
+  for (const auto& [flag, key] : std::vector<std::pair<std::string, std::string>>{{"pt-spp", "pt.spp"},
+                                                                                  {"ic-rays", "ic.rays"},
+                                                                                  {"ic-spp", "ic.spp"},
+                                                                                  {"vpl-paths", "vpl.paths"},
+                                                                                  {"vpl-spp", "vpl.spp"},
+                                                                                  {"vct-resolution", "vct.resolution"},
+                                                                                  {"vct-spp", "vct.spp"},
+                                                                                  {"prt-spp", "prt.spp"}})
+    sweep->add_option(
+        "--" + flag, alias[key],
+        "= --set " + key + "=L" + (flag == "vpl-paths" ? " (and vpl.directions: a quarter of each, at least 16)" : ""));
   sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
   mr::MergeOptions mo;
@@ -122,7 +132,9 @@ int main(int argc, char** argv) {
       "Refuses shards of different scenes or methods and overlapping ranges; a frame range that no shard\n"
       "rendered is an error unless --allow-gaps. See docs/cluster.md.");
   merge->fallthrough();
-  merge->add_option("REPORTS", merge_reports, "Shard reports (mr-render --report)")->required()->check(CLI::ExistingFile);
+  merge->add_option("REPORTS", merge_reports, "Shard reports (mr-render --report)")
+      ->required()
+      ->check(CLI::ExistingFile);
   merge->add_option("--video", merge_video, "Video to write (.mp4 or .avi)");
   merge->add_option("--fps", mo.fps, "Frames per second of the video")->default_val(30)->check(CLI::PositiveNumber);
   merge->add_flag("--allow-gaps", mo.allow_gaps, "Merge even when some frames were rendered by no shard");
@@ -149,7 +161,8 @@ int main(int argc, char** argv) {
         if (key == "vpl.paths") {  // as before --set: directional VPLs a quarter of the paths, at least 16
           std::string d;
           for (const auto& v : so.set["vpl.paths"])
-            if (v.is_number_integer()) d += (d.empty() ? "" : ",") + std::to_string(std::max<int64_t>(16, v.get<int64_t>() / 4));
+            if (v.is_number_integer())
+              d += (d.empty() ? "" : ",") + std::to_string(std::max<int64_t>(16, v.get<int64_t>() / 4));
           mr::AddSweepAxis("vpl.directions=" + d, &so);
         }
       }

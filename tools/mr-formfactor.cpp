@@ -4,6 +4,7 @@
 
 #include <chrono>
 
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
@@ -12,8 +13,6 @@
 #include "eval/transfer_reference.h"
 #include "render/prt.h"
 #include "scene/scene.h"
-#include "cli/tool.h"
-#include "eval/transfer_reference.h"
 #include "transfer/formfactor.h"
 
 namespace {
@@ -52,7 +51,8 @@ int main(int argc, char** argv) {
   app.add_option("--supersample", o.supersample, "Rays per cell edge (S x S per cell)")->default_val(2);
   app.add_option("--bounces", o.bounces, "Interreflection bounces on the object")->default_val(0);
   app.add_option("--albedo", o.albedo, "The object's albedo, for the bounces")->default_val(0.8);
-  app.add_option("--scene", scene_file, "Skip vertices this scene's camera cannot see (with --object)")->check(CLI::ExistingFile);
+  app.add_option("--scene", scene_file, "Skip vertices this scene's camera cannot see (with --object)")
+      ->check(CLI::ExistingFile);
   app.add_option("--object", object, "The virtual object's name in --scene");
   app.add_option("--spp", spp, "With --scene: the samples per pixel the renders will take (default: the scene's)");
   app.add_option("--ffc", ffc, "Shade with this transfer (with --shade)")->check(CLI::ExistingFile);
@@ -81,7 +81,8 @@ int main(int argc, char** argv) {
       const Eigen::Matrix3d world_from_env =
           Eigen::AngleAxisd(env_rotation * mr::kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix();
       auto t0 = std::chrono::steady_clock::now();
-      const mr::EnvironmentCoefficients ec = mr::ProjectEnvironment(env, shade, t.header, world_from_env, 1.0, !no_window);
+      const mr::EnvironmentCoefficients ec =
+          mr::ProjectEnvironment(env, shade, t.header, world_from_env, 1.0, !no_window);
       report.AddTiming("project environment", Seconds(t0));
       t0 = std::chrono::steady_clock::now();
       int64_t clamped = 0;
@@ -98,7 +99,8 @@ int main(int argc, char** argv) {
         // The reference's surfaces have the albedo the bounces were computed
         // with; its vertex radiance is rescaled to the shading colour.
         const double a = t.header.bounces > 0 ? t.header.albedo : 1.0;
-        auto ref = mr::ReferenceVertexRadiance(mesh, env, shade, world_from_env, a, t.header.bounces, reference_rays, 1);
+        auto ref =
+            mr::ReferenceVertexRadiance(mesh, env, shade, world_from_env, a, t.header.bounces, reference_rays, 1);
         for (auto& r : ref) r /= a;
         report.AddTiming("reference", Seconds(t0));
         for (size_t v = 0; v < ref.size(); ++v)
@@ -131,7 +133,8 @@ int main(int argc, char** argv) {
         for (char c : needed) n += c;
         report.Skip(fmt::format("{} of {} vertices", static_cast<int64_t>(needed.size()) - n, needed.size()),
                     fmt::format("no camera sample of {} ({} spp) sees them: with no bounces their transfer "
-                                "changes no pixel", scene_file, valid_spp));
+                                "changes no pixel",
+                                scene_file, valid_spp));
         report.AddInput(scene_file);
       }
     }
@@ -153,11 +156,14 @@ int main(int argc, char** argv) {
     report.SetMetric("nonmanifold_edges", st.nonmanifold_edges);
     report.SetMetric("fully_occluded", st.fully_occluded);
     report.SetMetric("skipped_vertices", st.skipped_vertices);
-    if (st.normals_flipped > 0) report.Warn(fmt::format("{} vertex normals disagreed with their faces and were replaced", st.normals_flipped));
+    if (st.normals_flipped > 0)
+      report.Warn(fmt::format("{} vertex normals disagreed with their faces and were replaced", st.normals_flipped));
     if (st.vertices_without_normal > 0)
-      report.Warn(fmt::format("{} vertices lie only on zero-area faces (or none): transfer zero", st.vertices_without_normal));
+      report.Warn(
+          fmt::format("{} vertices lie only on zero-area faces (or none): transfer zero", st.vertices_without_normal));
     if (st.fully_occluded > 0)
-      report.Warn(fmt::format("{} vertices see nothing but the object (inside closed geometry?): transfer zero", st.fully_occluded));
+      report.Warn(fmt::format("{} vertices see nothing but the object (inside closed geometry?): transfer zero",
+                              st.fully_occluded));
     if (st.nonmanifold_edges > 0) report.Warn(fmt::format("{} non-manifold edges", st.nonmanifold_edges));
     spdlog::info("{} vertices x {} coefficients, {} rays in {:.3f} s ({:.3g} rays/s)", st.vertices, header.coefficients,
                  st.rays, seconds, seconds > 0 ? static_cast<double>(st.rays) / seconds : 0.0);

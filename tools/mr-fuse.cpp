@@ -4,13 +4,13 @@
 #include <chrono>
 
 #include "camera/trajectory.h"
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/progress.h"
 #include "core/report.h"
 #include "recon/albedo.h"
 #include "recon/fusion.h"
 #include "scene/scene.h"
-#include "cli/tool.h"
 
 namespace {
 
@@ -49,22 +49,21 @@ int main(int argc, char** argv) {
   mr::AlbedoOptions ao;
   bool no_color = false, no_bilateral = false, no_albedo = false;
   double max_depth = 8.0;
-  mr::ConfigureApp(
-      app, "mr-fuse",
-      "Reconstructs a room from an RGB-D recording, KinectFusion-style: bilateral-filtered depth on a\n"
-      "3-level pyramid, point-to-plane ICP against the model's raycast (frame to model), fusion into a\n"
-      "TSDF in hashed 8^3 voxel blocks (memory grows with the surface), and surface-nets meshing. Writes\n"
-      "OUT/room.ply (binary: positions, normals, colour = albedo, float albedo_r/g/b, observed_r/g/b and\n"
-      "confidence), OUT/trajectory.txt (TUM, camera-to-world) and OUT/fuse-report.json (per frame: ICP\n"
-      "residual, inlier ratio, condition number, weak directions, time; memory; what was skipped).\n"
-      "Layouts: TUM RGB-D (depth.txt, rgb.txt; 5000 units/m), 7-Scenes (frame-NNNNNN.depth.png; mm),\n"
-      "plain (depth/ and rgb/ beside a .cameramodel; mm). Depth codes 0 and 65535 are invalid.\n"
-      "Albedo: the viewing-angle-weighted mean colour per vertex; with --lights or --env, the colour\n"
-      "divided by the irradiance ray traced over the reconstructed room (the room's own observed\n"
-      "radiance as the bounce light), solved robustly across views with per-frame gains (Ceres).",
-      "  mr-fuse capture/rgbd --out room/ --voxel 0.01\n"
-      "  mr-fuse ../shared/data/rgbd-7scenes-kitchen --out kitchen/ --voxel 0.02 --report fuse.json\n"
-      "  mr-fuse capture/rgbd --out room/ --poses capture/rgbd/groundtruth.txt --roi -1,-1,0,1,1,2");
+  mr::ConfigureApp(app, "mr-fuse",
+                   "Reconstructs a room from an RGB-D recording, KinectFusion-style: bilateral-filtered depth on a\n"
+                   "3-level pyramid, point-to-plane ICP against the model's raycast (frame to model), fusion into a\n"
+                   "TSDF in hashed 8^3 voxel blocks (memory grows with the surface), and surface-nets meshing. Writes\n"
+                   "OUT/room.ply (binary: positions, normals, colour = albedo, float albedo_r/g/b, observed_r/g/b and\n"
+                   "confidence), OUT/trajectory.txt (TUM, camera-to-world) and OUT/fuse-report.json (per frame: ICP\n"
+                   "residual, inlier ratio, condition number, weak directions, time; memory; what was skipped).\n"
+                   "Layouts: TUM RGB-D (depth.txt, rgb.txt; 5000 units/m), 7-Scenes (frame-NNNNNN.depth.png; mm),\n"
+                   "plain (depth/ and rgb/ beside a .cameramodel; mm). Depth codes 0 and 65535 are invalid.\n"
+                   "Albedo: the viewing-angle-weighted mean colour per vertex; with --lights or --env, the colour\n"
+                   "divided by the irradiance ray traced over the reconstructed room (the room's own observed\n"
+                   "radiance as the bounce light), solved robustly across views with per-frame gains (Ceres).",
+                   "  mr-fuse capture/rgbd --out room/ --voxel 0.01\n"
+                   "  mr-fuse ../shared/data/rgbd-7scenes-kitchen --out kitchen/ --voxel 0.02 --report fuse.json\n"
+                   "  mr-fuse capture/rgbd --out room/ --poses capture/rgbd/groundtruth.txt --roi -1,-1,0,1,1,2");
   app.add_option("input", input, "RGB-D recording folder")->required()->check(CLI::ExistingDirectory);
   app.add_option("--out", out, "Output folder")->required();
   app.add_option("--layout", ro.layout, "auto, tum, 7scenes or plain")->default_val("auto");
@@ -94,7 +93,8 @@ int main(int argc, char** argv) {
   app.add_option("--tracking-voxel", fo.tracking_voxel,
                  "With --roi/--roi-from: voxel of the whole-room volume that tracking uses (default: --voxel)")
       ->default_val(0);
-  app.add_option("--preview-every", fo.preview_every, "Write the model's raycast, shaded, every N frames to OUT/preview/")
+  app.add_option("--preview-every", fo.preview_every,
+                 "Write the model's raycast, shaded, every N frames to OUT/preview/")
       ->default_val(0);
   app.add_option("--icp-iterations", fo.icp.iterations, "ICP iterations per level, finest first")
       ->delimiter(',')
@@ -116,7 +116,8 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 2));
   app.add_option("--max-lost", fo.max_lost, "Stop (keeping what is fused) after this many lost frames in a row")
       ->default_val(10);
-  app.add_option("--poses", poses, "Fuse with this TUM trajectory (or 'reference': the recording's) instead of tracking");
+  app.add_option("--poses", poses,
+                 "Fuse with this TUM trajectory (or 'reference': the recording's) instead of tracking");
   app.add_option("--first-pose", first_pose, "identity, or 'reference': start tracking at the reference's first pose")
       ->default_val("identity");
   app.add_option("--min-weight", mo.min_weight, "Mesh voxels fused at least this often")->default_val(1.5);
@@ -150,7 +151,9 @@ int main(int argc, char** argv) {
       report.SetMetric("roi.min", {fo.tsdf.roi.min().x(), fo.tsdf.roi.min().y(), fo.tsdf.roi.min().z()});
       report.SetMetric("roi.max", {fo.tsdf.roi.max().x(), fo.tsdf.roi.max().y(), fo.tsdf.roi.max().z()});
       report.Skip("fusion and meshing outside the region of interest",
-                  roi_scene.empty() ? "--roi" : "outside " + std::to_string(roi_scale) + "x the virtual objects' bounds (--roi-from)");
+                  roi_scene.empty()
+                      ? "--roi"
+                      : "outside " + std::to_string(roi_scale) + "x the virtual objects' bounds (--roi-from)");
     }
     if (fo.preview_every > 0) fo.preview_dir = mr::fs::path(out) / "preview";
     if (skip_motion.size() == 2) {
@@ -195,9 +198,10 @@ int main(int argc, char** argv) {
       mr::DepthReadOptions dopt = fo.depth;
       dopt.scale = seq.depth_scale;
       if (const double k = mr::CheckDepthScale(seq, dopt); k > 0)
-        spdlog::warn("{}: the depth maps' median depth is implausible for a room at {} units per metre; {} would make "
-                     "it plausible (--depth-scale)",
-                     input, seq.depth_scale, k);
+        spdlog::warn(
+            "{}: the depth maps' median depth is implausible for a room at {} units per metre; {} would make "
+            "it plausible (--depth-scale)",
+            input, seq.depth_scale, k);
     }
     mr::TsdfVolume volume(fo.tsdf);
     const int total = fo.count >= 0 ? fo.count : static_cast<int>(seq.frames.size());
@@ -219,9 +223,10 @@ int main(int argc, char** argv) {
     mr::Mesh mesh = volume.ExtractMesh(mo, &confidence, &ms);
     report.AddTiming("meshing", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     if (mesh.triangles.empty())
-      mr::ThrowErrorAt(mr::FileLoc{input},
-                       "the fused volume holds no surface to mesh ({} frames fused; voxels need a weight of {} or more)",
-                       report.metrics()["summary"]["fused"].get<int>(), mo.min_weight);
+      mr::ThrowErrorAt(
+          mr::FileLoc{input},
+          "the fused volume holds no surface to mesh ({} frames fused; voxels need a weight of {} or more)",
+          report.metrics()["summary"]["fused"].get<int>(), mo.min_weight);
     report.SetMetric("mesh.vertices", static_cast<int64_t>(mesh.vertex_count()));
     report.SetMetric("mesh.triangles", static_cast<int64_t>(mesh.triangle_count()));
     report.SetMetric("mesh.components_dropped", ms.components_dropped);
@@ -252,9 +257,8 @@ int main(int argc, char** argv) {
     report.AddOutput((mr::fs::path(out) / "fuse-report.json").string());
     report.Write(mr::fs::path(out) / "fuse-report.json");
     spdlog::info("{} frames tracked of {}, {} lost; mesh {} vertices, {} triangles; volume {:.1f} MB -> {}",
-                 fr.trajectory.size(), fr.frames.size(),
-                 report.metrics()["summary"]["lost"].get<int>(), mesh.vertex_count(), mesh.triangle_count(),
-                 volume.MemoryBytes() / 1e6, out);
+                 fr.trajectory.size(), fr.frames.size(), report.metrics()["summary"]["lost"].get<int>(),
+                 mesh.vertex_count(), mesh.triangle_count(), volume.MemoryBytes() / 1e6, out);
     // A run stopped by tracking loss still succeeded with what it fused: the
     // report says where it stopped and why (exit 0; check summary.stopped_early).
     if (fr.stopped_early) spdlog::warn("{}", fr.stop_reason);

@@ -4,14 +4,13 @@
 #include <fstream>
 #include <sstream>
 
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/report.h"
 #include "hdr/exposure_merge.h"
 #include "hdr/exposures_file.h"
 #include "hdr/response.h"
-#include "cli/tool.h"
-
 
 int main(int argc, char** argv) {
   CLI::App app;
@@ -37,13 +36,15 @@ int main(int argc, char** argv) {
       "  mr-hdr ball_*.JPG --align --response response.json --out probe-raw.exr --report hdr.json");
   app.add_option("images", images, "The bracket's photographs, any order")->required()->check(CLI::ExistingFile);
   app.add_option("--out", out, "Merged EXR")->required();
-  app.add_option("--exposures", exposures_file, "Exposure times: one per line in the images' order, or FILENAME TIME lines")
+  app.add_option("--exposures", exposures_file,
+                 "Exposure times: one per line in the images' order, or FILENAME TIME lines")
       ->check(CLI::ExistingFile);
   app.add_option("--response", response_in, "Use this response.json (from --save-response) instead of recovering one")
       ->check(CLI::ExistingFile);
   app.add_option("--save-response", response_out, "Write the recovered response here");
   app.add_option("--method", ro.method, "Response recovery: debevec or robertson")
-      ->check(CLI::IsMember({"debevec", "robertson"}))->default_val("debevec");
+      ->check(CLI::IsMember({"debevec", "robertson"}))
+      ->default_val("debevec");
   app.add_option("--smoothness", ro.smoothness, "Debevec's lambda")->default_val(50);
   app.add_flag("--linear", linear, "8/16-bit inputs are linear (no response)");
   app.add_flag("--align", align, "Align hand-held brackets (median threshold bitmaps); crops of different sizes too");
@@ -60,7 +61,8 @@ int main(int argc, char** argv) {
     mo.fit_censored = !no_fit;
     mo.Check();
     if (!response_in.empty() && linear) throw mr::UsageError("--response and --linear contradict each other");
-    if (!response_in.empty() && !response_out.empty()) throw mr::UsageError("--save-response needs a recovered response, not --response");
+    if (!response_in.empty() && !response_out.empty())
+      throw mr::UsageError("--save-response needs a recovered response, not --response");
     std::vector<double> times;
     if (!exposures_file.empty()) {
       times = mr::ReadExposures(exposures_file, images);
@@ -79,7 +81,10 @@ int main(int argc, char** argv) {
         if (!bracket.empty() && e.codes.channels() != bracket[0].codes.channels())
           mr::ThrowErrorAt(mr::FileLoc{images[i]}, "has {} channels, {} has {}", e.codes.channels(), bracket[0].name,
                            bracket[0].codes.channels());
-        inputs.push_back({{"image", images[i]}, {"exposure", e.time_s}, {"from", how}, {"pixel_type", e.pixel_type},
+        inputs.push_back({{"image", images[i]},
+                          {"exposure", e.time_s},
+                          {"from", how},
+                          {"pixel_type", e.pixel_type},
                           {"size", {e.codes.width(), e.codes.height()}}});
         report.AddInput(images[i]);
         bracket.push_back(std::move(e));
@@ -114,7 +119,9 @@ int main(int argc, char** argv) {
       mr::ScopedTimer t(&report, "response");
       mr::ResponseReport rr;
       response = mr::RecoverResponse(bracket, ro, &rr);
-      report.SetMetric("response", {{"method", ro.method}, {"samples", rr.samples}, {"rms_log", rr.rms_log},
+      report.SetMetric("response", {{"method", ro.method},
+                                    {"samples", rr.samples},
+                                    {"rms_log", rr.rms_log},
                                     {"monotonicity_fixes", rr.monotonicity_fixes}});
       spdlog::info("response ({}): {} pixels, RMS {:.3f} in ln exposure", ro.method, rr.samples, rr.rms_log);
     }

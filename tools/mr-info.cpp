@@ -1,26 +1,25 @@
 // mr-info: what a file is and whether it is sound.
 #include <cstdio>
 
-#include "core/json.h"
-#include "cli/tool.h"
 #include "cli/info.h"
+#include "cli/tool.h"
+#include "core/json.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
   std::vector<std::string> files;
   bool json = false;
-  mr::ConfigureApp(
-      app, "mr-info",
-      "Says what each file that mr reads or writes is, and whether it is sound.\n"
-      "Kinds: .cameramodel (lens model, image size, field of view); images .exr .hdr .png\n"
-      ".jpg .tif (size, layers, min/max/mean per channel, NaN/Inf counts); meshes .ply .obj\n"
-      ".off .stl (vertices, faces, bounds, degenerate faces); scene.json (full validation);\n"
-      "report.json; calibration boards (.json); TUM trajectories and 7-Scenes poses (.txt);\n"
-      "COLMAP text models (a folder with cameras.txt and images.txt).\n"
-      "Exit code 1 when any file is unreadable or unsound (NaN/Inf pixels, bad values).",
-      "  mr-info scene.json room.ply env.exr scene.cameramodel\n"
-      "  mr-info --json render-report.json > summary.json\n"
-      "  mr-info --report info-report.json frames/*.exr");
+  mr::ConfigureApp(app, "mr-info",
+                   "Says what each file that mr reads or writes is, and whether it is sound.\n"
+                   "Kinds: .cameramodel (lens model, image size, field of view); images .exr .hdr .png\n"
+                   ".jpg .tif (size, layers, min/max/mean per channel, NaN/Inf counts); meshes .ply .obj\n"
+                   ".off .stl (vertices, faces, bounds, degenerate faces); scene.json (full validation);\n"
+                   "report.json; calibration boards (.json); TUM trajectories and 7-Scenes poses (.txt);\n"
+                   "COLMAP text models (a folder with cameras.txt and images.txt).\n"
+                   "Exit code 1 when any file is unreadable or unsound (NaN/Inf pixels, bad values).",
+                   "  mr-info scene.json room.ply env.exr scene.cameramodel\n"
+                   "  mr-info --json render-report.json > summary.json\n"
+                   "  mr-info --report info-report.json frames/*.exr");
   app.add_option("files", files, "Files or folders to describe")->required();
   app.add_flag("--json", json, "Print one JSON array on stdout instead of text");
   return mr::RunTool("mr-info", app, argc, argv, [&] {

@@ -3,13 +3,13 @@
 
 #include <sstream>
 
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/report.h"
 #include "eval/plot.h"
-#include "probe/light_extraction.h"
 #include "light/lights_file.h"
-#include "cli/tool.h"
+#include "probe/light_extraction.h"
 
 namespace {
 
@@ -38,19 +38,18 @@ int main(int argc, char** argv) {
   mr::ExtractOptions eo;
   int residual_width = 64, normals = 1024;
   bool sweep = false;
-  mr::ConfigureApp(
-      app, "mr-lights",
-      "Extracts light sources from a lat-long environment map (mr-probe's env.exr, or any lat-long\n"
-      "EXR/HDR): median cut on a double-precision, solid-angle-weighted summed-area table; variance-\n"
-      "minimising cut; hierarchical importance warping (N VPLs); or thresholded connected blobs as area\n"
-      "lights. Writes lights.json (distant lights, real, with their solid angle and the residual's\n"
-      "spherical harmonics) and with --residual the map minus what the lights took, downsampled keeping\n"
-      "energy: lights + residual integrate to the map. The report gives the extraction time and the\n"
-      "error of diffuse irradiance over all normal directions against the full map.\n"
-      "--sweep runs every method at every count and writes the error-vs-count table (CSV) and plot (SVG).",
-      "  mr-lights env.exr --method median-cut --count 64 --out lights.json --residual residual.exr\n"
-      "  mr-lights env.exr --method blobs --count 4 --threshold 20 --out sun.json --residual rest.exr\n"
-      "  mr-lights pisa.hdr --sweep --table pisa.csv --plot pisa.svg");
+  mr::ConfigureApp(app, "mr-lights",
+                   "Extracts light sources from a lat-long environment map (mr-probe's env.exr, or any lat-long\n"
+                   "EXR/HDR): median cut on a double-precision, solid-angle-weighted summed-area table; variance-\n"
+                   "minimising cut; hierarchical importance warping (N VPLs); or thresholded connected blobs as area\n"
+                   "lights. Writes lights.json (distant lights, real, with their solid angle and the residual's\n"
+                   "spherical harmonics) and with --residual the map minus what the lights took, downsampled keeping\n"
+                   "energy: lights + residual integrate to the map. The report gives the extraction time and the\n"
+                   "error of diffuse irradiance over all normal directions against the full map.\n"
+                   "--sweep runs every method at every count and writes the error-vs-count table (CSV) and plot (SVG).",
+                   "  mr-lights env.exr --method median-cut --count 64 --out lights.json --residual residual.exr\n"
+                   "  mr-lights env.exr --method blobs --count 4 --threshold 20 --out sun.json --residual rest.exr\n"
+                   "  mr-lights pisa.hdr --sweep --table pisa.csv --plot pisa.svg");
   app.add_option("env", env_file, "Lat-long environment map (R G B first)")->required()->check(CLI::ExistingFile);
   app.add_option("--out", out, "lights.json to write");
   app.add_option("--method", eo.method, "median-cut, variance-cut, importance or blobs")
@@ -89,7 +88,8 @@ int main(int argc, char** argv) {
     }
     if (sweep) {
       const std::vector<int> counts = ParseCounts(counts_text);
-      std::string csv = "method,count,lights,seconds,irradiance_rms,irradiance_max,irradiance_rms_with_residual,taken_fraction\n";
+      std::string csv =
+          "method,count,lights,seconds,irradiance_rms,irradiance_max,irradiance_rms_with_residual,taken_fraction\n";
       std::vector<mr::PlotSeries> series;
       nlohmann::json rows = nlohmann::json::array();
       for (const std::string& m : methods) {
@@ -104,9 +104,14 @@ int main(int argc, char** argv) {
           const mr::IrradianceError er = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, true), ref);
           csv += fmt::format("{},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", m, n, ex.lights.size(), ex.seconds,
                              e.rms_relative, e.max_relative, er.rms_relative, ex.taken_fraction);
-          rows.push_back({{"method", m}, {"count", n}, {"lights", ex.lights.size()}, {"seconds", ex.seconds},
-                          {"irradiance_rms", e.rms_relative}, {"irradiance_max", e.max_relative},
-                          {"irradiance_rms_with_residual", er.rms_relative}, {"taken_fraction", ex.taken_fraction}});
+          rows.push_back({{"method", m},
+                          {"count", n},
+                          {"lights", ex.lights.size()},
+                          {"seconds", ex.seconds},
+                          {"irradiance_rms", e.rms_relative},
+                          {"irradiance_max", e.max_relative},
+                          {"irradiance_rms_with_residual", er.rms_relative},
+                          {"taken_fraction", ex.taken_fraction}});
           s.points.push_back({static_cast<double>(n), std::max(e.rms_relative, 1e-9)});
         }
         series.push_back(s);
@@ -118,7 +123,8 @@ int main(int argc, char** argv) {
       }
       if (!plot.empty()) {
         mr::PlotOptions po;
-        po.title = "Diffuse irradiance error against the number of lights: " + mr::fs::path(env_file).filename().string();
+        po.title =
+            "Diffuse irradiance error against the number of lights: " + mr::fs::path(env_file).filename().string();
         po.x_label = "lights";
         po.y_label = "relative RMS error of irradiance over all normals";
         mr::WriteSvgPlot(plot, series, po);
@@ -139,9 +145,11 @@ int main(int argc, char** argv) {
     j["source"] = {{"method", eo.method}, {"count", eo.count}, {"map", env_file}};
     mr::Json sh = mr::Json::array();
     for (const auto& c : ex.residual_sh) sh.push_back({c.x(), c.y(), c.z()});
-    j["residual"] = {{"taken_fraction", std::clamp(ex.taken_fraction, 0.0, 1.0)}, {"sh_order", eo.sh_order}, {"sh", sh}};
+    j["residual"] = {
+        {"taken_fraction", std::clamp(ex.taken_fraction, 0.0, 1.0)}, {"sh_order", eo.sh_order}, {"sh", sh}};
     if (!residual_file.empty())
-      j["residual"]["map"] = mr::fs::relative(mr::fs::absolute(residual_file), mr::fs::absolute(out).parent_path()).generic_string();
+      j["residual"]["map"] =
+          mr::fs::relative(mr::fs::absolute(residual_file), mr::fs::absolute(out).parent_path()).generic_string();
     mr::ParseLights(j, out);  // what mr-render will read; checked before anything is written
     if (!residual_file.empty()) {
       mr::ImageWriteOptions wo;
@@ -154,9 +162,10 @@ int main(int argc, char** argv) {
         report.Skip("residual energy", "the lights took all of the map's energy (" + eo.method +
                                            "): the residual map is black and its SH zero");
     } else if (ex.taken_fraction < 1 - 1e-9) {
-      report.Warn(fmt::format("the lights leave {:.1f}% of the map's energy out and no --residual keeps it (lights.json "
-                              "holds its spherical harmonics)",
-                              100 * (1 - ex.taken_fraction)));
+      report.Warn(
+          fmt::format("the lights leave {:.1f}% of the map's energy out and no --residual keeps it (lights.json "
+                      "holds its spherical harmonics)",
+                      100 * (1 - ex.taken_fraction)));
     }
     mr::WriteTextFile(out, j.dump(2) + "\n");
     report.AddOutput(out);
@@ -164,15 +173,16 @@ int main(int argc, char** argv) {
     report.SetMetric("lights", lights.size());
     report.SetMetric("extraction_seconds", ex.seconds);
     report.SetMetric("taken_fraction", ex.taken_fraction);
-    report.SetMetric("irradiance_error", {{"rms_relative", e.rms_relative}, {"max_relative", e.max_relative},
+    report.SetMetric("irradiance_error", {{"rms_relative", e.rms_relative},
+                                          {"max_relative", e.max_relative},
                                           {"rms_relative_with_residual_sh", er.rms_relative},
                                           {"normals", normals}});
     if (static_cast<int>(lights.size()) < eo.count)
       report.Warn(fmt::format("{} lights asked for, {} found", eo.count, lights.size()));
-    spdlog::info("{}: {} lights ({}) in {:.3f} s take {:.1f}% of the energy; irradiance error {:.3g} (RMS), {:.3g} "
-                 "with the residual's SH",
-                 env_file, lights.size(), eo.method, ex.seconds, 100 * ex.taken_fraction, e.rms_relative,
-                 er.rms_relative);
+    spdlog::info(
+        "{}: {} lights ({}) in {:.3f} s take {:.1f}% of the energy; irradiance error {:.3g} (RMS), {:.3g} "
+        "with the residual's SH",
+        env_file, lights.size(), eo.method, ex.seconds, 100 * ex.taken_fraction, e.rms_relative, er.rms_relative);
     return mr::kExitOk;
   });
 }

@@ -4,13 +4,13 @@
 #include <Eigen/Geometry>
 
 #include "camera/camera_model.h"
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
-#include "core/spherical.h"
 #include "core/report.h"
+#include "core/spherical.h"
 #include "probe/unwrap.h"
-#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
@@ -18,26 +18,26 @@ int main(int argc, char** argv) {
   std::string out, fisheye;
   std::vector<double> rotate;
   mr::UnwrapOptions uo;
-  mr::ConfigureApp(
-      app, "mr-probe",
-      "Unwraps HDR photographs of a mirror sphere (from mr-hdr) into a world-aligned lat-long\n"
-      "environment map (OpenEXR's LATLONG convention, docs/conventions.md), using the sphere's centre\n"
-      "and the camera's orientation in probe.json (mr-calibrate sphere) and the camera's mrcal model.\n"
-      "The reflection is solved exactly for a camera at a finite distance; resampling is filtered by the\n"
-      "mapping's Jacobian; a confidence layer says how well each direction is seen. Several views (one\n"
-      "probe.json each, or one for all) merge by confidence, which removes the camera's reflection.\n"
-      "With --fisheye CAMERA, the photographs are fish-eye views of the room instead (oriented by the\n"
-      "camera's extrinsics).",
-      "  mr-probe probe-raw.exr --probe probe.json --reflectance 0.6 --out env.exr\n"
-      "  mr-probe front.exr side.exr --probe front.json --probe side.json --out env.exr --width 1024\n"
-      "  mr-probe sky.exr --fisheye light.cameramodel --rotate 0,90,0 --out env.exr");
+  mr::ConfigureApp(app, "mr-probe",
+                   "Unwraps HDR photographs of a mirror sphere (from mr-hdr) into a world-aligned lat-long\n"
+                   "environment map (OpenEXR's LATLONG convention, docs/conventions.md), using the sphere's centre\n"
+                   "and the camera's orientation in probe.json (mr-calibrate sphere) and the camera's mrcal model.\n"
+                   "The reflection is solved exactly for a camera at a finite distance; resampling is filtered by the\n"
+                   "mapping's Jacobian; a confidence layer says how well each direction is seen. Several views (one\n"
+                   "probe.json each, or one for all) merge by confidence, which removes the camera's reflection.\n"
+                   "With --fisheye CAMERA, the photographs are fish-eye views of the room instead (oriented by the\n"
+                   "camera's extrinsics).",
+                   "  mr-probe probe-raw.exr --probe probe.json --reflectance 0.6 --out env.exr\n"
+                   "  mr-probe front.exr side.exr --probe front.json --probe side.json --out env.exr --width 1024\n"
+                   "  mr-probe sky.exr --fisheye light.cameramodel --rotate 0,90,0 --out env.exr");
   app.add_option("photos", photos, "HDR photographs (R, G, B first)")->required()->check(CLI::ExistingFile);
   app.add_option("--probe", probes, "probe.json for each photograph, or one for all")->check(CLI::ExistingFile);
   app.add_option("--fisheye", fisheye, "The photographs are fish-eye views through this camera model")
       ->check(CLI::ExistingFile);
   app.add_option("--out", out, "Environment map (EXR: R G B confidence.Y)")->required();
   app.add_option("--width", uo.width, "Map width (height is half)")->default_val(512);
-  app.add_option("--reflectance", uo.reflectance, "The mirror's reflectance (chrome: about 0.6); the photograph is divided by it")
+  app.add_option("--reflectance", uo.reflectance,
+                 "The mirror's reflectance (chrome: about 0.6); the photograph is divided by it")
       ->default_val(1.0);
   app.add_option("--rotate", rotate, "Rotate the world by X,Y,Z degrees (applied as Rz Ry Rx) to correct its alignment")
       ->delimiter(',')
@@ -52,11 +52,12 @@ int main(int argc, char** argv) {
                    Eigen::AngleAxisd(rotate[0] * mr::kDegToRad, Eigen::Vector3d::UnitX()))
                       .toRotationMatrix();
     uo.Check();
-    if (fisheye.empty() && probes.empty()) throw mr::UsageError("give --probe probe.json (mirror sphere) or --fisheye CAMERA");
+    if (fisheye.empty() && probes.empty())
+      throw mr::UsageError("give --probe probe.json (mirror sphere) or --fisheye CAMERA");
     if (!fisheye.empty() && !probes.empty()) throw mr::UsageError("--fisheye and --probe contradict each other");
     if (probes.size() > 1 && probes.size() != photos.size())
-      throw mr::UsageError(fmt::format("{} --probe files for {} photographs: give one, or one each", probes.size(),
-                                       photos.size()));
+      throw mr::UsageError(
+          fmt::format("{} --probe files for {} photographs: give one, or one each", probes.size(), photos.size()));
     std::vector<mr::Image> views;
     nlohmann::json per_view = nlohmann::json::array();
     for (size_t i = 0; i < photos.size(); ++i) {

@@ -6,17 +6,17 @@
 #include <cstdio>
 
 #include "camera/register.h"
+#include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/video.h"
 #include "geometry/mesh.h"
 #include "scene/frames.h"
-#include "cli/tool.h"
 
 namespace {
 
-int PrintAlignment(const mr::Report &rep) {
-  const auto &m = rep.metrics();
+int PrintAlignment(const mr::Report& rep) {
+  const auto& m = rep.metrics();
   if (m.contains("alignment") && m["alignment"].contains("pairs"))
     std::printf(
         "aligned %d frames: scale %.6g, centre residual rmse %.4f m "
@@ -41,7 +41,7 @@ int PrintAlignment(const mr::Report &rep) {
 
 }  // namespace
 
-int main(int argc, char **argv) {
+int main(int argc, char** argv) {
   CLI::App app;
   mr::ConfigureApp(app, "mr-register",
                    "Poses of a video's camera in the room's frame, from "
@@ -75,7 +75,7 @@ int main(int argc, char **argv) {
   mr::RegisterOptions ro;
   mr::ColmapRunOptions co;
   int attempts = 3;
-  auto common = [&](CLI::App *c) {
+  auto common = [&](CLI::App* c) {
     c->fallthrough();
     c->add_option("--trajectory", trajectory,
                   "Align to this TUM trajectory or 7-Scenes folder (the room's "
@@ -111,7 +111,7 @@ int main(int argc, char **argv) {
                   "Metres per radian of orientation residuals (0: centres only)")
         ->default_val(0.1);
   };
-  CLI::App *run = app.add_subcommand("colmap",
+  CLI::App* run = app.add_subcommand("colmap",
                                      "Register FRAMES (a folder, a printf pattern of PNG/JPEG "
                                      "frames, or a video) with COLMAP");
   run->add_option("FRAMES", frames, "The video's frames")->required();
@@ -129,21 +129,21 @@ int main(int argc, char **argv) {
   run->add_option("--camera", camera, "Known intrinsics (PINHOLE or OPENCV4 .cameramodel), kept fixed")
       ->check(CLI::ExistingFile);
   common(run);
-  CLI::App *align = app.add_subcommand("align", "Align an existing COLMAP text model (cameras.txt, images.txt)");
+  CLI::App* align = app.add_subcommand("align", "Align an existing COLMAP text model (cameras.txt, images.txt)");
   align->add_option("MODEL", model_dir, "Folder of the text model")->required()->check(CLI::ExistingDirectory);
   common(align);
   return mr::RunTool("mr-register", app, argc, argv, [&] {
-    auto &rep = mr::ToolReport();
+    auto& rep = mr::ToolReport();
     if (!trajectory.empty()) ro.trajectory = trajectory;
     if (!truth.empty()) ro.truth = truth;
     ro.out_poses = out;
     if (!meshes.empty()) {
       mr::Mesh merged;
-      for (const auto &m : meshes) {
+      for (const auto& m : meshes) {
         const mr::Mesh one = mr::ReadMesh(m);
         const int base = static_cast<int>(merged.positions.size());
         merged.positions.insert(merged.positions.end(), one.positions.begin(), one.positions.end());
-        for (const auto &t : one.triangles) merged.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+        for (const auto& t : one.triangles) merged.triangles.push_back(t + Eigen::Vector3i::Constant(base));
         rep.AddInput(m);
       }
       ro.mesh = std::move(merged);

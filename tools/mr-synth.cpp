@@ -2,22 +2,21 @@
 #include <fmt/format.h>
 
 #include "calib/board.h"
+#include "cli/tool.h"
 #include "synth/board_view.h"
 #include "synth/synth.h"
-#include "cli/tool.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
   mr::SynthOptions o;
-  mr::ConfigureApp(
-      app, "mr-synth",
-      "Writes a deterministic synthetic capture of a known room: camera model, trajectory (TUM),\n"
-      "photographs I_c (linear EXR and 8-bit PNG), room meshes with their albedos, a sky with a sun,\n"
-      "the virtual object, scene.json, and the ground truth (converged render of room + object)\n"
-      "named by scene.json's \"reference\". Presets: small (64x48, 2 frames, seconds), medium\n"
-      "(160x120, 4 frames, the main job's), room\n"
-      "(640x480, 4 frames, for benchmarks).",
-      "  mr-synth --preset small --out capture && mr-render capture/scene.json");
+  mr::ConfigureApp(app, "mr-synth",
+                   "Writes a deterministic synthetic capture of a known room: camera model, trajectory (TUM),\n"
+                   "photographs I_c (linear EXR and 8-bit PNG), room meshes with their albedos, a sky with a sun,\n"
+                   "the virtual object, scene.json, and the ground truth (converged render of room + object)\n"
+                   "named by scene.json's \"reference\". Presets: small (64x48, 2 frames, seconds), medium\n"
+                   "(160x120, 4 frames, the main job's), room\n"
+                   "(640x480, 4 frames, for benchmarks).",
+                   "  mr-synth --preset small --out capture && mr-render capture/scene.json");
   app.add_option("--preset", o.preset, "small, medium or room")->default_val("small");
   app.add_option("--out", o.out, "Output folder (created)")->required();
   app.add_option("--seed", o.seed, "Random seed")->default_val(1);
@@ -30,11 +29,13 @@ int main(int argc, char** argv) {
   app.add_option("--truth-spp", o.truth_spp, "Samples per pixel of the ground truth (default: the preset's)")
       ->check(CLI::PositiveNumber);
   std::string boards, board_file;
-  app.add_option("--boards", boards,
-                 "Instead of a room: calibration photographs of a board through a known lens: pinhole, opencv8, "
-                 "fisheye190 (a 190-degree splined fish-eye), rig (two cameras), or a .cameramodel file (e.g. a capture's "
-                 "camera); with the true models in truth/");
-  app.add_option("--board", board_file, "The board for --boards (default: 8x6 inner corners of 30 mm, OpenCV's detector)")
+  app.add_option(
+      "--boards", boards,
+      "Instead of a room: calibration photographs of a board through a known lens: pinhole, opencv8, "
+      "fisheye190 (a 190-degree splined fish-eye), rig (two cameras), or a .cameramodel file (e.g. a capture's "
+      "camera); with the true models in truth/");
+  app.add_option("--board", board_file,
+                 "The board for --boards (default: 8x6 inner corners of 30 mm, OpenCV's detector)")
       ->check(CLI::ExistingFile);
   bool rgbd = false;
   mr::RgbdSynthSize rs;
@@ -67,8 +68,8 @@ int main(int argc, char** argv) {
       b.square_m = 0.03;
       b.detector = "opencv";
       if (!board_file.empty()) b = mr::ReadBoard(board_file);
-      const std::string note = fmt::format("written by mr-synth ({}); boards through the {} lens, seed {}", o.command_line,
-                                           boards, o.seed);
+      const std::string note =
+          fmt::format("written by mr-synth ({}); boards through the {} lens, seed {}", o.command_line, boards, o.seed);
       for (const auto& f : mr::WriteBoardSet(boards, b, o.out, o.seed, note)) mr::ToolReport().AddOutput(f.string());
       return mr::kExitOk;
     }

@@ -15,9 +15,7 @@ std::vector<Eigen::Vector3d> BoardSpec::ObjectPoints() const {
 }
 
 BoardSpec ParseBoard(const Json& j, const std::string& name) {
-  auto fail = [&](const std::string& key, const std::string& what) {
-    throw Error(FileLoc{name, 0, 0, key}, what);
-  };
+  auto fail = [&](const std::string& key, const std::string& what) { throw Error(FileLoc{name, 0, 0, key}, what); };
   if (!j.is_object()) fail("", "a board definition must be a JSON object");
   for (auto& [k, v] : j.items())
     if (k != "name" && k != "type" && k != "inner_corners" && k != "square_mm" && k != "marker_mm" &&
@@ -44,7 +42,8 @@ BoardSpec ParseBoard(const Json& j, const std::string& name) {
         j["marker_mm"].get<double>() >= j["square_mm"].get<double>())
       fail("marker_mm", "expected a positive number smaller than square_mm");
     b.marker_m = j["marker_mm"].get<double>() / 1000.0;
-    if (!j.contains("dictionary") || !j["dictionary"].is_string()) fail("dictionary", "expected an ArUco dictionary name");
+    if (!j.contains("dictionary") || !j["dictionary"].is_string())
+      fail("dictionary", "expected an ArUco dictionary name");
     b.dictionary = j["dictionary"].get<std::string>();
     if (b.detector != "opencv") fail("detector", "ChArUco boards are detected with OpenCV");
   }
@@ -99,10 +98,10 @@ std::string BoardSvg(const BoardSpec& b, double margin_m, double charuco_pixels_
   std::ostringstream s;
   s.imbue(std::locale::classic());
   s << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
-    << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "mm\" height=\"" << h
-    << "mm\" viewBox=\"0 0 " << w << ' ' << h << "\">\n"
-    << "<!-- mr board " << b.name << ": " << b.inner_x << "x" << b.inner_y << " inner corners, "
-    << sq << " mm squares. Print at 100% (no scaling). -->\n"
+    << "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"" << w << "mm\" height=\"" << h << "mm\" viewBox=\"0 0 " << w
+    << ' ' << h << "\">\n"
+    << "<!-- mr board " << b.name << ": " << b.inner_x << "x" << b.inner_y << " inner corners, " << sq
+    << " mm squares. Print at 100% (no scaling). -->\n"
     << "<rect x=\"0\" y=\"0\" width=\"" << w << "\" height=\"" << h << "\" fill=\"white\"/>\n";
   if (b.type == "charuco") {
     const std::string png = EncodePng8(CharucoImage(b, charuco_pixels_per_mm));
@@ -114,13 +113,12 @@ std::string BoardSvg(const BoardSpec& b, double margin_m, double charuco_pixels_
     for (int y = 0; y < b.squares_y(); ++y)
       for (int x = 0; x < b.squares_x(); ++x)
         if ((x + y) % 2 == 0)
-          s << "<rect x=\"" << margin + x * sq << "\" y=\"" << margin + y * sq << "\" width=\"" << sq
-            << "\" height=\"" << sq << "\"/>\n";
+          s << "<rect x=\"" << margin + x * sq << "\" y=\"" << margin + y * sq << "\" width=\"" << sq << "\" height=\""
+            << sq << "\"/>\n";
     s << "</g>\n";
   }
-  s << "<text x=\"" << margin << "\" y=\"" << h - 2
-    << "\" font-family=\"sans-serif\" font-size=\"3\">" << b.name << ": " << b.inner_x << "x"
-    << b.inner_y << " inner corners, squares " << sq << " mm";
+  s << "<text x=\"" << margin << "\" y=\"" << h - 2 << "\" font-family=\"sans-serif\" font-size=\"3\">" << b.name
+    << ": " << b.inner_x << "x" << b.inner_y << " inner corners, squares " << sq << " mm";
   if (b.type == "charuco") s << ", markers " << b.marker_m * 1000.0 << " mm " << b.dictionary;
   s << "; check: " << bw << " mm across</text>\n</svg>\n";
   return s.str();

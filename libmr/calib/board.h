@@ -17,11 +17,11 @@ namespace mr {
 
 struct BoardSpec {
   std::string name;
-  std::string type = "chessboard";  // "chessboard" or "charuco"
-  int inner_x = 0, inner_y = 0;     // inner corners per row and per column
-  double square_m = 0;              // square side, metres
-  double marker_m = 0;              // ChArUco marker side, metres
-  std::string dictionary;           // ChArUco: OpenCV ArUco dictionary name
+  std::string type = "chessboard";     // "chessboard" or "charuco"
+  int inner_x = 0, inner_y = 0;        // inner corners per row and per column
+  double square_m = 0;                 // square side, metres
+  double marker_m = 0;                 // ChArUco marker side, metres
+  std::string dictionary;              // ChArUco: OpenCV ArUco dictionary name
   std::string detector = "mrgingham";  // "mrgingham" or "opencv"
 
   int squares_x() const { return inner_x + 1; }
@@ -47,8 +47,8 @@ Image CharucoImage(const BoardSpec& b, double pixels_per_mm);
 std::string EncodePng8(const Image& gray);
 
 struct CharucoDetection {
-  int markers = 0;                    // ArUco markers found
-  std::vector<int> ids;               // ChArUco corner ids found
+  int markers = 0;                       // ArUco markers found
+  std::vector<int> ids;                  // ChArUco corner ids found
   std::vector<Eigen::Vector2d> corners;  // their pixels (mr convention)
 };
 // Detects the board's markers and interpolates its chessboard corners.

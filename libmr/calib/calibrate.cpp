@@ -3,7 +3,9 @@
 #include <suitesparse/cholmod.h>
 extern "C" {
 #include <mrcal/mrcal.h>
+// clang-format off: mrcal-internal.h needs mrcal.h's types first
 #include <mrcal/mrcal-internal.h>
+// clang-format on
 }
 
 #include <Eigen/Cholesky>
@@ -14,8 +16,8 @@ extern "C" {
 #include <cmath>
 
 #include "core/error.h"
-#include "core/npz.h"
 #include "core/math.h"
+#include "core/npz.h"
 
 namespace mr {
 
@@ -26,7 +28,8 @@ mrcal_lensmodel_t Lensmodel(const std::string& name) {
   if (!mrcal_lensmodel_from_name(&m, name.c_str()) || !mrcal_lensmodel_type_is_valid(m.type))
     throw UsageError(fmt::format("unknown lens model \"{}\"", name));
   mrcal_lensmodel_metadata_t meta = mrcal_lensmodel_metadata(&m);
-  if (!meta.has_core) throw UsageError(fmt::format("lens model {} has no intrinsics core; mr-calibrate needs one", name));
+  if (!meta.has_core)
+    throw UsageError(fmt::format("lens model {} has no intrinsics core; mr-calibrate needs one", name));
   return m;
 }
 
@@ -36,12 +39,12 @@ mrcal_lensmodel_t Lensmodel(const std::string& name) {
 struct Problem {
   int nx = 0, ny = 0, ncams = 1;
   double spacing = 0;
-  std::vector<Eigen::Vector2i> sizes;   // per camera
-  std::vector<double> intrinsics;       // Ncams x n
-  std::vector<mrcal_pose_t> extrinsics; // cameras 1.., rt_cam_fromref
-  std::vector<mrcal_pose_t> frames;     // board -> reference
+  std::vector<Eigen::Vector2i> sizes;    // per camera
+  std::vector<double> intrinsics;        // Ncams x n
+  std::vector<mrcal_pose_t> extrinsics;  // cameras 1.., rt_cam_fromref
+  std::vector<mrcal_pose_t> frames;      // board -> reference
   std::vector<mrcal_observation_board_t> obs;
-  std::vector<mrcal_point3_t> pool;     // (Nobs, ny, nx): x, y, weight (< 0 outlier)
+  std::vector<mrcal_point3_t> pool;              // (Nobs, ny, nx): x, y, weight (< 0 outlier)
   std::vector<std::pair<int, int>> view_of_obs;  // (camera, view)
 
   int Ncams_extrinsics() const { return ncams - 1; }
@@ -154,9 +157,9 @@ Eigen::MatrixXd StateCovariance(Problem* p, const mrcal_lensmodel_t& lens, doubl
   const std::vector<int> imagersizes = p->Imagersizes();
   if (!mrcal_optimizer_callback(b.data(), n_state * static_cast<int>(sizeof(double)), x.data(),
                                 n_meas * static_cast<int>(sizeof(double)), &jt, p->intrinsics.data(),
-                                p->extrinsics.data(), p->frames.data(), nullptr, nullptr, C, E, F, 0, 0,
-                                p->obs.data(), nullptr, N, 0, p->pool.data(), &lens, imagersizes.data(), sel,
-                                &constants, p->spacing, p->nx, p->ny, false))
+                                p->extrinsics.data(), p->frames.data(), nullptr, nullptr, C, E, F, 0, 0, p->obs.data(),
+                                nullptr, N, 0, p->pool.data(), &lens, imagersizes.data(), sel, &constants, p->spacing,
+                                p->nx, p->ny, false))
     ThrowError("mrcal could not evaluate the solution's Jacobian");
   Eigen::MatrixXd J = Eigen::MatrixXd::Zero(n_meas, n_state);
   for (int c = 0; c < n_meas; ++c)
@@ -279,9 +282,9 @@ void Finish(Problem* p, const BoardSpec& board, const std::string& lensmodel, co
   ProjectionUncertainty::Layout l;
   l.intrinsics = mrcal_state_index_intrinsics(c, p->ncams, p->Ncams_extrinsics(), p->F(), 0, 0, p->N(), sel, &lens);
   l.n_intrinsics = static_cast<int>(n);
-  l.extrinsics = c == 0 ? -1
-                        : mrcal_state_index_extrinsics(c - 1, p->ncams, p->Ncams_extrinsics(), p->F(), 0, 0, p->N(),
-                                                       sel, &lens);
+  l.extrinsics =
+      c == 0 ? -1
+             : mrcal_state_index_extrinsics(c - 1, p->ncams, p->Ncams_extrinsics(), p->F(), 0, 0, p->N(), sel, &lens);
   l.frames = mrcal_state_index_frames(0, p->ncams, p->Ncams_extrinsics(), p->F(), 0, 0, p->N(), sel, &lens);
   l.n_frames = p->F();
   r->uncertainty = std::make_shared<ProjectionUncertainty>(lensmodel, state, var, l);
@@ -346,7 +349,8 @@ void AddCameraViews(const BoardSpec& board, std::vector<CornerDetection> detecti
     p->obs.push_back(ob);
     p->frames.push_back(pose);
     const size_t base = p->pool.size();
-    p->pool.resize(base + static_cast<size_t>(p->nx * p->ny), mrcal_point3_t{{0, 0, -1}});  // missing corners: weight < 0
+    p->pool.resize(base + static_cast<size_t>(p->nx * p->ny),
+                   mrcal_point3_t{{0, 0, -1}});  // missing corners: weight < 0
     for (size_t i = 0; i < d.pixels.size(); ++i) {
       mrcal_point3_t& q = p->pool[base + static_cast<size_t>(d.ids[i])];
       q.x = d.pixels[i].x();
@@ -374,7 +378,8 @@ ProjectionUncertainty::ProjectionUncertainty(std::string lensmodel, Eigen::Vecto
   for (int i = 0; i < 6 * layout_.n_frames; ++i) used_.push_back(layout_.frames + i);
 }
 
-Eigen::Vector2d ProjectionUncertainty::ProjectPerturbed(const Eigen::Vector3d& dir_cam, const Eigen::VectorXd& s) const {
+Eigen::Vector2d ProjectionUncertainty::ProjectPerturbed(const Eigen::Vector3d& dir_cam,
+                                                        const Eigen::VectorXd& s) const {
   auto r_at = [](const Eigen::VectorXd& v, int i) { return Eigen::Vector3d(v[i], v[i + 1], v[i + 2]); };
   // Rotations only: a point at infinity.  Camera to reference with the
   // solution; into each board's frame with the solution and back with the
@@ -434,29 +439,33 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
   if (p.N() < o.min_views) {
     int found = 0;
     for (const auto& v : r.views) found += v.detection.found;
-    throw UsageError(fmt::format("{} usable views of the board ({} photographs, the board found in {}); at least {} "
-                                 "are needed, from different angles and covering the image",
-                                 p.N(), r.views.size(), found, o.min_views));
+    throw UsageError(
+        fmt::format("{} usable views of the board ({} photographs, the board found in {}); at least {} "
+                    "are needed, from different angles and covering the image",
+                    p.N(), r.views.size(), found, o.min_views));
   }
 
   // Stage 1: the stereographic seed's core and the board poses.
   p.intrinsics = {f0, f0, cx, cy};
-  r.stages.push_back(Stage("stereographic core and board poses", Solve(&p, stereo, Selections(true, false, false, false, false))));
+  r.stages.push_back(
+      Stage("stereographic core and board poses", Solve(&p, stereo, Selections(true, false, false, false, false))));
   // Stage 2: the target model, its distortions at zero (for the splined
   // stereographic models, zero is the stereographic lens itself).
   std::vector<double> core = p.intrinsics;
   p.intrinsics.assign(static_cast<size_t>(mrcal_lensmodel_num_params(&target)), 0.0);
   std::copy(core.begin(), core.end(), p.intrinsics.begin());
-  r.stages.push_back(Stage(o.lensmodel + " core, no distortion",
-                           Solve(&p, target, Selections(true, false, false, false, false))));
+  r.stages.push_back(
+      Stage(o.lensmodel + " core, no distortion", Solve(&p, target, Selections(true, false, false, false, false))));
   // Stage 3: everything, with regularisation and outlier rejection.
   r.stages.push_back(Stage(o.lensmodel + " in full, regularised, outliers rejected",
                            Solve(&p, target, Selections(true, true, false, true, true))));
   for (double v : p.intrinsics)
-    if (!std::isfinite(v)) ThrowError("the solve diverged (non-finite intrinsics); try --focal closer to the lens's focal length in pixels");
+    if (!std::isfinite(v))
+      ThrowError("the solve diverged (non-finite intrinsics); try --focal closer to the lens's focal length in pixels");
   double noise = 0;
   const Eigen::MatrixXd var = StateCovariance(&p, target, &noise);
-  Finish(&p, board, o.lensmodel, target, PhysicalState(p, target), var, noise, OptimizationInputs(p, o.lensmodel), 0, &r);
+  Finish(&p, board, o.lensmodel, target, PhysicalState(p, target), var, noise, OptimizationInputs(p, o.lensmodel), 0,
+         &r);
   return r;
 }
 
@@ -484,16 +493,17 @@ RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vecto
   const size_t instants = detections[0].size();
   for (int c = 1; c < C; ++c)
     if (detections[static_cast<size_t>(c)].size() != instants)
-      throw UsageError(fmt::format("camera {} has {} photographs and camera 0 has {}: a rig's cameras photograph "
-                                   "the board at the same instants, one photograph each",
-                                   c, detections[static_cast<size_t>(c)].size(), instants));
+      throw UsageError(
+          fmt::format("camera {} has {} photographs and camera 0 has {}: a rig's cameras photograph "
+                      "the board at the same instants, one photograph each",
+                      c, detections[static_cast<size_t>(c)].size(), instants));
   const mrcal_lensmodel_t lens = Lensmodel(o.lensmodel);
   RigCalibrationResult rig;
   // Each camera alone: its intrinsics and the board's pose in its frame.
   for (int c = 0; c < C; ++c) {
     try {
-      rig.cameras.push_back(CalibrateCamera(board, detections[static_cast<size_t>(c)], sizes[static_cast<size_t>(c)].x(),
-                                            sizes[static_cast<size_t>(c)].y(), o));
+      rig.cameras.push_back(CalibrateCamera(board, detections[static_cast<size_t>(c)],
+                                            sizes[static_cast<size_t>(c)].x(), sizes[static_cast<size_t>(c)].y(), o));
     } catch (const UsageError& e) {
       throw UsageError(fmt::format("camera {}: {}", c, e.what()));
     }
@@ -521,9 +531,10 @@ RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vecto
       ++shared;
     }
     if (shared == 0)
-      throw UsageError(fmt::format("camera {} saw the board at no instant at which camera 0 saw it; the extrinsics "
-                                   "need photographs where both cameras see the whole board",
-                                   c));
+      throw UsageError(
+          fmt::format("camera {} saw the board at no instant at which camera 0 saw it; the extrinsics "
+                      "need photographs where both cameras see the whole board",
+                      c));
     cam_from_ref[static_cast<size_t>(c)] =
         Rigid3(Eigen::Quaterniond(Eigen::Vector4d(q_sum.normalized())), t_sum / shared);
   }

@@ -26,8 +26,8 @@ namespace mr {
 
 struct CalibrationOptions {
   std::string lensmodel = "LENSMODEL_OPENCV8";  // any mrcal model with an intrinsics core
-  double focal_px = 0;                           // seed; 0: half the image width
-  int min_views = 3;                             // refuse with fewer usable views
+  double focal_px = 0;                          // seed; 0: half the image width
+  int min_views = 3;                            // refuse with fewer usable views
 };
 
 // The projection uncertainty of a solved camera, as mrcal computes it: the
@@ -65,10 +65,10 @@ class ProjectionUncertainty {
 struct CalibrationView {
   CornerDetection detection;
   bool used = false;
-  std::string reason;         // why not used
-  double rms_px = 0;          // after the solve, over its inlier corners
+  std::string reason;  // why not used
+  double rms_px = 0;   // after the solve, over its inlier corners
   int outliers = 0;
-  Rigid3 cam_from_board;      // solved pose, for used views
+  Rigid3 cam_from_board;  // solved pose, for used views
 };
 
 struct CalibrationResult {
@@ -78,9 +78,9 @@ struct CalibrationResult {
   // accept the written file.
   CameraModel model;
   std::vector<CalibrationView> views;
-  double rms_px = 0;          // over all inlier corners, of the residual's length (mrcal's own
-                              // figure is per coordinate: sqrt(2) smaller)
-  double worst_px = 0;        // largest inlier residual
+  double rms_px = 0;    // over all inlier corners, of the residual's length (mrcal's own
+                        // figure is per coordinate: sqrt(2) smaller)
+  double worst_px = 0;  // largest inlier residual
   int corners = 0, outliers = 0;
   std::vector<std::string> stages;  // what was solved, with its RMS
   double noise_px = 0;              // the observation noise assumed by the uncertainty (per coordinate)

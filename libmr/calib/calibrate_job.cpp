@@ -20,12 +20,11 @@ namespace mr {
 
 namespace {
 
-
 // Corners in every photograph (in parallel); all photographs of one camera
 // must have the same size.  An empty path is an instant this camera did not
 // photograph.
-std::vector<CornerDetection> DetectAll(const BoardSpec& board, const std::vector<std::string>& images,
-                                       int* width, int* height, Report* r) {
+std::vector<CornerDetection> DetectAll(const BoardSpec& board, const std::vector<std::string>& images, int* width,
+                                       int* height, Report* r) {
   Report& report = *r;
   ScopedTimer t(&report, "corners");
   *width = *height = 0;
@@ -62,8 +61,11 @@ void ReportCamera(const std::string& prefix, const std::string& name, const Cali
   Report& report = *rep;
   Json views = Json::array();
   for (const auto& v : r.views) {
-    Json j = {{"image", v.detection.image}, {"found", v.detection.found}, {"used", v.used},
-                        {"corners", v.detection.pixels.size()}, {"detector", v.detection.detector}};
+    Json j = {{"image", v.detection.image},
+              {"found", v.detection.found},
+              {"used", v.used},
+              {"corners", v.detection.pixels.size()},
+              {"detector", v.detection.detector}};
     if (!v.used) j["rejected"] = v.reason;
     if (v.used) {
       j["rms_px"] = v.rms_px;
@@ -101,11 +103,12 @@ void ReportCamera(const std::string& prefix, const std::string& name, const Cali
   report.SetMetric(prefix + "views", views);
   int used = 0;
   for (const auto& v : r.views) used += v.used;
-  spdlog::info("{}: {} of {} photographs used; RMS {:.3f} px, worst {:.3f} px, {} outliers", name, used,
-               r.views.size(), r.rms_px, r.worst_px, r.outliers);
-  spdlog::info("{}: projection uncertainty (1 sigma): {:.3f} px at the centre, {:.3f} px at the top-left corner; "
-               "below 1 px over {:.0f}% of a 9x7 grid",
-               name, sigma(0.5 * W, 0.5 * H), sigma(0, 0), 100.0 * valid / total);
+  spdlog::info("{}: {} of {} photographs used; RMS {:.3f} px, worst {:.3f} px, {} outliers", name, used, r.views.size(),
+               r.rms_px, r.worst_px, r.outliers);
+  spdlog::info(
+      "{}: projection uncertainty (1 sigma): {:.3f} px at the centre, {:.3f} px at the top-left corner; "
+      "below 1 px over {:.0f}% of a 9x7 grid",
+      name, sigma(0.5 * W, 0.5 * H), sigma(0, 0), 100.0 * valid / total);
 }
 
 // NAME=DIR/PREFIX*SUFFIX: the photographs that match, keyed by what the '*'
@@ -116,9 +119,10 @@ std::map<std::string, std::string> Glob(const std::string& pattern, const std::s
   const size_t star = file.find('*');
   if (star == std::string::npos || file.find('*', star + 1) != std::string::npos ||
       p.parent_path().string().find('*') != std::string::npos)
-    throw UsageError(fmt::format("--camera {}={}: the pattern needs exactly one '*', in the file name (quote it "
-                                     "so that the shell leaves it alone)",
-                                     name, pattern));
+    throw UsageError(
+        fmt::format("--camera {}={}: the pattern needs exactly one '*', in the file name (quote it "
+                    "so that the shell leaves it alone)",
+                    name, pattern));
   const std::string prefix = file.substr(0, star), suffix = file.substr(star + 1);
   const fs::path dir = p.parent_path().empty() ? fs::path(".") : p.parent_path();
   if (!fs::is_directory(dir)) ThrowErrorAt(FileLoc{dir.string()}, "no such directory");
@@ -141,7 +145,6 @@ bool InstantLess(const std::string& a, const std::string& b) {
   if (na && nb && a.size() != b.size()) return a.size() < b.size();
   return a < b;
 }
-
 
 // mr-calibrate sphere: probe.json (docs/formats.md).
 }  // namespace
@@ -177,14 +180,16 @@ void RunSphereCalibration(const SphereJob& job, Report* rep) {
                            {"correlation", fit.correlation},
                            {"visible_fraction", fit.visible_fraction},
                            {"first_circle_px", {fit.first_circle.x(), fit.first_circle.y(), fit.first_circle.z()}}});
-      spdlog::info("{}: centre ({:.4f}, {:.4f}, {:.4f}) m, 1 sigma ({:.2g}, {:.2g}, {:.2g}) m; {} of {} edge points, "
-                   "RMS {:.3f} px, {:.0f}% of the outline visible",
-                   f, fit.centre.x(), fit.centre.y(), fit.centre.z(), s.x(), s.y(), s.z(), fit.inliers, fit.edge_points,
-                   fit.rms_px, 100 * fit.visible_fraction);
+      spdlog::info(
+          "{}: centre ({:.4f}, {:.4f}, {:.4f}) m, 1 sigma ({:.2g}, {:.2g}, {:.2g}) m; {} of {} edge points, "
+          "RMS {:.3f} px, {:.0f}% of the outline visible",
+          f, fit.centre.x(), fit.centre.y(), fit.centre.z(), s.x(), s.y(), s.z(), fit.inliers, fit.edge_points,
+          fit.rms_px, 100 * fit.visible_fraction);
       if (fit.visible_fraction < 0.9)
-        report.Warn(fmt::format("{}: only {:.0f}% of the sphere's outline is in the image; the distance to it is less "
-                                "certain than its covariance says (docs/guides/calibration.md)",
-                                f, 100 * fit.visible_fraction));
+        report.Warn(
+            fmt::format("{}: only {:.0f}% of the sphere's outline is in the image; the distance to it is less "
+                        "certain than its covariance says (docs/guides/calibration.md)",
+                        f, 100 * fit.visible_fraction));
       fits.push_back(fit);
     }
   }
@@ -200,8 +205,8 @@ void RunSphereCalibration(const SphereJob& job, Report* rep) {
   if (!world_board.empty()) {
     const BoardSpec board = ReadBoard(board_file);
     report.AddInput(world_board);
-    const Rigid3 world_from_cam_board = WorldFromCamByFlatBoard(
-        BoardPose(board, camera, DetectCorners(ReadImage(world_board), board, world_board)));
+    const Rigid3 world_from_cam_board =
+        WorldFromCamByFlatBoard(BoardPose(board, camera, DetectCorners(ReadImage(world_board), board, world_board)));
     world_from_cam = world_from_cam_board.rotation.toRotationMatrix();
     cam_in_world = world_from_cam_board.translation;
     world = "the board in " + world_board;
@@ -224,9 +229,10 @@ void RunSphereCalibration(const SphereJob& job, Report* rep) {
   report.SetMetric("sigma_m", {s.x(), s.y(), s.z()});
   report.SetMetric("consistency_chi2", chi2);
   report.SetMetric("photographs", per_image);
-  spdlog::info("{}: sphere centre ({:.4f}, {:.4f}, {:.4f}) m in the camera, 1 sigma ({:.2g}, {:.2g}, {:.2g}) m; "
-               "world: {}",
-               out, all.centre.x(), all.centre.y(), all.centre.z(), s.x(), s.y(), s.z(), world);
+  spdlog::info(
+      "{}: sphere centre ({:.4f}, {:.4f}, {:.4f}) m in the camera, 1 sigma ({:.2g}, {:.2g}, {:.2g}) m; "
+      "world: {}",
+      out, all.centre.x(), all.centre.y(), all.centre.z(), s.x(), s.y(), s.z(), world);
 }
 
 void RunCameraCalibration(const CameraJob& job, Report* rep) {
@@ -249,13 +255,13 @@ void RunCameraCalibration(const CameraJob& job, Report* rep) {
 
 void RunRigCalibration(const RigJob& job, Report* rep) {
   Report& report = *rep;
-const BoardSpec board = ReadBoard(job.board);
-report.AddInput(job.board);
-const std::vector<std::string>& cameras = job.cameras;
-const std::string& out_dir = job.out_dir;
-const std::string& provenance = job.provenance;
-const CalibrationOptions& o = job.options;
-if (cameras.size() < 2) throw UsageError("a rig needs --camera at least twice");
+  const BoardSpec board = ReadBoard(job.board);
+  report.AddInput(job.board);
+  const std::vector<std::string>& cameras = job.cameras;
+  const std::string& out_dir = job.out_dir;
+  const std::string& provenance = job.provenance;
+  const CalibrationOptions& o = job.options;
+  if (cameras.size() < 2) throw UsageError("a rig needs --camera at least twice");
   std::vector<std::string> names;
   std::vector<std::map<std::string, std::string>> files;
   for (const auto& c : cameras) {
@@ -303,15 +309,16 @@ if (cameras.size() < 2) throw UsageError("a rig needs --camera at least twice");
     cr.model.cam_from_ref().ToRt(rt);
     const Eigen::Matrix<double, 6, 6>& cov = r.extrinsics_covariance[c];
     // Worst-direction 1 sigma of the rotation (degrees) and of the position (mm).
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> er(cov.topLeftCorner<3, 3>()), et(cov.bottomRightCorner<3, 3>());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> er(cov.topLeftCorner<3, 3>()),
+        et(cov.bottomRightCorner<3, 3>());
     const double sr = std::sqrt(std::max(0.0, er.eigenvalues().maxCoeff())) / kDegToRad;
     const double st = 1e3 * std::sqrt(std::max(0.0, et.eigenvalues().maxCoeff()));
     const Eigen::Vector3d centre = cr.model.cam_from_ref().Inverse().translation;
     Json ex = {{"rt_cam_fromref", std::vector<double>(rt, rt + 6)},
-                         {"centre_in_ref_m", {centre.x(), centre.y(), centre.z()}},
-                         {"rotation_deg", Eigen::AngleAxisd(cr.model.cam_from_ref().rotation).angle() / kDegToRad},
-                         {"sigma_rotation_deg", sr},
-                         {"sigma_translation_mm", st}};
+               {"centre_in_ref_m", {centre.x(), centre.y(), centre.z()}},
+               {"rotation_deg", Eigen::AngleAxisd(cr.model.cam_from_ref().rotation).angle() / kDegToRad},
+               {"sigma_rotation_deg", sr},
+               {"sigma_translation_mm", st}};
     Json covj = Json::array();
     for (int i = 0; i < 6; ++i)
       for (int j = 0; j < 6; ++j) covj.push_back(cov(i, j));

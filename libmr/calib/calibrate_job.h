@@ -18,7 +18,7 @@ struct CameraJob {
   std::vector<std::string> images;  // photographs of the board, all of one size
   std::string out;                  // the .cameramodel to write
   CalibrationOptions options;
-  std::string provenance;           // the command line, into the model's comment
+  std::string provenance;  // the command line, into the model's comment
 };
 void RunCameraCalibration(const CameraJob& job, Report* report);
 
@@ -30,7 +30,7 @@ void RunCameraCalibration(const CameraJob& job, Report* report);
 struct RigJob {
   std::string board;
   std::vector<std::string> cameras;
-  std::string out_dir;              // NAME.cameramodel for each camera
+  std::string out_dir;  // NAME.cameramodel for each camera
   CalibrationOptions options;
   std::string provenance;
 };
@@ -40,12 +40,12 @@ void RunRigCalibration(const RigJob& job, Report* report);
 // calibrated camera, in the world of the camera's rig or of a board lying
 // flat (`world_board`, with `board`); writes probe.json.
 struct SphereJob {
-  std::string camera;               // .cameramodel
+  std::string camera;  // .cameramodel
   SphereOptions options;
-  std::vector<double> circle;       // x, y, r px: a first circle instead of the Hough transform (empty: none)
+  std::vector<double> circle;  // x, y, r px: a first circle instead of the Hough transform (empty: none)
   std::string world_board, board;
   std::vector<std::string> images;
-  std::string out;                  // probe.json
+  std::string out;  // probe.json
   std::string provenance;
 };
 void RunSphereCalibration(const SphereJob& job, Report* report);

@@ -69,9 +69,10 @@ void FixOrder(const BoardSpec& b, CornerDetection* d) {
   std::vector<Eigen::Vector2d> reordered(d->pixels.size());
   for (size_t i = 0; i < reordered.size(); ++i) reordered[i] = d->pixels[static_cast<size_t>(syms[best][i])];
   d->pixels = reordered;
-  d->order = fmt::format("the board looks the same turned by {} degrees: corner 0 taken as the one nearest the "
-                         "image's top-left{}",
-                         syms.size() == 2 ? "180" : "90", best == 0 ? "" : " (reordered)");
+  d->order = fmt::format(
+      "the board looks the same turned by {} degrees: corner 0 taken as the one nearest the "
+      "image's top-left{}",
+      syms.size() == 2 ? "180" : "90", best == 0 ? "" : " (reordered)");
 }
 
 }  // namespace
@@ -84,8 +85,10 @@ CornerDetection DetectCorners(const Image& gray, const BoardSpec& b, const std::
   const int n = b.inner_x * b.inner_y;
   if (b.type == "chessboard" && b.detector == "mrgingham") {
     if (b.inner_x != b.inner_y)
-      ThrowErrorAt(FileLoc{b.name}, "mrgingham finds square grids only; this board has {}x{} inner corners: use "
-                   "detector \"opencv\"", b.inner_x, b.inner_y);
+      ThrowErrorAt(FileLoc{b.name},
+                   "mrgingham finds square grids only; this board has {}x{} inner corners: use "
+                   "detector \"opencv\"",
+                   b.inner_x, b.inner_y);
     d.detector = "mrgingham";
     std::vector<mrgingham::PointDouble> pts;
     signed char* levels = nullptr;

@@ -25,15 +25,15 @@
 namespace mr {
 
 struct CornerDetection {
-  std::string image;                     // the file, for reports
+  std::string image;  // the file, for reports
   bool found = false;
-  std::string reason;                    // why not (found == false), or a note
-  std::vector<Eigen::Vector2d> pixels;   // detected corners
-  std::vector<int> ids;                  // their board-corner indices
-  std::string detector;                  // "mrgingham", "opencv-sb", "opencv-charuco"
-  std::string order;                     // how the corner order was fixed, for symmetric boards
-  double sharpness_px = 0;               // OpenCV's estimate of the edge width (chessboards), 0 if not measured
-  double saturated_fraction = 0;         // of pixels at the top code value
+  std::string reason;                   // why not (found == false), or a note
+  std::vector<Eigen::Vector2d> pixels;  // detected corners
+  std::vector<int> ids;                 // their board-corner indices
+  std::string detector;                 // "mrgingham", "opencv-sb", "opencv-charuco"
+  std::string order;                    // how the corner order was fixed, for symmetric boards
+  double sharpness_px = 0;              // OpenCV's estimate of the edge width (chessboards), 0 if not measured
+  double saturated_fraction = 0;        // of pixels at the top code value
 };
 
 // Quality limits: an image is rejected (with the reason) when more than

@@ -24,7 +24,8 @@ ProbeGeometry ReadProbe(const fs::path& path) {
   w.RequireObject({"quaternion_wxyz", "camera_in_world_m", "source"});
   const std::vector<double> q = w.Required("quaternion_wxyz").Numbers(4, -1, 1);
   const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-  if (std::abs(quat.norm() - 1) > 1e-6) w.Child("quaternion_wxyz").Fail(fmt::format("not a unit quaternion (norm {})", quat.norm()));
+  if (std::abs(quat.norm() - 1) > 1e-6)
+    w.Child("quaternion_wxyz").Fail(fmt::format("not a unit quaternion (norm {})", quat.norm()));
   g.world_from_cam = quat.normalized().toRotationMatrix();
   return g;
 }
@@ -41,9 +42,10 @@ void WriteProbeFile(const fs::path& out, const ProbeFile& p) {
       {"radius_m", p.radius_m},
       {"centre_cam_m", {p.centre_cam.x(), p.centre_cam.y(), p.centre_cam.z()}},
       {"centre_covariance_m2", cov},
-      {"world_from_cam", {{"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}},
-                          {"camera_in_world_m", {p.camera_in_world.x(), p.camera_in_world.y(), p.camera_in_world.z()}},
-                          {"source", p.world_source}}},
+      {"world_from_cam",
+       {{"quaternion_wxyz", {q.w(), q.x(), q.y(), q.z()}},
+        {"camera_in_world_m", {p.camera_in_world.x(), p.camera_in_world.y(), p.camera_in_world.z()}},
+        {"source", p.world_source}}},
       {"photographs", p.photographs},
       {"consistency_chi2", p.consistency_chi2},
       {"provenance", p.provenance}};

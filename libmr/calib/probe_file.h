@@ -24,7 +24,6 @@ struct ProbeGeometry {
 };
 ProbeGeometry ReadProbe(const fs::path& path);
 
-
 // Everything probe.json holds.
 struct ProbeFile {
   fs::path camera;  // the camera model; written relative to probe.json's folder
@@ -33,7 +32,7 @@ struct ProbeFile {
   Eigen::Matrix3d centre_covariance = Eigen::Matrix3d::Zero();  // m^2
   Eigen::Quaterniond world_from_cam = Eigen::Quaterniond::Identity();
   Eigen::Vector3d camera_in_world = Eigen::Vector3d::Zero();
-  std::string world_source;  // what the world frame is
+  std::string world_source;          // what the world frame is
   Json photographs = Json::array();  // per photograph's fit
   double consistency_chi2 = 0;
   std::string provenance;

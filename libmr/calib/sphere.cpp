@@ -54,7 +54,8 @@ double Bilinear(const cv::Mat& L, double x, double y) {
   const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
   const double fx = x - x0, fy = y - y0;
   auto at = [&](int xx, int yy) { return static_cast<double>(L.at<float>(yy, xx)); };
-  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) + fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
+  return (1 - fy) * ((1 - fx) * at(x0, y0) + fx * at(x0 + 1, y0)) +
+         fy * ((1 - fx) * at(x0, y0 + 1) + fx * at(x0 + 1, y0 + 1));
 }
 
 struct Edge {
@@ -66,9 +67,9 @@ struct Edge {
 // Along each normal, within +-band px: the strongest log-luminance step,
 // refined by a parabola through its neighbours.  Curve points whose search
 // would leave the image are not visible; `visible` counts the others.
-std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& camera, const std::vector<Eigen::Vector2d>& p,
-                              const std::vector<Eigen::Vector2d>& n, const std::vector<char>& ok, double band,
-                              int* visible) {
+std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& camera,
+                              const std::vector<Eigen::Vector2d>& p, const std::vector<Eigen::Vector2d>& n,
+                              const std::vector<char>& ok, double band, int* visible) {
   const cv::Mat& L = lum.log;
   const double step = 0.5;
   const int m = static_cast<int>(std::ceil(band / step));
@@ -78,7 +79,9 @@ std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& came
     if (!ok[k]) continue;
     // The search segment, clipped to the image: the curve point must be 2 px
     // inside it, with 2 px of search on either side.
-    auto inside = [&](const Eigen::Vector2d& q) { return q.x() >= 1 && q.y() >= 1 && q.x() <= L.cols - 2 && q.y() <= L.rows - 2; };
+    auto inside = [&](const Eigen::Vector2d& q) {
+      return q.x() >= 1 && q.y() >= 1 && q.x() <= L.cols - 2 && q.y() <= L.rows - 2;
+    };
     int lo = 0, hi = 0;  // sample indices i in [-m-1, m+1] inside the image
     while (lo > -m - 1 && inside(p[k] + (lo - 1) * step * n[k])) --lo;
     while (hi < m + 1 && inside(p[k] + (hi + 1) * step * n[k])) ++hi;
@@ -118,7 +121,8 @@ std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& came
     std::vector<double> gl(g.size(), 0.0);
     for (int i = std::max(g_lo, best - 3); i <= std::min(g_hi, best + 3); ++i) {
       const Eigen::Vector2d q0 = p[k] + (i - m - 1) * step * n[k], q1 = p[k] + (i - m + 1) * step * n[k];
-      gl[static_cast<size_t>(i)] = std::max(0.0, Bilinear(lum.linear, q1.x(), q1.y()) - Bilinear(lum.linear, q0.x(), q0.y()));
+      gl[static_cast<size_t>(i)] =
+          std::max(0.0, Bilinear(lum.linear, q1.x(), q1.y()) - Bilinear(lum.linear, q0.x(), q0.y()));
     }
     int lin = best;
     for (int i = std::max(g_lo + 1, best - 2); i <= std::min(g_hi - 1, best + 2); ++i)
@@ -127,7 +131,8 @@ std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& came
       best = lin;
       g = gl;
     }
-    const double gm = g[static_cast<size_t>(best - 1)], g0 = g[static_cast<size_t>(best)], gp = g[static_cast<size_t>(best + 1)];
+    const double gm = g[static_cast<size_t>(best - 1)], g0 = g[static_cast<size_t>(best)],
+                 gp = g[static_cast<size_t>(best + 1)];
     const double den = gm - 2 * g0 + gp;
     const double off = den < 0 ? Clamp(0.5 * (gm - gp) / den, -0.5, 0.5) : 0.0;
     Edge e;
@@ -155,7 +160,9 @@ struct ConeResidual {
   }
 };
 
-double AngleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) { return std::atan2(a.cross(b).norm(), a.dot(b)); }
+double AngleBetween(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  return std::atan2(a.cross(b).norm(), a.dot(b));
+}
 
 void Basis(const Eigen::Vector3d& a, Eigen::Vector3d* e1, Eigen::Vector3d* e2) {
   *e1 = (std::abs(a.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY()).cross(a).normalized();
@@ -257,15 +264,19 @@ Eigen::Vector3d FirstCircle(const LuminanceImage& lum, const CameraModel& camera
   Eigen::Vector3d best(0, 0, 0);
   for (double votes : {60.0, 40.0, 25.0, 15.0}) {
     std::vector<cv::Vec3f> circles;
-    cv::HoughCircles(g8, circles, cv::HOUGH_GRADIENT, 1.0, m / 10.0, 80, votes, std::max(6, m / 40), std::max(L.rows, L.cols) / 2);
+    cv::HoughCircles(g8, circles, cv::HOUGH_GRADIENT, 1.0, m / 10.0, 80, votes, std::max(6, m / 40),
+                     std::max(L.rows, L.cols) / 2);
     for (size_t i = 0; i < std::min<size_t>(circles.size(), 8); ++i) {
       const Eigen::Vector3d c(circles[i][0], circles[i][1], circles[i][2]);
       const int n = Clamp(static_cast<int>(kTwoPi * c.z() / 2), 64, 720);
       std::vector<Eigen::Vector2d> p, nrm;
       CirclePoints(c, n, &p, &nrm);
       int visible = 0;
-      const double score = static_cast<double>(SearchEdges(lum, camera, p, nrm, std::vector<char>(static_cast<size_t>(n), 1),
-                                                           std::max(2.0, 0.05 * c.z()), &visible).size()) / n;
+      const double score =
+          static_cast<double>(SearchEdges(lum, camera, p, nrm, std::vector<char>(static_cast<size_t>(n), 1),
+                                          std::max(2.0, 0.05 * c.z()), &visible)
+                                  .size()) /
+          n;
       if (score > best_score) {
         best_score = score;
         best = c;
@@ -274,22 +285,25 @@ Eigen::Vector3d FirstCircle(const LuminanceImage& lum, const CameraModel& camera
     if (best_score > 0.5) break;
   }
   if (best_score < 0.25)
-    ThrowErrorAt(FileLoc{name}, "no circular silhouette found (Hough transform); give the sphere's circle with --circle x,y,r");
+    ThrowErrorAt(FileLoc{name},
+                 "no circular silhouette found (Hough transform); give the sphere's circle with --circle x,y,r");
   return best;
 }
 
 }  // namespace
 
-SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const SphereOptions& o, const std::string& name) {
+SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const SphereOptions& o,
+                          const std::string& name) {
   if (!(o.radius_m > 0)) throw UsageError("the sphere's radius must be positive");
   if (photo.width() != camera.width() || photo.height() != camera.height())
-    ThrowErrorAt(FileLoc{name}, "is {}x{}; the camera model is for {}x{}", photo.width(), photo.height(), camera.width(),
-                 camera.height());
+    ThrowErrorAt(FileLoc{name}, "is {}x{}; the camera model is for {}x{}", photo.width(), photo.height(),
+                 camera.width(), camera.height());
   const LuminanceImage L = LogLuminance(photo, name);
   SphereFit fit;
   fit.first_circle = o.circle ? *o.circle : FirstCircle(L, camera, name);
   const Eigen::Vector3d c0 = fit.first_circle;
-  if (!(c0.z() >= 4)) ThrowErrorAt(FileLoc{name}, "the sphere's circle has a radius of {:.1f} px; at least 4 px are needed", c0.z());
+  if (!(c0.z() >= 4))
+    ThrowErrorAt(FileLoc{name}, "the sphere's circle has a radius of {:.1f} px; at least 4 px are needed", c0.z());
   // Samples about 2 px apart along the silhouette: neighbours' edge errors
   // are then nearly independent, which the covariance assumes.
   const int n = Clamp(static_cast<int>(kTwoPi * c0.z() / 2), 64, std::max(64, o.samples * 2));
@@ -306,7 +320,8 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
   Eigen::Vector3d axis = Eigen::Vector3d::Zero();
   {
     Eigen::Vector3d centre_ray;
-    if (camera.Unproject(c0.head<2>(), &centre_ray)) axis = centre_ray.normalized();
+    if (camera.Unproject(c0.head<2>(), &centre_ray))
+      axis = centre_ray.normalized();
     else
       for (const Edge& e : edges) axis += e.ray;
     axis.normalize();
@@ -339,7 +354,8 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
                    "only {:.0f}% of the sphere's silhouette is inside the image; at least {:.0f}% is needed (move "
                    "the sphere away from the image's edge)",
                    100 * fit.visible_fraction, 100 * o.min_visible);
-    if (edges.size() < 12) ThrowErrorAt(FileLoc{name}, "only {} edge points found along the fitted silhouette", edges.size());
+    if (edges.size() < 12)
+      ThrowErrorAt(FileLoc{name}, "only {} edge points found along the fitted silhouette", edges.size());
   }
   // Inliers: within 3 robust sigma (at least 0.5 px).
   std::vector<double> absres;
@@ -356,9 +372,12 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
   fit.edge_points = static_cast<int>(edges.size());
   fit.inliers = static_cast<int>(inl.size());
   if (alpha > 60 * kDegToRad)
-    ThrowErrorAt(FileLoc{name}, "the silhouette found spans {:.0f} degrees: that is no sphere in front of the camera; "
-                 "give the sphere's circle with --circle x,y,r", 2 * alpha / kDegToRad);
-  if (fit.inliers < 12) ThrowErrorAt(FileLoc{name}, "only {} of {} edge points agree on one sphere", fit.inliers, fit.edge_points);
+    ThrowErrorAt(FileLoc{name},
+                 "the silhouette found spans {:.0f} degrees: that is no sphere in front of the camera; "
+                 "give the sphere's circle with --circle x,y,r",
+                 2 * alpha / kDegToRad);
+  if (fit.inliers < 12)
+    ThrowErrorAt(FileLoc{name}, "only {} of {} edge points agree on one sphere", fit.inliers, fit.edge_points);
   // Neighbouring edge points err together (the texture of the reflection
   // near the rim, the blur): the residuals' autocorrelation along the
   // silhouette, summed while positive, inflates the variance by the number

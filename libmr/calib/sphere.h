@@ -15,26 +15,26 @@
 namespace mr {
 
 struct SphereOptions {
-  double radius_m = 0;                      // the sphere's radius, metres
-  std::optional<Eigen::Vector3d> circle;    // a first circle (x, y, r px) instead of the Hough transform
-  double min_visible = 0.5;                 // of the silhouette, inside the image
-  int samples = 360;                        // edge points searched around the silhouette
+  double radius_m = 0;                    // the sphere's radius, metres
+  std::optional<Eigen::Vector3d> circle;  // a first circle (x, y, r px) instead of the Hough transform
+  double min_visible = 0.5;               // of the silhouette, inside the image
+  int samples = 360;                      // edge points searched around the silhouette
 };
 
 struct SphereFit {
-  Eigen::Vector3d centre = Eigen::Vector3d::Zero();          // camera frame, metres
-  double radius_m = 0;                                        // as given
-  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();      // of the centre, m^2
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();           // the cone's, unit
-  double half_angle = 0;                                      // radians
-  double sigma_half_angle = 0;                                // radians, 1 sigma
-  double rms_rad = 0;                                         // angular residual of the inliers
-  double rms_px = 0;                                          // the same, in pixels at the silhouette
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();      // camera frame, metres
+  double radius_m = 0;                                   // as given
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // of the centre, m^2
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();       // the cone's, unit
+  double half_angle = 0;                                 // radians
+  double sigma_half_angle = 0;                           // radians, 1 sigma
+  double rms_rad = 0;                                    // angular residual of the inliers
+  double rms_px = 0;                                     // the same, in pixels at the silhouette
   int edge_points = 0, inliers = 0;
-  double correlation = 1;  // how many neighbouring edge points err as one (the variance's inflation)
-  double visible_fraction = 0;                                // of the fitted silhouette
-  Eigen::Vector3d first_circle = Eigen::Vector3d::Zero();     // x, y, r px
-  std::vector<Eigen::Vector2d> edges;                         // the inlier edge points, px
+  double correlation = 1;       // how many neighbouring edge points err as one (the variance's inflation)
+  double visible_fraction = 0;  // of the fitted silhouette
+  Eigen::Vector3d first_circle = Eigen::Vector3d::Zero();  // x, y, r px
+  std::vector<Eigen::Vector2d> edges;                      // the inlier edge points, px
 };
 
 // `name` names the photograph in messages.  Throws mr::Error with the

@@ -22,8 +22,7 @@ namespace {
 
 mrcal_lensmodel_t ParseLensModel(const std::string& name) {
   mrcal_lensmodel_t m;
-  if (!mrcal_lensmodel_from_name(&m, name.c_str()))
-    ThrowError("unknown or misconfigured lens model \"{}\"", name);
+  if (!mrcal_lensmodel_from_name(&m, name.c_str())) ThrowError("unknown or misconfigured lens model \"{}\"", name);
   return m;
 }
 
@@ -40,9 +39,8 @@ struct CameramodelDeleter {
 CameraModel FromMrcal(const mrcal_cameramodel_t& cm) {
   const int n = mrcal_lensmodel_num_params(&cm.lensmodel);
   std::vector<double> intrinsics(cm.intrinsics, cm.intrinsics + n);
-  return CameraModel(LensModelName(cm.lensmodel), std::move(intrinsics),
-                     static_cast<int>(cm.imagersize[0]), static_cast<int>(cm.imagersize[1]),
-                     Rigid3::FromRt(cm.rt_cam_ref));
+  return CameraModel(LensModelName(cm.lensmodel), std::move(intrinsics), static_cast<int>(cm.imagersize[0]),
+                     static_cast<int>(cm.imagersize[1]), Rigid3::FromRt(cm.rt_cam_ref));
 }
 
 bool IsStereographicFamily(mrcal_lensmodel_type_t t) {
@@ -54,8 +52,8 @@ bool IsStereographicFamily(mrcal_lensmodel_type_t t) {
 
 CameraModel::CameraModel() = default;
 
-CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intrinsics, int width,
-                         int height, const Rigid3& cam_from_ref)
+CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intrinsics, int width, int height,
+                         const Rigid3& cam_from_ref)
     : intrinsics_(std::move(intrinsics)), width_(width), height_(height), cam_from_ref_(cam_from_ref) {
   auto impl = std::make_shared<Impl>();
   impl->lensmodel = ParseLensModel(lensmodel);
@@ -63,12 +61,10 @@ CameraModel::CameraModel(const std::string& lensmodel, std::vector<double> intri
   const int n = mrcal_lensmodel_num_params(&impl->lensmodel);
   if (static_cast<int>(intrinsics_.size()) != n)
     ThrowError("{} takes {} intrinsics, got {}", lensmodel_, n, intrinsics_.size());
-  if (!AllFinite(intrinsics_.begin(), intrinsics_.end()))
-    ThrowError("{}: intrinsics contain NaN or Inf", lensmodel_);
+  if (!AllFinite(intrinsics_.begin(), intrinsics_.end())) ThrowError("{}: intrinsics contain NaN or Inf", lensmodel_);
   if (width <= 0 || height <= 0) ThrowError("image size {}x{} is not positive", width, height);
   if (intrinsics_[0] <= 0 || intrinsics_[1] <= 0)
-    ThrowError("{}: focal lengths must be positive, got {} and {}", lensmodel_, intrinsics_[0],
-               intrinsics_[1]);
+    ThrowError("{}: focal lengths must be positive, got {} and {}", lensmodel_, intrinsics_[0], intrinsics_[1]);
   impl_ = std::move(impl);
 }
 
@@ -105,7 +101,8 @@ class DictLiteralChecker {
 
  private:
   [[noreturn]] void Fail(const std::string& what) const {
-    int line = 1 + static_cast<int>(std::count(t_.begin(), t_.begin() + static_cast<long>(std::min(i_, t_.size())), '\n'));
+    int line =
+        1 + static_cast<int>(std::count(t_.begin(), t_.begin() + static_cast<long>(std::min(i_, t_.size())), '\n'));
     throw Error(FileLoc{name_, line}, "not a valid .cameramodel: " + what);
   }
   void Take() { clean_ += t_[i_++]; }
@@ -138,7 +135,8 @@ class DictLiteralChecker {
     Skip();
     char c = Peek();
     if (c == '\'' || c == '"') return String();
-    if (c == 'b' && i_ + 1 < t_.size() && (t_[i_ + 1] == '\'' || t_[i_ + 1] == '"')) {  // Python bytes: mrcal's optimization_inputs
+    if (c == 'b' && i_ + 1 < t_.size() &&
+        (t_[i_ + 1] == '\'' || t_[i_ + 1] == '"')) {  // Python bytes: mrcal's optimization_inputs
       Take();
       return String();
     }
@@ -146,15 +144,22 @@ class DictLiteralChecker {
       Take();
       for (;;) {
         Skip();
-        if (Peek() == ']') { Take(); return; }
+        if (Peek() == ']') {
+          Take();
+          return;
+        }
         Value(depth + 1);
         Skip();
-        if (Peek() == ',') Take();
-        else if (Peek() != ']') Fail("expected ',' or ']'");
+        if (Peek() == ',')
+          Take();
+        else if (Peek() != ']')
+          Fail("expected ',' or ']'");
       }
     }
     size_t start = i_;
-    while (i_ < t_.size() && (std::isalnum(static_cast<unsigned char>(t_[i_])) || t_[i_] == '.' || t_[i_] == '-' || t_[i_] == '+')) Take();
+    while (i_ < t_.size() &&
+           (std::isalnum(static_cast<unsigned char>(t_[i_])) || t_[i_] == '.' || t_[i_] == '-' || t_[i_] == '+'))
+      Take();
     if (i_ == start) Fail("expected a string, a number or a list");
   }
   const std::string& t_;
@@ -175,8 +180,7 @@ CameraModel CameraModel::FromString(const std::string& text, const std::string& 
   const std::string clean = DictLiteralChecker(text, name).Check();
   // libmrcal prints its parse diagnostics to stderr and returns NULL.
   std::unique_ptr<mrcal_cameramodel_t, CameramodelDeleter> cm(mrcal_read_cameramodel_string(clean.c_str(), 0));
-  if (!cm)
-    ThrowErrorAt(FileLoc{name}, "not a valid mrcal .cameramodel (libmrcal's parser rejected it)");
+  if (!cm) ThrowErrorAt(FileLoc{name}, "not a valid mrcal .cameramodel (libmrcal's parser rejected it)");
   try {
     return FromMrcal(*cm);
   } catch (const Error& e) {
@@ -184,9 +188,7 @@ CameraModel CameraModel::FromString(const std::string& text, const std::string& 
   }
 }
 
-CameraModel CameraModel::Read(const fs::path& path) {
-  return FromString(ReadTextFile(path), path.string());
-}
+CameraModel CameraModel::Read(const fs::path& path) { return FromString(ReadTextFile(path), path.string()); }
 
 std::string CameraModel::ToString(const std::string& note) const {
   // mrcal's .cameramodel text (a Python dict literal).  Written here rather
@@ -238,9 +240,7 @@ bool CameraModel::SeesBehind() const {
   return IsStereographicFamily(impl_->lensmodel.type);
 }
 
-Eigen::Vector4d CameraModel::Core() const {
-  return {intrinsics_[0], intrinsics_[1], intrinsics_[2], intrinsics_[3]};
-}
+Eigen::Vector4d CameraModel::Core() const { return {intrinsics_[0], intrinsics_[1], intrinsics_[2], intrinsics_[3]}; }
 
 bool CameraModel::Project(const Eigen::Vector3d& p, Eigen::Vector2d* q) const {
   MR_CHECK(impl_);
@@ -248,12 +248,10 @@ bool CameraModel::Project(const Eigen::Vector3d& p, Eigen::Vector2d* q) const {
   const auto type = impl_->lensmodel.type;
   if (!IsStereographicFamily(type) && p.z() <= 0) return false;
   // The stereographic projection is singular straight backwards.
-  if (IsStereographicFamily(type) && p.z() < 0 && p.head<2>().norm() <= 1e-12 * -p.z())
-    return false;
+  if (IsStereographicFamily(type) && p.z() < 0 && p.head<2>().norm() <= 1e-12 * -p.z()) return false;
   mrcal_point3_t pm = {{p.x(), p.y(), p.z()}};
   mrcal_point2_t qm;
-  if (!mrcal_project(&qm, nullptr, nullptr, &pm, 1, &impl_->lensmodel, intrinsics_.data()))
-    return false;
+  if (!mrcal_project(&qm, nullptr, nullptr, &pm, 1, &impl_->lensmodel, intrinsics_.data())) return false;
   if (!std::isfinite(qm.x) || !std::isfinite(qm.y)) return false;
   *q = Eigen::Vector2d(qm.x, qm.y);
   return true;
@@ -319,8 +317,7 @@ bool CameraModel::Unproject(const Eigen::Vector2d& q, Eigen::Vector3d* dir) cons
   // Accept only a direction that projects back onto q (the solver can stall
   // outside the model's domain and return an arbitrary vector).
   Eigen::Vector2d back;
-  if (!Project(v, &back) || (back - q).norm() > 1e-3 * std::max(1.0, Core()[0] / 1000.0))
-    return false;
+  if (!Project(v, &back) || (back - q).norm() > 1e-3 * std::max(1.0, Core()[0] / 1000.0)) return false;
   *dir = v;
   return true;
 }
@@ -347,8 +344,8 @@ double CameraModel::VerticalFovDeg() const {
 }
 
 std::string CameraModel::Describe() const {
-  return fmt::format("{} {}x{}, fov {:.1f} x {:.1f} deg", lensmodel_, width_, height_,
-                     HorizontalFovDeg(), VerticalFovDeg());
+  return fmt::format("{} {}x{}, fov {:.1f} x {:.1f} deg", lensmodel_, width_, height_, HorizontalFovDeg(),
+                     VerticalFovDeg());
 }
 
 std::vector<std::string> SupportedLensModels() {

@@ -23,8 +23,8 @@ class CameraModel {
   // `lensmodel` is an mrcal name with its configuration, e.g. "LENSMODEL_OPENCV8"
   // or "LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=200".
   // Throws mr::Error when the name is unknown or the intrinsics count is wrong.
-  CameraModel(const std::string& lensmodel, std::vector<double> intrinsics, int width,
-              int height, const Rigid3& cam_from_ref = Rigid3());
+  CameraModel(const std::string& lensmodel, std::vector<double> intrinsics, int width, int height,
+              const Rigid3& cam_from_ref = Rigid3());
 
   static CameraModel Read(const fs::path& path);
   // `name` is used in error messages.
@@ -60,8 +60,7 @@ class CameraModel {
   // backward direction of a stereographic one) or non-finite results.
   bool Project(const Eigen::Vector3d& p_in_cam, Eigen::Vector2d* q) const;
   // Batch version; `ok` may be null.
-  void Project(const std::vector<Eigen::Vector3d>& p, std::vector<Eigen::Vector2d>* q,
-               std::vector<char>* ok) const;
+  void Project(const std::vector<Eigen::Vector3d>& p, std::vector<Eigen::Vector2d>* q, std::vector<char>* ok) const;
   // Unit direction in the camera frame that images at pixel q.  Returns false
   // where the solve fails (outside the model's valid domain).
   bool Unproject(const Eigen::Vector2d& q, Eigen::Vector3d* dir) const;

@@ -16,11 +16,17 @@ struct ModelInfo {
   int cx_index;
 };
 const std::map<std::string, ModelInfo>& ColmapModels() {
-  static const std::map<std::string, ModelInfo> m = {
-      {"SIMPLE_PINHOLE", {3, 1}}, {"PINHOLE", {4, 2}},          {"SIMPLE_RADIAL", {4, 1}},
-      {"RADIAL", {5, 1}},         {"OPENCV", {8, 2}},           {"OPENCV_FISHEYE", {8, 2}},
-      {"FULL_OPENCV", {12, 2}},   {"FOV", {5, 2}},              {"SIMPLE_RADIAL_FISHEYE", {4, 1}},
-      {"RADIAL_FISHEYE", {5, 1}}, {"THIN_PRISM_FISHEYE", {12, 2}}};
+  static const std::map<std::string, ModelInfo> m = {{"SIMPLE_PINHOLE", {3, 1}},
+                                                     {"PINHOLE", {4, 2}},
+                                                     {"SIMPLE_RADIAL", {4, 1}},
+                                                     {"RADIAL", {5, 1}},
+                                                     {"OPENCV", {8, 2}},
+                                                     {"OPENCV_FISHEYE", {8, 2}},
+                                                     {"FULL_OPENCV", {12, 2}},
+                                                     {"FOV", {5, 2}},
+                                                     {"SIMPLE_RADIAL_FISHEYE", {4, 1}},
+                                                     {"RADIAL_FISHEYE", {5, 1}},
+                                                     {"THIN_PRISM_FISHEYE", {12, 2}}};
   return m;
 }
 
@@ -64,8 +70,7 @@ int64_t ToInt(const std::string& s, const FileLoc& loc) {
   char* end = nullptr;
   errno = 0;
   long long v = std::strtoll(s.c_str(), &end, 10);
-  if (end == s.c_str() || *end != '\0' || errno == ERANGE)
-    ThrowErrorAt(loc, "\"{}\" is not an integer", s);
+  if (end == s.c_str() || *end != '\0' || errno == ERANGE) ThrowErrorAt(loc, "\"{}\" is not an integer", s);
   return v;
 }
 
@@ -95,8 +100,7 @@ std::map<int64_t, ColmapCamera> ParseColmapCameras(const std::string& text, cons
     if (c.width <= 0 || c.height <= 0) ThrowErrorAt(r.Loc(), "image size must be positive");
     for (size_t i = 4; i < t.size(); ++i) c.params.push_back(ToDouble(t[i], r.Loc()));
     if (static_cast<int>(c.params.size()) != it->second.num_params)
-      ThrowErrorAt(r.Loc(), "{} takes {} parameters, got {}", c.model, it->second.num_params,
-                   c.params.size());
+      ThrowErrorAt(r.Loc(), "{} takes {} parameters, got {}", c.model, it->second.num_params, c.params.size());
     c.params[static_cast<size_t>(it->second.cx_index)] -= 0.5;
     c.params[static_cast<size_t>(it->second.cx_index + 1)] -= 0.5;
     if (!cams.emplace(c.id, c).second) ThrowErrorAt(r.Loc(), "duplicate camera id {}", c.id);
@@ -115,8 +119,7 @@ std::string FormatColmapCameras(const std::map<int64_t, ColmapCamera>& cameras) 
     ss << id << ' ' << c.model << ' ' << c.width << ' ' << c.height;
     for (size_t i = 0; i < c.params.size(); ++i) {
       double v = c.params[i];
-      if (static_cast<int>(i) == it->second.cx_index || static_cast<int>(i) == it->second.cx_index + 1)
-        v += 0.5;
+      if (static_cast<int>(i) == it->second.cx_index || static_cast<int>(i) == it->second.cx_index + 1) v += 0.5;
       ss << ' ' << v;
     }
     ss << '\n';
@@ -131,16 +134,14 @@ std::map<int64_t, ColmapImage> ParseColmapImages(const std::string& text, const 
   while (r.Next(&line)) {
     auto t = Tokens(line);
     if (t.size() != 10)
-      ThrowErrorAt(r.Loc(), "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, got {} fields",
-                   t.size());
+      ThrowErrorAt(r.Loc(), "expected IMAGE_ID QW QX QY QZ TX TY TZ CAMERA_ID NAME, got {} fields", t.size());
     ColmapImage im;
     im.id = ToInt(t[0], r.Loc());
     Eigen::Quaterniond q(ToDouble(t[1], r.Loc()), ToDouble(t[2], r.Loc()), ToDouble(t[3], r.Loc()),
                          ToDouble(t[4], r.Loc()));
-    if (std::abs(q.norm() - 1) > 1e-3)
-      ThrowErrorAt(r.Loc(), "quaternion norm is {:.6g}, not 1", q.norm());
-    im.cam_from_world = Rigid3(q, Eigen::Vector3d(ToDouble(t[5], r.Loc()), ToDouble(t[6], r.Loc()),
-                                                  ToDouble(t[7], r.Loc())));
+    if (std::abs(q.norm() - 1) > 1e-3) ThrowErrorAt(r.Loc(), "quaternion norm is {:.6g}, not 1", q.norm());
+    im.cam_from_world =
+        Rigid3(q, Eigen::Vector3d(ToDouble(t[5], r.Loc()), ToDouble(t[6], r.Loc()), ToDouble(t[7], r.Loc())));
     im.camera_id = ToInt(t[8], r.Loc());
     im.name = t[9];
     const FileLoc header_loc = r.Loc();
@@ -171,8 +172,8 @@ std::string FormatColmapImages(const std::map<int64_t, ColmapImage>& images) {
   for (const auto& [id, im] : images) {
     const auto& q = im.cam_from_world.rotation;
     const auto& t = im.cam_from_world.translation;
-    ss << id << ' ' << q.w() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' ' << t.x() << ' '
-       << t.y() << ' ' << t.z() << ' ' << im.camera_id << ' ' << im.name << '\n';
+    ss << id << ' ' << q.w() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z() << ' ' << t.x() << ' ' << t.y() << ' '
+       << t.z() << ' ' << im.camera_id << ' ' << im.name << '\n';
     for (size_t i = 0; i < im.points2d.size(); ++i) {
       Eigen::Vector2d c = PixelToColmap(im.points2d[i].xy);
       ss << (i ? " " : "") << c.x() << ' ' << c.y() << ' ' << im.points2d[i].point3d_id;
@@ -199,8 +200,7 @@ std::map<int64_t, ColmapPoint3D> ParseColmapPoints3D(const std::string& text, co
       p.rgb[k] = static_cast<uint8_t>(v);
     }
     p.error = ToDouble(t[7], r.Loc());
-    for (size_t i = 8; i < t.size(); i += 2)
-      p.track.push_back({ToInt(t[i], r.Loc()), ToInt(t[i + 1], r.Loc())});
+    for (size_t i = 8; i < t.size(); i += 2) p.track.push_back({ToInt(t[i], r.Loc()), ToInt(t[i + 1], r.Loc())});
     if (!pts.emplace(p.id, p).second) ThrowErrorAt(r.Loc(), "duplicate point id {}", p.id);
   }
   return pts;
@@ -212,8 +212,8 @@ std::string FormatColmapPoints3D(const std::map<int64_t, ColmapPoint3D>& points)
      << "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
      << "# Number of points: " << points.size() << "\n";
   for (const auto& [id, p] : points) {
-    ss << id << ' ' << p.xyz.x() << ' ' << p.xyz.y() << ' ' << p.xyz.z() << ' ' << int(p.rgb[0])
-       << ' ' << int(p.rgb[1]) << ' ' << int(p.rgb[2]) << ' ' << p.error;
+    ss << id << ' ' << p.xyz.x() << ' ' << p.xyz.y() << ' ' << p.xyz.z() << ' ' << int(p.rgb[0]) << ' ' << int(p.rgb[1])
+       << ' ' << int(p.rgb[2]) << ' ' << p.error;
     for (const auto& e : p.track) ss << ' ' << e.image_id << ' ' << e.point2d_idx;
     ss << '\n';
   }
@@ -229,13 +229,11 @@ ColmapModel ReadColmapText(const fs::path& dir) {
     m.points3d = ParseColmapPoints3D(ReadTextFile(dir / "points3D.txt"), (dir / "points3D.txt").string());
   for (const auto& [id, im] : m.images) {
     if (!m.cameras.count(im.camera_id))
-      ThrowErrorAt(FileLoc{images_name}, "image {} names camera {}, which cameras.txt lacks", id,
-                   im.camera_id);
+      ThrowErrorAt(FileLoc{images_name}, "image {} names camera {}, which cameras.txt lacks", id, im.camera_id);
     if (!m.points3d.empty())
       for (const auto& o : im.points2d)
         if (o.point3d_id >= 0 && !m.points3d.count(o.point3d_id))
-          ThrowErrorAt(FileLoc{images_name}, "image {} observes point {}, which points3D.txt lacks",
-                       id, o.point3d_id);
+          ThrowErrorAt(FileLoc{images_name}, "image {} observes point {}, which points3D.txt lacks", id, o.point3d_id);
   }
   return m;
 }
@@ -249,17 +247,14 @@ void WriteColmapText(const fs::path& dir, const ColmapModel& model) {
 
 CameraModel ToCameraModel(const ColmapCamera& c) {
   const auto& p = c.params;
-  if (c.model == "SIMPLE_PINHOLE")
-    return CameraModel("LENSMODEL_PINHOLE", {p[0], p[0], p[1], p[2]}, c.width, c.height);
-  if (c.model == "PINHOLE")
-    return CameraModel("LENSMODEL_PINHOLE", {p[0], p[1], p[2], p[3]}, c.width, c.height);
+  if (c.model == "SIMPLE_PINHOLE") return CameraModel("LENSMODEL_PINHOLE", {p[0], p[0], p[1], p[2]}, c.width, c.height);
+  if (c.model == "PINHOLE") return CameraModel("LENSMODEL_PINHOLE", {p[0], p[1], p[2], p[3]}, c.width, c.height);
   if (c.model == "SIMPLE_RADIAL")
     return CameraModel("LENSMODEL_OPENCV4", {p[0], p[0], p[1], p[2], p[3], 0, 0, 0}, c.width, c.height);
   if (c.model == "RADIAL")
     return CameraModel("LENSMODEL_OPENCV4", {p[0], p[0], p[1], p[2], p[3], p[4], 0, 0}, c.width, c.height);
   if (c.model == "OPENCV")
-    return CameraModel("LENSMODEL_OPENCV4", {p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]}, c.width,
-                       c.height);
+    return CameraModel("LENSMODEL_OPENCV4", {p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7]}, c.width, c.height);
   if (c.model == "FULL_OPENCV")
     return CameraModel("LENSMODEL_OPENCV8", std::vector<double>(p.begin(), p.end()), c.width, c.height);
   ThrowError("COLMAP camera model {} has no mrcal equivalent", c.model);

@@ -13,7 +13,6 @@ Eigen::Matrix4d Rigid3::ToMatrix() const {
   return m;
 }
 
-
 Rigid3 Rigid3::FromMatrix(const Eigen::Matrix<double, 3, 4>& m, double* orthonormality_error) {
   Eigen::Matrix3d r = m.leftCols<3>();
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(r, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -33,7 +32,7 @@ Rigid3 Rigid3::FromRt(const double rt[6]) {
   const double theta = std::sqrt(theta2);
   double w, s;  // q = (cos(theta/2), s * r) with s = sin(theta/2) / theta
   if (theta < 1e-4) {
-    w = 1.0 - theta2 / 8.0;               // error O(theta^4) < 1e-17
+    w = 1.0 - theta2 / 8.0;  // error O(theta^4) < 1e-17
     s = 0.5 - theta2 / 48.0;
   } else {
     w = std::cos(theta / 2);

@@ -12,8 +12,7 @@ struct Rigid3 {
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
 
   Rigid3() = default;
-  Rigid3(const Eigen::Quaterniond& q, const Eigen::Vector3d& t)
-      : rotation(q.normalized()), translation(t) {}
+  Rigid3(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) : rotation(q.normalized()), translation(t) {}
 
   Eigen::Vector3d operator*(const Eigen::Vector3d& p) const { return rotation * p + translation; }
   // c_from_a = c_from_b * b_from_a

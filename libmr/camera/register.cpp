@@ -1,8 +1,8 @@
 #include "camera/register.h"
 
 #include <ceres/ceres.h>
-#include <spdlog/spdlog.h>
 #include <ceres/rotation.h>
+#include <spdlog/spdlog.h>
 
 #include <Eigen/SVD>
 #include <algorithm>
@@ -16,11 +16,11 @@
 #include "core/process.h"
 #include "geometry/closest_point.h"
 
-extern char **environ;
+extern char** environ;
 
 namespace mr {
 
-Rigid3 Similarity3::Apply(const Rigid3 &world_from_cam) const {
+Rigid3 Similarity3::Apply(const Rigid3& world_from_cam) const {
   return Rigid3(rotation * world_from_cam.rotation, Apply(world_from_cam.translation));
 }
 
@@ -28,13 +28,13 @@ namespace {
 
 // Residual of one pair: the centre (3) and the orientation (3, scaled).
 struct PairResidual {
-  PairResidual(const PosePair &p, double weight) : ca(p.a.translation), cb(p.b.translation), w(weight) {
+  PairResidual(const PosePair& p, double weight) : ca(p.a.translation), cb(p.b.translation), w(weight) {
     // R_b R_a^T is what R should be; the residual is log(R R_a R_b^T).
     Ra = p.a.rotation.toRotationMatrix();
     Rb = p.b.rotation.toRotationMatrix();
   }
   template <typename T>
-  bool operator()(const T *r, const T *log_s, const T *t, T *res) const {
+  bool operator()(const T* r, const T* log_s, const T* t, T* res) const {
     T p[3] = {T(ca.x()), T(ca.y()), T(ca.z())}, q[3];
     ceres::AngleAxisRotatePoint(r, p, q);
     const T s = exp(log_s[0]);
@@ -75,14 +75,14 @@ double Median(std::vector<double> v) {
 
 }  // namespace
 
-SimilarityFit FitSimilarity(const std::vector<PosePair> &pairs, const SimilarityFitOptions &o) {
+SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const SimilarityFitOptions& o) {
   const size_t n = pairs.size();
   if (n < 3) throw Error(FileLoc{}, fmt::format("a similarity needs at least 3 corresponding cameras, got {}", n));
   // Start: rotation from the chordal mean of R_b R_a^T (robust to collinear
   // centres), then scale and translation by least squares on the centres.
   Eigen::Matrix3d sum = Eigen::Matrix3d::Zero();
   Eigen::Vector3d ma = Eigen::Vector3d::Zero(), mb = Eigen::Vector3d::Zero();
-  for (const auto &p : pairs) {
+  for (const auto& p : pairs) {
     sum += p.b.rotation.toRotationMatrix() * p.a.rotation.toRotationMatrix().transpose();
     ma += p.a.translation;
     mb += p.b.translation;
@@ -94,7 +94,7 @@ SimilarityFit FitSimilarity(const std::vector<PosePair> &pairs, const Similarity
   D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
   const Eigen::Matrix3d R0 = svd.matrixU() * D * svd.matrixV().transpose();
   double num = 0, den = 0;
-  for (const auto &p : pairs) {
+  for (const auto& p : pairs) {
     const Eigen::Vector3d da = R0 * (p.a.translation - ma), db = p.b.translation - mb;
     num += da.dot(db);
     den += da.squaredNorm();
@@ -115,7 +115,7 @@ SimilarityFit FitSimilarity(const std::vector<PosePair> &pairs, const Similarity
   // metres, orientation in weight x radians).
   const double w = o.rotation_weight_m;
   const double loss = std::hypot(o.centre_loss_m, w * o.rotation_loss_deg * kDegToRad);
-  for (const auto &p : pairs)
+  for (const auto& p : pairs)
     problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PairResidual, 6, 3, 1, 3>(new PairResidual(p, w)),
                              new ceres::CauchyLoss(loss), r, &log_s, t);
   // The robust loss makes every residual cheap far away, and a scale near 0
@@ -137,7 +137,7 @@ SimilarityFit FitSimilarity(const std::vector<PosePair> &pairs, const Similarity
   fit.b_from_a.scale = std::exp(log_s);
   fit.b_from_a.translation = Eigen::Vector3d(t[0], t[1], t[2]);
   double se = 0, sr = 0;
-  for (const auto &p : pairs) {
+  for (const auto& p : pairs) {
     const Rigid3 moved = fit.b_from_a.Apply(p.a);
     const double e = (moved.translation - p.b.translation).norm();
     const double a = moved.rotation.angularDistance(p.b.rotation) / kDegToRad;
@@ -158,10 +158,10 @@ namespace {
 
 // n . (s R a + t - q): the point's distance along the mesh's normal.
 struct PointPlaneResidual {
-  PointPlaneResidual(const Eigen::Vector3d &point, const Eigen::Vector3d &closest, const Eigen::Vector3d &normal)
+  PointPlaneResidual(const Eigen::Vector3d& point, const Eigen::Vector3d& closest, const Eigen::Vector3d& normal)
       : a(point), q(closest), n(normal) {}
   template <typename T>
-  bool operator()(const T *r, const T *log_s, const T *t, T *res) const {
+  bool operator()(const T* r, const T* log_s, const T* t, T* res) const {
     T p[3] = {T(a.x()), T(a.y()), T(a.z())}, x[3];
     ceres::AngleAxisRotatePoint(r, p, x);
     const T s = exp(log_s[0]);
@@ -174,8 +174,8 @@ struct PointPlaneResidual {
 
 }  // namespace
 
-MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const Mesh &mesh, const Similarity3 &start,
-                               const MeshFitOptions &o) {
+MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const Mesh& mesh, const Similarity3& start,
+                               const MeshFitOptions& o) {
   const TriangleGrid grid(mesh, o.gate_m);
   Eigen::AngleAxisd aa0(start.rotation);
   double r[3] = {aa0.angle() * aa0.axis().x(), aa0.angle() * aa0.axis().y(), aa0.angle() * aa0.axis().z()};
@@ -194,7 +194,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const
   fit.points = static_cast<int>(points.size());
   {
     std::vector<double> d0;
-    for (const auto &a : points) {
+    for (const auto& a : points) {
       const ClosestPoint c = grid.Closest(start.Apply(a), o.gate_m);
       if (c.triangle >= 0) d0.push_back(c.distance);
     }
@@ -205,7 +205,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const
     const Similarity3 s = current();
     ceres::Problem problem;
     int used = 0;
-    for (const auto &a : points) {
+    for (const auto& a : points) {
       const ClosestPoint c = grid.Closest(s.Apply(a), o.gate_m);
       if (c.triangle < 0) continue;
       problem.AddResidualBlock(
@@ -231,7 +231,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const
     fit.iterations = it + 1;
     const Similarity3 after = current();
     double moved = 0;
-    for (const auto &a : points) moved = std::max(moved, (after.Apply(a) - s.Apply(a)).norm());
+    for (const auto& a : points) moved = std::max(moved, (after.Apply(a) - s.Apply(a)).norm());
     if (moved < 1e-5) break;  // a hundredth of a millimetre: settled
   }
   fit.b_from_a = current();
@@ -243,7 +243,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const
   std::vector<double> d;
   int close = 0;
   double se = 0;
-  for (const auto &a : points) {
+  for (const auto& a : points) {
     const ClosestPoint c = grid.Closest(fit.b_from_a.Apply(a), o.gate_m);
     if (c.triangle < 0) continue;
     d.push_back(c.distance);
@@ -257,7 +257,7 @@ MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const
   return fit;
 }
 
-int FrameNumberOf(const std::string &name) {
+int FrameNumberOf(const std::string& name) {
   const std::string stem = fs::path(name).stem().string();
   int end = static_cast<int>(stem.size());
   while (end > 0 && !std::isdigit(static_cast<unsigned char>(stem[static_cast<size_t>(end - 1)]))) --end;
@@ -269,7 +269,7 @@ int FrameNumberOf(const std::string &name) {
 
 namespace {
 
-Rigid3 Interpolate(const Rigid3 &a, const Rigid3 &b, double u) {
+Rigid3 Interpolate(const Rigid3& a, const Rigid3& b, double u) {
   return Rigid3(a.rotation.slerp(u, b.rotation), (1 - u) * a.translation + u * b.translation);
 }
 
@@ -277,16 +277,16 @@ Rigid3 Interpolate(const Rigid3 &a, const Rigid3 &b, double u) {
 
 namespace {
 
-Trajectory ReadPoses(const fs::path &p) { return fs::is_directory(p) ? Read7ScenesFolder(p) : ReadTum(p); }
+Trajectory ReadPoses(const fs::path& p) { return fs::is_directory(p) ? Read7ScenesFolder(p) : ReadTum(p); }
 
 }  // namespace
 
-void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report *report) {
+void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report* report) {
   if (model.images.empty()) throw Error(FileLoc{}, "the COLMAP model has no registered images");
   // Registered frames: frame number -> world_from_cam in COLMAP's frame.
   std::map<int, Rigid3> colmap_poses;
   std::set<int64_t> camera_ids;
-  for (const auto &[id, im] : model.images) {
+  for (const auto& [id, im] : model.images) {
     const int f = FrameNumberOf(im.name);
     if (f < 0) throw Error(FileLoc{}, fmt::format("image {} has no frame number in its name", im.name));
     if (colmap_poses.count(f)) throw Error(FileLoc{}, fmt::format("two images of frame {} (one is {})", f, im.name));
@@ -297,13 +297,13 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
     throw Error(FileLoc{}, fmt::format("the video's frames use {} COLMAP cameras; one "
                                        "camera is expected (single_camera)",
                                        camera_ids.size()));
-  const ColmapCamera &cam = model.cameras.at(*camera_ids.begin());
+  const ColmapCamera& cam = model.cameras.at(*camera_ids.begin());
   Similarity3 world_from_colmap;
   if (o.trajectory) {
     const Trajectory traj = ReadPoses(*o.trajectory);
     std::vector<PosePair> by_timestamp, by_index;
-    for (const auto &[f, pose] : colmap_poses) {
-      for (const auto &tp : traj.poses)
+    for (const auto& [f, pose] : colmap_poses) {
+      for (const auto& tp : traj.poses)
         if (std::abs(tp.timestamp - f) < 1e-6) {
           by_timestamp.push_back({pose, tp.world_from_cam});
           break;
@@ -313,7 +313,7 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
     }
     std::string match = o.match;
     if (match == "auto") match = by_timestamp.size() >= by_index.size() ? "timestamp" : "index";
-    const auto &pairs = match == "timestamp" ? by_timestamp : by_index;
+    const auto& pairs = match == "timestamp" ? by_timestamp : by_index;
     if (pairs.size() < 3)
       ThrowErrorAt(FileLoc{o.trajectory->string()},
                    "only {} registered frames meet a pose of the trajectory (match: {})", pairs.size(), match);
@@ -324,7 +324,7 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
     // than written: the scale ran to its bound, the orientations disagree,
     // or the centres miss by more than a tenth of the path's extent.
     Eigen::AlignedBox3d extent;
-    for (const auto &pp : pairs) extent.extend(pp.b.translation);
+    for (const auto& pp : pairs) extent.extend(pp.b.translation);
     const double size = extent.diagonal().norm();
     std::string bad;
     if (fit.scale_at_bound)
@@ -362,7 +362,7 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
   }
   if (o.mesh) {
     std::vector<Eigen::Vector3d> pts;
-    for (const auto &[id, p] : model.points3d)
+    for (const auto& [id, p] : model.points3d)
       if (static_cast<int>(p.track.size()) >= o.mesh_fit.min_track && p.error <= o.mesh_fit.max_error_px)
         pts.push_back(p.xyz);
     if (pts.size() < 6)
@@ -418,8 +418,8 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
     const Trajectory truth = ReadPoses(*o.truth);
     double se = 0, sr = 0;
     int n = 0;
-    for (const auto &p : out.poses)
-      for (const auto &tp : truth.poses)
+    for (const auto& p : out.poses)
+      for (const auto& tp : truth.poses)
         if (std::abs(tp.timestamp - p.timestamp) < 1e-6) {
           se += (p.world_from_cam.translation - tp.world_from_cam.translation).squaredNorm();
           const double a = p.world_from_cam.rotation.angularDistance(tp.world_from_cam.rotation) / kDegToRad;
@@ -433,7 +433,7 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
     report->AddInput(o.truth->string());
   }
   std::error_code ec;
-  for (const fs::path &f : {o.out_poses, o.out_camera})
+  for (const fs::path& f : {o.out_poses, o.out_camera})
     if (!f.empty() && !f.parent_path().empty()) fs::create_directories(f.parent_path(), ec);
   WriteTum(o.out_poses, out);
   report->AddOutput(o.out_poses.string());
@@ -445,7 +445,7 @@ void AlignColmapModel(const ColmapModel &model, const RegisterOptions &o, Report
 
 // ---------------------------------------------------------------------------
 
-ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOptions &o, Report *report) {
+ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOptions& o, Report* report) {
   if (images.size() < 3) throw Error(FileLoc{}, fmt::format("COLMAP needs at least 3 frames, got {}", images.size()));
   if (o.matcher != "sequential" && o.matcher != "exhaustive")
     throw UsageError(fmt::format("matcher \"{}\": sequential or exhaustive", o.matcher));
@@ -459,7 +459,7 @@ ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOption
   // The frames by name, relative to their (common) folder.
   const fs::path dir = images.front().parent_path();
   std::string list;
-  for (const auto &f : images) {
+  for (const auto& f : images) {
     if (f.parent_path() != dir)
       ThrowErrorAt(FileLoc{f.string()}, "the frames must share one folder ({})", dir.string());
     list += f.filename().string() + "\n";
@@ -467,7 +467,7 @@ ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOption
   WriteTextFile(ws / "images.txt", list);
   const fs::path log = ws / "colmap.log";
   fs::remove(log, ec);
-  auto step = [&](const std::string &name, std::vector<std::string> args) {
+  auto step = [&](const std::string& name, std::vector<std::string> args) {
     args.insert(args.begin(), {o.colmap, name});
     ScopedTimer t(report, "colmap " + name);
     const int rc = RunProcess(args, log, true);
@@ -493,7 +493,7 @@ ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOption
   bool fixed = false;
   if (o.camera) {
     const CameraModel m = CameraModel::Read(*o.camera);
-    const auto &k = m.intrinsics();
+    const auto& k = m.intrinsics();
     // mrcal's pixel centres are at integers, COLMAP's at +0.5.
     if (m.lensmodel() == "LENSMODEL_PINHOLE") {
       fe.insert(fe.end(), {"--ImageReader.camera_model", "PINHOLE", "--ImageReader.camera_params",
@@ -532,7 +532,7 @@ ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOption
   fs::path best;
   size_t best_images = 0;
   int models = 0;
-  for (const auto &e : fs::directory_iterator(ws / "sparse")) {
+  for (const auto& e : fs::directory_iterator(ws / "sparse")) {
     if (!e.is_directory()) continue;
     ++models;
     const fs::path txt = ws / "text" / e.path().filename();

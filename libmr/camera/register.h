@@ -25,9 +25,9 @@ struct Similarity3 {
   double scale = 1;
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   Eigen::Vector3d translation = Eigen::Vector3d::Zero();
-  Eigen::Vector3d Apply(const Eigen::Vector3d &p) const { return scale * (rotation * p) + translation; }
+  Eigen::Vector3d Apply(const Eigen::Vector3d& p) const { return scale * (rotation * p) + translation; }
   // A camera pose (world_from_cam, world = frame a) moved into frame b.
-  Rigid3 Apply(const Rigid3 &world_from_cam) const;
+  Rigid3 Apply(const Rigid3& world_from_cam) const;
 };
 
 // Corresponding camera poses in two frames (world_from_cam each).
@@ -60,7 +60,7 @@ struct SimilarityFit {
 // translation from the centres by least squares) refined by Ceres with
 // robust losses.  Throws mr::Error when fewer than 3 pairs are given or the
 // centres cannot fix the scale (all at one point).
-SimilarityFit FitSimilarity(const std::vector<PosePair> &pairs, const SimilarityFitOptions &options = {});
+SimilarityFit FitSimilarity(const std::vector<PosePair>& pairs, const SimilarityFitOptions& options = {});
 
 struct MeshFitOptions {
   double gate_m = 0.15;  // correspondences farther than this are not used
@@ -86,12 +86,12 @@ struct MeshFit {
 // translation, repeated until it settles.  Needs a start within about the
 // gate (from the trajectory, or given).  Throws mr::Error with fewer than 6
 // correspondences.
-MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d> &points, const Mesh &mesh, const Similarity3 &start,
-                               const MeshFitOptions &options = {});
+MeshFit RefineSimilarityToMesh(const std::vector<Eigen::Vector3d>& points, const Mesh& mesh, const Similarity3& start,
+                               const MeshFitOptions& options = {});
 
 // The frame number in an image name: the last run of digits of its stem
 // ("frame-000010.color.jpg" -> 10); -1 if none.
-int FrameNumberOf(const std::string &image_name);
+int FrameNumberOf(const std::string& image_name);
 
 struct RegisterOptions {
   std::optional<fs::path> trajectory;  // align to this TUM trajectory (mr-fuse's)
@@ -127,7 +127,7 @@ class AlignmentError : public Error {
 // their registered neighbours and listed in the report) and the camera
 // model; fills `report` with the alignment residuals (and the pose error
 // against the truth).
-void AlignColmapModel(const ColmapModel &model, const RegisterOptions &options, Report *report);
+void AlignColmapModel(const ColmapModel& model, const RegisterOptions& options, Report* report);
 
 struct ColmapRunOptions {
   fs::path workspace;                  // database, sparse model, text model
@@ -142,7 +142,7 @@ struct ColmapRunOptions {
 // with the colmap command (feature_extractor, sequential/exhaustive matcher,
 // mapper, model_converter; all on the CPU) and returns the largest model.
 // Throws mr::Error naming the failing colmap step and its log.
-ColmapModel RunColmap(const std::vector<fs::path> &images, const ColmapRunOptions &options, Report *report);
+ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOptions& options, Report* report);
 
 }  // namespace mr
 

@@ -11,9 +11,7 @@
 
 namespace mr {
 
-double Trajectory::Duration() const {
-  return poses.empty() ? 0.0 : poses.back().timestamp - poses.front().timestamp;
-}
+double Trajectory::Duration() const { return poses.empty() ? 0.0 : poses.back().timestamp - poses.front().timestamp; }
 
 double Trajectory::PathLength() const {
   CompensatedSum<double> s;
@@ -65,13 +63,11 @@ Trajectory ReadTum(std::istream& in, const std::string& name) {
     if (IsBlank(s)) continue;
     FileLoc loc{name, lineno};
     if (!ParseNumbers(s, &v, &bad)) ThrowErrorAt(loc, "\"{}\" is not a number", bad);
-    if (v.size() != 8)
-      ThrowErrorAt(loc, "expected 8 numbers (timestamp tx ty tz qx qy qz qw), got {}", v.size());
+    if (v.size() != 8) ThrowErrorAt(loc, "expected 8 numbers (timestamp tx ty tz qx qy qz qw), got {}", v.size());
     if (!AllFinite(v.begin(), v.end())) ThrowErrorAt(loc, "NaN or Inf in pose");
     Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
     const double n = q.norm();
-    if (std::abs(n - 1.0) > 1e-3)
-      ThrowErrorAt(loc, "quaternion norm is {:.6g}, not 1 (wrong column order?)", n);
+    if (std::abs(n - 1.0) > 1e-3) ThrowErrorAt(loc, "quaternion norm is {:.6g}, not 1 (wrong column order?)", n);
     if (!t.poses.empty() && v[0] < t.poses.back().timestamp)
       ThrowErrorAt(loc, "timestamp {} goes back in time (previous {})", v[0], t.poses.back().timestamp);
     t.poses.push_back({v[0], Rigid3(q, Eigen::Vector3d(v[1], v[2], v[3]))});
@@ -94,8 +90,8 @@ void WriteTum(std::ostream& out, const Trajectory& t) {
   for (const auto& p : t.poses) {
     const auto& q = p.world_from_cam.rotation;
     const auto& tr = p.world_from_cam.translation;
-    out << p.timestamp << ' ' << tr.x() << ' ' << tr.y() << ' ' << tr.z() << ' ' << q.x() << ' '
-        << q.y() << ' ' << q.z() << ' ' << q.w() << '\n';
+    out << p.timestamp << ' ' << tr.x() << ' ' << tr.y() << ' ' << tr.z() << ' ' << q.x() << ' ' << q.y() << ' '
+        << q.z() << ' ' << q.w() << '\n';
   }
 }
 
@@ -117,17 +113,14 @@ Rigid3 Read7ScenesPose(std::istream& in, const std::string& name, double* orthon
     if (v.size() != 4) ThrowErrorAt(FileLoc{name, lineno}, "expected 4 numbers per row, got {}", v.size());
     all.insert(all.end(), v.begin(), v.end());
   }
-  if (all.size() != 16)
-    ThrowErrorAt(FileLoc{name}, "expected a 4x4 matrix (16 numbers), got {}", all.size());
+  if (all.size() != 16) ThrowErrorAt(FileLoc{name}, "expected a 4x4 matrix (16 numbers), got {}", all.size());
   if (!AllFinite(all.begin(), all.end())) ThrowErrorAt(FileLoc{name}, "NaN or Inf in pose");
   Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>> m(all.data());
-  if (std::abs(m(3, 0)) > 1e-9 || std::abs(m(3, 1)) > 1e-9 || std::abs(m(3, 2)) > 1e-9 ||
-      std::abs(m(3, 3) - 1) > 1e-9)
+  if (std::abs(m(3, 0)) > 1e-9 || std::abs(m(3, 1)) > 1e-9 || std::abs(m(3, 2)) > 1e-9 || std::abs(m(3, 3) - 1) > 1e-9)
     ThrowErrorAt(FileLoc{name, 4}, "last row must be 0 0 0 1");
   double err = 0;
   Rigid3 r = Rigid3::FromMatrix(m.topRows<3>(), &err);
-  if (err > 0.1)
-    ThrowErrorAt(FileLoc{name}, "rotation block is far from a rotation (distance {:.3g})", err);
+  if (err > 0.1) ThrowErrorAt(FileLoc{name}, "rotation block is far from a rotation (distance {:.3g})", err);
   if (orthonormality_error) *orthonormality_error = err;
   return r;
 }
@@ -142,8 +135,7 @@ void Write7ScenesPose(const fs::path& path, const Rigid3& world_from_cam) {
   ss.imbue(std::locale::classic());
   ss << std::setprecision(17);
   Eigen::Matrix4d m = world_from_cam.ToMatrix();
-  for (int r = 0; r < 4; ++r)
-    ss << m(r, 0) << '\t' << m(r, 1) << '\t' << m(r, 2) << '\t' << m(r, 3) << '\n';
+  for (int r = 0; r < 4; ++r) ss << m(r, 0) << '\t' << m(r, 1) << '\t' << m(r, 2) << '\t' << m(r, 3) << '\n';
   WriteTextFile(path, ss.str());
 }
 
@@ -168,8 +160,8 @@ Trajectory Read7ScenesFolder(const fs::path& dir) {
   return t;
 }
 
-std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& a,
-                                                     const std::vector<double>& b, double max_dt) {
+std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& a, const std::vector<double>& b,
+                                                     double max_dt) {
   // Candidates within max_dt (b sorted by time for the window search).
   std::vector<int> bo(b.size());
   for (size_t i = 0; i < b.size(); ++i) bo[i] = static_cast<int>(i);

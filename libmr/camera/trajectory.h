@@ -45,8 +45,8 @@ Trajectory Read7ScenesFolder(const fs::path& dir);
 
 // The TUM association of two timestamp lists: index pairs (a, b), greedy by
 // smallest |ta - tb| <= max_dt, each index used once, sorted by a.
-std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& a,
-                                                     const std::vector<double>& b, double max_dt);
+std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& a, const std::vector<double>& b,
+                                                     double max_dt);
 
 // Guesses the kind of pose file: "tum", "7scenes" (a 4x4 matrix), or "" when neither.
 std::string DetectPoseFormat(const fs::path& path);

@@ -1,6 +1,5 @@
 #include "cli/info.h"
 
-#include "scene/frames.h"
 #include "calib/board.h"
 #include "camera/camera_model.h"
 #include "camera/colmap_text.h"
@@ -10,11 +9,12 @@
 #include "core/report.h"
 #include "geometry/mesh.h"
 #include "hdr/response.h"
-#include "probe/unwrap.h"
 #include "light/lights_file.h"
-#include "transfer/formfactor.h"
+#include "probe/unwrap.h"
 #include "render/method.h"
+#include "scene/frames.h"
 #include "scene/scene.h"
+#include "transfer/formfactor.h"
 
 namespace mr {
 
@@ -29,8 +29,11 @@ void DescribeCamera(const fs::path& path, FileInfo* fi) {
   fi->lines.push_back(fmt::format("focal length: {:.3f} {:.3f} px, centre: {:.3f} {:.3f} px", c[0], c[1], c[2], c[3]));
   const double hfov = m.HorizontalFovDeg(), vfov = m.VerticalFovDeg();
   fi->lines.push_back(fmt::format("field of view: {:.2f} x {:.2f} deg", hfov, vfov));
-  fi->json = {{"lensmodel", m.lensmodel()}, {"width", m.width()}, {"height", m.height()},
-              {"intrinsics", m.intrinsics()}, {"fov_deg", {hfov, vfov}}};
+  fi->json = {{"lensmodel", m.lensmodel()},
+              {"width", m.width()},
+              {"height", m.height()},
+              {"intrinsics", m.intrinsics()},
+              {"fov_deg", {hfov, vfov}}};
 }
 
 void DescribeImage(const fs::path& path, FileInfo* fi) {
@@ -39,9 +42,9 @@ void DescribeImage(const fs::path& path, FileInfo* fi) {
   opt.nonfinite = NonFinite::kAllow;
   ImageFileInfo info;
   Image img = ReadImage(path, opt, &info);
-  fi->lines.push_back(fmt::format("{} {} x {}, {} channels, stored as {}{}", info.format, img.width(), img.height(),
-                                  img.channels(), info.pixel_type,
-                                  info.decoded_from_ldr ? fmt::format(" (decoded as {})", ToString(info.transfer)) : ""));
+  fi->lines.push_back(fmt::format(
+      "{} {} x {}, {} channels, stored as {}{}", info.format, img.width(), img.height(), img.channels(),
+      info.pixel_type, info.decoded_from_ldr ? fmt::format(" (decoded as {})", ToString(info.transfer)) : ""));
   auto layers = img.LayerNames();
   std::string ls;
   for (auto& l : layers) ls += (ls.empty() ? "" : ", ") + (l.empty() ? std::string("(default)") : l);
@@ -49,16 +52,20 @@ void DescribeImage(const fs::path& path, FileInfo* fi) {
   Json chans = Json::array();
   int64_t bad = 0;
   for (const auto& s : ComputeStats(img)) {
-    fi->lines.push_back(fmt::format("  {:<14} min {:<12.6g} max {:<12.6g} mean {:<12.6g} NaN {} Inf {}", s.name,
-                                    s.min, s.max, s.mean, s.nan_count, s.inf_count));
-    chans.push_back({{"name", s.name}, {"min", s.min}, {"max", s.max}, {"mean", s.mean},
-                     {"nan", s.nan_count}, {"inf", s.inf_count}});
+    fi->lines.push_back(fmt::format("  {:<14} min {:<12.6g} max {:<12.6g} mean {:<12.6g} NaN {} Inf {}", s.name, s.min,
+                                    s.max, s.mean, s.nan_count, s.inf_count));
+    chans.push_back({{"name", s.name},
+                     {"min", s.min},
+                     {"max", s.max},
+                     {"mean", s.mean},
+                     {"nan", s.nan_count},
+                     {"inf", s.inf_count}});
     bad += s.nan_count + s.inf_count;
   }
   for (const auto& [k, v] : info.attributes) fi->lines.push_back(fmt::format("  {}: {}", k, v));
   if (bad > 0) fi->problems.push_back(fmt::format("{} NaN/Inf values", bad));
-  fi->json = {{"format", info.format}, {"width", img.width()}, {"height", img.height()},
-              {"pixel_type", info.pixel_type}, {"channels", chans}, {"attributes", info.attributes}};
+  fi->json = {{"format", info.format},         {"width", img.width()}, {"height", img.height()},
+              {"pixel_type", info.pixel_type}, {"channels", chans},    {"attributes", info.attributes}};
 }
 
 void DescribeMesh(const fs::path& path, FileInfo* fi) {
@@ -76,7 +83,9 @@ void DescribeMesh(const fs::path& path, FileInfo* fi) {
                                   m.colors.empty() ? "no" : "yes", m.uvs.empty() ? "no" : "yes"));
   fi->lines.push_back(fmt::format("degenerate faces dropped: {}", rep.degenerate_faces_dropped));
   for (const auto& n : rep.notes) fi->lines.push_back("note: " + n);
-  fi->json = {{"format", rep.format}, {"vertices", m.vertex_count()}, {"triangles", m.triangle_count()},
+  fi->json = {{"format", rep.format},
+              {"vertices", m.vertex_count()},
+              {"triangles", m.triangle_count()},
               {"degenerate_faces_dropped", rep.degenerate_faces_dropped},
               {"faces_rejected_by_reader", rep.faces_rejected_by_reader},
               {"comment_lines_skipped", rep.comment_lines_skipped},
@@ -88,7 +97,8 @@ void DescribeTrajectory(const Trajectory& t, FileInfo* fi, const std::string& fo
   fi->lines.push_back(fmt::format("{} trajectory: {} poses, span {:.3f} s, path length {:.4f} m", format, t.size(),
                                   t.Duration(), t.PathLength()));
   if (t.max_orthonormality_error > 0)
-    fi->lines.push_back(fmt::format("re-orthonormalised rotations: largest correction {:.3g}", t.max_orthonormality_error));
+    fi->lines.push_back(
+        fmt::format("re-orthonormalised rotations: largest correction {:.3g}", t.max_orthonormality_error));
   fi->json = {{"format", format}, {"poses", t.size()}, {"span", t.Duration()}, {"path_length_m", t.PathLength()}};
 }
 
@@ -102,13 +112,15 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     for (auto& [k, v] : j["timings"].items()) total += v.get<double>();
     fi->lines.push_back(fmt::format("timings: {} parts, {:.3f} s in all", j["timings"].size(), total));
     fi->lines.push_back(fmt::format("skipped: {}, warnings: {}", j["skipped"].size(), j["warnings"].size()));
-    for (auto& s : j["skipped"]) fi->lines.push_back(fmt::format("  skipped {}: {}", s["what"].dump(), s["why"].dump()));
+    for (auto& s : j["skipped"])
+      fi->lines.push_back(fmt::format("  skipped {}: {}", s["what"].dump(), s["why"].dump()));
     fi->lines.push_back("metrics: " + j["metrics"].dump());
     fi->json = {{"tool", j["tool"]}, {"total_seconds", total}};
   } else if (j.is_object() && j.value("format", "") == "mr-response") {
     fi->kind = "response";
     const CameraResponse r = ParseResponse(j, path.string());
-    fi->lines.push_back(fmt::format("camera response ({}): {} channels, {} levels", r.method, r.channels.size(), r.levels()));
+    fi->lines.push_back(
+        fmt::format("camera response ({}): {} channels, {} levels", r.method, r.channels.size(), r.levels()));
     for (size_t c = 0; c < r.channels.size(); ++c)
       fi->lines.push_back(fmt::format("  {}: code 0.5 is {:.4g} of the saturating exposure", r.channels[c],
                                       r.Exposure(static_cast<int>(c), 0.5)));
@@ -133,7 +145,8 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     for (const Light& l : lights) {
       static const char* kTypes[] = {"point", "spot", "distant"};
       n_virtual += l.is_virtual;
-      fi->lines.push_back(fmt::format("  {}: {} {}", l.name, l.is_virtual ? "virtual" : "real", kTypes[static_cast<int>(l.type)]));
+      fi->lines.push_back(
+          fmt::format("  {}: {} {}", l.name, l.is_virtual ? "virtual" : "real", kTypes[static_cast<int>(l.type)]));
     }
     fi->lines.insert(fi->lines.begin(), fmt::format("lights: {} ({} virtual)", lights.size(), n_virtual));
     fi->json = {{"lights", lights.size()}, {"virtual", n_virtual}};
@@ -153,8 +166,11 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     const int end = s.render.frame_end < 0 || s.render.frame_end > n_frames ? n_frames : s.render.frame_end;
     fi->lines.push_back(fmt::format("frames: {} (rendered: {}:{})", n_frames, s.render.frame_begin, end));
     fi->lines.push_back("valid");
-    fi->json = {{"virtual_objects", s.virtuals.size()}, {"method", s.render.method}, {"frames", n_frames},
-                {"frame_begin", s.render.frame_begin}, {"frame_end", end}};
+    fi->json = {{"virtual_objects", s.virtuals.size()},
+                {"method", s.render.method},
+                {"frames", n_frames},
+                {"frame_begin", s.render.frame_begin},
+                {"frame_end", end}};
   }
 }
 
@@ -189,12 +205,16 @@ void Describe(const fs::path& path, FileInfo* fi) {
                                                               : fmt::format("SH order {}", h.order);
     fi->lines.push_back(fmt::format("form factors: {}, {} coefficients per vertex, {} vertices", basis, h.coefficients,
                                     h.vertex_count));
-    fi->lines.push_back(fmt::format("supersample {}, bounces {} (albedo {}), mesh hash {:016x}{}", h.supersample, h.bounces,
-                                    h.albedo, h.mesh_hash,
-                                    h.valid_spp > 0 ? fmt::format(", seen vertices only (up to {} spp)", h.valid_spp) : ""));
-    fi->json = {{"basis", h.basis == TransferBasis::kCube ? "cube" : "sh"}, {"resolution", h.resolution},
-                {"order", h.order}, {"coefficients", h.coefficients}, {"vertices", h.vertex_count},
-                {"bounces", h.bounces}, {"valid_spp", h.valid_spp}};
+    fi->lines.push_back(fmt::format(
+        "supersample {}, bounces {} (albedo {}), mesh hash {:016x}{}", h.supersample, h.bounces, h.albedo, h.mesh_hash,
+        h.valid_spp > 0 ? fmt::format(", seen vertices only (up to {} spp)", h.valid_spp) : ""));
+    fi->json = {{"basis", h.basis == TransferBasis::kCube ? "cube" : "sh"},
+                {"resolution", h.resolution},
+                {"order", h.order},
+                {"coefficients", h.coefficients},
+                {"vertices", h.vertex_count},
+                {"bounces", h.bounces},
+                {"valid_spp", h.valid_spp}};
     return;
   }
   if (fname == "cameras.txt" || fname == "images.txt" || fname == "points3D.txt") {

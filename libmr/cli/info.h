@@ -11,8 +11,8 @@ namespace mr {
 
 struct FileInfo {
   std::string path;
-  std::string kind;   // "camera model", "image", "mesh", "scene", "trajectory", "report", ...
-  bool sound = true;  // false: the file is unreadable or has bad values
+  std::string kind;                // "camera model", "image", "mesh", "scene", "trajectory", "report", ...
+  bool sound = true;               // false: the file is unreadable or has bad values
   std::vector<std::string> lines;  // human-readable summary
   std::vector<std::string> problems;
   Json json = Json::object();

@@ -35,8 +35,7 @@ Report g_report;
 
 Report& ToolReport() { return g_report; }
 
-void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& description,
-                  const std::string& example) {
+void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& description, const std::string& example) {
   app.name(tool);
   app.description(description);
   app.footer("Example:\n" + example + "\n\nExit codes: 0 success, 1 failure, 2 usage error.\nmr " +
@@ -52,8 +51,7 @@ void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& des
   app.get_formatter()->column_width(36);
 }
 
-int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv,
-            const std::function<int()>& body) {
+int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv, const std::function<int()>& body) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -61,8 +59,8 @@ int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv,
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "%s: usage error: %s\nRun '%s --help' for the options.\n", tool.c_str(),
-                 e.what(), tool.c_str());
+    std::fprintf(stderr, "%s: usage error: %s\nRun '%s --help' for the options.\n", tool.c_str(), e.what(),
+                 tool.c_str());
     return kExitUsage;
   }
   spdlog::set_pattern("%n: %l: %v");

@@ -24,8 +24,7 @@ std::string JoinCommandLine(int argc, char** argv);
 
 // Sets up `app` with mr's conventions: description with an example, the
 // common flags (--threads, --quiet, -v, --version).
-void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& description,
-                  const std::string& example);
+void ConfigureApp(CLI::App& app, const std::string& tool, const std::string& description, const std::string& example);
 
 // The run's report (docs/formats.md): the tool body adds inputs, outputs,
 // timings, skipped parts, warnings and metrics; RunTool fills in the tool,
@@ -36,7 +35,6 @@ Report& ToolReport();
 
 // Parses argv with `app`, then runs `body`; maps exceptions to messages and
 // exit codes.  `body` returns the exit code.
-int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv,
-            const std::function<int()>& body);
+int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv, const std::function<int()>& body);
 
 }  // namespace mr

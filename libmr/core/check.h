@@ -5,29 +5,27 @@
 #include <fmt/format.h>
 
 namespace mr::detail {
-[[noreturn]] void CheckFailed(const char* file, int line, const char* expr,
-                              const std::string& detail);
+[[noreturn]] void CheckFailed(const char* file, int line, const char* expr, const std::string& detail);
 }  // namespace mr::detail
 
-#define MR_CHECK(cond)                                                  \
-  do {                                                                  \
-    if (!(cond)) [[unlikely]]                                           \
+#define MR_CHECK(cond)                                                     \
+  do {                                                                     \
+    if (!(cond)) [[unlikely]]                                              \
       ::mr::detail::CheckFailed(__FILE__, __LINE__, #cond, std::string()); \
   } while (false)
 
-#define MR_CHECK_MSG(cond, ...)                                         \
-  do {                                                                  \
-    if (!(cond)) [[unlikely]]                                           \
-      ::mr::detail::CheckFailed(__FILE__, __LINE__, #cond,              \
-                                fmt::format(__VA_ARGS__));              \
+#define MR_CHECK_MSG(cond, ...)                                                       \
+  do {                                                                                \
+    if (!(cond)) [[unlikely]]                                                         \
+      ::mr::detail::CheckFailed(__FILE__, __LINE__, #cond, fmt::format(__VA_ARGS__)); \
   } while (false)
 
-#define MR_CHECK_OP(a, op, b)                                                  \
-  do {                                                                         \
-    const auto& mr_check_a_ = (a);                                             \
-    const auto& mr_check_b_ = (b);                                             \
-    if (!(mr_check_a_ op mr_check_b_)) [[unlikely]]                            \
-      ::mr::detail::CheckFailed(__FILE__, __LINE__, #a " " #op " " #b,         \
+#define MR_CHECK_OP(a, op, b)                                                       \
+  do {                                                                              \
+    const auto& mr_check_a_ = (a);                                                  \
+    const auto& mr_check_b_ = (b);                                                  \
+    if (!(mr_check_a_ op mr_check_b_)) [[unlikely]]                                 \
+      ::mr::detail::CheckFailed(__FILE__, __LINE__, #a " " #op " " #b,              \
                                 fmt::format("{} vs {}", mr_check_a_, mr_check_b_)); \
   } while (false)
 

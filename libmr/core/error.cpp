@@ -15,8 +15,7 @@ std::string FileLoc::ToString() const {
 Error::Error(const std::string& message) : std::runtime_error(message), message_(message) {}
 
 Error::Error(FileLoc loc, const std::string& message)
-    : std::runtime_error(loc.ToString().empty() ? message
-                                                : loc.ToString() + ": " + message),
+    : std::runtime_error(loc.ToString().empty() ? message : loc.ToString() + ": " + message),
       loc_(std::move(loc)),
       message_(message) {}
 

@@ -52,8 +52,7 @@ template <typename... Args>
   throw Error(fmt::format(f, std::forward<Args>(args)...));
 }
 template <typename... Args>
-[[noreturn]] void ThrowErrorAt(const FileLoc& loc, fmt::format_string<Args...> f,
-                               Args&&... args) {
+[[noreturn]] void ThrowErrorAt(const FileLoc& loc, fmt::format_string<Args...> f, Args&&... args) {
   throw Error(loc, fmt::format(f, std::forward<Args>(args)...));
 }
 

@@ -52,8 +52,7 @@ void RequireFile(const fs::path& path, const std::string& what) {
   auto st = fs::status(path, ec);
   std::string prefix = what.empty() ? "" : what + " ";
   if (ec || !fs::exists(st)) ThrowErrorAt(FileLoc{path.string()}, "{}file does not exist", prefix);
-  if (!fs::is_regular_file(st))
-    ThrowErrorAt(FileLoc{path.string()}, "{}is not a regular file", prefix);
+  if (!fs::is_regular_file(st)) ThrowErrorAt(FileLoc{path.string()}, "{}is not a regular file", prefix);
 }
 
 std::string ReadTextFile(const fs::path& path) {

@@ -18,9 +18,7 @@ Image::Image(int width, int height, std::vector<std::string> channel_names, floa
 }
 
 Image Image::Rgb(int width, int height, float fill) { return Image(width, height, {"R", "G", "B"}, fill); }
-Image Image::Rgba(int width, int height, float fill) {
-  return Image(width, height, {"R", "G", "B", "A"}, fill);
-}
+Image Image::Rgba(int width, int height, float fill) { return Image(width, height, {"R", "G", "B", "A"}, fill); }
 Image Image::Gray(int width, int height, float fill) { return Image(width, height, {"Y"}, fill); }
 
 int Image::ChannelIndex(const std::string& name) const {
@@ -77,8 +75,7 @@ void Image::AppendLayer(const std::string& layer, const Image& img) {
   const int new_c = static_cast<int>(names.size());
   for (int64_t p = 0; p < pixel_count(); ++p) {
     for (int c = 0; c < old_c; ++c) data[p * new_c + c] = data_[p * old_c + c];
-    for (int c = 0; c < img.channels(); ++c)
-      data[p * new_c + old_c + c] = img.data()[p * img.channels() + c];
+    for (int c = 0; c < img.channels(); ++c) data[p * new_c + old_c + c] = img.data()[p * img.channels() + c];
   }
   names_ = std::move(names);
   data_ = std::move(data);
@@ -136,7 +133,8 @@ void GaussianBlur(Image* img, double sigma_px) {
         for (int c = 0; c < C; ++c) {
           double s = 0;
           for (int i = -r; i <= r; ++i) {
-            const int xx = pass == 0 ? std::clamp(x + i, 0, W - 1) : x, yy = pass == 1 ? std::clamp(y + i, 0, H - 1) : y;
+            const int xx = pass == 0 ? std::clamp(x + i, 0, W - 1) : x,
+                      yy = pass == 1 ? std::clamp(y + i, 0, H - 1) : y;
             s += k[static_cast<size_t>(i + r)] * src.at(xx, yy, c);
           }
           img->at(x, y, c) = static_cast<float>(s);

@@ -49,8 +49,7 @@ class Image {
 
  private:
   size_t Index(int x, int y, int c) const {
-    return (static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x)) *
-               names_.size() +
+    return (static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x)) * names_.size() +
            static_cast<size_t>(c);
   }
   int width_ = 0, height_ = 0;
@@ -90,19 +89,17 @@ struct ImageReadOptions {
 };
 
 struct ImageFileInfo {
-  std::string format;          // OIIO format name: "openexr", "png", "hdr", ...
-  std::string pixel_type;      // stored type: "half", "float", "uint8", "uint16"
+  std::string format;      // OIIO format name: "openexr", "png", "hdr", ...
+  std::string pixel_type;  // stored type: "half", "float", "uint8", "uint16"
   bool decoded_from_ldr = false;
   Transfer transfer = Transfer::kLinear;  // how integer pixels were decoded
   int subimages = 1;
   std::map<std::string, std::string> attributes;  // selected metadata, as text
 };
 
-Image ReadImage(const fs::path& path, const ImageReadOptions& options = {},
-                ImageFileInfo* info = nullptr);
+Image ReadImage(const fs::path& path, const ImageReadOptions& options = {}, ImageFileInfo* info = nullptr);
 // Header only: size and channel names without reading pixels.
-ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height,
-                              std::vector<std::string>* channels);
+ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height, std::vector<std::string>* channels);
 
 enum class PixelType { kDefault, kFloat, kHalf, kUint8, kUint16 };
 
@@ -120,13 +117,12 @@ struct ImageWriteOptions {
 };
 
 struct ImageWriteResult {
-  int64_t clamped_half = 0;     // values clamped to +-65504
-  int64_t clipped_ldr = 0;      // values outside [0,1] clipped for integer output
+  int64_t clamped_half = 0;  // values clamped to +-65504
+  int64_t clipped_ldr = 0;   // values outside [0,1] clipped for integer output
 };
 
 // Atomic: writes a temporary beside `path` and renames it.  Format by extension:
 // .exr .hdr .png .jpg/.jpeg .tif/.tiff.
-ImageWriteResult WriteImage(const fs::path& path, const Image& img,
-                            const ImageWriteOptions& options = {});
+ImageWriteResult WriteImage(const fs::path& path, const Image& img, const ImageWriteOptions& options = {});
 
 }  // namespace mr

@@ -31,11 +31,11 @@ ImageFileInfo InfoFromSpec(const OIIO::ImageInput& in, const OIIO::ImageSpec& sp
   info.pixel_type = PixelTypeName(spec.format);
   for (const auto& p : spec.extra_attribs) {
     std::string name = p.name().string();
-    if (name.rfind("mr:", 0) == 0 || name == "oiio:ColorSpace" || name == "Software" ||
-        name == "envmap" || name == "openexr:envmap" || name == "compression" ||
-        name == "ExposureTime" || name == "FNumber" || name == "Exif:ISOSpeedRatings" ||
-        name == "Exif:PhotographicSensitivity" || name == "oiio:BitsPerSample")
-      info.attributes[name] = p.type() == OIIO::TypeString ? std::string(spec.get_string_attribute(name)) : p.get_string();
+    if (name.rfind("mr:", 0) == 0 || name == "oiio:ColorSpace" || name == "Software" || name == "envmap" ||
+        name == "openexr:envmap" || name == "compression" || name == "ExposureTime" || name == "FNumber" ||
+        name == "Exif:ISOSpeedRatings" || name == "Exif:PhotographicSensitivity" || name == "oiio:BitsPerSample")
+      info.attributes[name] =
+          p.type() == OIIO::TypeString ? std::string(spec.get_string_attribute(name)) : p.get_string();
   }
   return info;
 }
@@ -54,8 +54,7 @@ std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* sp
 
 }  // namespace
 
-ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height,
-                              std::vector<std::string>* channels) {
+ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height, std::vector<std::string>* channels) {
   OIIO::ImageSpec spec;
   auto in = Open(path, &spec);
   ImageFileInfo info = InfoFromSpec(*in, spec);
@@ -74,13 +73,12 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   const FileLoc loc{path.string()};
   ImageFileInfo info = InfoFromSpec(*in, spec);
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
-    ThrowErrorAt(loc, "image has no pixels ({}x{}, {} channels)", spec.width, spec.height,
-                 spec.nchannels);
+    ThrowErrorAt(loc, "image has no pixels ({}x{}, {} channels)", spec.width, spec.height, spec.nchannels);
   if (spec.depth > 1) ThrowErrorAt(loc, "volume images are not supported");
   const int64_t pixels = static_cast<int64_t>(spec.width) * spec.height;
   if (pixels > options.max_pixels)
-    ThrowErrorAt(loc, "image is {}x{} = {} pixels, more than the limit of {} (corrupt header?)",
-                 spec.width, spec.height, pixels, options.max_pixels);
+    ThrowErrorAt(loc, "image is {}x{} = {} pixels, more than the limit of {} (corrupt header?)", spec.width,
+                 spec.height, pixels, options.max_pixels);
 
   std::vector<std::string> names = spec.channelnames;
   for (size_t i = 0; i < names.size(); ++i)
@@ -88,16 +86,17 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   Image img(spec.width, spec.height, names);
   if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.data())) {
     std::string err = in->geterror();
-    ThrowErrorAt(loc, "cannot read pixels (truncated or corrupt file?): {}",
-                 err.empty() ? "unknown error" : err);
+    ThrowErrorAt(loc, "cannot read pixels (truncated or corrupt file?): {}", err.empty() ? "unknown error" : err);
   }
 
   if (IsIntegerType(spec.format)) {
     info.decoded_from_ldr = true;
     std::string cs = spec.get_string_attribute("oiio:ColorSpace");
     Transfer t = options.default_ldr_transfer;
-    if (options.use_file_transfer && (cs == "Linear" || cs == "linear")) t = Transfer::kLinear;
-    else if (options.use_file_transfer && cs == "sRGB") t = Transfer::kSrgb;
+    if (options.use_file_transfer && (cs == "Linear" || cs == "linear"))
+      t = Transfer::kLinear;
+    else if (options.use_file_transfer && cs == "sRGB")
+      t = Transfer::kSrgb;
     info.transfer = t;
     if (t == Transfer::kSrgb) {
       const int alpha = spec.alpha_channel;
@@ -119,27 +118,28 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
     if (first >= 0) {
       const int nc = img.channels();
       int64_t p = first / nc;
-      ThrowErrorAt(loc,
-                   "{} NaN and {} Inf values; the first at pixel ({}, {}) channel {}",
-                   nan, inf, p % img.width(), p / img.width(),
-                   img.channel_names()[static_cast<size_t>(first % nc)]);
+      ThrowErrorAt(loc, "{} NaN and {} Inf values; the first at pixel ({}, {}) channel {}", nan, inf, p % img.width(),
+                   p / img.width(), img.channel_names()[static_cast<size_t>(first % nc)]);
     }
   }
   if (info_out) *info_out = info;
   return img;
 }
 
-ImageWriteResult WriteImage(const fs::path& path, const Image& img,
-                            const ImageWriteOptions& options) {
+ImageWriteResult WriteImage(const fs::path& path, const Image& img, const ImageWriteOptions& options) {
   const FileLoc loc{path.string()};
   if (img.empty()) ThrowErrorAt(loc, "refusing to write an empty image");
   const std::string ext = LowerExtension(path);
   PixelType type = options.pixel_type;
   if (type == PixelType::kDefault) {
-    if (ext == ".exr" || ext == ".hdr") type = PixelType::kFloat;
-    else if (ext == ".tif" || ext == ".tiff") type = PixelType::kUint16;
-    else if (ext == ".png" || ext == ".jpg" || ext == ".jpeg") type = PixelType::kUint8;
-    else ThrowErrorAt(loc, "unsupported image extension \"{}\" (use .exr .hdr .png .jpg .tif)", ext);
+    if (ext == ".exr" || ext == ".hdr")
+      type = PixelType::kFloat;
+    else if (ext == ".tif" || ext == ".tiff")
+      type = PixelType::kUint16;
+    else if (ext == ".png" || ext == ".jpg" || ext == ".jpeg")
+      type = PixelType::kUint8;
+    else
+      ThrowErrorAt(loc, "unsupported image extension \"{}\" (use .exr .hdr .png .jpg .tif)", ext);
   }
   if ((ext == ".jpg" || ext == ".jpeg") && type != PixelType::kUint8)
     ThrowErrorAt(loc, "JPEG stores 8-bit pixels only");
@@ -173,8 +173,7 @@ ImageWriteResult WriteImage(const fs::path& path, const Image& img,
       if (!std::isfinite(v)) ThrowErrorAt(loc, "cannot encode NaN/Inf as an integer pixel");
       if (v < 0.0f || v > 1.0f) ++result.clipped_ldr;
       v = Clamp(v, 0.0f, 1.0f);
-      if (options.ldr_transfer == Transfer::kSrgb && static_cast<int>(i % nc) != alpha)
-        v = LinearToSrgb(v);
+      if (options.ldr_transfer == Transfer::kSrgb && static_cast<int>(i % nc) != alpha) v = LinearToSrgb(v);
       pixels[i] = v;
     }
   }

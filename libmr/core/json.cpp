@@ -36,8 +36,7 @@ Json ParseJsonStrict(const std::string& text, const std::string& file) {
         if (!keys.empty()) keys.pop_back();
         break;
       case Json::parse_event_t::key:
-        if (!keys.empty() && !keys.back().insert(parsed.get<std::string>()).second &&
-            duplicate.empty())
+        if (!keys.empty() && !keys.back().insert(parsed.get<std::string>()).second && duplicate.empty())
           duplicate = parsed.get<std::string>();
         break;
       default:
@@ -65,8 +64,6 @@ Json ParseJsonStrict(const std::string& text, const std::string& file) {
   }
 }
 
-Json ReadJsonFile(const fs::path& path) {
-  return ParseJsonStrict(ReadTextFile(path), path.string());
-}
+Json ReadJsonFile(const fs::path& path) { return ParseJsonStrict(ReadTextFile(path), path.string()); }
 
 }  // namespace mr

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include <Eigen/Core>
 #include <fmt/format.h>
+#include <Eigen/Core>
 
 #include "core/error.h"
 #include "core/json.h"
@@ -20,9 +20,7 @@ class JsonNode {
  public:
   JsonNode(const Json& j, std::string path, const std::string* file) : j_(j), path_(std::move(path)), file_(file) {}
 
-  [[noreturn]] void Fail(const std::string& what) const {
-    throw Error(FileLoc{*file_, 0, 0, path_}, what);
-  }
+  [[noreturn]] void Fail(const std::string& what) const { throw Error(FileLoc{*file_, 0, 0, path_}, what); }
   const std::string& path() const { return path_; }
   const Json& json() const { return j_; }
 
@@ -45,7 +43,8 @@ class JsonNode {
   }
   JsonNode Index(size_t i) const { return JsonNode(j_.at(i), fmt::format("{}[{}]", path_, i), file_); }
   JsonNode Required(const char* key) const {
-    if (!j_.contains(key)) JsonNode(Json(), path_.empty() ? key : path_ + "." + key, file_).Fail("missing required key");
+    if (!j_.contains(key))
+      JsonNode(Json(), path_.empty() ? key : path_ + "." + key, file_).Fail("missing required key");
     return Child(key);
   }
 

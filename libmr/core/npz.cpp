@@ -82,8 +82,8 @@ void NpzWriter::AddString(const std::string& name, const std::string& ascii) {
 std::string NpzWriter::Bytes() const {
   std::string zip, central;
   for (const Entry& e : entries_) {
-    const uint32_t crc = static_cast<uint32_t>(
-        crc32(0, reinterpret_cast<const Bytef*>(e.npy.data()), static_cast<uInt>(e.npy.size())));
+    const uint32_t crc =
+        static_cast<uint32_t>(crc32(0, reinterpret_cast<const Bytef*>(e.npy.data()), static_cast<uInt>(e.npy.size())));
     const std::string packed = Deflate(e.npy);
     if (zip.size() + packed.size() > 0xffffffffu) ThrowError("npz archive over 4 GiB");
     const uint32_t offset = static_cast<uint32_t>(zip.size());
@@ -135,8 +135,7 @@ std::string Base85Encode(const std::string& bytes) {
   for (size_t i = 0; i < bytes.size(); i += 4) {
     uint32_t word = 0;
     const size_t n = std::min<size_t>(4, bytes.size() - i);
-    for (size_t k = 0; k < 4; ++k)
-      word = (word << 8) | (k < n ? static_cast<unsigned char>(bytes[i + k]) : 0u);
+    for (size_t k = 0; k < 4; ++k) word = (word << 8) | (k < n ? static_cast<unsigned char>(bytes[i + k]) : 0u);
     char group[5];
     for (int k = 4; k >= 0; --k) {
       group[k] = kAlphabet[word % 85];

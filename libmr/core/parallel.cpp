@@ -18,17 +18,15 @@ void SetThreadCount(int n) {
   std::lock_guard lock(g_control_mutex);
   g_control.reset();
   if (n > 0)
-    g_control = std::make_unique<tbb::global_control>(
-        tbb::global_control::max_allowed_parallelism, static_cast<size_t>(n));
+    g_control =
+        std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, static_cast<size_t>(n));
 }
 
 int ThreadCount() {
-  return static_cast<int>(
-      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+  return static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
 }
 
-void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t)>& fn,
-                 int64_t grain) {
+void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t)>& fn, int64_t grain) {
   if (end <= begin) return;
   tbb::parallel_for(tbb::blocked_range<int64_t>(begin, end, std::max<int64_t>(1, grain)),
                     [&](const tbb::blocked_range<int64_t>& r) {
@@ -36,8 +34,7 @@ void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t)>&
                     });
 }
 
-void ParallelForChunks(int64_t begin, int64_t end, int64_t chunk,
-                       const std::function<void(int64_t, int64_t)>& fn) {
+void ParallelForChunks(int64_t begin, int64_t end, int64_t chunk, const std::function<void(int64_t, int64_t)>& fn) {
   if (end <= begin) return;
   MR_CHECK_GT(chunk, 0);
   const int64_t n_chunks = (end - begin + chunk - 1) / chunk;
@@ -47,8 +44,7 @@ void ParallelForChunks(int64_t begin, int64_t end, int64_t chunk,
   });
 }
 
-double DeterministicSum(int64_t begin, int64_t end, const std::function<double(int64_t)>& fn,
-                        int64_t chunk) {
+double DeterministicSum(int64_t begin, int64_t end, const std::function<double(int64_t)>& fn, int64_t chunk) {
   if (end <= begin) return 0.0;
   MR_CHECK_GT(chunk, 0);
   const int64_t n_chunks = (end - begin + chunk - 1) / chunk;

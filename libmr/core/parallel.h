@@ -19,15 +19,12 @@ void SetThreadCount(int n);
 int ThreadCount();
 
 // Calls fn(i) for i in [begin, end) in parallel; `grain` indices per task.
-void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t)>& fn,
-                 int64_t grain = 1);
+void ParallelFor(int64_t begin, int64_t end, const std::function<void(int64_t)>& fn, int64_t grain = 1);
 
 // Calls fn(i0, i1) on fixed, thread-independent chunks [i0, i1).
-void ParallelForChunks(int64_t begin, int64_t end, int64_t chunk,
-                       const std::function<void(int64_t, int64_t)>& fn);
+void ParallelForChunks(int64_t begin, int64_t end, int64_t chunk, const std::function<void(int64_t, int64_t)>& fn);
 
 // Sum of fn(i) over [begin, end), compensated, in a thread-independent order.
-double DeterministicSum(int64_t begin, int64_t end, const std::function<double(int64_t)>& fn,
-                        int64_t chunk = 4096);
+double DeterministicSum(int64_t begin, int64_t end, const std::function<double(int64_t)>& fn, int64_t chunk = 4096);
 
 }  // namespace mr

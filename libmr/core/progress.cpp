@@ -31,8 +31,7 @@ void Progress::Update(int64_t done) {
   double elapsed = std::chrono::duration<double>(now - start_).count();
   double frac = total_ > 0 ? static_cast<double>(done) / static_cast<double>(total_) : 1.0;
   double eta = frac > 0 ? elapsed * (1 - frac) / frac : 0;
-  std::fprintf(stderr, "\r%s: %5.1f%% (%.1fs elapsed, %.1fs left)   ", label_.c_str(),
-               100.0 * frac, elapsed, eta);
+  std::fprintf(stderr, "\r%s: %5.1f%% (%.1fs elapsed, %.1fs left)   ", label_.c_str(), 100.0 * frac, elapsed, eta);
   std::fflush(stderr);
 }
 

@@ -35,17 +35,15 @@ void Report::SetMetric(const std::string& dotted_key, const nlohmann::json& valu
 }
 
 nlohmann::json Report::ToJson() const {
-  return {{"tool", tool_},         {"version", kVersion},   {"command_line", command_line_},
-          {"inputs", inputs_},     {"outputs", outputs_},   {"timings", timings_},
-          {"skipped", skipped_},   {"warnings", warnings_}, {"metrics", metrics_}};
+  return {{"tool", tool_},       {"version", kVersion},   {"command_line", command_line_},
+          {"inputs", inputs_},   {"outputs", outputs_},   {"timings", timings_},
+          {"skipped", skipped_}, {"warnings", warnings_}, {"metrics", metrics_}};
 }
 
 void Report::Write(const fs::path& path) const { WriteTextFile(path, ToJson().dump(2) + "\n"); }
 
 void ValidateReportJson(const nlohmann::json& j, const std::string& file) {
-  auto fail = [&](const std::string& key, const std::string& what) {
-    throw Error(FileLoc{file, 0, 0, key}, what);
-  };
+  auto fail = [&](const std::string& key, const std::string& what) { throw Error(FileLoc{file, 0, 0, key}, what); };
   if (!j.is_object()) fail("", "a report must be a JSON object");
   static const char* kStrings[] = {"tool", "version", "command_line"};
   for (const char* k : kStrings)
@@ -62,8 +60,8 @@ void ValidateReportJson(const nlohmann::json& j, const std::string& file) {
       fail(fmt::format("skipped[{}]", i), "expected {what, why}");
   }
   for (auto& [k, v] : j.items())
-    if (!(k == "tool" || k == "version" || k == "command_line" || k == "inputs" ||
-          k == "outputs" || k == "timings" || k == "skipped" || k == "warnings" || k == "metrics"))
+    if (!(k == "tool" || k == "version" || k == "command_line" || k == "inputs" || k == "outputs" || k == "timings" ||
+          k == "skipped" || k == "warnings" || k == "metrics"))
       fail(k, "unknown key");
 }
 

@@ -5,8 +5,8 @@
 // count nor the order in which work is scheduled (docs/conventions.md).
 #pragma once
 
-#include <array>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 
@@ -20,9 +20,7 @@ class Pcg32 {
  public:
   // `seed` picks the position, `stream` the sequence; use (global seed,
   // record index) so that each record has an independent stream.
-  explicit Pcg32(uint64_t seed = 0x853c49e6748fea9bULL, uint64_t stream = 0xda3e39cb94b95bdbULL) {
-    Seed(seed, stream);
-  }
+  explicit Pcg32(uint64_t seed = 0x853c49e6748fea9bULL, uint64_t stream = 0xda3e39cb94b95bdbULL) { Seed(seed, stream); }
 
   void Seed(uint64_t seed, uint64_t stream) {
     state_ = 0u;

@@ -62,5 +62,4 @@ double ShLanczosWindow(int l, int order) {
   return std::sin(x) / x;
 }
 
-
 }  // namespace mr

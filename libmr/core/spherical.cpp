@@ -13,8 +13,7 @@ LatLong DirectionToLatLong(const Eigen::Vector3d& dir) {
   MR_DCHECK(len > 0);
   const double r = std::hypot(dir.z(), dir.x());
   LatLong ll;
-  ll.latitude = (r < std::abs(dir.y())) ? std::copysign(SafeACos(r / len), dir.y())
-                                        : SafeASin(dir.y() / len);
+  ll.latitude = (r < std::abs(dir.y())) ? std::copysign(SafeACos(r / len), dir.y()) : SafeASin(dir.y() / len);
   ll.longitude = (dir.z() == 0 && dir.x() == 0) ? 0.0 : std::atan2(dir.x(), dir.z());
   return ll;
 }

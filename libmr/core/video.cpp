@@ -2,8 +2,8 @@
 
 #include <opencv2/videoio.hpp>
 
-#include <atomic>
 #include <unistd.h>
+#include <atomic>
 
 #include "core/error.h"
 #include "core/math.h"
@@ -40,10 +40,12 @@ Image VideoReader::Frame(int index) {
   cv::Mat m;
   while (impl_->next <= index) {
     if (!impl_->cap.read(m) || m.empty())
-      ThrowErrorAt(FileLoc{impl_->path.string()}, "the video has no frame {} (it ends after {} frames)", index, impl_->next);
+      ThrowErrorAt(FileLoc{impl_->path.string()}, "the video has no frame {} (it ends after {} frames)", index,
+                   impl_->next);
     ++impl_->next;
   }
-  if (m.type() != CV_8UC3) ThrowErrorAt(FileLoc{impl_->path.string()}, "unsupported pixel format (expected 8-bit colour)");
+  if (m.type() != CV_8UC3)
+    ThrowErrorAt(FileLoc{impl_->path.string()}, "unsupported pixel format (expected 8-bit colour)");
   Image img = Image::Rgb(m.cols, m.rows);
   for (int y = 0; y < m.rows; ++y)
     for (int x = 0; x < m.cols; ++x) {
@@ -68,9 +70,12 @@ VideoWriter::VideoWriter(const fs::path& path, int width, int height, double fps
   impl_->tmp = path.parent_path() / fmt::format(".mr-tmp-{}-{}-{}", getpid(), counter++, path.filename().string());
   const std::string ext = LowerExtension(path);
   int fourcc;
-  if (ext == ".mp4") fourcc = cv::VideoWriter::fourcc('m', 'p', '4', 'v');
-  else if (ext == ".avi") fourcc = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
-  else ThrowErrorAt(FileLoc{path.string()}, "unsupported video extension \"{}\" (use .mp4 or .avi)", ext);
+  if (ext == ".mp4")
+    fourcc = cv::VideoWriter::fourcc('m', 'p', '4', 'v');
+  else if (ext == ".avi")
+    fourcc = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+  else
+    ThrowErrorAt(FileLoc{path.string()}, "unsupported video extension \"{}\" (use .mp4 or .avi)", ext);
   if (!impl_->writer.open(impl_->tmp.string(), cv::CAP_FFMPEG, fourcc, fps, cv::Size(width, height), true))
     ThrowErrorAt(FileLoc{path.string()}, "cannot open a video writer (FFmpeg backend)");
 }

@@ -55,7 +55,7 @@ std::vector<PlotSeries> ReadPlotSeries(const fs::path& path, const std::string& 
       groups[g].points.push_back({std::stod(f[static_cast<size_t>(xi)]), std::stod(f[static_cast<size_t>(yi)])});
     } catch (const std::exception&) {
       ThrowErrorAt(FileLoc{csv, n}, "\"{}\" or \"{}\" is not a number", f[static_cast<size_t>(xi)],
-                       f[static_cast<size_t>(yi)]);
+                   f[static_cast<size_t>(yi)]);
     }
   }
   std::vector<PlotSeries> series;
@@ -67,10 +67,14 @@ namespace {
 std::string Escape(const std::string& s) {
   std::string o;
   for (char c : s) {
-    if (c == '<') o += "&lt;";
-    else if (c == '>') o += "&gt;";
-    else if (c == '&') o += "&amp;";
-    else o += c;
+    if (c == '<')
+      o += "&lt;";
+    else if (c == '>')
+      o += "&gt;";
+    else if (c == '&')
+      o += "&amp;";
+    else
+      o += c;
   }
   return o;
 }
@@ -156,8 +160,10 @@ void WriteSvgPlot(const fs::path& path, const std::vector<PlotSeries>& series, c
     svg += fmt::format("<line x1=\"{}\" y1=\"{:.1f}\" x2=\"{}\" y2=\"{:.1f}\" stroke=\"#ddd\"/>\n", L, py, L + pw, py);
     svg += fmt::format("<text x=\"{}\" y=\"{:.1f}\" text-anchor=\"end\">{:g}</text>\n", L - 6, py + 4, v);
   }
-  svg += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n", L, T, pw, ph);
-  svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", L + pw / 2, o.height - 16, Escape(o.x_label));
+  svg += fmt::format("<rect x=\"{}\" y=\"{}\" width=\"{}\" height=\"{}\" fill=\"none\" stroke=\"black\"/>\n", L, T, pw,
+                     ph);
+  svg += fmt::format("<text x=\"{}\" y=\"{}\" text-anchor=\"middle\">{}</text>\n", L + pw / 2, o.height - 16,
+                     Escape(o.x_label));
   svg += fmt::format("<text x=\"16\" y=\"{}\" text-anchor=\"middle\" transform=\"rotate(-90 16 {})\">{}</text>\n",
                      T + ph / 2, T + ph / 2, Escape(o.y_label));
   for (size_t k = 0; k < series.size(); ++k) {
@@ -170,8 +176,8 @@ void WriteSvgPlot(const fs::path& path, const std::vector<PlotSeries>& series, c
     }
     svg += fmt::format("<polyline points=\"{}\" fill=\"none\" stroke=\"{}\" stroke-width=\"1.5\"/>\n", pts, col);
     const double ly = T + 14 + 18 * static_cast<double>(k);
-    svg += fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"2\"/>\n", L + pw + 12, ly,
-                       L + pw + 32, ly, col);
+    svg += fmt::format("<line x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\" stroke=\"{}\" stroke-width=\"2\"/>\n",
+                       L + pw + 12, ly, L + pw + 32, ly, col);
     svg += fmt::format("<text x=\"{}\" y=\"{}\">{}</text>\n", L + pw + 38, ly + 4, Escape(series[k].name));
   }
   svg += "</svg>\n";
@@ -181,7 +187,9 @@ void WriteSvgPlot(const fs::path& path, const std::vector<PlotSeries>& series, c
 void WritePngPlot(const fs::path& path, const std::vector<PlotSeries>& series, const PlotOptions& o) {
   const Layout lay = MakeLayout(path, series, o);
   cv::Mat img(o.height, o.width, CV_8UC3, cv::Scalar(255, 255, 255));
-  auto pt = [&](double x, double y) { return cv::Point(static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y))); };
+  auto pt = [&](double x, double y) {
+    return cv::Point(static_cast<int>(std::lround(x)), static_cast<int>(std::lround(y)));
+  };
   auto colour = [](const char* hex) {
     const unsigned v = static_cast<unsigned>(std::stoul(hex + 1, nullptr, 16));
     return cv::Scalar(v & 255, (v >> 8) & 255, (v >> 16) & 255);  // BGR

@@ -29,10 +29,12 @@ Shard ReadShard(const fs::path& file) {
     ThrowErrorAt(FileLoc{file.string()}, "not JSON: {}", e.what());
   }
   ValidateReportJson(s.json, file.string());
-  if (s.json["tool"] != "mr-render") ThrowErrorAt(FileLoc{file.string()}, "a report of {}, not of mr-render", s.json["tool"].get<std::string>());
+  if (s.json["tool"] != "mr-render")
+    ThrowErrorAt(FileLoc{file.string()}, "a report of {}, not of mr-render", s.json["tool"].get<std::string>());
   const Json& m = s.json["metrics"];
   if (!m.contains("shard") || !m.contains("frames") || !m.contains("method"))
-    ThrowErrorAt(FileLoc{file.string()}, "has no metrics.shard, metrics.frames or metrics.method (written by an older mr-render?)");
+    ThrowErrorAt(FileLoc{file.string()},
+                 "has no metrics.shard, metrics.frames or metrics.method (written by an older mr-render?)");
   s.begin = m["shard"]["begin"].get<int>();
   s.end = m["shard"]["end"].get<int>();
   s.scene_frames = m["shard"]["scene_frames"].get<int>();
@@ -51,14 +53,15 @@ void MergeRenderReports(const MergeOptions& o, Report* report) {
   const Json scene_input = first.json["inputs"].empty() ? Json() : first.json["inputs"][0];
   for (const Shard& s : shards) {
     if (s.json["metrics"]["method"] != method)
-      ThrowErrorAt(FileLoc{s.file.string()}, "method {} differs from {}'s {}", s.json["metrics"]["method"].get<std::string>(),
-                   first.file.string(), method);
+      ThrowErrorAt(FileLoc{s.file.string()}, "method {} differs from {}'s {}",
+                   s.json["metrics"]["method"].get<std::string>(), first.file.string(), method);
     const Json in = s.json["inputs"].empty() ? Json() : s.json["inputs"][0];
     if (in != scene_input)
-      ThrowErrorAt(FileLoc{s.file.string()}, "renders scene {} but {} renders {}", in.dump(), first.file.string(), scene_input.dump());
+      ThrowErrorAt(FileLoc{s.file.string()}, "renders scene {} but {} renders {}", in.dump(), first.file.string(),
+                   scene_input.dump());
     if (s.scene_frames != first.scene_frames)
-      ThrowErrorAt(FileLoc{s.file.string()}, "the scene has {} frames here but {} in {}", s.scene_frames, first.scene_frames,
-                   first.file.string());
+      ThrowErrorAt(FileLoc{s.file.string()}, "the scene has {} frames here but {} in {}", s.scene_frames,
+                   first.scene_frames, first.file.string());
   }
   // Coverage: no frame twice, no gap unless allowed.
   int next = 0;
@@ -66,15 +69,16 @@ void MergeRenderReports(const MergeOptions& o, Report* report) {
   for (size_t i = 0; i < shards.size(); ++i) {
     const Shard& s = shards[i];
     if (i > 0 && s.begin < shards[i - 1].end)
-      ThrowErrorAt(FileLoc{s.file.string()}, "frames {}:{} overlap {}'s {}:{}", s.begin, s.end, shards[i - 1].file.string(),
-                   shards[i - 1].begin, shards[i - 1].end);
+      ThrowErrorAt(FileLoc{s.file.string()}, "frames {}:{} overlap {}'s {}:{}", s.begin, s.end,
+                   shards[i - 1].file.string(), shards[i - 1].begin, shards[i - 1].end);
     if (s.begin > next) gaps.push_back(fmt::format("{}:{}", next, s.begin));
     next = s.end;
   }
   if (next < first.scene_frames) gaps.push_back(fmt::format("{}:{}", next, first.scene_frames));
   if (!gaps.empty()) {
     const std::string list = fmt::format("{}", fmt::join(gaps, ", "));
-    if (!o.allow_gaps) throw Error(FileLoc{}, fmt::format("no shard rendered frames {} (--allow-gaps merges what there is)", list));
+    if (!o.allow_gaps)
+      throw Error(FileLoc{}, fmt::format("no shard rendered frames {} (--allow-gaps merges what there is)", list));
     report->Warn("no shard rendered frames " + list);
   }
 
@@ -107,8 +111,8 @@ void MergeRenderReports(const MergeOptions& o, Report* report) {
     clamped += m.value("clamped_negative", int64_t{0});
     nonfinite += m.value("nonfinite_samples", int64_t{0});
     // The shard's curve is already a mean over its frames: weight it back.
-    const int nf_ref = static_cast<int>(std::count_if(m["frames"].begin(), m["frames"].end(),
-                                                      [](const Json& f) { return f.contains("relmse"); }));
+    const int nf_ref = static_cast<int>(
+        std::count_if(m["frames"].begin(), m["frames"].end(), [](const Json& f) { return f.contains("relmse"); }));
     if (m.contains("curve"))
       for (const Json& c : m["curve"]) {
         Json& acc = curve[c["spp"].get<int>()];
@@ -120,7 +124,8 @@ void MergeRenderReports(const MergeOptions& o, Report* report) {
   }
   report->SetMetric("method", method);
   report->SetMetric("shards", static_cast<int>(shards.size()));
-  report->SetMetric("shard", Json{{"begin", first.begin}, {"end", shards.back().end}, {"scene_frames", first.scene_frames}});
+  report->SetMetric("shard",
+                    Json{{"begin", first.begin}, {"end", shards.back().end}, {"scene_frames", first.scene_frames}});
   report->SetMetric("frames", frames);
   report->SetMetric("clamped_negative", clamped);
   report->SetMetric("nonfinite_samples", nonfinite);
@@ -132,8 +137,10 @@ void MergeRenderReports(const MergeOptions& o, Report* report) {
     for (auto& [spp, acc] : curve) {
       const int nf = acc["frames"].get<int>();
       if (nf == 0) continue;
-      c.push_back({{"seconds", acc["seconds"].get<double>() / nf}, {"spp", spp},
-                   {"relmse", acc["relmse"].get<double>() / nf}, {"region_relmse", acc["region_relmse"].get<double>() / nf}});
+      c.push_back({{"seconds", acc["seconds"].get<double>() / nf},
+                   {"spp", spp},
+                   {"relmse", acc["relmse"].get<double>() / nf},
+                   {"region_relmse", acc["region_relmse"].get<double>() / nf}});
     }
     report->SetMetric("curve", c);
   }

@@ -8,13 +8,13 @@
 
 #include <fmt/ranges.h>
 
-#include "scene/frames.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/image_metrics.h"
 #include "eval/plot.h"
 #include "render/method.h"
 #include "render/render_job.h"
+#include "scene/frames.h"
 
 namespace mr {
 
@@ -34,7 +34,8 @@ std::vector<Setting> Settings(const Scene& base, const SweepOptions& options) {
   for (const auto& [key, values] : o.set) {
     const std::string m = key.substr(0, key.find('.'));
     if (std::find(o.methods.begin(), o.methods.end(), m) == o.methods.end())
-      throw UsageError(fmt::format("--set {}: {} is not among the methods swept ({})", key, m, fmt::join(o.methods, ",")));
+      throw UsageError(
+          fmt::format("--set {}: {} is not among the methods swept ({})", key, m, fmt::join(o.methods, ",")));
   }
   std::vector<Setting> out;
   for (const std::string& m : o.methods) {
@@ -50,8 +51,10 @@ std::vector<Setting> Settings(const Scene& base, const SweepOptions& options) {
       if (name.rfind(m + ".", 0) != 0) continue;
       const std::string key = name.substr(m.size() + 1);
       auto it = std::find_if(axes.begin(), axes.end(), [&](const auto& a) { return a.first == key; });
-      if (it == axes.end()) axes.emplace_back(key, values);
-      else it->second = values;
+      if (it == axes.end())
+        axes.emplace_back(key, values);
+      else
+        it->second = values;
     }
     size_t n = 1;
     for (const auto& [key, values] : axes) n = std::max(n, values.size());
@@ -112,7 +115,8 @@ std::string SweepDefaultsText() {
 
 void AddSweepAxis(const std::string& spec, SweepOptions* o) {
   const auto eq = spec.find('='), dot = spec.find('.');
-  if (eq == std::string::npos || dot == std::string::npos || dot > eq || dot == 0 || eq == dot + 1 || eq + 1 == spec.size())
+  if (eq == std::string::npos || dot == std::string::npos || dot > eq || dot == 0 || eq == dot + 1 ||
+      eq + 1 == spec.size())
     throw UsageError(fmt::format("--set {}: expected METHOD.KEY=V1,V2,... (e.g. vpl.paths=64,256)", spec));
   FindRenderMethod(spec.substr(0, dot));
   std::vector<Json> values;
@@ -126,7 +130,8 @@ void AddSweepAxis(const std::string& spec, SweepOptions* o) {
 }
 
 std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report* report) {
-  if (!scene.reference) throw UsageError(fmt::format("{} names no reference: a sweep needs ground truth", scene.file.string()));
+  if (!scene.reference)
+    throw UsageError(fmt::format("{} names no reference: a sweep needs ground truth", scene.file.string()));
   if (o.out.empty()) throw UsageError("--out is required");
   std::error_code ec;
   fs::create_directories(o.out / "diff", ec);
@@ -152,16 +157,23 @@ std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report
     // loading, compositing or writing, which every method shares.
     const Json& t = j["timings"];
     const std::string& prepare = FindRenderMethod(s.method).prepare_timing;
-    row.seconds = (Timing(t, "render") + (prepare.empty() ? 0.0 : Timing(t, prepare.c_str()))) / std::max(1, row.frames);
+    row.seconds =
+        (Timing(t, "render") + (prepare.empty() ? 0.0 : Timing(t, prepare.c_str()))) / std::max(1, row.frames);
     row.relmse = m.value("relmse", NAN);
     row.region_relmse = m.value("region_relmse", NAN);
     row.rmse = m.value("rmse", NAN);
     spdlog::info("{} {}: {:.2f} s/frame, relMSE {:.3g}, in the object's region {:.3g}", s.method, s.name, row.seconds,
                  row.relmse, row.region_relmse);
     rows.push_back(row);
-    runs.push_back({{"method", row.method}, {"setting", row.setting}, {"seconds", row.seconds}, {"relmse", row.relmse},
-                    {"region_relmse", row.region_relmse}, {"rmse", row.rmse}, {"frames", row.frames},
-                    {"report", m}, {"skipped", j["skipped"]}});
+    runs.push_back({{"method", row.method},
+                    {"setting", row.setting},
+                    {"seconds", row.seconds},
+                    {"relmse", row.relmse},
+                    {"region_relmse", row.region_relmse},
+                    {"rmse", row.rmse},
+                    {"frames", row.frames},
+                    {"report", m},
+                    {"skipped", j["skipped"]}});
     // |composite - reference| x scale of the first frame.
     const int f0 = m["frames"][0]["frame"].get<int>();
     const Image composite = ReadRgbForComparison(ro.out_dir / fmt::format("{:05d}.exr", f0));
@@ -187,11 +199,13 @@ std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report
         index[r.method] = series.size();
         series.push_back({r.method, {}});
       }
-      series[index[r.method]].points.emplace_back(r.seconds, std::string(which) == "relmse" ? r.relmse : r.region_relmse);
+      series[index[r.method]].points.emplace_back(r.seconds,
+                                                  std::string(which) == "relmse" ? r.relmse : r.region_relmse);
     }
     PlotOptions po;
-    po.title = fmt::format("{}: {} against time", (scene.file.parent_path().filename() / scene.file.filename()).string(),
-                           std::string(which) == "relmse" ? "relMSE" : "relMSE in the object's region");
+    po.title =
+        fmt::format("{}: {} against time", (scene.file.parent_path().filename() / scene.file.filename()).string(),
+                    std::string(which) == "relmse" ? "relMSE" : "relMSE in the object's region");
     po.x_label = "seconds per frame";
     po.y_label = std::string(which) == "relmse" ? "relMSE" : "region relMSE";
     const std::string stem = std::string("error-vs-time") + (std::string(which) == "relmse" ? "" : "-region");
@@ -204,7 +218,10 @@ std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report
   report->AddOutput((o.out / "sweep.json").string());
   Json table = Json::array();
   for (const SweepRow& r : rows)
-    table.push_back({{"method", r.method}, {"setting", r.setting}, {"seconds", r.seconds}, {"relmse", r.relmse},
+    table.push_back({{"method", r.method},
+                     {"setting", r.setting},
+                     {"seconds", r.seconds},
+                     {"relmse", r.relmse},
                      {"region_relmse", r.region_relmse}});
   report->SetMetric("sweep", table);
   return rows;

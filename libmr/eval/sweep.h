@@ -37,7 +37,7 @@ void AddSweepAxis(const std::string& spec, SweepOptions* options);
 
 struct SweepRow {
   std::string method, setting;  // e.g. "ic", "rays=256 spp=4"
-  double seconds = 0;            // per frame: rendering and per-render preparation, not loading or writing
+  double seconds = 0;           // per frame: rendering and per-render preparation, not loading or writing
   double relmse = 0, region_relmse = 0, rmse = 0;
   int frames = 0;
 };

@@ -47,7 +47,8 @@ std::vector<std::pair<int, int>> Associate(const Trajectory& est, const Trajecto
 }  // namespace
 
 Rigid3 AlignRigid(const std::vector<Eigen::Vector3d>& est, const std::vector<Eigen::Vector3d>& ref) {
-  if (est.size() != ref.size() || est.empty()) ThrowError("rigid alignment needs equally many points (got {} and {})", est.size(), ref.size());
+  if (est.size() != ref.size() || est.empty())
+    ThrowError("rigid alignment needs equally many points (got {} and {})", est.size(), ref.size());
   Eigen::Vector3d me = Eigen::Vector3d::Zero(), mr_ = Eigen::Vector3d::Zero();
   for (size_t i = 0; i < est.size(); ++i) {
     me += est[i];
@@ -67,7 +68,8 @@ Rigid3 AlignRigid(const std::vector<Eigen::Vector3d>& est, const std::vector<Eig
 AteResult ComputeAte(const Trajectory& estimate, const Trajectory& reference, double max_dt) {
   const auto pairs = Associate(estimate, reference, max_dt);
   if (pairs.size() < 3)
-    ThrowError("only {} poses of the estimate are within {} s of a reference pose: too few for ATE", pairs.size(), max_dt);
+    ThrowError("only {} poses of the estimate are within {} s of a reference pose: too few for ATE", pairs.size(),
+               max_dt);
   std::vector<Eigen::Vector3d> e, r;
   for (const auto& [i, j] : pairs) {
     e.push_back(estimate.poses[static_cast<size_t>(i)].world_from_cam.translation);
@@ -138,7 +140,8 @@ std::vector<Eigen::Vector3d> SampleSurface(const Mesh& m, int64_t n, uint64_t se
   Pcg32 rng(seed, 7);
   for (int64_t i = 0; i < n; ++i) {
     const double u = rng.NextDouble() * total;
-    const size_t t = std::min(cdf.size() - 1, static_cast<size_t>(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()));
+    const size_t t =
+        std::min(cdf.size() - 1, static_cast<size_t>(std::upper_bound(cdf.begin(), cdf.end(), u) - cdf.begin()));
     double r1 = std::sqrt(rng.NextDouble()), r2 = rng.NextDouble();
     const auto& tri = m.triangles[t];
     const Eigen::Vector3d p = (1 - r1) * m.positions[static_cast<size_t>(tri[0])].cast<double>() +

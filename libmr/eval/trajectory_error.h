@@ -24,7 +24,7 @@ namespace mr {
 struct AteResult {
   int pairs = 0;
   double rmse = 0, mean = 0, median = 0, max = 0;  // metres
-  Rigid3 ref_from_est;                            // Horn's alignment
+  Rigid3 ref_from_est;                             // Horn's alignment
 };
 
 // Horn (1987), closed form via SVD (Umeyama without scale): the rigid
@@ -49,15 +49,14 @@ RpeResult ComputeRpe(const Trajectory& estimate, const Trajectory& reference, do
 struct SurfaceDistance {
   int64_t samples = 0;
   double mean = 0, median = 0, rmse = 0, p90 = 0;  // metres (capped at cutoff)
-  double within = 0;  // fraction within `threshold`
+  double within = 0;                               // fraction within `threshold`
 };
 struct MeshErrorResult {
   SurfaceDistance accuracy, completeness;
   double threshold = 0, cutoff = 0;
   double fscore = 0;  // harmonic mean of the two `within` fractions
 };
-MeshErrorResult CompareMeshes(const Mesh& estimate, const Mesh& reference, double threshold = 0.01,
-                              double cutoff = 0.1, int64_t samples = 200000, uint64_t seed = 1,
-                              const Eigen::AlignedBox3f* region = nullptr);
+MeshErrorResult CompareMeshes(const Mesh& estimate, const Mesh& reference, double threshold = 0.01, double cutoff = 0.1,
+                              int64_t samples = 200000, uint64_t seed = 1, const Eigen::AlignedBox3f* region = nullptr);
 
 }  // namespace mr

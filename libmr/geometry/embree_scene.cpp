@@ -23,8 +23,8 @@ RTCGeometry MakeTriangleGeometry(RTCDevice device, const Mesh& mesh) {
   RTCGeometry g = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
   auto* v = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
                                                         3 * sizeof(float), mesh.positions.size()));
-  auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
-      g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(uint32_t), mesh.triangles.size()));
+  auto* idx = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                                                             3 * sizeof(uint32_t), mesh.triangles.size()));
   MR_CHECK(v && idx);
   for (size_t i = 0; i < mesh.positions.size(); ++i) std::memcpy(v + 3 * i, mesh.positions[i].data(), 12);
   for (size_t i = 0; i < mesh.triangles.size(); ++i)
@@ -125,13 +125,11 @@ uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
   return static_cast<uint32_t>(impl_->prototypes.size() - 1);
 }
 
-uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object,
-                                  bool is_virtual) {
+uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object, bool is_virtual) {
   MR_CHECK(!impl_->committed);
   MR_CHECK_LT(prototype, impl_->prototypes.size());
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
-  if (std::abs(world_from_object.linear().determinant()) < 1e-20f)
-    ThrowError("instance transform is singular");
+  if (std::abs(world_from_object.linear().determinant()) < 1e-20f) ThrowError("instance transform is singular");
   RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
   rtcSetGeometryInstancedScene(g, impl_->prototypes[prototype]);
   Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();

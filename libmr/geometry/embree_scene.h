@@ -34,9 +34,9 @@ inline constexpr uint32_t kInvalidId = 0xffffffffu;
 
 struct Hit {
   float t = std::numeric_limits<float>::infinity();
-  Eigen::Vector2f uv = Eigen::Vector2f::Zero();  // barycentrics of corners 1 and 2
+  Eigen::Vector2f uv = Eigen::Vector2f::Zero();                // barycentrics of corners 1 and 2
   Eigen::Vector3f geometric_normal = Eigen::Vector3f::Zero();  // world space, unnormalised
-  uint32_t geometry_id = kInvalidId;  // the mesh (for an instance: the instance's id)
+  uint32_t geometry_id = kInvalidId;                           // the mesh (for an instance: the instance's id)
   uint32_t primitive_id = kInvalidId;
   bool is_virtual = false;
   bool valid() const { return geometry_id != kInvalidId; }

@@ -27,14 +27,16 @@ void ClosedSurfaces::Build() {
   std::vector<int> parent(static_cast<size_t>(n));
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](int x) {
-    while (parent[static_cast<size_t>(x)] != x) x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
+    while (parent[static_cast<size_t>(x)] != x)
+      x = parent[static_cast<size_t>(x)] = parent[static_cast<size_t>(parent[static_cast<size_t>(x)])];
     return x;
   };
   std::map<std::pair<int, int>, std::vector<int>> edges;
   std::vector<char> degenerate(static_cast<size_t>(n), 0);
   for (int f = 0; f < n; ++f) {
     const auto& t = triangles_[static_cast<size_t>(f)];
-    const int v[3] = {weld[static_cast<size_t>(t[0])], weld[static_cast<size_t>(t[1])], weld[static_cast<size_t>(t[2])]};
+    const int v[3] = {weld[static_cast<size_t>(t[0])], weld[static_cast<size_t>(t[1])],
+                      weld[static_cast<size_t>(t[2])]};
     if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) {
       degenerate[static_cast<size_t>(f)] = 1;  // no area: neither closes nor opens a surface
       continue;
@@ -73,11 +75,13 @@ int ClosedSurfaces::Inside(const Component& c, const Eigen::Vector3d& p) const {
     for (int f : c.triangles) {
       const auto& t = triangles_[static_cast<size_t>(f)];
       const Eigen::Vector3d& a = positions_[static_cast<size_t>(t[0])];
-      const Eigen::Vector3d e1 = positions_[static_cast<size_t>(t[1])] - a, e2 = positions_[static_cast<size_t>(t[2])] - a;
+      const Eigen::Vector3d e1 = positions_[static_cast<size_t>(t[1])] - a,
+                            e2 = positions_[static_cast<size_t>(t[2])] - a;
       const Eigen::Vector3d pv = d.cross(e2);
       const double det = e1.dot(pv);
       const double tol = 1e-9 * e1.norm() * e2.norm();
-      if (std::abs(det) <= tol) continue;  // parallel: crosses only if it lies in the plane (caught below as an edge case)
+      if (std::abs(det) <= tol)
+        continue;  // parallel: crosses only if it lies in the plane (caught below as an edge case)
       const Eigen::Vector3d tv = p - a;
       const double u = tv.dot(pv) / det;
       const Eigen::Vector3d qv = tv.cross(e1);

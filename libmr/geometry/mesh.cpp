@@ -43,8 +43,7 @@ void Mesh::ComputeNormals() {
 void Mesh::Validate(const std::string& name) const {
   const FileLoc loc{name};
   const size_t nv = positions.size();
-  if (!normals.empty() && normals.size() != nv)
-    ThrowErrorAt(loc, "{} normals for {} vertices", normals.size(), nv);
+  if (!normals.empty() && normals.size() != nv) ThrowErrorAt(loc, "{} normals for {} vertices", normals.size(), nv);
   if (!colors.empty() && colors.size() != nv) ThrowErrorAt(loc, "{} colours for {} vertices", colors.size(), nv);
   if (!uvs.empty() && uvs.size() != nv) ThrowErrorAt(loc, "{} uvs for {} vertices", uvs.size(), nv);
   for (const Scalar& s : scalars)

@@ -54,9 +54,9 @@ struct MeshReadOptions {
 
 // What the reader found and did; nothing is dropped without a count here.
 struct MeshReadReport {
-  std::string format;                 // "ply (ascii)", "ply (binary)", "obj", "off", "stl"
-  int64_t declared_faces = -1;        // from the header where the format has one
-  int64_t polygons_triangulated = 0;  // faces with more than 3 corners
+  std::string format;                    // "ply (ascii)", "ply (binary)", "obj", "off", "stl"
+  int64_t declared_faces = -1;           // from the header where the format has one
+  int64_t polygons_triangulated = 0;     // faces with more than 3 corners
   int64_t faces_rejected_by_reader = 0;  // non-manifold/complex faces OpenMesh refused
   int64_t degenerate_faces_dropped = 0;
   int64_t nonfinite_vertices = 0;
@@ -66,8 +66,7 @@ struct MeshReadReport {
 };
 
 // OBJ, PLY (ASCII and binary), OFF, STL.  Throws mr::Error naming the file.
-Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options = {},
-              MeshReadReport* report = nullptr);
+Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options = {}, MeshReadReport* report = nullptr);
 // Binary little-endian PLY with normals, colours (uchar) and uvs when present.  Atomic.
 void WritePly(const fs::path& path, const Mesh& mesh, const std::string& comment = "");
 

@@ -2,8 +2,8 @@
 // lacks: it finds non-standard comment lines inside element data (the
 // Stanford bunny res4 has two), non-finite coordinates and out-of-range face
 // indices, and reports each with its line number.
-#include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/IO/IOManager.hh>
+#include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
 
 #include <cerrno>
@@ -144,10 +144,14 @@ bool ParsePlyHeader(const std::string& text, PlyHeader* h, const std::string& na
     const std::string& kw = tok[0];
     if (kw == "comment" || kw == "obj_info") continue;
     if (kw == "format") {
-      if (has_format || tok.size() != 3 || tok[2] != "1.0") fail("expected \"format ascii|binary_little_endian|binary_big_endian 1.0\"");
-      if (tok[1] == "ascii") h->ascii = true;
-      else if (tok[1] == "binary_little_endian" || tok[1] == "binary_big_endian") h->binary = true;
-      else fail(fmt::format("unknown format \"{}\"", tok[1]));
+      if (has_format || tok.size() != 3 || tok[2] != "1.0")
+        fail("expected \"format ascii|binary_little_endian|binary_big_endian 1.0\"");
+      if (tok[1] == "ascii")
+        h->ascii = true;
+      else if (tok[1] == "binary_little_endian" || tok[1] == "binary_big_endian")
+        h->binary = true;
+      else
+        fail(fmt::format("unknown format \"{}\"", tok[1]));
       has_format = true;
     } else if (kw == "element") {
       if (tok.size() != 3) fail("expected \"element NAME COUNT\"");
@@ -192,11 +196,13 @@ bool ParsePlyHeader(const std::string& text, PlyHeader* h, const std::string& na
       // face (count + 3 one-byte indices); ASCII at least 3 bytes per vertex
       // and 4 per face.  A header that claims more is corrupt.
       const double per_vertex = h->binary ? static_cast<double>(vertex_bytes) : 3.0;
-      const double need = per_vertex * static_cast<double>(h->vertices) +
-                          4.0 * static_cast<double>(std::max<int64_t>(0, h->faces));
+      const double need =
+          per_vertex * static_cast<double>(h->vertices) + 4.0 * static_cast<double>(std::max<int64_t>(0, h->faces));
       if (header_bytes < 0 || need > static_cast<double>(text.size()) - static_cast<double>(header_bytes))
-        ThrowErrorAt(FileLoc{name}, "header declares {} vertices and {} faces, more than the {} bytes after it can hold "
-                     "(truncated file or corrupt header?)", h->vertices, std::max<int64_t>(0, h->faces),
+        ThrowErrorAt(FileLoc{name},
+                     "header declares {} vertices and {} faces, more than the {} bytes after it can hold "
+                     "(truncated file or corrupt header?)",
+                     h->vertices, std::max<int64_t>(0, h->faces),
                      static_cast<int64_t>(text.size()) - std::max<int64_t>(0, header_bytes));
       return true;
     } else {
@@ -209,8 +215,7 @@ bool ParsePlyHeader(const std::string& text, PlyHeader* h, const std::string& na
 // Checks the ASCII element data and returns it without non-standard comment
 // lines.  Records what it found in `report`.
 std::string CleanAsciiPly(const std::string& text, const PlyHeader& h, const std::string& name,
-                          const MeshReadOptions& options, MeshReadReport* report,
-                          std::vector<char>* bad_vertex) {
+                          const MeshReadOptions& options, MeshReadReport* report, std::vector<char>* bad_vertex) {
   std::istringstream in(text);
   std::ostringstream out;
   std::string line;
@@ -226,8 +231,7 @@ std::string CleanAsciiPly(const std::string& text, const PlyHeader& h, const std
     if (h.vertex_props[i] == "y") xyz[1] = static_cast<int>(i);
     if (h.vertex_props[i] == "z") xyz[2] = static_cast<int>(i);
   }
-  if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0)
-    ThrowErrorAt(FileLoc{name}, "PLY vertices lack x, y or z properties");
+  if (xyz[0] < 0 || xyz[1] < 0 || xyz[2] < 0) ThrowErrorAt(FileLoc{name}, "PLY vertices lack x, y or z properties");
   bad_vertex->assign(static_cast<size_t>(std::max<int64_t>(0, h.vertices)), 0);
   int64_t v = 0, f = 0;
   while (std::getline(in, line)) {
@@ -236,8 +240,10 @@ std::string CleanAsciiPly(const std::string& text, const PlyHeader& h, const std
     if (!trimmed.empty() && trimmed.back() == '\r') trimmed.pop_back();
     if (trimmed.rfind("comment", 0) == 0) {
       ++report->comment_lines_skipped;
-      report->notes.push_back(fmt::format("{}:{}: skipped a non-standard comment line inside the "
-                                          "element data: \"{}\"", name, lineno, trimmed));
+      report->notes.push_back(
+          fmt::format("{}:{}: skipped a non-standard comment line inside the "
+                      "element data: \"{}\"",
+                      name, lineno, trimmed));
       continue;
     }
     if (trimmed.find_first_not_of(" \t") == std::string::npos) continue;
@@ -248,8 +254,8 @@ std::string CleanAsciiPly(const std::string& text, const PlyHeader& h, const std
     while (ls >> t) tok.push_back(t);
     if (v < h.vertices) {
       if (tok.size() < h.vertex_props.size())
-        ThrowErrorAt(FileLoc{name, lineno}, "vertex {} has {} values, the header declares {}", v,
-                     tok.size(), h.vertex_props.size());
+        ThrowErrorAt(FileLoc{name, lineno}, "vertex {} has {} values, the header declares {}", v, tok.size(),
+                     h.vertex_props.size());
       for (int k = 0; k < 3; ++k) {
         const std::string& s = tok[static_cast<size_t>(xyz[k])];
         char* end = nullptr;
@@ -277,16 +283,15 @@ std::string CleanAsciiPly(const std::string& text, const PlyHeader& h, const std
       for (long k = 1; k <= n; ++k) {
         long idx = std::strtol(tok[static_cast<size_t>(k)].c_str(), &end, 10);
         if (*end != '\0' || idx < 0 || idx >= h.vertices)
-          ThrowErrorAt(FileLoc{name, lineno}, "face {} uses vertex \"{}\", but there are {} vertices",
-                       f, tok[static_cast<size_t>(k)], h.vertices);
+          ThrowErrorAt(FileLoc{name, lineno}, "face {} uses vertex \"{}\", but there are {} vertices", f,
+                       tok[static_cast<size_t>(k)], h.vertices);
       }
       ++f;
     }
     out << trimmed << '\n';
   }
   if (v < h.vertices || f < h.faces)
-    ThrowErrorAt(FileLoc{name}, "truncated: {} of {} vertices and {} of {} faces present", v,
-                 h.vertices, f, h.faces);
+    ThrowErrorAt(FileLoc{name}, "truncated: {} of {} vertices and {} of {} faces present", v, h.vertices, f, h.faces);
   return out.str();
 }
 
@@ -332,8 +337,7 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
   if (bad_vertex.size() != mesh.positions.size()) bad_vertex.assign(mesh.positions.size(), 0);
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
     if (mesh.positions[i].allFinite()) continue;
-    if (options.nonfinite == BadVertices::kReject)
-      ThrowErrorAt(loc, "vertex {} has a non-finite coordinate", i);
+    if (options.nonfinite == BadVertices::kReject) ThrowErrorAt(loc, "vertex {} has a non-finite coordinate", i);
     if (!bad_vertex[i]) ++report.nonfinite_vertices;
     bad_vertex[i] = 1;
   }
@@ -369,8 +373,8 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
   if (report.polygons_triangulated)
     report.notes.push_back(fmt::format("{}: triangulated {} polygons (fan)", name, report.polygons_triangulated));
   if (report.degenerate_faces_dropped)
-    report.notes.push_back(fmt::format("{}: dropped {} degenerate faces (zero area or repeated corner)",
-                                       name, report.degenerate_faces_dropped));
+    report.notes.push_back(fmt::format("{}: dropped {} degenerate faces (zero area or repeated corner)", name,
+                                       report.degenerate_faces_dropped));
   if (report.nonfinite_vertices)
     report.notes.push_back(fmt::format("{}: {} vertices have non-finite coordinates; dropped the {} faces using them",
                                        name, report.nonfinite_vertices, report.faces_dropped_for_nonfinite));

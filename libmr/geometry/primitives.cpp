@@ -29,7 +29,8 @@ Mesh LatLongGrid(int n, const std::function<double(double, double)>& radius) {
   for (int i = 0; i <= n; ++i)
     for (int j = 0; j < 2 * n; ++j) {
       const double th = kPi * i / n, ph = kPi * j / n, r = radius(th, ph);
-      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)), static_cast<float>(r * std::cos(th)),
+      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)),
+                               static_cast<float>(r * std::cos(th)),
                                static_cast<float>(r * std::sin(th) * std::sin(ph)));
     }
   for (int i = 0; i < n; ++i)

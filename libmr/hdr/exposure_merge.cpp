@@ -47,8 +47,8 @@ struct Sample {
 struct ExposureModel {
   const Exposure* e = nullptr;
   bool linear_float = false;
-  double white = 1;   // clipping level of float inputs (0 = none)
-  double q = 0;       // code step
+  double white = 1;  // clipping level of float inputs (0 = none)
+  double q = 0;      // code step
 };
 
 }  // namespace
@@ -209,12 +209,11 @@ struct DiscKernel {
 // underestimated.  Returns false when fewer than 6 pixels carry the
 // source's spread or no disc saturates the region.
 bool FitCensoredRegion(const Image& rad, const std::vector<uint8_t>& usable, const std::vector<int64_t>& region,
-                       const std::vector<double>& bound, const Eigen::Vector2d& centre, int c, double psf,
-                       double* Q, double* s_out, double* a_out) {
+                       const std::vector<double>& bound, const Eigen::Vector2d& centre, int c, double psf, double* Q,
+                       double* s_out, double* a_out) {
   const int w = rad.width(), h = rad.height();
   double r_censored = 0;
-  for (int64_t p : region)
-    r_censored = std::max(r_censored, std::hypot(p % w - centre.x(), p / w - centre.y()));
+  for (int64_t p : region) r_censored = std::max(r_censored, std::hypot(p % w - centre.x(), p / w - centre.y()));
   const double r_outer = 2 * r_censored + 8;
   std::vector<std::pair<int64_t, double>> near;  // pixel, value
   std::vector<double> annulus;
@@ -281,11 +280,13 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
   o.Check();
   MergeReport rep;
   if (bracket.empty()) ThrowError("no exposures to merge");
-  std::stable_sort(bracket.begin(), bracket.end(), [](const Exposure& a, const Exposure& b) { return a.time_s < b.time_s; });
+  std::stable_sort(bracket.begin(), bracket.end(),
+                   [](const Exposure& a, const Exposure& b) { return a.time_s < b.time_s; });
   // A photograph given twice adds no information but would halve its variance.
   for (size_t i = 1; i < bracket.size();) {
     if (bracket[i].time_s == bracket[i - 1].time_s && bracket[i].codes.values() == bracket[i - 1].codes.values()) {
-      rep.warnings.push_back(fmt::format("{} and {} are the same photograph: used once", bracket[i - 1].name, bracket[i].name));
+      rep.warnings.push_back(
+          fmt::format("{} and {} are the same photograph: used once", bracket[i - 1].name, bracket[i].name));
       bracket.erase(bracket.begin() + static_cast<std::ptrdiff_t>(i));
     } else {
       ++i;
@@ -330,19 +331,24 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
     if (m.linear_float) {
       const double white = m.white > 0 ? m.white : 1.0;
       const double zn = z / white;
-      if (m.white > 0 && zn >= o.high) s.state = 2;
-      else if (m.white > 0 && zn <= o.low) s.state = 1;
+      if (m.white > 0 && zn >= o.high)
+        s.state = 2;
+      else if (m.white > 0 && zn <= o.low)
+        s.state = 1;
       s.value = z / t;
       s.variance = white * white * (Square(o.read_noise) + o.shot_noise * std::max(zn, 0.0)) / (t * t);
       return s;
     }
-    if (z >= o.high) s.state = 2;
-    else if (z <= o.low) s.state = 1;
+    if (z >= o.high)
+      s.state = 2;
+    else if (z <= o.low)
+      s.state = 1;
     const double X = response.Exposure(c, z);
     const double Xsat = saturation_exposure[static_cast<size_t>(c)];
     const double slope = response.ExposureSlope(c, z);
     s.value = X / t;
-    s.variance = (Xsat * Xsat * (Square(o.read_noise) + o.shot_noise * X / Xsat) + slope * slope * m.q * m.q / 12) / (t * t);
+    s.variance =
+        (Xsat * Xsat * (Square(o.read_noise) + o.shot_noise * X / Xsat) + slope * slope * m.q * m.q / 12) / (t * t);
     return s;
   };
   // The reference for ghosts: the exposure with the most usable samples.
@@ -525,8 +531,9 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
         reg.fitted = all;
         reg.blur_px = blur;
         if (!all)
-          reg.why_not = "the unsaturated pixels around it do not constrain a blurred source (too few, no spread, or no "
-                        "source that saturates the region)";
+          reg.why_not =
+              "the unsaturated pixels around it do not constrain a blurred source (too few, no spread, or no "
+              "source that saturates the region)";
       }
       rep.regions.push_back(reg);
     }

@@ -14,27 +14,27 @@
 namespace mr {
 
 struct MergeOptions {
-  double low = 0.02;           // normalised codes at or below: too dark to use
-  double high = 0.97;          // at or above: saturated
-  double read_noise = 3e-4;    // sigma of the linear signal s at black (fraction of saturation)
-  double shot_noise = 1e-4;    // variance of s per unit s (1 / full-well electrons)
+  double low = 0.02;         // normalised codes at or below: too dark to use
+  double high = 0.97;        // at or above: saturated
+  double read_noise = 3e-4;  // sigma of the linear signal s at black (fraction of saturation)
+  double shot_noise = 1e-4;  // variance of s per unit s (1 / full-well electrons)
   bool ghosts = true;
-  double ghost_sigma = 5;      // samples further apart than this (in sigma) are a ghost
-  double model_error = 0.05;   // relative: response, JPEG and interpolation errors
-  bool fit_censored = true;    // fit censored regions (else: lower bound only)
-  double psf_sigma_px = 0;     // the lens's blur, when known (0: from the ring)
+  double ghost_sigma = 5;     // samples further apart than this (in sigma) are a ghost
+  double model_error = 0.05;  // relative: response, JPEG and interpolation errors
+  bool fit_censored = true;   // fit censored regions (else: lower bound only)
+  double psf_sigma_px = 0;    // the lens's blur, when known (0: from the ring)
   void Check() const;
 };
 
 struct CensoredRegion {
   int pixels = 0;
-  Eigen::Vector2d centre = Eigen::Vector2d::Zero();  // px
+  Eigen::Vector2d centre = Eigen::Vector2d::Zero();       // px
   Eigen::Vector3d lower_bound = Eigen::Vector3d::Zero();  // energy: sum of radiance over its pixels, RGB
   Eigen::Vector3d estimate = Eigen::Vector3d::Zero();     // what was filled in
-  double blur_px = 0;          // the fitted s (0 when not fitted)
-  double source_radius_px = 0; // the disc the fit kept
+  double blur_px = 0;                                     // the fitted s (0 when not fitted)
+  double source_radius_px = 0;                            // the disc the fit kept
   bool fitted = false;
-  std::string why_not;         // when not fitted
+  std::string why_not;  // when not fitted
 };
 
 struct MergeReport {
@@ -42,9 +42,9 @@ struct MergeReport {
   double censored_lower_bound_fraction = 0;  // of the image's total energy (luminance)
   double censored_added_fraction = 0;        // what the fits add beyond the lower bound
   std::vector<CensoredRegion> regions;
-  std::vector<std::string> order;            // names, shortest exposure first
+  std::vector<std::string> order;  // names, shortest exposure first
   std::vector<std::string> warnings;
-  int reference = 0;                         // index (in `order`) of the best exposed photograph
+  int reference = 0;  // index (in `order`) of the best exposed photograph
 };
 
 // Output layers: R G B (radiance, response units per second), variance.R/G/B,

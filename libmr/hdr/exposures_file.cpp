@@ -53,9 +53,12 @@ std::vector<double> ReadExposures(const std::string& path, const std::vector<std
     for (std::string w; ls >> w;) words.push_back(w);
     const std::string where = fmt::format("{}:{}", path, n);
     if (words.empty()) continue;
-    if (words.size() == 1) ordered.push_back(ParseTime(words[0], where));
-    else if (words.size() == 2) named[words[0]] = ParseTime(words[1], where);
-    else ThrowErrorAt(FileLoc{where}, "expected TIME or FILENAME TIME, got {} words", words.size());
+    if (words.size() == 1)
+      ordered.push_back(ParseTime(words[0], where));
+    else if (words.size() == 2)
+      named[words[0]] = ParseTime(words[1], where);
+    else
+      ThrowErrorAt(FileLoc{where}, "expected TIME or FILENAME TIME, got {} words", words.size());
   }
   if (!ordered.empty() && !named.empty()) ThrowErrorAt(FileLoc{path}, "mixes TIME lines and FILENAME TIME lines");
   std::vector<double> out;

@@ -16,9 +16,7 @@ namespace {
 // Debevec's hat: zero at both ends of the code range, largest in the middle.
 double Hat(int level, int levels) { return std::min(level, levels - 1 - level); }
 
-int Level(double z, int levels) {
-  return std::clamp(static_cast<int>(std::lround(z * (levels - 1))), 0, levels - 1);
-}
+int Level(double z, int levels) { return std::clamp(static_cast<int>(std::lround(z * (levels - 1))), 0, levels - 1); }
 
 void CheckBracket(const std::vector<Exposure>& bracket) {
   if (bracket.size() < 2) ThrowError("a response needs at least two exposures, got {}", bracket.size());
@@ -28,7 +26,8 @@ void CheckBracket(const std::vector<Exposure>& bracket) {
         e.codes.channels() != first.channels())
       ThrowError("{}: {}x{}x{} while {} is {}x{}x{}", e.name, e.codes.width(), e.codes.height(), e.codes.channels(),
                  bracket[0].name, first.width(), first.height(), first.channels());
-    if (!(e.time_s > 0) || !std::isfinite(e.time_s)) ThrowError("{}: exposure time {} is not positive", e.name, e.time_s);
+    if (!(e.time_s > 0) || !std::isfinite(e.time_s))
+      ThrowError("{}: exposure time {} is not positive", e.name, e.time_s);
   }
   const auto [lo, hi] = std::minmax_element(bracket.begin(), bracket.end(),
                                             [](const Exposure& a, const Exposure& b) { return a.time_s < b.time_s; });
@@ -42,7 +41,8 @@ void CheckBracket(const std::vector<Exposure>& bracket) {
 std::vector<int64_t> CandidatePixels(const std::vector<Exposure>& bracket, int64_t target) {
   const Image& img = bracket[0].codes;
   const int64_t n = img.pixel_count();
-  const int stride = std::max<int>(1, static_cast<int>(std::sqrt(static_cast<double>(n) / std::max<int64_t>(target, 1))));
+  const int stride =
+      std::max<int>(1, static_cast<int>(std::sqrt(static_cast<double>(n) / std::max<int64_t>(target, 1))));
   std::vector<int64_t> out;
   for (int y = 1; y + 1 < img.height(); y += stride)
     for (int x = 1; x + 1 < img.width(); x += stride) {
@@ -193,7 +193,8 @@ std::vector<double> SolveRobertson(const std::vector<Exposure>& bracket, const s
       }
     }
     for (int k = 0; k < L; ++k)
-      if (count[static_cast<size_t>(k)] > 0) X[static_cast<size_t>(k)] = sum[static_cast<size_t>(k)] / count[static_cast<size_t>(k)];
+      if (count[static_cast<size_t>(k)] > 0)
+        X[static_cast<size_t>(k)] = sum[static_cast<size_t>(k)] / count[static_cast<size_t>(k)];
     const double mid = X[static_cast<size_t>(L / 2)];
     if (!(mid > 0)) ThrowError("Robertson's response estimate collapsed (no pixel at the middle code)");
     for (double& v : X) v /= mid;
@@ -250,12 +251,12 @@ void ResponseOptions::Check() const {
   if (samples < 32) throw UsageError("at least 32 response samples");
 }
 
-CameraResponse RecoverResponse(const std::vector<Exposure>& bracket, const ResponseOptions& o,
-                               ResponseReport* report) {
+CameraResponse RecoverResponse(const std::vector<Exposure>& bracket, const ResponseOptions& o, ResponseReport* report) {
   o.Check();
   CheckBracket(bracket);
   std::vector<Exposure> sorted = bracket;
-  std::stable_sort(sorted.begin(), sorted.end(), [](const Exposure& a, const Exposure& b) { return a.time_s < b.time_s; });
+  std::stable_sort(sorted.begin(), sorted.end(),
+                   [](const Exposure& a, const Exposure& b) { return a.time_s < b.time_s; });
   for (const Exposure& e : sorted)
     if (e.pixel_type == "float" || e.pixel_type == "half")
       ThrowError("{}: a response is recovered from integer codes; {} pixels are already linear", e.name, e.pixel_type);
@@ -295,15 +296,14 @@ CameraResponse RecoverResponse(const std::vector<Exposure>& bracket, const Respo
 Json ResponseToJson(const CameraResponse& r) {
   Json ch = Json::object();
   for (size_t c = 0; c < r.channels.size(); ++c) ch[r.channels[c]] = r.log_exposure[c];
-  return {{"format", "mr-response"}, {"version", 1}, {"method", r.method}, {"levels", r.levels()},
-          {"channels", r.channels}, {"log_exposure", ch}};
+  return {{"format", "mr-response"}, {"version", 1},           {"method", r.method},
+          {"levels", r.levels()},    {"channels", r.channels}, {"log_exposure", ch}};
 }
 
 CameraResponse ParseResponse(const Json& j, const std::string& name) {
   JsonNode root(j, "", &name);
   root.RequireObject({"format", "version", "method", "levels", "channels", "log_exposure", "comment"});
-  if (root.Required("format").String() != "mr-response")
-    root.Child("format").Fail("expected \"mr-response\"");
+  if (root.Required("format").String() != "mr-response") root.Child("format").Fail("expected \"mr-response\"");
   if (root.Required("version").Integer(1, 1000) != 1) root.Child("version").Fail("this mr reads response version 1");
   CameraResponse r;
   r.method = root.Required("method").String();

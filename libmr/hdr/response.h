@@ -26,10 +26,10 @@
 namespace mr {
 
 struct CameraResponse {
-  std::string method = "linear";          // linear, debevec, robertson, file
-  std::vector<std::string> channels;      // R G B
+  std::string method = "linear";                  // linear, debevec, robertson, file
+  std::vector<std::string> channels;              // R G B
   std::vector<std::vector<double>> log_exposure;  // [channel][level]: g(z)
-  bool identity = false;  // X = z exactly (linear inputs; the table is then only for files)
+  bool identity = false;                          // X = z exactly (linear inputs; the table is then only for files)
 
   int levels() const { return log_exposure.empty() ? 0 : static_cast<int>(log_exposure[0].size()); }
   // X = exp(g(z)) for normalised code z in [0, 1] (clamped).
@@ -56,16 +56,16 @@ struct Exposure {
 struct ResponseOptions {
   std::string method = "debevec";  // debevec or robertson
   int levels = 256;
-  double smoothness = 50;          // Debevec's lambda, per unit weight (codes in levels)
-  int samples = 400;               // Debevec: pixels chosen across the code range
-  int iterations = 10;             // Robertson, from the Debevec solution
+  double smoothness = 50;  // Debevec's lambda, per unit weight (codes in levels)
+  int samples = 400;       // Debevec: pixels chosen across the code range
+  int iterations = 10;     // Robertson, from the Debevec solution
   void Check() const;
 };
 
 struct ResponseReport {
-  int samples = 0;                   // pixels used
-  double rms_log = 0;                // RMS of the fit's residual in ln X (Debevec) over weighted samples
-  int monotonicity_fixes = 0;        // table entries raised to keep g increasing
+  int samples = 0;             // pixels used
+  double rms_log = 0;          // RMS of the fit's residual in ln X (Debevec) over weighted samples
+  int monotonicity_fixes = 0;  // table entries raised to keep g increasing
   int iterations = 0;
 };
 

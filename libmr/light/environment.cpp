@@ -26,8 +26,10 @@ EnvironmentMap::EnvironmentMap(const Image& img, const std::string& name, double
       Eigen::Vector3f c(img.at(x, y, r), img.at(x, y, g), img.at(x, y, b));
       for (int k = 0; k < 3; ++k)
         if (!std::isfinite(c[k]) || c[k] < 0)
-          ThrowErrorAt(FileLoc{name}, "pixel ({}, {}) has {} radiance {} in channel {}; an environment map must be "
-                       "finite and non-negative", x, y, std::isfinite(c[k]) ? "negative" : "non-finite", c[k], "RGB"[k]);
+          ThrowErrorAt(FileLoc{name},
+                       "pixel ({}, {}) has {} radiance {} in channel {}; an environment map must be "
+                       "finite and non-negative",
+                       x, y, std::isfinite(c[k]) ? "negative" : "non-finite", c[k], "RGB"[k]);
       const size_t i = static_cast<size_t>(y) * width_ + x;
       radiance_[i] = c * static_cast<float>(scale);
       solid_angle_[i] = LatLongPixelSolidAngle(x, y, width_, height_);
@@ -79,7 +81,8 @@ EnvironmentMap::EnvironmentMap(const Image& img, const std::string& name, double
     }
   }
   for (size_t i = 0; i < n; ++i)
-    if (alias_prob_[i] < 1 && !(cdf_[alias_[i] + 1] - cdf_[alias_[i]] > 0)) alias_prob_[i] = 1;  // never alias to a zero cell
+    if (alias_prob_[i] < 1 && !(cdf_[alias_[i] + 1] - cdf_[alias_[i]] > 0))
+      alias_prob_[i] = 1;  // never alias to a zero cell
 }
 
 uint32_t EnvironmentMap::FirstPositiveCell() const {

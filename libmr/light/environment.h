@@ -46,16 +46,15 @@ class EnvironmentMap {
   int Cell(const Eigen::Vector3d& env_dir, int* px, int* py) const;
   int width_ = 0, height_ = 0;
   std::vector<Eigen::Vector3f> radiance_;  // per pixel, scaled
-  std::vector<double> cdf_;                 // over cells, luminance x solid angle
+  std::vector<double> cdf_;                // over cells, luminance x solid angle
   std::vector<double> solid_angle_;
-  std::vector<double> pdf_;           // per cell, solid angle
-  std::vector<double> row_sin_;       // sin(latitude) of the row edges
-  std::vector<double> alias_prob_;    // Vose alias table
+  std::vector<double> pdf_;         // per cell, solid angle
+  std::vector<double> row_sin_;     // sin(latitude) of the row edges
+  std::vector<double> alias_prob_;  // Vose alias table
   std::vector<uint32_t> alias_;
   uint32_t FirstPositiveCell() const;
   double total_ = 0;
   Eigen::Matrix3d world_from_env_ = Eigen::Matrix3d::Identity();
 };
-
 
 }  // namespace mr

@@ -33,7 +33,7 @@ class LightSource {
   double cos_cone_ = 0, cos_falloff_ = 1;       // spot
   double cos_max_ = 1, one_minus_cos_max_ = 0;  // distant disc
   Eigen::Vector3d radiance_ = Eigen::Vector3d::Zero();
-  Eigen::Vector3d t_, b_;                       // frame around light_.direction
+  Eigen::Vector3d t_, b_;  // frame around light_.direction
 };
 
 }  // namespace mr

@@ -43,7 +43,8 @@ std::vector<Light> ParseLights(const Json& j, const std::string& name) {
     }
   }
   const int64_t version = root.Required("version").Integer(1, 1000);
-  if (version != 1) root.Child("version").Fail(fmt::format("this mr reads lights version 1, the file is version {}", version));
+  if (version != 1)
+    root.Child("version").Fail(fmt::format("this mr reads lights version 1, the file is version {}", version));
   if (root.Has("comment")) root.Child("comment").String();
   JsonNode list = root.Required("lights");
   if (!list.json().is_array()) list.Fail(fmt::format("expected an array of lights, got {}", list.TypeName()));
@@ -58,8 +59,11 @@ std::vector<Light> ParseLights(const Json& j, const std::string& name) {
     if (!names.insert(l.name).second) n.Child("name").Fail(fmt::format("name \"{}\" is used twice", l.name));
     if (n.Has("virtual")) l.is_virtual = n.Child("virtual").Bool();
     if (type == "point" || type == "spot") {
-      if (type == "point") n.RequireObject({"type", "name", "virtual", "position", "intensity"});
-      else n.RequireObject({"type", "name", "virtual", "position", "intensity", "direction", "cone_deg", "falloff_start_deg"});
+      if (type == "point")
+        n.RequireObject({"type", "name", "virtual", "position", "intensity"});
+      else
+        n.RequireObject(
+            {"type", "name", "virtual", "position", "intensity", "direction", "cone_deg", "falloff_start_deg"});
       l.type = type == "point" ? LightType::kPoint : LightType::kSpot;
       l.position = n.Required("position").Vec3(-kHuge, kHuge);
       l.intensity = n.Required("intensity").Vec3(0, kHuge);
@@ -71,13 +75,15 @@ std::vector<Light> ParseLights(const Json& j, const std::string& name) {
           n.Child("falloff_start_deg").Fail(fmt::format("must not exceed cone_deg ({})", l.cone_deg));
       }
     } else {
-      n.RequireObject({"type", "name", "virtual", "direction", "irradiance", "angular_radius_deg", "solid_angle_sr",
-                       "radiance"});
+      n.RequireObject(
+          {"type", "name", "virtual", "direction", "irradiance", "angular_radius_deg", "solid_angle_sr", "radiance"});
       l.type = LightType::kDistant;
       l.direction = UnitDirection(n.Required("direction"));
       l.irradiance = n.Required("irradiance").Vec3(0, kHuge);
       if (n.Has("angular_radius_deg")) l.angular_radius_deg = n.Child("angular_radius_deg").Number(0, 90);
-      if (n.Has("solid_angle_sr")) l.solid_angle_sr = n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324 * (1 + 1e-9));  // sums of pixels round
+      if (n.Has("solid_angle_sr"))
+        l.solid_angle_sr =
+            n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324 * (1 + 1e-9));  // sums of pixels round
       if (n.Has("radiance")) n.Child("radiance").Vec3(0, kHuge);  // informational: irradiance / solid_angle_sr
     }
     lights.push_back(l);

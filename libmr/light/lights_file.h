@@ -29,13 +29,13 @@ struct Light {
   std::string name;
   LightType type = LightType::kPoint;
   bool is_virtual = false;
-  Eigen::Vector3d position = Eigen::Vector3d::Zero();     // point, spot
-  Eigen::Vector3d direction = Eigen::Vector3d::UnitY();   // spot: where it shines; distant: towards the light
-  Eigen::Vector3d intensity = Eigen::Vector3d::Zero();    // point, spot: W/sr
-  double cone_deg = 30, falloff_start_deg = 25;           // spot
-  Eigen::Vector3d irradiance = Eigen::Vector3d::Zero();   // distant: W/m^2 at normal incidence
-  double angular_radius_deg = 0;                          // distant: 0 = delta
-  double solid_angle_sr = 0;                              // distant: the map region it came from (mr-lights), 0 = unknown
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();    // point, spot
+  Eigen::Vector3d direction = Eigen::Vector3d::UnitY();  // spot: where it shines; distant: towards the light
+  Eigen::Vector3d intensity = Eigen::Vector3d::Zero();   // point, spot: W/sr
+  double cone_deg = 30, falloff_start_deg = 25;          // spot
+  Eigen::Vector3d irradiance = Eigen::Vector3d::Zero();  // distant: W/m^2 at normal incidence
+  double angular_radius_deg = 0;                         // distant: 0 = delta
+  double solid_angle_sr = 0;  // distant: the map region it came from (mr-lights), 0 = unknown
 
   bool IsDelta() const { return type != LightType::kDistant || angular_radius_deg <= 0; }
 };

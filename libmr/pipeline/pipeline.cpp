@@ -257,7 +257,8 @@ Pipeline PlanPipeline(const fs::path& file) {
   // The lighting: a map, or a probe (photographs -> HDR -> unwrapped map),
   // and optionally lights extracted from it.
   const Node light = root.Required("lighting");
-  light.RequireObject({"environment", "probe", "lights", "environment_up", "environment_rotation_deg", "environment_scale"});
+  light.RequireObject(
+      {"environment", "probe", "lights", "environment_up", "environment_rotation_deg", "environment_scale"});
   if (light.Has("environment") == light.Has("probe")) light.Fail("give either lighting.environment or lighting.probe");
   fs::path env, probe_json, probe_raw;
   std::optional<Node> probe;
@@ -276,14 +277,16 @@ Pipeline PlanPipeline(const fs::path& file) {
       probe_json = pl.Path(probe->Child("probe"), "probe.json");
       s.skip = "lighting.probe.probe is given: " + probe_json.string();
     } else {
-      if (!probe->Has("sphere")) probe->Fail("a mirror-sphere probe needs \"probe\" (probe.json) or \"sphere\" (its photographs)");
+      if (!probe->Has("sphere"))
+        probe->Fail("a mirror-sphere probe needs \"probe\" (probe.json) or \"sphere\" (its photographs)");
       const Node sp = probe->Child("sphere");
       sp.RequireObject({"camera", "photos", "radius", "options"});
       const fs::path light_cam = pl.Path(sp.Required("camera"), "light camera model");
       const auto photos = pl.Files(sp.Required("photos"), "sphere photographs");
       const double radius = sp.Required("radius").Number(1e-4, 10);
       probe_json = w / "probe.json";
-      s.args = {"sphere", "--camera", light_cam.string(), "--radius", fmt::format("{}", radius), "--out", probe_json.string()};
+      s.args = {"sphere", "--camera",         light_cam.string(), "--radius", fmt::format("{}", radius),
+                "--out",  probe_json.string()};
       Append(&s.args, pl.Options(sp));
       AppendPaths(&s.args, photos);
       s.inputs = photos;
@@ -372,7 +375,8 @@ Pipeline PlanPipeline(const fs::path& file) {
   // The room: meshes given, or fused from an RGB-D recording.
   const Node room = root.Required("room");
   room.RequireObject({"real", "rgbd", "options"});
-  if (room.Has("real") == room.Has("rgbd")) room.Fail("give either room.real (meshes) or room.rgbd (a recording to fuse)");
+  if (room.Has("real") == room.Has("rgbd"))
+    room.Fail("give either room.real (meshes) or room.rgbd (a recording to fuse)");
   fs::path fused_mesh, fused_trajectory;
   {
     PipelineStage& s = stage("fuse");
@@ -386,7 +390,8 @@ Pipeline PlanPipeline(const fs::path& file) {
         reals.push_back(Rebase(pl, r, {"mesh"}));
       }
       scene["real"] = reals;
-      s.skip = fmt::format("room.real gives {} mesh{}: no RGB-D recording to fuse", reals.size(), reals.size() == 1 ? "" : "es");
+      s.skip = fmt::format("room.real gives {} mesh{}: no RGB-D recording to fuse", reals.size(),
+                           reals.size() == 1 ? "" : "es");
     } else {
       const fs::path rgbd = pl.Path(room.Child("rgbd"), "RGB-D recording");
       fused_mesh = w / "room" / "room.ply";
@@ -420,12 +425,14 @@ Pipeline PlanPipeline(const fs::path& file) {
     const Node ps = video.Required("poses");
     ps.RequireObject({"tum", "fuse", "colmap", "register", "initial", "refine_mesh", "options"});
     const int given = ps.Has("tum") + ps.Has("fuse") + ps.Has("colmap") + ps.Has("register");
-    if (given != 1) ps.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
+    if (given != 1)
+      ps.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
     if (ps.Has("tum")) {
       poses = pl.Path(ps.Child("tum"), "trajectory");
       s.skip = "video.poses.tum is given: " + poses.string();
     } else if (ps.Has("fuse")) {
-      if (fused_trajectory.empty()) ps.Child("fuse").Fail("the room is not fused (room.rgbd): there is no fused trajectory");
+      if (fused_trajectory.empty())
+        ps.Child("fuse").Fail("the room is not fused (room.rgbd): there is no fused trajectory");
       poses = fused_trajectory;
       s.skip = "the video is the RGB-D recording's colour: its poses are mr-fuse's trajectory";
     } else {
@@ -439,8 +446,8 @@ Pipeline PlanPipeline(const fs::path& file) {
       } else {
         if (!video.Has("frames")) ps.Fail("registration needs video.frames");
         const fs::path frames = pl.Pattern(video.Child("frames"), "video frames");
-        s.args = {"colmap", frames.string(), "--workspace", (w / "video" / "colmap").string(), "--camera",
-                  camera_model.string()};
+        s.args = {"colmap",   frames.string(),      "--workspace", (w / "video" / "colmap").string(),
+                  "--camera", camera_model.string()};
         s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, camera_model};
         if (ps.Child("register").json().is_object()) {
           const Node r = ps.Child("register");
@@ -450,7 +457,9 @@ Pipeline PlanPipeline(const fs::path& file) {
         } else if (!ps.Child("register").Bool()) {
           ps.Child("register").Fail("expected true or {matcher, overlap}");
         }
-        s.does = "the video's frames registered by COLMAP and aligned to the room (similarity to mr-fuse's trajectory, Ceres)";
+        s.does =
+            "the video's frames registered by COLMAP and aligned to the room (similarity to mr-fuse's trajectory, "
+            "Ceres)";
       }
       // Aligned to the fused trajectory (and, asked, refined against the
       // fused mesh); with room meshes, to the meshes from a given start.
@@ -463,10 +472,12 @@ Pipeline PlanPipeline(const fs::path& file) {
         }
       } else {
         if (!ps.Has("initial"))
-          ps.Fail("aligning COLMAP's poses to room meshes needs \"initial\": a rough similarity, 16 numbers "
-                  "(row-major [s*R t; 0 0 0 1], COLMAP's frame to the room's)");
+          ps.Fail(
+              "aligning COLMAP's poses to room meshes needs \"initial\": a rough similarity, 16 numbers "
+              "(row-major [s*R t; 0 0 0 1], COLMAP's frame to the room's)");
         std::string list;
-        for (double v : ps.Child("initial").Numbers(16, -1e30, 1e30)) list += (list.empty() ? "" : ",") + fmt::format("{}", v);
+        for (double v : ps.Child("initial").Numbers(16, -1e30, 1e30))
+          list += (list.empty() ? "" : ",") + fmt::format("{}", v);
         Append(&s.args, {"--initial", list});
         for (const auto& r : scene["real"]) {
           const fs::path m = (w / r["mesh"].get<std::string>()).lexically_normal();
@@ -503,8 +514,8 @@ Pipeline PlanPipeline(const fs::path& file) {
       const Node o = v.Index(i);
       Json e = Rebase(pl, o, {"mesh", "formfactors"});
       const bool wants = uses_ffc ? !(o.Has("formfactors") && o.Child("formfactors").json().is_string())
-                                         : o.Has("formfactors") && o.Child("formfactors").json().is_boolean() &&
-                                               o.Child("formfactors").Bool();
+                                  : o.Has("formfactors") && o.Child("formfactors").json().is_boolean() &&
+                                        o.Child("formfactors").Bool();
       if (o.Has("formfactors") && o.Child("formfactors").json().is_boolean() && !o.Child("formfactors").Bool())
         e.erase("formfactors");
       if (wants) {
@@ -543,7 +554,8 @@ Pipeline PlanPipeline(const fs::path& file) {
     for (const auto& v2 : virtuals)
       if (v2.contains("formfactors")) s.inputs.push_back(w / v2["formfactors"].get<std::string>());
     s.outputs = {scene_file};
-    s.does = fused_mesh.empty() ? "scene.json naming every input" : "scene.json naming every input (the fused room's mean albedo)";
+    s.does = fused_mesh.empty() ? "scene.json naming every input"
+                                : "scene.json naming every input (the fused room's mean albedo)";
   }
   if (!fused_mesh.empty()) {
     // The albedo is the fused mesh's mean, filled in when the scene stage runs.
@@ -646,9 +658,10 @@ void WriteSceneJson(const Pipeline& p, Report* report) {
     Eigen::Vector3d mean = sum / std::max<size_t>(1, m.colors.size());
     for (int c = 0; c < 3; ++c) mean[c] = std::clamp(mean[c], 0.0, 0.99);
     r["material"]["albedo"] = {mean[0], mean[1], mean[2]};
-    report->Warn(fmt::format("the fused room is rendered with its mean albedo ({:.3f}, {:.3f}, {:.3f}): the render "
-                             "methods read one albedo per mesh",
-                             mean[0], mean[1], mean[2]));
+    report->Warn(
+        fmt::format("the fused room is rendered with its mean albedo ({:.3f}, {:.3f}, {:.3f}): the render "
+                    "methods read one albedo per mesh",
+                    mean[0], mean[1], mean[2]));
   }
   CheckRenderSettings(ParseScene(scene, p.work, (p.work / "scene.json").string(), true));
   WriteTextFile(p.work / "scene.json", scene.dump(2) + "\n");
@@ -737,8 +750,10 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
     }
     for (const auto& in : s.inputs) {
       key.String(in.string());
-      if (fs::exists(in, ec)) key.Word(ContentHash(in));
-      else inputs_ready = false;
+      if (fs::exists(in, ec))
+        key.Word(ContentHash(in));
+      else
+        inputs_ready = false;
     }
     const std::string key_hex = Hex(key.Final());
     Json old;
@@ -796,9 +811,11 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
       const int rc = RunProcess(argv, log);
       if (rc != 0) {
         report->SetMetric("stages", stages);
-        throw Error(FileLoc{p.file.string(), 0, 0, s.name},
-                    fmt::format("stage {} failed ({} exited with {}{}):\n  {}\n  full log: {}; finished stages' outputs are kept",
-                                s.name, s.tool, rc, rc == 127 ? ": not found" : "", ErrorLines(log), log.string()));
+        throw Error(
+            FileLoc{p.file.string(), 0, 0, s.name},
+            fmt::format(
+                "stage {} failed ({} exited with {}{}):\n  {}\n  full log: {}; finished stages' outputs are kept",
+                s.name, s.tool, rc, rc == 127 ? ": not found" : "", ErrorLines(log), log.string()));
       }
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

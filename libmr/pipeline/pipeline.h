@@ -23,22 +23,22 @@
 namespace mr {
 
 struct PipelineStage {
-  std::string name;                // calibrate, sphere, hdr, probe, lights, fuse, register, formfactor, scene, render, sweep
-  std::string tool;                // mr-calibrate, ...; empty: done by mr-pipeline itself (scene)
-  std::vector<std::string> args;   // after the tool's name
-  std::vector<fs::path> inputs;    // files or folders whose content decides the outputs
-  std::vector<fs::path> outputs;   // what the stage makes
-  fs::path report;                 // the stage's JSON report
-  std::string does;                // one line for the plan
-  std::string skip;                // non-empty: the stage is left out, and why
+  std::string name;  // calibrate, sphere, hdr, probe, lights, fuse, register, formfactor, scene, render, sweep
+  std::string tool;  // mr-calibrate, ...; empty: done by mr-pipeline itself (scene)
+  std::vector<std::string> args;  // after the tool's name
+  std::vector<fs::path> inputs;   // files or folders whose content decides the outputs
+  std::vector<fs::path> outputs;  // what the stage makes
+  fs::path report;                // the stage's JSON report
+  std::string does;               // one line for the plan
+  std::string skip;               // non-empty: the stage is left out, and why
 };
 
 struct Pipeline {
-  fs::path file;   // the pipeline file
-  fs::path base;   // its folder: relative paths in it start here
-  fs::path work;   // where every output goes
+  fs::path file;  // the pipeline file
+  fs::path base;  // its folder: relative paths in it start here
+  fs::path work;  // where every output goes
   Json json;
-  Json scene;      // the scene.json that the scene stage writes (paths relative to work)
+  Json scene;           // the scene.json that the scene stage writes (paths relative to work)
   fs::path fused_room;  // the room mesh mr-fuse makes, if any: its mean albedo goes into scene.json
   std::vector<PipelineStage> stages;
 };
@@ -51,12 +51,12 @@ Pipeline PlanPipeline(const fs::path& file);
 const std::vector<std::string>& PipelineStageNames();
 
 struct PipelineRunOptions {
-  std::string until;                // run up to this stage, leave out the rest
-  std::vector<std::string> force;   // re-run these even when up to date
-  bool dry_run = false;             // print the plan only
-  fs::path bin_dir;                 // where the mr tools are; empty: beside mr-pipeline, else PATH
+  std::string until;               // run up to this stage, leave out the rest
+  std::vector<std::string> force;  // re-run these even when up to date
+  bool dry_run = false;            // print the plan only
+  fs::path bin_dir;                // where the mr tools are; empty: beside mr-pipeline, else PATH
   bool quiet = false;
-  int threads = 0;                  // > 0: passed to every tool (not part of the up-to-date key: results do not depend on it)
+  int threads = 0;  // > 0: passed to every tool (not part of the up-to-date key: results do not depend on it)
 };
 
 // Runs (or, dry_run, describes) the plan; fills `report`: one entry per

@@ -12,9 +12,9 @@
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "core/sh.h"
 #include "core/spherical.h"
 #include "light/environment.h"
-#include "core/sh.h"
 
 namespace mr {
 
@@ -30,7 +30,8 @@ struct MapView {
 };
 
 MapView View(const Image& env) {
-  if (env.channels() < 3 || env.channel_names()[0] != "R" || env.channel_names()[1] != "G" || env.channel_names()[2] != "B")
+  if (env.channels() < 3 || env.channel_names()[0] != "R" || env.channel_names()[1] != "G" ||
+      env.channel_names()[2] != "B")
     ThrowError("the environment map needs R, G, B channels first");
   MapView m;
   m.w = env.width();
@@ -108,8 +109,10 @@ bool Split(const Sat& s, const Region& r, bool variance, Region* a, Region* b) {
   auto halves = [&](bool along_x, int k, Region* ra, Region* rb) {
     *ra = r;
     *rb = r;
-    if (along_x) ra->x1 = rb->x0 = k;
-    else ra->y1 = rb->y0 = k;
+    if (along_x)
+      ra->x1 = rb->x0 = k;
+    else
+      ra->y1 = rb->y0 = k;
   };
   if (!variance) {
     const double width = wdt * CosLatitude(0.5 * (r.y0 + r.y1 - 1), s.h) * kTwoPi / s.w, height = hgt * kPi / (s.h - 1);
@@ -157,7 +160,8 @@ ExtractedLight LightOfPixels(const MapView& m, const std::vector<size_t>& pixels
     l.solid_angle += m.omega[i];
     centroid += m.energy[i] * m.dir[i];
   }
-  if (centroid.norm() > 0) l.direction = centroid.normalized();
+  if (centroid.norm() > 0)
+    l.direction = centroid.normalized();
   else if (!pixels.empty()) {  // no energy (or it cancels): the pixels' mean direction
     for (size_t i : pixels) centroid += m.omega[i] * m.dir[i];
     l.direction = centroid.norm() > 0 ? centroid.normalized() : m.dir[pixels[0]];
@@ -219,7 +223,8 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
     const double scale = static_cast<double>(n_pixels - 1) / cells;
     for (int c = 0; c < cells; ++c) {
       const double a = c * scale, b = (c + 1) * scale;
-      for (int k = std::max(0, static_cast<int>(std::floor(a - 0.5))); k <= std::min(n_pixels - 1, static_cast<int>(std::ceil(b + 0.5))); ++k) {
+      for (int k = std::max(0, static_cast<int>(std::floor(a - 0.5)));
+           k <= std::min(n_pixels - 1, static_cast<int>(std::ceil(b + 0.5))); ++k) {
         const double lo = std::max(0.0, k - 0.5), hi = std::min(n_pixels - 1.0, k + 0.5);
         const double ov = std::min(b, hi) - std::max(a, lo);
         if (ov > 0 && hi > lo) w[static_cast<size_t>(c)].push_back({k, ov / (hi - lo)});
@@ -259,10 +264,9 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
     std::vector<double> c(static_cast<size_t>(n) * n);
     for (int j = 0; j < n; ++j)
       for (int i = 0; i < n; ++i)
-        c[static_cast<size_t>(j) * n + i] = f[static_cast<size_t>(2 * j) * 2 * n + 2 * i] +
-                                            f[static_cast<size_t>(2 * j) * 2 * n + 2 * i + 1] +
-                                            f[static_cast<size_t>(2 * j + 1) * 2 * n + 2 * i] +
-                                            f[static_cast<size_t>(2 * j + 1) * 2 * n + 2 * i + 1];
+        c[static_cast<size_t>(j) * n + i] =
+            f[static_cast<size_t>(2 * j) * 2 * n + 2 * i] + f[static_cast<size_t>(2 * j) * 2 * n + 2 * i + 1] +
+            f[static_cast<size_t>(2 * j + 1) * 2 * n + 2 * i] + f[static_cast<size_t>(2 * j + 1) * 2 * n + 2 * i + 1];
     levels.push_back(c);
   }
   std::reverse(levels.begin(), levels.end());  // levels[k] is 2^k x 2^k
@@ -279,7 +283,8 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
       const int n = 1 << lvl;
       const std::vector<double>& f = levels[lvl];
       const double a = f[static_cast<size_t>(2 * j) * n + 2 * i], b = f[static_cast<size_t>(2 * j) * n + 2 * i + 1];
-      const double c = f[static_cast<size_t>(2 * j + 1) * n + 2 * i], d = f[static_cast<size_t>(2 * j + 1) * n + 2 * i + 1];
+      const double c = f[static_cast<size_t>(2 * j + 1) * n + 2 * i],
+                   d = f[static_cast<size_t>(2 * j + 1) * n + 2 * i + 1];
       const double pl = (a + c) / (a + b + c + d);
       int ci;
       if (u < pl) {
@@ -436,7 +441,8 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& o) {
   for (size_t i = 0; i < m.energy.size(); ++i) {
     if (taken[i]) continue;
     ShEvaluate(m.dir[i], o.sh_order, basis.data());
-    for (int k = 0; k < nsh; ++k) ex.residual_sh[static_cast<size_t>(k)] += m.radiance[i] * (basis[static_cast<size_t>(k)] * m.omega[i]);
+    for (int k = 0; k < nsh; ++k)
+      ex.residual_sh[static_cast<size_t>(k)] += m.radiance[i] * (basis[static_cast<size_t>(k)] * m.omega[i]);
   }
   ex.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return ex;
@@ -456,7 +462,8 @@ std::vector<Light> ToLights(const Extraction& e, const std::string& prefix) {
     // facing it, radiance x pi sin^2 r (the power for a delta).
     const double r = x.area ? std::acos(std::clamp(1 - x.solid_angle / kTwoPi, -1.0, 1.0)) : 0;
     l.angular_radius_deg = r / kDegToRad;
-    l.irradiance = x.area && x.solid_angle > 0 ? Eigen::Vector3d(x.power * (kPi * Square(std::sin(r)) / x.solid_angle)) : x.power;
+    l.irradiance =
+        x.area && x.solid_angle > 0 ? Eigen::Vector3d(x.power * (kPi * Square(std::sin(r)) / x.solid_angle)) : x.power;
     l.solid_angle_sr = std::min(x.solid_angle, kFourPi);
     out.push_back(l);
   }
@@ -478,7 +485,8 @@ std::vector<double> MapIrradiance(const Image& env, const std::vector<Eigen::Vec
   std::vector<double> out(normals.size());
   ParallelFor(0, static_cast<int64_t>(normals.size()), [&](int64_t k) {
     double e = 0;
-    for (size_t i = 0; i < m.energy.size(); ++i) e += m.energy[i] * std::max(0.0, normals[static_cast<size_t>(k)].dot(m.dir[i]));
+    for (size_t i = 0; i < m.energy.size(); ++i)
+      e += m.energy[i] * std::max(0.0, normals[static_cast<size_t>(k)].dot(m.dir[i]));
     out[static_cast<size_t>(k)] = e;
   });
   return out;
@@ -565,7 +573,8 @@ Image DownsampleEnergy(const Image& env, int width) {
     for (int x = 0; x < m.w; ++x) {
       const size_t i = static_cast<size_t>(y) * m.w + x;
       const Eigen::Vector2d q = DirectionToLatLongPixel(m.dir[i], W, H);
-      const int ox = std::clamp(static_cast<int>(std::lround(q.x())), 0, W - 1), oy = std::clamp(static_cast<int>(std::lround(q.y())), 0, H - 1);
+      const int ox = std::clamp(static_cast<int>(std::lround(q.x())), 0, W - 1),
+                oy = std::clamp(static_cast<int>(std::lround(q.y())), 0, H - 1);
       sum[static_cast<size_t>(oy) * W + ox] += m.radiance[i] * m.omega[i];
       om[static_cast<size_t>(oy) * W + ox] += m.omega[i];
     }
@@ -577,7 +586,8 @@ Image DownsampleEnergy(const Image& env, int width) {
         // Radiance such that the output pixel holds the inputs' energy.
         L = sum[o] / LatLongPixelSolidAngle(x, y, W, H);
       } else {
-        const Eigen::Vector2d q = DirectionToLatLongPixel(LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H), m.w, m.h);
+        const Eigen::Vector2d q =
+            DirectionToLatLongPixel(LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H), m.w, m.h);
         L = m.rgb(std::clamp(static_cast<int>(std::lround(q.x())), 0, m.w - 1),
                   std::clamp(static_cast<int>(std::lround(q.y())), 0, m.h - 1));
       }

@@ -17,25 +17,25 @@ namespace mr {
 struct ExtractOptions {
   std::string method = "median-cut";  // median-cut, variance-cut, importance, blobs
   int count = 16;
-  double threshold = 8;               // blobs: times the map's mean radiance
-  double max_blob_sr = 0.05;          // blobs: larger components split (a disc of 7.2 degrees)
-  int sh_order = 3;                   // the residual's spherical harmonics
-  uint32_t seed = 0;                  // importance: the point set's scramble
+  double threshold = 8;       // blobs: times the map's mean radiance
+  double max_blob_sr = 0.05;  // blobs: larger components split (a disc of 7.2 degrees)
+  int sh_order = 3;           // the residual's spherical harmonics
+  uint32_t seed = 0;          // importance: the point set's scramble
   void Check() const;
 };
 
 struct ExtractedLight {
   Eigen::Vector3d direction = Eigen::Vector3d::UnitY();  // towards the light, world
-  Eigen::Vector3d power = Eigen::Vector3d::Zero();       // integral of L dOmega, RGB: irradiance at normal incidence (W/m^2)
-  double solid_angle = 0;                                // sr of the pixels it took
-  bool area = false;                                     // a disc of that solid angle (blobs) or a delta
+  Eigen::Vector3d power = Eigen::Vector3d::Zero();  // integral of L dOmega, RGB: irradiance at normal incidence (W/m^2)
+  double solid_angle = 0;                           // sr of the pixels it took
+  bool area = false;                                // a disc of that solid angle (blobs) or a delta
 };
 
 struct Extraction {
   std::vector<ExtractedLight> lights;
-  Image residual;                        // the map minus what the lights took (R G B), same size
+  Image residual;                            // the map minus what the lights took (R G B), same size
   std::vector<Eigen::Vector3d> residual_sh;  // its SH projection, sh_order^2 RGB coefficients
-  double taken_fraction = 0;            // of the map's luminance energy
+  double taken_fraction = 0;                 // of the map's luminance energy
   double seconds = 0;
 };
 
@@ -56,8 +56,8 @@ std::vector<double> LightsIrradiance(const Extraction& e, const std::vector<Eige
 std::vector<Eigen::Vector3d> SphereNormals(int n);
 
 struct IrradianceError {
-  double rms_relative = 0;   // RMS of (E - E_ref) over RMS of E_ref
-  double max_relative = 0;   // max |E - E_ref| over max E_ref
+  double rms_relative = 0;  // RMS of (E - E_ref) over RMS of E_ref
+  double max_relative = 0;  // max |E - E_ref| over max E_ref
 };
 IrradianceError CompareIrradiance(const std::vector<double>& e, const std::vector<double>& ref);
 

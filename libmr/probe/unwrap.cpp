@@ -16,8 +16,10 @@
 namespace mr {
 
 void UnwrapOptions::Check() const {
-  if (width < 8 || width > 16384 || width % 2 != 0) throw UsageError(fmt::format("map width {} must be even, 8-16384", width));
-  if (!(reflectance > 0 && reflectance <= 1)) throw UsageError(fmt::format("reflectance {} not in (0, 1]", reflectance));
+  if (width < 8 || width > 16384 || width % 2 != 0)
+    throw UsageError(fmt::format("map width {} must be even, 8-16384", width));
+  if (!(reflectance > 0 && reflectance <= 1))
+    throw UsageError(fmt::format("reflectance {} not in (0, 1]", reflectance));
   if (!(camera_cone_deg >= 0 && camera_cone_deg < 90)) throw UsageError("camera_cone_deg must be in [0, 90)");
 }
 
@@ -60,7 +62,8 @@ namespace {
 // confidence; `usable` marks photograph pixels that show the probe.
 template <typename ToPixel, typename Factor>
 Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eigen::Matrix3d& cam_from_env,
-               const UnwrapOptions& o, double gain, const ToPixel& to_pixel, const Factor& factor, UnwrapReport* report) {
+               const UnwrapOptions& o, double gain, const ToPixel& to_pixel, const Factor& factor,
+               UnwrapReport* report) {
   const int W = o.width, H = o.width / 2;
   const int pw = photo.width(), ph = photo.height();
   Image env(W, H, {"R", "G", "B", "confidence.Y"});
@@ -73,18 +76,26 @@ Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eig
       Eigen::Vector3d t, b;
       CoordinateSystem(d_env, &t, &b);
       const double step = 0.5 * kPi / H;
-      auto map = [&](const Eigen::Vector3d& dir, Eigen::Vector2d* q) { return to_pixel(cam_from_env * dir.normalized(), q); };
+      auto map = [&](const Eigen::Vector3d& dir, Eigen::Vector2d* q) {
+        return to_pixel(cam_from_env * dir.normalized(), q);
+      };
       Eigen::Vector2d q0, qx0, qx1, qy0, qy1;
       if (!map(d_env, &q0)) continue;
       Eigen::Matrix2d J;
       const bool x0 = map(d_env - step * t, &qx0), x1 = map(d_env + step * t, &qx1);
       const bool y0 = map(d_env - step * b, &qy0), y1 = map(d_env + step * b, &qy1);
-      if (x0 && x1) J.col(0) = qx1 - qx0;
-      else if (x0 || x1) J.col(0) = 2 * (x1 ? qx1 - q0 : q0 - qx0);
-      else continue;
-      if (y0 && y1) J.col(1) = qy1 - qy0;
-      else if (y0 || y1) J.col(1) = 2 * (y1 ? qy1 - q0 : q0 - qy0);
-      else continue;
+      if (x0 && x1)
+        J.col(0) = qx1 - qx0;
+      else if (x0 || x1)
+        J.col(0) = 2 * (x1 ? qx1 - q0 : q0 - qx0);
+      else
+        continue;
+      if (y0 && y1)
+        J.col(1) = qy1 - qy0;
+      else if (y0 || y1)
+        J.col(1) = 2 * (y1 ? qy1 - q0 : q0 - qy0);
+      else
+        continue;
       const Eigen::Matrix2d S = J * J.transpose() / 4 + 0.25 * Eigen::Matrix2d::Identity();
       const Eigen::Matrix2d Q = S.inverse();
       const int rx = std::min(100, static_cast<int>(std::ceil(3 * std::sqrt(S(0, 0))))),
@@ -104,7 +115,8 @@ Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eig
         }
       if (!(ws > 0)) continue;
       for (int c = 0; c < 3; ++c) env.at(x, static_cast<int>(y), c) = static_cast<float>(gain * sum[c] / ws);
-      env.at(x, static_cast<int>(y), 3) = static_cast<float>(std::abs(J.determinant()) * factor(cam_from_env * d_env) * ws / wall);
+      env.at(x, static_cast<int>(y), 3) =
+          static_cast<float>(std::abs(J.determinant()) * factor(cam_from_env * d_env) * ws / wall);
     }
   });
   if (report) {

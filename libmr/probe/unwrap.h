@@ -9,25 +9,25 @@
 
 #include <Eigen/Core>
 
-#include "camera/camera_model.h"
 #include "calib/probe_file.h"
+#include "camera/camera_model.h"
 #include "core/file.h"
 #include "core/image.h"
 
 namespace mr {
 
 struct UnwrapOptions {
-  int width = 512;                 // the map's width; height = width / 2
-  double reflectance = 1.0;        // the mirror's: the photograph is divided by it
+  int width = 512;                                       // the map's width; height = width / 2
+  double reflectance = 1.0;                              // the mirror's: the photograph is divided by it
   Eigen::Matrix3d rotate = Eigen::Matrix3d::Identity();  // env_from_world correction (--rotate)
-  double camera_cone_deg = 15;     // around the direction back to the camera: low confidence
+  double camera_cone_deg = 15;                           // around the direction back to the camera: low confidence
   void Check() const;
 };
 
 struct UnwrapReport {
-  double seen_fraction = 0;        // of the sphere's solid angle with confidence > 0
-  double blind_fraction = 0;       // directions no point reflects (behind the sphere) or outside the image
-  double median_confidence = 0;    // photograph pixels per (pi/H)^2 sr, over seen directions
+  double seen_fraction = 0;      // of the sphere's solid angle with confidence > 0
+  double blind_fraction = 0;     // directions no point reflects (behind the sphere) or outside the image
+  double median_confidence = 0;  // photograph pixels per (pi/H)^2 sr, over seen directions
 };
 
 // Output: R G B and confidence.Y, a width x width/2 lat-long map

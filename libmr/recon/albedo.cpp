@@ -200,7 +200,8 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
     std::vector<size_t> candidates;
     for (size_t v = 0; v < nv; ++v)
       if (obs[v].n >= 3 && E[v].minCoeff() > 0) candidates.push_back(v);
-    const size_t step = std::max<size_t>(1, candidates.size() / static_cast<size_t>(std::max(1, options.solve_vertices)));
+    const size_t step =
+        std::max<size_t>(1, candidates.size() / static_cast<size_t>(std::max(1, options.solve_vertices)));
     for (size_t i = 0; i < candidates.size(); i += step) subset.push_back(candidates[i]);
     std::vector<double> gain(frames.size(), 1.0);
     if (!subset.empty()) {
@@ -212,10 +213,10 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
         rho[si] = (observed[v].array() / (E[v].array() / kPi)).matrix();
         for (int k = 0; k < obs[v].n; ++k) {
           const Obs& o = obs[v].obs[k];
-          problem.AddResidualBlock(
-              new ceres::AutoDiffCostFunction<ShadingResidual, 3, 1, 3>(
-                  new ShadingResidual(E[v] / kPi, o.c.cast<double>(), std::sqrt(o.w))),
-              new ceres::HuberLoss(options.huber), &gain[static_cast<size_t>(o.frame)], rho[si].data());
+          problem.AddResidualBlock(new ceres::AutoDiffCostFunction<ShadingResidual, 3, 1, 3>(
+                                       new ShadingResidual(E[v] / kPi, o.c.cast<double>(), std::sqrt(o.w))),
+                                   new ceres::HuberLoss(options.huber), &gain[static_cast<size_t>(o.frame)],
+                                   rho[si].data());
           ++per_frame[static_cast<size_t>(o.frame)];
         }
         for (int k = 0; k < 3; ++k) problem.SetParameterLowerBound(rho[si].data(), k, 0.0);

@@ -26,14 +26,14 @@
 namespace mr {
 
 struct AlbedoOptions {
-  int frame_stride = 5;        // use every Nth tracked frame
-  double max_angle_deg = 75;   // ignore grazing views
+  int frame_stride = 5;           // use every Nth tracked frame
+  double max_angle_deg = 75;      // ignore grazing views
   double depth_tolerance = 0.03;  // metres: visibility test against the frame's depth
-  std::string lights, env;     // lighting; both empty: mean colour only
-  double camera_scale = 1.0;   // camera colour units per unit of radiance (observations are divided by it)
-  int rays = 256;              // hemisphere rays per vertex
-  int solve_vertices = 3000;   // vertices in the joint Ceres solve
-  double huber = 0.05;         // colour units
+  std::string lights, env;        // lighting; both empty: mean colour only
+  double camera_scale = 1.0;      // camera colour units per unit of radiance (observations are divided by it)
+  int rays = 256;                 // hemisphere rays per vertex
+  int solve_vertices = 3000;      // vertices in the joint Ceres solve
+  double huber = 0.05;            // colour units
   uint64_t seed = 1;
 };
 

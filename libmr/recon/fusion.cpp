@@ -94,8 +94,8 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     const double valid_fraction = static_cast<double>(ds.valid) / static_cast<double>(depth.z.size());
     auto finish = [&] {
       rec.seconds = Seconds(t0);
-      result.peak_bytes = std::max(result.peak_bytes,
-                                   volume->MemoryBytes() + (tracker ? tracker->MemoryBytes() : int64_t{0}));
+      result.peak_bytes =
+          std::max(result.peak_bytes, volume->MemoryBytes() + (tracker ? tracker->MemoryBytes() : int64_t{0}));
       if (on_frame) on_frame(rec);
       result.frames.push_back(rec);
     };
@@ -161,9 +161,10 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         ++lost_run;
         if (lost_run >= options.max_lost) {
           result.stopped_early = true;
-          result.stop_reason = fmt::format("tracking lost for {} frames in a row (last: frame {}, {}); everything "
-                                           "fused before is kept",
-                                           lost_run, f.index, r.failure);
+          result.stop_reason = fmt::format(
+              "tracking lost for {} frames in a row (last: frame {}, {}); everything "
+              "fused before is kept",
+              lost_run, f.index, r.failure);
           finish();
           break;
         }
@@ -179,7 +180,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
       }
       // Constant velocity, except along directions the data did not constrain.
       velocity = relocalising || !(dt > 0) ? Eigen::Matrix<double, 6, 1>::Zero().eval()
-                                            : (r.RemoveWeak(IncrementBetween(prev_pose, r.world_from_cam)) / dt).eval();
+                                           : (r.RemoveWeak(IncrementBetween(prev_pose, r.world_from_cam)) / dt).eval();
       pose = r.world_from_cam;
       lost_run = 0;
     }
@@ -195,8 +196,8 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     const double turned = Eigen::AngleAxisd((pose * last_fused.Inverse()).rotation).angle() * 180 / M_PI;
     const bool no_new_surface =
         static_cast<double>(is.blocks_new) <= options.skip_new_block_fraction * static_cast<double>(is.blocks_touched);
-    const bool small = have_model && no_new_surface && moved < options.skip_translation_m &&
-                       turned < options.skip_rotation_deg;
+    const bool small =
+        have_model && no_new_surface && moved < options.skip_translation_m && turned < options.skip_rotation_deg;
     if (small) {
       rec.fused = false;
       rec.note = fmt::format("moved {:.1f} mm / {:.2f} deg since the last fused frame, {} new blocks of {}",
@@ -217,10 +218,12 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     if (!options.poses && (rec.fused || !have_model)) {
       int rl = std::clamp(options.raycast_level, 0, static_cast<int>(pyr.depth.size()) - 1);
       while (rl > 0 && pyr.K[static_cast<size_t>(rl)].width < 320) --rl;  // coarser models lose thin structure
-      model = (tracker ? tracker.get() : volume)->Raycast(pyr.K[static_cast<size_t>(rl)], pose, 0.2f, static_cast<float>(dopt.max_m),
-                              &pyr.depth[static_cast<size_t>(rl)]);
+      model = (tracker ? tracker.get() : volume)
+                  ->Raycast(pyr.K[static_cast<size_t>(rl)], pose, 0.2f, static_cast<float>(dopt.max_m),
+                            &pyr.depth[static_cast<size_t>(rl)]);
       model_K = pyr.K[static_cast<size_t>(rl)];
-      if (options.preview_every > 0 && (taken - 1) % options.preview_every == 0) WritePreview(options, f.index, model, pose);
+      if (options.preview_every > 0 && (taken - 1) % options.preview_every == 0)
+        WritePreview(options, f.index, model, pose);
       model_pose = pose;
     }
     rec.t_raycast = Seconds(tp);
@@ -252,7 +255,10 @@ void ReportFusion(const FuseResult& r, Report* report) {
                       {"new_blocks", f.new_blocks},
                       {"seconds", f.seconds},
                       {"seconds_per_part",
-                       {{"read", f.t_read}, {"pyramid", f.t_pyramid}, {"track", f.t_track}, {"fuse", f.t_fuse},
+                       {{"read", f.t_read},
+                        {"pyramid", f.t_pyramid},
+                        {"track", f.t_track},
+                        {"fuse", f.t_fuse},
                         {"raycast", f.t_raycast}}}});
     tracked += f.status == "tracked" || f.status == "relocalised" || f.status == "first" || f.status == "given";
     lost += f.status == "lost";
@@ -282,9 +288,10 @@ void ReportFusion(const FuseResult& r, Report* report) {
   if (lost) report->Warn(fmt::format("tracking lost in {} frames (not fused; see metrics.frames)", lost));
   if (r.suspect_scale > 0) {
     report->SetMetric("summary.suggested_depth_scale", r.suspect_scale);
-    report->Warn(fmt::format("the depth maps' median depth is implausible for a room at this depth scale; "
-                             "{} units per metre would make it plausible (--depth-scale)",
-                             r.suspect_scale));
+    report->Warn(
+        fmt::format("the depth maps' median depth is implausible for a room at this depth scale; "
+                    "{} units per metre would make it plausible (--depth-scale)",
+                    r.suspect_scale));
   }
 }
 

@@ -25,17 +25,18 @@ struct FuseOptions {
   TsdfOptions tsdf;
   PyramidOptions pyramid;
   IcpOptions icp;
-  DepthReadOptions depth;        // range limits; the scale is always the sequence's
+  DepthReadOptions depth;                 // range limits; the scale is always the sequence's
   int first = 0, count = -1, stride = 1;  // frames first, first+stride, ... (count -1: all)
-  std::optional<Trajectory> poses;  // fuse with these (matched by timestamp), no tracking
-  double min_valid_fraction = 0.05;  // frames with fewer valid depth pixels are skipped
-  double skip_translation_m = 0.0;   // 0: fuse every tracked frame
+  std::optional<Trajectory> poses;        // fuse with these (matched by timestamp), no tracking
+  double min_valid_fraction = 0.05;       // frames with fewer valid depth pixels are skipped
+  double skip_translation_m = 0.0;        // 0: fuse every tracked frame
   double skip_rotation_deg = 0.0;
   double skip_new_block_fraction = 0.02;  // "no new surface": new blocks / blocks in view
   int max_lost = 10;
   // Loss relative to the recording's recent good frames (see TrackIcp for
   // the absolute limits).
-  double loss_rms_factor = 2.0, loss_inlier_factor = 0.5;  // consecutive lost frames before the run stops (keeping what it fused)
+  double loss_rms_factor = 2.0,
+         loss_inlier_factor = 0.5;  // consecutive lost frames before the run stops (keeping what it fused)
   bool use_color = true;
   // The model is raycast at this pyramid level (0: full resolution; 1: half,
   // a quarter of the rays, for speed), but never below 320 pixels across.
@@ -57,7 +58,7 @@ struct FrameRecord {
   double timestamp = 0;
   std::string status;  // first | tracked | relocalised | lost | given | no_depth
   bool fused = false;
-  std::string note;    // why not fused / why lost
+  std::string note;  // why not fused / why lost
   int64_t valid_depth = 0, rejected_depth = 0;
   double icp_rms = 0, inlier_ratio = 0, condition = 0;
   int weak_directions = 0, iterations = 0;

@@ -60,8 +60,7 @@ PinholeIntrinsics FromCameraModel(const fs::path& path) {
     for (size_t i = 4; i < m.intrinsics().size(); ++i) pinhole = pinhole && m.intrinsics()[i] == 0;
   }
   if (!pinhole)
-    ThrowErrorAt(FileLoc{path.string()},
-                 "is {}: depth cameras must be pinhole (undistort the depth maps first)", lm);
+    ThrowErrorAt(FileLoc{path.string()}, "is {}: depth cameras must be pinhole (undistort the depth maps first)", lm);
   Eigen::Vector4d c = m.Core();
   PinholeIntrinsics k;
   k.fx = c[0];
@@ -184,7 +183,8 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
     if (!color.empty() && color.size() != depth.size())
       ThrowErrorAt(FileLoc{dir.string()}, "has {} depth but {} colour images", depth.size(), color.size());
     for (size_t i = 0; i < depth.size(); ++i)
-      seq.frames.push_back({static_cast<int>(i), static_cast<double>(i), depth[i], color.empty() ? fs::path() : color[i]});
+      seq.frames.push_back(
+          {static_cast<int>(i), static_cast<double>(i), depth[i], color.empty() ? fs::path() : color[i]});
     if (!K) ThrowErrorAt(FileLoc{dir.string()}, "has no .cameramodel for the depth camera");
   } else {
     ThrowError("unknown RGB-D layout \"{}\" (expected auto, tum, 7scenes or plain)", seq.layout);
@@ -204,8 +204,8 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
   return seq;
 }
 
-DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int expect_width,
-                   int expect_height, DepthReadStats* stats) {
+DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int expect_width, int expect_height,
+                   DepthReadStats* stats) {
   RequireFile(path, "depth map");
   cv::Mat raw = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
   if (raw.empty()) ThrowErrorAt(FileLoc{path.string()}, "cannot be read as a depth image");

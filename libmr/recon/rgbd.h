@@ -35,15 +35,15 @@ struct PinholeIntrinsics {
 };
 
 struct RgbdFrame {
-  int index = 0;         // position in the sequence
-  double timestamp = 0;  // seconds (7-Scenes and plain folders: frame number)
+  int index = 0;          // position in the sequence
+  double timestamp = 0;   // seconds (7-Scenes and plain folders: frame number)
   fs::path depth, color;  // color empty when the recording has none
 };
 
 struct RgbdOpenOptions {
-  std::string layout = "auto";  // auto | tum | 7scenes | plain
-  double depth_scale = 0;       // depth units per metre; 0: the layout's (TUM 5000, others 1000)
-  double max_dt = 0.02;         // TUM association: largest colour-depth time difference (s)
+  std::string layout = "auto";                  // auto | tum | 7scenes | plain
+  double depth_scale = 0;                       // depth units per metre; 0: the layout's (TUM 5000, others 1000)
+  double max_dt = 0.02;                         // TUM association: largest colour-depth time difference (s)
   std::optional<PinholeIntrinsics> intrinsics;  // overrides the folder's
 };
 
@@ -53,7 +53,7 @@ struct RgbdSequence {
   PinholeIntrinsics K;
   double depth_scale = 1000;
   std::vector<RgbdFrame> frames;
-  Trajectory reference;   // empty when the recording has none
+  Trajectory reference;    // empty when the recording has none
   int unpaired_depth = 0;  // TUM depth images without a colour image within max_dt
   bool has_color() const { return !frames.empty() && !frames.front().color.empty(); }
 };
@@ -87,7 +87,7 @@ struct DepthReadStats {
 };
 
 struct DepthReadOptions {
-  double scale = 1000;    // units per metre
+  double scale = 1000;               // units per metre
   double min_m = 0.1, max_m = 10.0;  // plausible range; others are rejected
 };
 
@@ -95,8 +95,8 @@ struct DepthReadOptions {
 // in the same units (a float file in metres needs scale 1).  `expect_*`
 // (when non-zero) is the size the intrinsics say.  NaN/Inf and values
 // outside the plausible range become 0 and are counted.
-DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int expect_width,
-                   int expect_height, DepthReadStats* stats = nullptr);
+DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int expect_width, int expect_height,
+                   DepthReadStats* stats = nullptr);
 
 // Room-scale sensors see a median depth of 0.4 .. 8 m.  When `median_m`
 // (read at `scale` units per metre) is outside that, the common scale

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <limits>
 
-#include <Eigen/Eigenvalues>
 #include <fmt/format.h>
+#include <Eigen/Eigenvalues>
 #include <opencv2/imgproc.hpp>
 
 #include "core/parallel.h"
@@ -85,8 +85,7 @@ FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, con
     const int diameter = 7;  // KinectFusion's window; sigma_space weights within it
     cv::bilateralFilter(in, out, diameter, options.sigma_depth_m, options.sigma_space_px);
     for (int y = 0; y < depth.height; ++y)
-      for (int x = 0; x < depth.width; ++x)
-        d0.at(x, y) = depth.at(x, y) > 0 ? out.at<float>(y, x) : 0.0f;
+      for (int x = 0; x < depth.width; ++x) d0.at(x, y) = depth.at(x, y) > 0 ? out.at<float>(y, x) : 0.0f;
   }
   for (float z : d0.z) p.valid += z > 0;
   p.depth.push_back(std::move(d0));
@@ -97,8 +96,8 @@ FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, con
   }
   p.maps.resize(p.depth.size());
   ParallelFor(0, static_cast<int64_t>(p.depth.size()), [&](int64_t l) {
-    p.maps[static_cast<size_t>(l)] = ToMaps(p.depth[static_cast<size_t>(l)], p.K[static_cast<size_t>(l)],
-                                            options.max_depth_jump);
+    p.maps[static_cast<size_t>(l)] =
+        ToMaps(p.depth[static_cast<size_t>(l)], p.K[static_cast<size_t>(l)], options.max_depth_jump);
   });
   return p;
 }
@@ -158,7 +157,8 @@ Normal6 Accumulate(const PointMaps& src, const PointMaps& model, const PinholeIn
         const float uf = fx * pm.x() / pm.z() + cx + 0.5f, vf = fy * pm.y() / pm.z() + cy + 0.5f;
         if (!(uf >= 0 && vf >= 0 && uf < static_cast<float>(model.width) && vf < static_cast<float>(model.height)))
           continue;
-        const size_t j = static_cast<size_t>(static_cast<int>(vf)) * model.width + static_cast<size_t>(static_cast<int>(uf));
+        const size_t j =
+            static_cast<size_t>(static_cast<int>(vf)) * model.width + static_cast<size_t>(static_cast<int>(uf));
         const Eigen::Vector3f& N = model.normals[j];
         if (!(N.x() == N.x())) continue;
         const Eigen::Vector3f diff = p - model.vertices[j];
@@ -257,10 +257,11 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
     }
   }
   // Final figures at level 0 against the final pose.
-  const Normal6 f = Accumulate(frame.maps[0], model, model_K, model_from_world, pose, options.max_distance,
-                               cos_angle, options.huber);
+  const Normal6 f =
+      Accumulate(frame.maps[0], model, model_K, model_from_world, pose, options.max_distance, cos_angle, options.huber);
   int64_t valid = 0;
-  for (size_t i = 0; i < frame.maps[0].normals.size(); ++i) valid += frame.maps[0].normals[i].x() == frame.maps[0].normals[i].x();
+  for (size_t i = 0; i < frame.maps[0].normals.size(); ++i)
+    valid += frame.maps[0].normals[i].x() == frame.maps[0].normals[i].x();
   res.world_from_cam = pose;
   res.inlier_ratio = valid ? static_cast<double>(f.inliers) / static_cast<double>(valid) : 0;
   res.rms = f.inliers ? std::sqrt(f.r2 / static_cast<double>(f.inliers)) : 0;
@@ -272,7 +273,8 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
   const Rigid3 jump = pose * guess.Inverse();
   const double jump_m = (pose.translation - guess.translation).norm();
   const double jump_deg = Eigen::AngleAxisd(jump.rotation).angle() * 180 / M_PI;
-  if (valid == 0) res.failure = "no valid depth";
+  if (valid == 0)
+    res.failure = "no valid depth";
   else if (res.inlier_ratio < options.min_inlier_ratio)
     res.failure = fmt::format("inlier ratio {:.2f} < {:.2f}", res.inlier_ratio, options.min_inlier_ratio);
   else if (res.rms > options.max_rms)

@@ -21,17 +21,17 @@
 namespace mr {
 
 struct FramePyramid {
-  std::vector<PinholeIntrinsics> K;   // per level, 0 = full resolution
-  std::vector<DepthMap> depth;        // filtered, metres
-  std::vector<PointMaps> maps;        // camera frame
-  int64_t valid = 0;                  // valid depth pixels at level 0
+  std::vector<PinholeIntrinsics> K;  // per level, 0 = full resolution
+  std::vector<DepthMap> depth;       // filtered, metres
+  std::vector<PointMaps> maps;       // camera frame
+  int64_t valid = 0;                 // valid depth pixels at level 0
 };
 
 struct PyramidOptions {
   int levels = 3;
   bool bilateral = true;
   double sigma_space_px = 4.5, sigma_depth_m = 0.03;  // KinectFusion's filter
-  double max_depth_jump = 0.05;  // relative: normals across larger jumps are invalid
+  double max_depth_jump = 0.05;                       // relative: normals across larger jumps are invalid
 };
 
 // Depth (0 = invalid) to a pyramid; halving keeps pixels within 3 sigma_depth
@@ -40,10 +40,10 @@ FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, con
 
 struct IcpOptions {
   std::vector<int> iterations = {10, 5, 4};  // per level, finest first
-  double max_distance = 0.10;     // metres, association gate (finest level; x2 per coarser level)
-  double max_angle_deg = 30;      // normal agreement gate
-  double huber = 0.01;            // metres
-  double weak_eigen_ratio = 1e-3; // eigenvalue / largest below this: unconstrained
+  double max_distance = 0.10;                // metres, association gate (finest level; x2 per coarser level)
+  double max_angle_deg = 30;                 // normal agreement gate
+  double huber = 0.01;                       // metres
+  double weak_eigen_ratio = 1e-3;            // eigenvalue / largest below this: unconstrained
   // Tracking is lost when the result has fewer inliers than this fraction
   // of valid pixels, a larger RMS residual, or moves farther than the
   // limits from the prediction.
@@ -52,10 +52,10 @@ struct IcpOptions {
 
 struct IcpResult {
   Rigid3 world_from_cam;
-  double rms = 0;            // metres, point-to-plane, inliers at level 0
-  double inlier_ratio = 0;   // associated / valid pixels at level 0
-  double condition = 0;      // largest / smallest eigenvalue (scaled)
-  int weak_directions = 0;   // held to the prior
+  double rms = 0;           // metres, point-to-plane, inliers at level 0
+  double inlier_ratio = 0;  // associated / valid pixels at level 0
+  double condition = 0;     // largest / smallest eigenvalue (scaled)
+  int weak_directions = 0;  // held to the prior
   // The weak directions of the last step: orthonormal in the scaled
   // increment space x_s = x / weak_scale (x = (omega, t) about the camera
   // centre).  RemoveWeak takes them out of a velocity so that noise in them
@@ -68,8 +68,8 @@ struct IcpResult {
     return xs.cwiseProduct(weak_scale);
   }
   int iterations = 0;
-  bool ok = false;           // passed the loss tests
-  std::string failure;       // why not
+  bool ok = false;      // passed the loss tests
+  std::string failure;  // why not
 };
 
 // `model` holds world-frame maps raycast from `model_pose` with intrinsics

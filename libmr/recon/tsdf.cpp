@@ -51,7 +51,7 @@ class BlockIndex {
   static constexpr uint64_t kEmpty = ~uint64_t{0};
   int32_t Find(uint64_t key) const {
     if (slots_.empty()) return -1;
-    for (size_t i = KeyHash{}(key) & mask_;; i = (i + 1) & mask_) {
+    for (size_t i = KeyHash{}(key)&mask_;; i = (i + 1) & mask_) {
       const Slot& s = slots_[i];
       if (s.key == key) return s.value;
       if (s.key == kEmpty) return -1;
@@ -70,7 +70,7 @@ class BlockIndex {
     int32_t value = -1;
   };
   void Put(uint64_t key, int32_t value) {
-    for (size_t i = KeyHash{}(key) & mask_;; i = (i + 1) & mask_)
+    for (size_t i = KeyHash{}(key)&mask_;; i = (i + 1) & mask_)
       if (slots_[i].key == kEmpty) {
         slots_[i] = {key, value};
         return;
@@ -183,8 +183,9 @@ std::vector<int32_t> TsdfVolume::AllocateBand(const DepthMap& depth, const Pinho
                             static_cast<int>(static_cast<int64_t>(k & m) - kKeyOffset));
     if (roi) {
       // The block's voxel centres span [b*8, b*8+7] * vs.
-      const Eigen::AlignedBox3f box(b.cast<float>() * block_m - Eigen::Vector3f::Constant(0.5f * vs),
-                                    (b.cast<float>() + Eigen::Vector3f::Ones()) * block_m - Eigen::Vector3f::Constant(0.5f * vs));
+      const Eigen::AlignedBox3f box(
+          b.cast<float>() * block_m - Eigen::Vector3f::Constant(0.5f * vs),
+          (b.cast<float>() + Eigen::Vector3f::Ones()) * block_m - Eigen::Vector3f::Constant(0.5f * vs));
       if (!box.intersects(options_.roi)) {
         if (stats) ++stats->blocks_refused;
         continue;
@@ -279,8 +280,8 @@ bool TsdfVolume::SampleCached(const Eigen::Vector3f& p, void* cache_ptr, float* 
   return true;
 }
 
-PointMaps TsdfVolume::Raycast(const PinholeIntrinsics& K, const Rigid3& world_from_cam, float near_m,
-                              float far_m, const DepthMap* hint) const {
+PointMaps TsdfVolume::Raycast(const PinholeIntrinsics& K, const Rigid3& world_from_cam, float near_m, float far_m,
+                              const DepthMap* hint) const {
   PointMaps maps;
   maps.width = K.width;
   maps.height = K.height;
@@ -316,8 +317,10 @@ PointMaps TsdfVolume::Raycast(const PinholeIntrinsics& K, const Rigid3& world_fr
           const Eigen::Vector3f hi = lo + Eigen::Vector3f::Constant(block_m);
           float exit = std::numeric_limits<float>::infinity();
           for (int a = 0; a < 3; ++a) {
-            if (d[a] > 1e-8f) exit = std::min(exit, (hi[a] - p[a]) / d[a]);
-            else if (d[a] < -1e-8f) exit = std::min(exit, (lo[a] - p[a]) / d[a]);
+            if (d[a] > 1e-8f)
+              exit = std::min(exit, (hi[a] - p[a]) / d[a]);
+            else if (d[a] < -1e-8f)
+              exit = std::min(exit, (lo[a] - p[a]) / d[a]);
           }
           t += std::max(exit, 0.0f) + 0.01f * vs;
           prev_t = -1;
@@ -383,7 +386,8 @@ PointMaps TsdfVolume::Raycast(const PinholeIntrinsics& K, const Rigid3& world_fr
   // degrees: the residual noise of the fused surface averages out (it would
   // otherwise read as constraints in the ICP's degeneracy test), creases
   // and edges stay sharp.
-  std::vector<Eigen::Vector3f> smooth(maps.normals.size(), Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
+  std::vector<Eigen::Vector3f> smooth(maps.normals.size(),
+                                      Eigen::Vector3f::Constant(std::numeric_limits<float>::quiet_NaN()));
   const float cos_gate = std::cos(30.0f * static_cast<float>(M_PI) / 180.0f);
   ParallelFor(0, K.height, [&](int64_t yi) {
     const int y = static_cast<int>(yi);

@@ -30,10 +30,10 @@ struct PointMaps {
 };
 
 struct TsdfOptions {
-  float voxel_size = 0.01f;   // metres
-  float truncation = 0;       // metres; 0: 4 voxels (at least 1.5 cm)
-  float max_weight = 128;     // running average window (frames)
-  Eigen::AlignedBox3f roi;    // empty: everywhere; else blocks outside are never allocated
+  float voxel_size = 0.01f;        // metres
+  float truncation = 0;            // metres; 0: 4 voxels (at least 1.5 cm)
+  float max_weight = 128;          // running average window (frames)
+  Eigen::AlignedBox3f roi;         // empty: everywhere; else blocks outside are never allocated
   int64_t max_blocks = 4'000'000;  // refuse to grow beyond (8^3 voxels, 20 bytes each)
 };
 
@@ -45,9 +45,9 @@ struct IntegrateStats {
 };
 
 struct MeshOptions {
-  float min_weight = 1.5f;          // voxels seen fewer times are unknown
+  float min_weight = 1.5f;           // voxels seen fewer times are unknown
   int min_component_triangles = 64;  // smaller connected pieces are dropped
-  Eigen::AlignedBox3f roi;          // empty: everything
+  Eigen::AlignedBox3f roi;           // empty: everything
 };
 
 struct MeshStats {
@@ -73,8 +73,8 @@ class TsdfVolume {
 
   // Finds (and allocates, within the ROI) the blocks of the truncation band
   // around `depth` seen from world_from_cam.  Returns the blocks touched.
-  std::vector<int32_t> AllocateBand(const DepthMap& depth, const PinholeIntrinsics& K,
-                                    const Rigid3& world_from_cam, IntegrateStats* stats);
+  std::vector<int32_t> AllocateBand(const DepthMap& depth, const PinholeIntrinsics& K, const Rigid3& world_from_cam,
+                                    IntegrateStats* stats);
   // Updates the voxels of `blocks` (from AllocateBand) with this frame.
   // `color` (linear RGB, depth's size) may be null.
   void Integrate(const std::vector<int32_t>& blocks, const DepthMap& depth, const Image* color,
@@ -85,18 +85,16 @@ class TsdfVolume {
   // the frame just fused) starts each ray two truncation bands before the
   // measured depth instead of at `near_m`, and skips pixels without depth
   // (tracking associates the next frame's pixels, which are near these).
-  PointMaps Raycast(const PinholeIntrinsics& K, const Rigid3& world_from_cam, float near_m = 0.2f,
-                    float far_m = 8.0f, const DepthMap* hint = nullptr) const;
+  PointMaps Raycast(const PinholeIntrinsics& K, const Rigid3& world_from_cam, float near_m = 0.2f, float far_m = 8.0f,
+                    const DepthMap* hint = nullptr) const;
 
   // TSDF and weight trilinearly interpolated at p (world); false where any
   // of the 8 voxels is unobserved.
-  bool Sample(const Eigen::Vector3f& p, float* sdf, float* weight = nullptr,
-              Eigen::Vector3f* color = nullptr) const;
+  bool Sample(const Eigen::Vector3f& p, float* sdf, float* weight = nullptr, Eigen::Vector3f* color = nullptr) const;
 
   // Vertices carry normals (the TSDF gradient), colour (linear, the voxels'
   // mean) and `confidence` (the fused weight).
-  Mesh ExtractMesh(const MeshOptions& options, std::vector<float>* confidence,
-                   MeshStats* stats = nullptr) const;
+  Mesh ExtractMesh(const MeshOptions& options, std::vector<float>* confidence, MeshStats* stats = nullptr) const;
 
   int64_t block_count() const;
   int64_t MemoryBytes() const;
@@ -114,7 +112,6 @@ class TsdfVolume {
 // min_triangles triangles and degenerate triangles, then unreferenced
 // vertices; `per_vertex` arrays (same length as the vertices) are compacted
 // alongside.
-void CleanMesh(Mesh* mesh, int min_triangles, std::vector<std::vector<float>*> per_vertex,
-               MeshStats* stats);
+void CleanMesh(Mesh* mesh, int min_triangles, std::vector<std::vector<float>*> per_vertex, MeshStats* stats);
 
 }  // namespace mr

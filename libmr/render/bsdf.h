@@ -12,9 +12,9 @@
 namespace mr {
 
 struct BsdfSample {
-  Eigen::Vector3d wi;        // local frame
-  Eigen::Vector3d f;         // BSDF value
-  double pdf = 0;            // solid angle, of the combined (mixture) sampling
+  Eigen::Vector3d wi;  // local frame
+  Eigen::Vector3d f;   // BSDF value
+  double pdf = 0;      // solid angle, of the combined (mixture) sampling
 };
 
 class Bsdf {

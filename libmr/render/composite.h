@@ -8,8 +8,8 @@
 namespace mr {
 
 struct CompositeResult {
-  Image composite;           // RGB
-  Image difference;          // I_m - I_r, RGB
+  Image composite;               // RGB
+  Image difference;              // I_m - I_r, RGB
   int64_t clamped_negative = 0;  // channel values clamped to 0
 };
 

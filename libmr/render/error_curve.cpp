@@ -33,7 +33,8 @@ Json ErrorCurve::EndFrame(const FrameError& e) {
   ++frames_;
   for (size_t k = 0; k < frame_.size(); ++k) {
     if (sum_.size() <= k)
-      sum_.push_back({{"seconds", 0.0}, {"spp", frame_[k]["spp"]}, {"relmse", 0.0}, {"region_relmse", 0.0}, {"frames", 0}});
+      sum_.push_back(
+          {{"seconds", 0.0}, {"spp", frame_[k]["spp"]}, {"relmse", 0.0}, {"region_relmse", 0.0}, {"frames", 0}});
     for (const char* key : {"seconds", "relmse", "region_relmse"})
       sum_[k][key] = sum_[k][key].get<double>() + frame_[k][key].get<double>();
     sum_[k]["frames"] = sum_[k]["frames"].get<int>() + 1;
@@ -47,8 +48,10 @@ Json ErrorCurve::MeanCurve() const {
   Json curve = Json::array();
   for (const Json& c : sum_) {
     const int nf = c["frames"].get<int>();
-    curve.push_back({{"seconds", c["seconds"].get<double>() / nf}, {"spp", c["spp"]},
-                     {"relmse", c["relmse"].get<double>() / nf}, {"region_relmse", c["region_relmse"].get<double>() / nf}});
+    curve.push_back({{"seconds", c["seconds"].get<double>() / nf},
+                     {"spp", c["spp"]},
+                     {"relmse", c["relmse"].get<double>() / nf},
+                     {"region_relmse", c["region_relmse"].get<double>() / nf}});
   }
   return curve;
 }

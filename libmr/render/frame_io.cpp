@@ -53,7 +53,8 @@ namespace {
 Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool raw = false) {
   Image img = ReadRgbForComparison(path, transfer, raw);
   if (img.width() != w || img.height() != h)
-    ThrowErrorAt(FileLoc{path.string()}, "image is {}x{}, the camera model says {}x{}", img.width(), img.height(), w, h);
+    ThrowErrorAt(FileLoc{path.string()}, "image is {}x{}, the camera model says {}x{}", img.width(), img.height(), w,
+                 h);
   return img;
 }
 
@@ -94,7 +95,7 @@ Image ReadReferenceFrame(const fs::path& path, int width, int height) {
 }
 
 const std::vector<std::string>& FrameLayerNames() {
-  static const std::vector<std::string> names = {"composite", "mixed",    "real",    "mask",
+  static const std::vector<std::string> names = {"composite",  "mixed",    "real",    "mask",
                                                  "difference", "variance", "samples", "photo"};
   return names;
 }
@@ -106,7 +107,7 @@ void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, c
   };
   Image layers;
   const std::pair<const char*, const Image*> all[] = {
-      {"composite", l.composite}, {"mixed", l.mixed},       {"real", l.real},       {"mask", l.mask},
+      {"composite", l.composite},   {"mixed", l.mixed},       {"real", l.real},       {"mask", l.mask},
       {"difference", l.difference}, {"variance", l.variance}, {"samples", l.samples}, {"photo", l.photo}};
   for (const auto& [name, img] : all)
     if (img && (wanted(name) || std::string(name) == "composite")) layers.AppendLayer(name, *img);

@@ -334,12 +334,11 @@ void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int 
     const bool glossy = v.material->IsGlossy();
     PathVertex vd = v;
     vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
-    row_rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real,
-                              [&](Ray sr) {
-                                sr.mask = kMaskVirtual;
-                                ++row_rays;
-                                return embree.Occluded(sr) ? 0.0 : 1.0;
-                              });
+    row_rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
+      sr.mask = kMaskVirtual;
+      ++row_rays;
+      return embree.Occluded(sr) ? 0.0 : 1.0;
+    });
     const Eigen::Vector3d f = v.material->albedo * kInvPi;
     if (want_m) mixed += f.cwiseProduct(e_m);
     if (want_r) real += f.cwiseProduct(e_r);
@@ -448,8 +447,8 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
 namespace {
 
 IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold",
-                   "glossy_depth"});
+  v.RequireObject(
+      {"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold", "glossy_depth"});
   IcSettings o;
   if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
   if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
@@ -472,9 +471,10 @@ class IcMethod : public RenderMethod {
     st_.photograph = job.photograph;
     cache_ = std::make_unique<IrradianceCache>(job.rs, st_);
     if (job.frame_begin > 0)
-      job.report->Warn(fmt::format("ic: the cache starts empty at frame {} (records carry over between frames), so "
-                                   "frames of this shard differ from an unsharded run within ic's accuracy",
-                                   job.frame_begin));
+      job.report->Warn(
+          fmt::format("ic: the cache starts empty at frame {} (records carry over between frames), so "
+                      "frames of this shard differ from an unsharded run within ic's accuracy",
+                      job.frame_begin));
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame);

@@ -39,12 +39,12 @@ struct IcSettings {
 struct IcRecord {
   Eigen::Vector3d p, n;
   Eigen::Vector3d e_mixed = Eigen::Vector3d::Zero(), e_real = Eigen::Vector3d::Zero();
-  double r_hit = 0;          // least distance the record's rays met
-  double r = 0;              // R_i after the clamps
+  double r_hit = 0;             // least distance the record's rays met
+  double r = 0;                 // R_i after the clamps
   double r_min = 0, r_max = 0;  // the pixel clamps, world units
   bool on_virtual = false;
   int evaluated_frame = 0;
-  uint64_t index = 0;        // its random stream
+  uint64_t index = 0;  // its random stream
 };
 
 // The records, kept across the frames of a render.

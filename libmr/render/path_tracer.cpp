@@ -113,5 +113,4 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
   }
 }
 
-
 }  // namespace mr

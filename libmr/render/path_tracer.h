@@ -28,8 +28,8 @@ struct RayLog {
 };
 
 struct PathTracerSettings {
-  int max_depth = 64;       // bounces; Russian roulette ends most paths long before
-  int rr_depth = 3;         // Russian roulette from this bounce on
+  int max_depth = 64;  // bounces; Russian roulette ends most paths long before
+  int rr_depth = 3;    // Russian roulette from this bounce on
   uint64_t seed = 0;
   int frame = 0;
   RayLog* ray_log = nullptr;  // benchmarks only
@@ -76,8 +76,8 @@ class DifferentialPathTracer {
 
  private:
   // One path seeing geometry through `mask`, from `ray` on.
-  Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth,
-                              Pcg32& rng, int* rays, int escape_from_depth) const;
+  Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth, Pcg32& rng,
+                              int* rays, int escape_from_depth) const;
   bool Intersect(const Ray& ray, Hit* hit) const {
     if (settings_.ray_log) settings_.ray_log->closest.push_back(ray);
     return scene_.embree().Intersect(ray, hit);

@@ -2,20 +2,21 @@
 
 #include <Eigen/SVD>
 
-#include "scene/frames.h"
+#include <atomic>
 #include "core/error.h"
 #include "core/parallel.h"
-#include "render/render_scene.h"
-#include <atomic>
-#include "geometry/mesh.h"
-#include "transfer/formfactor.h"
 #include "core/sh.h"
+#include "geometry/mesh.h"
+#include "render/render_scene.h"
+#include "scene/frames.h"
+#include "transfer/formfactor.h"
 
 namespace mr {
 
 std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report) {
   if (!scene.lighting.environment)
-    throw UsageError("method prt shades objects by the environment map, and the scene names none (lighting.environment)");
+    throw UsageError(
+        "method prt shades objects by the environment map, and the scene names none (lighting.environment)");
   ImageReadOptions ro;
   ro.nonfinite = NonFinite::kAllow;  // ProjectEnvironment names a bad pixel itself
   const std::string env_name = scene.lighting.environment->string();
@@ -24,9 +25,10 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
   for (size_t i = 0; i < scene.virtuals.size(); ++i) {
     const SceneVirtual& v = scene.virtuals[i];
     if (!v.formfactors)
-      throw UsageError(fmt::format("method prt needs form factors for virtual object \"{}\": run mr-formfactor on {} and "
-                                   "name the .ffc in virtual[{}].formfactors",
-                                   v.name, v.mesh.string(), i));
+      throw UsageError(
+          fmt::format("method prt needs form factors for virtual object \"{}\": run mr-formfactor on {} and "
+                      "name the .ffc in virtual[{}].formfactors",
+                      v.name, v.mesh.string(), i));
     const Mesh mesh = ReadMesh(v.mesh);
     const VertexTransfer t = ReadTransfer(*v.formfactors);
     CheckTransferMatches(t, mesh, v.formfactors->string(), v.mesh.string());
@@ -42,8 +44,10 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
     if (world_from_object_rot.determinant() < 0) world_from_object_rot = -world_from_object_rot;
     const Eigen::Vector3d sv = svd.singularValues();
     if (sv.maxCoeff() > sv.minCoeff() * (1 + 1e-6))
-      report->Warn(fmt::format("virtual object \"{}\" is scaled non-uniformly: its form factors were computed for the "
-                               "unscaled mesh", v.name));
+      report->Warn(
+          fmt::format("virtual object \"{}\" is scaled non-uniformly: its form factors were computed for the "
+                      "unscaled mesh",
+                      v.name));
     const Eigen::Matrix3d object_from_env = world_from_object_rot.transpose() * scene.lighting.world_from_env;
     EnvironmentCoefficients ec =
         ProjectEnvironment(env, env_name, t.header, object_from_env, scene.lighting.environment_scale);
@@ -55,23 +59,27 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
         ec.rgb.resize(static_cast<size_t>(ShCount(keep)));
         report->Skip(fmt::format("SH bands {}..{} of \"{}\"", keep, t.header.order - 1, v.name),
                      "the environment holds less than 1e-5 of its energy there (a change of at most 0.3%): shaded at "
-                     "order " + std::to_string(keep));
+                     "order " +
+                         std::to_string(keep));
       }
     }
     int64_t clamped = 0;
     PrtObject po;
     if (v.material.albedo_from_vertex_colors && mesh.colors.size() != mesh.positions.size())
-      ThrowErrorAt(FileLoc{v.mesh.string()}, "material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
+      ThrowErrorAt(FileLoc{v.mesh.string()},
+                   "material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
     po.vertex_radiance = ShadeVertices(t, ec, v.material.albedo, &clamped, nullptr,
                                        v.material.albedo_from_vertex_colors ? &mesh.colors : nullptr);
     po.triangles = mesh.triangles;
     po.emission = v.material.emission;
     if (clamped > 0)
-      report->Warn(fmt::format("virtual object \"{}\": {} negative vertex values (SH ringing) clamped to 0", v.name, clamped));
+      report->Warn(
+          fmt::format("virtual object \"{}\": {} negative vertex values (SH ringing) clamped to 0", v.name, clamped));
     out[rs.virtual_ids().at(i)] = std::move(po);
   }
-  report->Skip("relighting of the real scene", "method prt shades the virtual objects only (no shadows or light on the "
-                                               "room); pt renders their effect on the room");
+  report->Skip("relighting of the real scene",
+               "method prt shades the virtual objects only (no shadows or light on the "
+               "room); pt renders their effect on the room");
   if (!rs.lights().empty())
     report->Skip(fmt::format("{} lights of lights.json", rs.lights().size()),
                  "method prt shades with the environment map only");
@@ -90,7 +98,8 @@ std::vector<char> VerticesSeenByCamera(const Scene& scene, const std::string& ob
   const Mesh mesh = ReadMesh(scene.virtuals[index].mesh);
   const CameraModel camera = CameraModel::Read(scene.camera.model);
   const std::vector<Rigid3> poses = LoadScenePoses(scene);
-  const int end = scene.render.frame_end < 0 ? static_cast<int>(poses.size()) : std::min<int>(scene.render.frame_end, static_cast<int>(poses.size()));
+  const int end = scene.render.frame_end < 0 ? static_cast<int>(poses.size())
+                                             : std::min<int>(scene.render.frame_end, static_cast<int>(poses.size()));
   std::vector<std::atomic<char>> seen(mesh.positions.size());
   *frames_seen = 0;
   for (int f = scene.render.frame_begin; f < end; ++f) {
@@ -164,8 +173,9 @@ Image PrtFrameRenderer::Mixed() const {
       const size_t i = static_cast<size_t>(y) * width_ + x;
       const double n = count_[i];
       for (int c = 0; c < 3; ++c)
-        img.at(x, y, c) = n > 0 ? static_cast<float>((sum_object_[i][c] + (n - coverage_[i]) * background_.at(x, y, c)) / n)
-                                : background_.at(x, y, c);
+        img.at(x, y, c) =
+            n > 0 ? static_cast<float>((sum_object_[i][c] + (n - coverage_[i]) * background_.at(x, y, c)) / n)
+                  : background_.at(x, y, c);
     }
   return img;
 }

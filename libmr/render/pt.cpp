@@ -16,7 +16,8 @@ namespace {
 // a separating axis among the pyramid's side normals, the box's axes and
 // their edge cross products.  Testing only some axes can miss a separation
 // but never invent one, so a "true" is a proof.
-bool PyramidMissesBox(const Eigen::Vector3d& o, const Eigen::Vector3d c[4], double far, const Eigen::AlignedBox3d& box) {
+bool PyramidMissesBox(const Eigen::Vector3d& o, const Eigen::Vector3d c[4], double far,
+                      const Eigen::AlignedBox3d& box) {
   if (box.contains(o)) return false;
   const Eigen::Vector3d centre = box.center(), half = 0.5 * box.sizes();
   Eigen::Vector3d pts[5] = {o, o + far * c[0], o + far * c[1], o + far * c[2], o + far * c[3]};
@@ -105,7 +106,8 @@ class PtMethod : public RenderMethod {
     for (const auto& r : job.scene.reals) vertex_albedo = vertex_albedo || r.material.albedo_from_vertex_colors;
     for (const auto& v : job.scene.virtuals) vertex_albedo = vertex_albedo || v.material.albedo_from_vertex_colors;
     if (vertex_albedo)
-      job.report->Warn("material.albedo_from_vertex_colors is not used by pt yet: the materials' albedo is used instead");
+      job.report->Warn(
+          "material.albedo_from_vertex_colors is not used by pt yet: the materials' albedo is used instead");
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     PathTracerSettings st = st_;

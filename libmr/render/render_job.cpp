@@ -40,29 +40,31 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   int begin = o.frame_begin >= 0 ? o.frame_begin : scene.render.frame_begin;
   int end = o.frame_end >= 0 ? o.frame_end : scene.render.frame_end;
   if (end < 0 || end > n_frames) end = n_frames;
-  if (begin >= end) throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  if (begin >= end)
+    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
   const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
   const bool shard = begin > 0 || end < n_frames;
   report->SetMetric("shard", Json{{"begin", begin}, {"end", end}, {"scene_frames", n_frames}});
   const std::string frame_provenance =
-      fmt::format("scene {} method {} spp {} time_budget {} seed {}", scene.file.filename().string(), method_name,
-                  spp, budget, scene.render.seed);
+      fmt::format("scene {} method {} spp {} time_budget {} seed {}", scene.file.filename().string(), method_name, spp,
+                  budget, scene.render.seed);
   const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
   FrameReader frames(scene, camera, decoding);
   std::unique_ptr<VideoWriter> video_out;
   if (frames.is_video() && shard) {
     report->Skip("composite video", fmt::format("frames {}:{} are a shard of {}: `mr-eval merge` writes the video "
-                                                "from every shard's frames", begin, end, n_frames));
+                                                "from every shard's frames",
+                                                begin, end, n_frames));
   } else if (frames.is_video()) {
     video_out = std::make_unique<VideoWriter>(out_dir / "composite.mp4", camera.width(), camera.height(), frames.fps());
   }
   if (!decoding.photograph)
-    report->Skip("photograph", "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
+    report->Skip("photograph",
+                 "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
   // With no virtual object nothing can differ from the photograph: frames are
   // copied through without rendering (I_m - I_r = 0 exactly; tested).
   const bool copy_through = !rs.has_virtual() && decoding.photograph;
-  if (!rs.has_virtual())
-    report->Skip("virtual objects", "the scene has none: the composite is the photograph");
+  if (!rs.has_virtual()) report->Skip("virtual objects", "the scene has none: the composite is the photograph");
   if (copy_through)
     report->Skip("rendering", "no virtual object can change any frame: frames are copied through from the photographs");
   if (!copy_through) {
@@ -82,9 +84,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     const Rigid3& pose = poses[static_cast<size_t>(f)];
     const auto t0 = std::chrono::steady_clock::now();
     std::string enclosed;
-    const bool frame_copy = copy_through || (decoding.photograph && rs.VirtualEnclosedAwayFrom(pose.translation, &enclosed));
+    const bool frame_copy =
+        copy_through || (decoding.photograph && rs.VirtualEnclosedAwayFrom(pose.translation, &enclosed));
     if (frame_copy && !copy_through)
-      report->Skip(fmt::format("rendering frame {}", f), enclosed + ": I_m - I_r = 0 exactly, the photograph is copied through");
+      report->Skip(fmt::format("rendering frame {}", f),
+                   enclosed + ": I_m - I_r = 0 exactly, the photograph is copied through");
     const std::optional<Image> photo = frames.Photo(f);
     std::optional<Image> ref;
     if (reference) ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
@@ -109,8 +113,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       progress.Update(done);
       seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (ref)
-        errors.Checkpoint(seconds, done, MeasureFrame(decoding.Compose(*fr, photo_ptr).composite, *ref,
-                                                      region ? &*region : nullptr));
+        errors.Checkpoint(seconds, done,
+                          MeasureFrame(decoding.Compose(*fr, photo_ptr).composite, *ref, region ? &*region : nullptr));
       if (budget > 0 && seconds >= budget) {
         report->Warn(fmt::format("frame {}: time budget {} s reached at {} spp", f, budget, done));
         break;
@@ -137,8 +141,13 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     const int64_t frame_nonfinite = fr ? fr->nonfinite_samples() : 0;
     nonfinite += frame_nonfinite;
     const int64_t env_pixels = fr ? fr->skipped_pixels() : 0;
-    Json fj = {{"frame", f}, {"spp", done}, {"seconds", seconds}, {"clamped_negative", cr.clamped_negative},
-               {"nonfinite_samples", frame_nonfinite}, {"copied_through", !fr}, {"environment_pixels_sampled_once", env_pixels}};
+    Json fj = {{"frame", f},
+               {"spp", done},
+               {"seconds", seconds},
+               {"clamped_negative", cr.clamped_negative},
+               {"nonfinite_samples", frame_nonfinite},
+               {"copied_through", !fr},
+               {"environment_pixels_sampled_once", env_pixels}};
     if (env_pixels > 0 && done > 1)
       report->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
                    "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");

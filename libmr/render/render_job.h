@@ -15,12 +15,12 @@
 namespace mr {
 
 struct RenderOptions {
-  std::string method;                  // empty: the scene's
-  int spp = 0;                         // 0: the scene's
-  double time_budget_s = -1;           // < 0: the scene's (0 = none)
+  std::string method;                    // empty: the scene's
+  int spp = 0;                           // 0: the scene's
+  double time_budget_s = -1;             // < 0: the scene's (0 = none)
   int frame_begin = -1, frame_end = -1;  // -1: the scene's
-  std::optional<fs::path> reference;   // overrides the scene's
-  fs::path out_dir;                    // empty: the scene's output.dir
+  std::optional<fs::path> reference;     // overrides the scene's
+  fs::path out_dir;                      // empty: the scene's output.dir
   std::string tool = "mr-render", command_line;
 };
 

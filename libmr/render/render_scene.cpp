@@ -31,7 +31,8 @@ uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_
 }
 
 void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world) {
-  if (surfaces_.size() <= id) surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
+  if (surfaces_.size() <= id)
+    surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
   Material d = material, g = material;
   d.specular.setZero();
   g.albedo.setZero();
@@ -73,8 +74,9 @@ bool RenderScene::VirtualEnclosedAwayFrom(const Eigen::Vector3d& eye, std::strin
   if (why) {
     std::sort(surfaces.begin(), surfaces.end());
     surfaces.erase(std::unique(surfaces.begin(), surfaces.end()), surfaces.end());
-    *why = fmt::format("every virtual object and light is on the other side of a closed real surface ({} of {}) from the camera",
-                       surfaces.size(), closed_.count());
+    *why = fmt::format(
+        "every virtual object and light is on the other side of a closed real surface ({} of {}) from the camera",
+        surfaces.size(), closed_.count());
   }
   return true;
 }

@@ -11,9 +11,9 @@
 #include "geometry/embree_scene.h"
 #include "geometry/enclosure.h"
 #include "geometry/mesh.h"
-#include "render/bsdf.h"
 #include "light/environment.h"
 #include "light/light_source.h"
+#include "render/bsdf.h"
 #include "scene/scene.h"
 
 namespace mr {

@@ -167,7 +167,8 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
           const Eigen::Vector3d p = o + static_cast<double>(hit.t) * d;
           const Eigen::Vector3d n = scene.WorldNormal(hit);
           size_t vi;
-          if (voxel_of(p, &vi)) hits[static_cast<size_t>(j)].push_back({vi, hit.is_virtual, h * h * std::abs(n[k]), Canonical(n)});
+          if (voxel_of(p, &vi))
+            hits[static_cast<size_t>(j)].push_back({vi, hit.is_virtual, h * h * std::abs(n[k]), Canonical(n)});
           ray.tnear = std::nextafter(hit.t, INFINITY) + static_cast<float>(1e-4 * voxel);
           hit = Hit();
         }
@@ -254,8 +255,9 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
       const double u = u0 + (static_cast<double>(j % nu) + rng.NextDouble()) * du;
       const double v = v0 + (static_cast<double>(j / nu) + rng.NextDouble()) * dv;
       const Ray ray = MakeRay(centre + u * t + v * b + far * dl.dir, -dl.dir, kMaskAll);
-      inject(ray, to_mixed, to_real, [&](const Eigen::Vector3d&, float) { return power; },
-             &deposits[static_cast<size_t>(j)]);
+      inject(
+          ray, to_mixed, to_real, [&](const Eigen::Vector3d&, float) { return power; },
+          &deposits[static_cast<size_t>(j)]);
     });
     flush(deposits);
     out->injection_rays_ += static_cast<int64_t>(deposits.size());
@@ -275,7 +277,8 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     const int side = static_cast<int>(std::clamp(std::ceil(std::sqrt(omega * reach * reach) / spacing), 16.0, 2048.0));
     const double domega = omega / (static_cast<double>(side) * side);
     Eigen::Vector3d ft, fb;
-    const Eigen::Vector3d axis = inside ? Eigen::Vector3d(Eigen::Vector3d::UnitY()) : Eigen::Vector3d((centre - pos) / dist);
+    const Eigen::Vector3d axis =
+        inside ? Eigen::Vector3d(Eigen::Vector3d::UnitY()) : Eigen::Vector3d((centre - pos) / dist);
     CoordinateSystem(axis, &ft, &fb);
     const bool to_real = !l.is_virtual();
     std::vector<std::vector<Deposit>> deposits(static_cast<size_t>(side) * side);
@@ -285,13 +288,14 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
       const double c = (static_cast<double>(j / side) + rng.NextDouble()) / side;
       const double cos_t = 1 - a * (1 - cos_max), sin_t = SafeSqrt(1 - cos_t * cos_t), phi = kTwoPi * c;
       const Eigen::Vector3d d = cos_t * axis + sin_t * (std::cos(phi) * ft + std::sin(phi) * fb);
-      inject(MakeRay(pos, d, kMaskAll), true, to_real,
-             [&](const Eigen::Vector3d& p, float t) -> Eigen::Vector3d {
-               LightSample ls;
-               if (!l.Sample(p, 0.5, 0.5, &ls) || !(ls.pdf > 0)) return Eigen::Vector3d::Zero();
-               return ls.li / ls.pdf * (domega * static_cast<double>(t) * t);
-             },
-             &deposits[static_cast<size_t>(j)]);
+      inject(
+          MakeRay(pos, d, kMaskAll), true, to_real,
+          [&](const Eigen::Vector3d& p, float t) -> Eigen::Vector3d {
+            LightSample ls;
+            if (!l.Sample(p, 0.5, 0.5, &ls) || !(ls.pdf > 0)) return Eigen::Vector3d::Zero();
+            return ls.li / ls.pdf * (domega * static_cast<double>(t) * t);
+          },
+          &deposits[static_cast<size_t>(j)]);
     });
     flush(deposits);
     out->injection_rays_ += static_cast<int64_t>(deposits.size());
@@ -736,10 +740,12 @@ VctSettings ParseVctSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("min_specular_aperture_deg"))
     o.min_specular_aperture_deg = v.Child("min_specular_aperture_deg").Number(0, 90);
   if (v.Has("cone_offset")) o.cone_offset = v.Child("cone_offset").Number(0, 16);
-  if (v.Has("accumulation")) o.paper_accumulation = v.Child("accumulation").OneOf({"front_to_back", "paper"}) == "paper";
+  if (v.Has("accumulation"))
+    o.paper_accumulation = v.Child("accumulation").OneOf({"front_to_back", "paper"}) == "paper";
   if (v.Has("relight")) o.split_relighting = v.Child("relight").OneOf({"delta", "split"}) == "split";
   if (v.Has("far_field_width")) o.far_field_width = static_cast<int>(v.Child("far_field_width").Integer(8, 1024));
-  if (v.Has("far_field_samples")) o.far_field_samples = static_cast<int>(v.Child("far_field_samples").Integer(1, 1 << 16));
+  if (v.Has("far_field_samples"))
+    o.far_field_samples = static_cast<int>(v.Child("far_field_samples").Integer(1, 1 << 16));
   o.max_depth = scene.render.max_depth;
   o.seed = scene.render.seed;
   return o;

@@ -19,17 +19,17 @@
 namespace mr {
 
 struct VctSettings {
-  int resolution = 32;              // voxels along the volume's longest side
-  int directions = 64;              // environment directions injected
-  double injection_spacing = 0.5;   // injection ray spacing, voxels
-  double shadow_aperture_deg = 2;   // shadow cone, full angle
+  int resolution = 32;                   // voxels along the volume's longest side
+  int directions = 64;                   // environment directions injected
+  double injection_spacing = 0.5;        // injection ray spacing, voxels
+  double shadow_aperture_deg = 2;        // shadow cone, full angle
   double min_specular_aperture_deg = 1;  // specular cone, full angle at roughness 0
   bool paper_accumulation = false;
-  bool split_relighting = true;     // false: the paper's delta volume (see docs/benchmarks.md)
-  int far_field_width = 64;         // lat-long far field, width (height: half)
-  int far_field_samples = 16;       // paths per far-field texel
-  double cone_offset = 1.0;         // cone origins lifted off the surface, voxels
-  int max_depth = 5;                // far-field paths
+  bool split_relighting = true;  // false: the paper's delta volume (see docs/benchmarks.md)
+  int far_field_width = 64;      // lat-long far field, width (height: half)
+  int far_field_samples = 16;    // paths per far-field texel
+  double cone_offset = 1.0;      // cone origins lifted off the surface, voxels
+  int max_depth = 5;             // far-field paths
   uint64_t seed = 0;
 };
 
@@ -44,7 +44,7 @@ struct ConeResult {
 class VctVolumes {
  public:
   struct Voxel {
-    float occ_r = 0, occ_v = 0;                 // occupancy (fraction of sub-voxels)
+    float occ_r = 0, occ_v = 0;                                                    // occupancy (fraction of sub-voxels)
     Eigen::Vector3f n_r = Eigen::Vector3f::Zero(), n_v = Eigen::Vector3f::Zero();  // mean normal x occupancy
     Eigen::Vector3f l_m = Eigen::Vector3f::Zero(), l_r = Eigen::Vector3f::Zero();  // radiance x occupancy
     // Mean normal of the lit sides (facing the light), weighted by

@@ -72,7 +72,8 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
   out->settings_ = st;
   const Eigen::AlignedBox3d box = scene.bounds().cast<double>();
   const double diag = box.isEmpty() ? 1.0 : std::max(1e-6, box.diagonal().norm());
-  const Eigen::Vector3d centre = box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
+  const Eigen::Vector3d centre =
+      box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
   const double radius = 0.5 * diag * 1.001;
   out->clamp_ = st.clamp_distance > 0 ? st.clamp_distance : 0.02 * diag;
   const EnvironmentMap& env = scene.environment();
@@ -81,14 +82,21 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
 
   // Light paths.
   std::vector<Emitter> emitters;
-  if (!env.empty() && env.LuminanceIntegral() > 0) emitters.push_back({-1, env.LuminanceIntegral() * kPi * radius * radius});
+  if (!env.empty() && env.LuminanceIntegral() > 0)
+    emitters.push_back({-1, env.LuminanceIntegral() * kPi * radius * radius});
   for (size_t i = 0; i < scene.lights().size(); ++i) {
     const Light& l = scene.lights()[i].light();
     double p = 0;
     switch (l.type) {
-      case LightType::kPoint: p = Luminance(l.intensity) * kFourPi; break;
-      case LightType::kSpot: p = Luminance(l.intensity) * kTwoPi * (1 - std::cos(l.cone_deg * kDegToRad)); break;
-      case LightType::kDistant: p = Luminance(l.irradiance) * kPi * radius * radius; break;
+      case LightType::kPoint:
+        p = Luminance(l.intensity) * kFourPi;
+        break;
+      case LightType::kSpot:
+        p = Luminance(l.intensity) * kTwoPi * (1 - std::cos(l.cone_deg * kDegToRad));
+        break;
+      case LightType::kDistant:
+        p = Luminance(l.irradiance) * kPi * radius * radius;
+        break;
     }
     if (p > 0) emitters.push_back({static_cast<int>(i), p});
   }
@@ -330,8 +338,8 @@ class VplShader {
       const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
       if (glossy->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
         const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
-        ShadeRay(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1,
-                 s.pdf, b, rng, acc);
+        ShadeRay(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
+                 b, rng, acc);
       }
     }
     if (st_.compensate && depth == 0) Compensate(v, x_virtual, want_m, want_r, beta, rng, acc);
@@ -573,7 +581,9 @@ class VplMethod : public RenderMethod {
     vpls_ = VplSet::Build(job.rs, st_);
     vpls_->Describe(job.report);
     if (AnyEmissive(job.scene))
-      job.report->Warn("vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights only)");
+      job.report->Warn(
+          "vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights "
+          "only)");
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame);

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "core/report.h"
-#include "render/path_common.h"
 #include "render/method.h"
+#include "render/path_common.h"
 #include "render/path_tracer.h"
 #include "render/pixel_loop.h"
 
@@ -33,14 +33,14 @@ struct VplSettings {
 enum VplSets : uint8_t { kLightsReal = 1, kLightsMixed = 2, kLightsBoth = 3 };
 
 struct Vpl {
-  Eigen::Vector3d p;        // on the surface, offset along n
+  Eigen::Vector3d p;                             // on the surface, offset along n
   ShadingFrame frame{Eigen::Vector3d::UnitZ()};  // n faces the side the light arrived on
-  Eigen::Vector3d wi_local;  // towards where the light came from, in frame
-  Eigen::Vector3d flux;      // arriving flux (W)
+  Eigen::Vector3d wi_local;                      // towards where the light came from, in frame
+  Eigen::Vector3d flux;                          // arriving flux (W)
   const Bsdf* bsdf = nullptr;
   uint8_t sets = kLightsBoth;  // which solutions it lights
   bool on_virtual = false;
-  int depth = 0;               // surfaces met along its path before (0: lit by the emitter)
+  int depth = 0;  // surfaces met along its path before (0: lit by the emitter)
 };
 
 struct DirectionalVpl {

@@ -52,7 +52,7 @@ std::vector<fs::path> ListFrameFiles(const std::string& frames, const fs::path& 
       Image im;
       try {
         im = video.Frame(f);
-      } catch (const Error &) {
+      } catch (const Error&) {
         break;  // the container's count may be approximate
       }
       const fs::path p = dir / fmt::format("{:05d}.png", f);

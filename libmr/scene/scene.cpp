@@ -11,7 +11,7 @@
 namespace mr {
 
 const std::vector<std::string>& OutputLayers() {
-  static const std::vector<std::string> l = {"composite", "mixed",    "real",    "mask",
+  static const std::vector<std::string> l = {"composite",  "mixed",    "real",    "mask",
                                              "difference", "variance", "samples", "photo"};
   return l;
 }
@@ -68,14 +68,15 @@ Eigen::Affine3d ParseTransform(const Node& n) {
   if (n.Has("rotation_deg")) {
     // Rotations about the world x, then y, then z axes: R = Rz * Ry * Rx.
     Eigen::Vector3d r = n.Child("rotation_deg").Vec3(-360, 360) * kDegToRad;
-    a.rotate(Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
-             Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
+    a.rotate(Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
              Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()));
   }
   if (n.Has("scale")) {
     Node s = n.Child("scale");
-    if (s.json().is_number()) a.scale(s.Number(1e-9, kHuge));
-    else a.scale(s.Vec3(1e-9, kHuge));
+    if (s.json().is_number())
+      a.scale(s.Number(1e-9, kHuge));
+    else
+      a.scale(s.Vec3(1e-9, kHuge));
   }
   return a;
 }
@@ -115,7 +116,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   s.file = name;
   int64_t version = root.Required("version").Integer(1, 1000);
   if (version != kSceneVersion)
-    root.Child("version").Fail(fmt::format("this mr reads scene version {}, the file is version {}", kSceneVersion, version));
+    root.Child("version").Fail(
+        fmt::format("this mr reads scene version {}, the file is version {}", kSceneVersion, version));
   if (root.Has("comment")) root.Child("comment").String();
 
   Node cam = root.Required("camera");
@@ -142,14 +144,17 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     Node p = cam.Child("poses");
     p.RequireObject({"format", "path"});
     std::string fmt_name = p.Required("format").OneOf({"tum", "7scenes", "colmap"});
-    s.camera.pose_format = fmt_name == "tum" ? PoseFormat::kTum : fmt_name == "7scenes" ? PoseFormat::k7Scenes : PoseFormat::kColmap;
+    s.camera.pose_format = fmt_name == "tum"       ? PoseFormat::kTum
+                           : fmt_name == "7scenes" ? PoseFormat::k7Scenes
+                                                   : PoseFormat::kColmap;
     s.camera.poses = ResolveFile(p.Required("path"), base, check, "poses");
   }
 
   if (root.Has("lighting")) {
     Node l = root.Child("lighting");
     l.RequireObject({"environment", "environment_scale", "environment_rotation_deg", "environment_up", "lights"});
-    if (l.Has("environment")) s.lighting.environment = ResolveFile(l.Child("environment"), base, check, "environment map");
+    if (l.Has("environment"))
+      s.lighting.environment = ResolveFile(l.Child("environment"), base, check, "environment map");
     if (l.Has("environment_scale")) s.lighting.environment_scale = l.Child("environment_scale").Number(0, kHuge);
     if (l.Has("environment_rotation_deg")) {
       double yaw = l.Child("environment_rotation_deg").Number(-360, 360) * kDegToRad;
@@ -207,8 +212,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     // The generic settings; any other key holding an object is a method's
     // block (render.vpl, ...), kept as written for the method to parse.
     Node r = root.Child("render");
-    static const std::initializer_list<const char*> generic = {"method", "spp", "max_depth", "seed", "frames",
-                                                               "time_budget_s"};
+    static const std::initializer_list<const char*> generic = {"method", "spp",    "max_depth",
+                                                               "seed",   "frames", "time_budget_s"};
     if (!r.json().is_object()) r.Fail(fmt::format("expected an object, got {}", r.TypeName()));
     for (auto& [k, v] : r.json().items()) {
       bool known = false;
@@ -259,7 +264,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
 
   if (root.Has("reference")) {
     Node r = root.Child("reference");
-    s.reference = IsFramePattern(r.String()) ? ResolvePattern(r, base, check) : ResolveFile(r, base, check, "reference");
+    s.reference =
+        IsFramePattern(r.String()) ? ResolvePattern(r, base, check) : ResolveFile(r, base, check, "reference");
   }
   if (s.reals.empty() && s.virtuals.empty()) root.Fail("the scene has neither real nor virtual geometry");
   return s;

@@ -22,10 +22,10 @@ namespace mr {
 inline constexpr int kSceneVersion = 1;
 
 struct Material {
-  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.5);    // diffuse reflectance [0,1]
-  Eigen::Vector3d specular = Eigen::Vector3d::Zero();         // glossy reflectance [0,1]
-  double roughness = 0.5;                                     // GGX alpha in (0,1]
-  Eigen::Vector3d emission = Eigen::Vector3d::Zero();         // radiance, W/(sr m^2), >= 0
+  Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.5);  // diffuse reflectance [0,1]
+  Eigen::Vector3d specular = Eigen::Vector3d::Zero();       // glossy reflectance [0,1]
+  double roughness = 0.5;                                   // GGX alpha in (0,1]
+  Eigen::Vector3d emission = Eigen::Vector3d::Zero();       // radiance, W/(sr m^2), >= 0
   bool albedo_from_vertex_colors = false;
   bool IsGlossy() const { return specular.maxCoeff() > 0; }
   bool IsEmissive() const { return emission.maxCoeff() > 0; }
@@ -34,8 +34,8 @@ struct Material {
 enum class PoseFormat { kTum, k7Scenes, kColmap };
 
 struct SceneCamera {
-  fs::path model;                   // .cameramodel
-  std::optional<fs::path> frames;   // video file or printf pattern ("frames/%05d.png")
+  fs::path model;                  // .cameramodel
+  std::optional<fs::path> frames;  // video file or printf pattern ("frames/%05d.png")
   bool frames_are_video = false;
   // How the frames relate to radiance: "linear" (radiance), "srgb" (the sRGB
   // curve is the camera response: decoded to radiance, composited linearly),
@@ -45,7 +45,7 @@ struct SceneCamera {
   std::string frames_transfer = "srgb";
   double exposure = 1.0;  // "display": display value = sRGB(clamp(exposure x radiance)); "response": seconds
   std::optional<fs::path> response;
-  std::optional<fs::path> poses;    // TUM file, 7-Scenes folder, or COLMAP text folder
+  std::optional<fs::path> poses;  // TUM file, 7-Scenes folder, or COLMAP text folder
   PoseFormat pose_format = PoseFormat::kTum;
 };
 
@@ -53,7 +53,7 @@ struct SceneLighting {
   std::optional<fs::path> environment;  // lat-long EXR/HDR, OpenEXR envmap convention
   double environment_scale = 1.0;
   Eigen::Matrix3d world_from_env = Eigen::Matrix3d::Identity();
-  std::optional<fs::path> lights;       // lights.json from mr-lights
+  std::optional<fs::path> lights;  // lights.json from mr-lights
 };
 
 struct SceneReal {
@@ -119,6 +119,5 @@ Scene ReadScene(const fs::path& path, bool check_files = true);
 // Validates JSON already parsed; `base` resolves relative paths; `name` is
 // the file name used in messages.
 Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, bool check_files);
-
 
 }  // namespace mr

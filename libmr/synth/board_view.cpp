@@ -110,17 +110,18 @@ std::vector<fs::path> WriteBoardSet(const std::string& lens, const BoardSpec& b,
     cams.push_back({"camera", CameraModel("LENSMODEL_PINHOLE", {500, 500, 319.5, 239.5}, 640, 480), Rigid3()});
     poses = CalibrationBoardPoses(b, 14);
   } else if (lens == "opencv8" || lens == "rig") {
-    cams.push_back({lens == "rig" ? "cam0" : "camera",
-                    CameraModel("LENSMODEL_OPENCV8", {440, 442, 321, 238, 0.08, -0.05, 0.001, -0.0015, 0, 0, 0, 0}, 640, 480),
-                    Rigid3()});
+    cams.push_back(
+        {lens == "rig" ? "cam0" : "camera",
+         CameraModel("LENSMODEL_OPENCV8", {440, 442, 321, 238, 0.08, -0.05, 0.001, -0.0015, 0, 0, 0, 0}, 640, 480),
+         Rigid3()});
     poses = CalibrationBoardPoses(b, 16);
     if (lens == "rig") {
       const Rigid3 cam1_from_cam0(
           Eigen::Quaterniond(Eigen::AngleAxisd(4 * kDegToRad, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
           Eigen::Vector3d(-0.11, 0.004, 0.002));
       cams.push_back({"cam1",
-                      CameraModel("LENSMODEL_OPENCV8", {400, 401, 316, 242, 0.05, -0.02, -0.001, 0.001, 0, 0, 0, 0}, 640,
-                                  480, cam1_from_cam0),
+                      CameraModel("LENSMODEL_OPENCV8", {400, 401, 316, 242, 0.05, -0.02, -0.001, 0.001, 0, 0, 0, 0},
+                                  640, 480, cam1_from_cam0),
                       cam1_from_cam0});
       for (Rigid3& p : poses) p.translation += Eigen::Vector3d(0.055, 0, 0.05);  // both cameras see most boards
     }
@@ -149,7 +150,8 @@ std::vector<fs::path> WriteBoardSet(const std::string& lens, const BoardSpec& b,
   written.push_back(out / "board.json");
   // The views the calibration must leave out: blurred, over-exposed, and
   // the board pushed half out of the frame.
-  const Rigid3 half_out(poses[0].rotation, poses[0].translation + Eigen::Vector3d(0.6 * poses[0].translation.z(), 0, 0));
+  const Rigid3 half_out(poses[0].rotation,
+                        poses[0].translation + Eigen::Vector3d(0.6 * poses[0].translation.z(), 0, 0));
   for (const Cam& c : cams) {
     c.model.Write(out / "truth" / (c.name + ".cameramodel"), note);
     written.push_back(out / "truth" / (c.name + ".cameramodel"));

@@ -15,11 +15,11 @@
 namespace mr {
 
 struct BoardViewOptions {
-  int supersample = 4;         // per pixel edge: the box-filtered image of the board
-  double blur_sigma_px = 0;    // Gaussian blur after rendering (defocus)
-  double noise_sigma = 0;      // Gaussian noise on [0, 1] values, seeded
-  double exposure = 1;         // white paper renders at min(1, 0.9 exposure): > 1.1 clips
-  double background = 0.45;    // what is not the board
+  int supersample = 4;       // per pixel edge: the box-filtered image of the board
+  double blur_sigma_px = 0;  // Gaussian blur after rendering (defocus)
+  double noise_sigma = 0;    // Gaussian noise on [0, 1] values, seeded
+  double exposure = 1;       // white paper renders at min(1, 0.9 exposure): > 1.1 clips
+  double background = 0.45;  // what is not the board
   uint64_t seed = 1;
 };
 

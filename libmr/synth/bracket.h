@@ -17,10 +17,10 @@ namespace mr {
 
 struct BracketOptions {
   std::vector<double> times = {1, 0.25, 0.0625, 0.015625};  // seconds: X = radiance * t
-  int bits = 8;                 // 8 or 16 (16: linear codes, no sRGB curve)
-  double blur_px = 0;           // lens blur, sigma
-  double shot_noise = 1e-4;     // variance of X per unit X
-  double read_noise = 3e-4;     // sigma of X (both as mr-hdr's defaults)
+  int bits = 8;                                             // 8 or 16 (16: linear codes, no sRGB curve)
+  double blur_px = 0;                                       // lens blur, sigma
+  double shot_noise = 1e-4;                                 // variance of X per unit X
+  double read_noise = 3e-4;                                 // sigma of X (both as mr-hdr's defaults)
   uint64_t seed = 1;
 };
 

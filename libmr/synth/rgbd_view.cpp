@@ -120,8 +120,8 @@ DepthMap RenderDepth(const RenderScene& scene, const PinholeIntrinsics& K, const
   return out;
 }
 
-void WriteRgbdSequence(const fs::path& dir, const RenderScene& scene, const Trajectory& path,
-                       const RgbdSynthOptions& o, Report* report) {
+void WriteRgbdSequence(const fs::path& dir, const RenderScene& scene, const Trajectory& path, const RgbdSynthOptions& o,
+                       Report* report) {
   fs::create_directories(dir / "depth");
   if (o.color_spp > 0) fs::create_directories(dir / "rgb");
   const PinholeIntrinsics& K = o.K;
@@ -162,18 +162,23 @@ void WriteRgbdSequence(const fs::path& dir, const RenderScene& scene, const Traj
   if (o.color_spp > 0) WriteTextFile(dir / "rgb.txt", rgb_txt);
   WriteTum(dir / "groundtruth.txt", path);
   const DepthSensorModel& s = o.sensor;
-  WriteTextFile(dir / "truth.json",
-                Json({{"frames", static_cast<int>(path.poses.size())},
-                      {"intrinsics", {K.fx, K.fy, K.cx, K.cy, K.width, K.height}},
-                      {"depth_scale", 5000},
-                      {"color_exposure", o.exposure},
-                      {"color_spp", o.color_spp},
-                      {"sensor", {{"noise", s.noise}, {"quantise", s.quantise}, {"holes", s.holes},
-                                  {"baseline_m", s.baseline_m}, {"range_m", {s.min_m, s.max_m}},
-                                  {"grazing_deg", s.grazing_deg}, {"dark_dropout", s.dark_dropout},
-                                  {"glossy_dropout", s.glossy_dropout}}},
-                      {"trajectory", "groundtruth.txt"}})
-                        .dump(2) + "\n");
+  WriteTextFile(dir / "truth.json", Json({{"frames", static_cast<int>(path.poses.size())},
+                                          {"intrinsics", {K.fx, K.fy, K.cx, K.cy, K.width, K.height}},
+                                          {"depth_scale", 5000},
+                                          {"color_exposure", o.exposure},
+                                          {"color_spp", o.color_spp},
+                                          {"sensor",
+                                           {{"noise", s.noise},
+                                            {"quantise", s.quantise},
+                                            {"holes", s.holes},
+                                            {"baseline_m", s.baseline_m},
+                                            {"range_m", {s.min_m, s.max_m}},
+                                            {"grazing_deg", s.grazing_deg},
+                                            {"dark_dropout", s.dark_dropout},
+                                            {"glossy_dropout", s.glossy_dropout}}},
+                                          {"trajectory", "groundtruth.txt"}})
+                                            .dump(2) +
+                                        "\n");
   if (report) report->AddOutput(dir.string());
 }
 

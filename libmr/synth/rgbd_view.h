@@ -36,8 +36,8 @@ DepthMap RenderDepth(const RenderScene& scene, const PinholeIntrinsics& K, const
 struct RgbdSynthOptions {
   PinholeIntrinsics K{290, 290, 159.5, 119.5, 320, 240};
   DepthSensorModel sensor;
-  int color_spp = 4;        // path-traced colour (real paths); 0: no colour images
-  double exposure = 1.0;    // colour = clamp(radiance * exposure), 8-bit sRGB
+  int color_spp = 4;      // path-traced colour (real paths); 0: no colour images
+  double exposure = 1.0;  // colour = clamp(radiance * exposure), 8-bit sRGB
   uint64_t seed = 1;
   std::vector<int> blank_frames;  // frames whose depth holds no valid pixel (a sensor dropout)
 };

@@ -14,11 +14,11 @@
 namespace mr {
 
 struct SphereViewOptions {
-  int supersample = 4;            // per pixel edge: the silhouette is box-filtered
-  double reflectance = 0.6;       // chrome's, as light-probe practice assumes (no Fresnel)
+  int supersample = 4;       // per pixel edge: the silhouette is box-filtered
+  double reflectance = 0.6;  // chrome's, as light-probe practice assumes (no Fresnel)
   Eigen::Matrix3d world_from_cam = Eigen::Matrix3d::Identity();  // the environment's frame
-  double exposure = 1;            // scales radiance; values are not clipped
-  double noise_sigma = 0;         // Gaussian noise relative to each value, seeded
+  double exposure = 1;                                           // scales radiance; values are not clipped
+  double noise_sigma = 0;                                        // Gaussian noise relative to each value, seeded
   uint64_t seed = 1;
   // The camera's own body: a sphere of this radius (metres) around the
   // camera's centre with this radiance, seen reflected near the sphere's
@@ -38,6 +38,7 @@ Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, con
 void AddRelativeNoise(Image* img, double sigma, uint64_t seed);
 
 // The environment itself through `camera` (no sphere): a fish-eye probe.
-Image RenderEnvironmentView(const EnvironmentMap& env, const CameraModel& camera, const SphereViewOptions& options = {});
+Image RenderEnvironmentView(const EnvironmentMap& env, const CameraModel& camera,
+                            const SphereViewOptions& options = {});
 
 }  // namespace mr

@@ -1,7 +1,7 @@
 #include "synth/synth.h"
 #include "synth/bracket.h"
-#include "synth/sphere_view.h"
 #include "synth/rgbd_view.h"
+#include "synth/sphere_view.h"
 
 #include <spdlog/spdlog.h>
 
@@ -15,12 +15,12 @@
 #include "core/spherical.h"
 #include "core/video.h"
 #include "geometry/mesh.h"
-#include "hdr/exposures_file.h"
 #include "geometry/primitives.h"
+#include "hdr/exposures_file.h"
+#include "light/lights_file.h"
 #include "render/path_tracer.h"
 #include "render/pt.h"
 #include "render/render_scene.h"
-#include "light/lights_file.h"
 
 namespace mr {
 
@@ -38,7 +38,8 @@ Mesh Sphere(float r, int n) {
   for (int i = 0; i <= n; ++i)
     for (int j = 0; j <= 2 * n; ++j) {
       const double th = kPi * i / n, ph = kPi * j / n;
-      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)), static_cast<float>(r * std::cos(th)),
+      m.positions.emplace_back(static_cast<float>(r * std::sin(th) * std::cos(ph)),
+                               static_cast<float>(r * std::cos(th)),
                                static_cast<float>(r * std::sin(th) * std::sin(ph)));
     }
   const int row = 2 * n + 1;
@@ -59,15 +60,18 @@ Image SkyMap(int w, int h, double sun_to_sky, int* sun_x, int* sun_y) {
     const double lat = kPi / 2 - y * kPi / (h - 1);
     for (int x = 0; x < w; ++x) {
       Eigen::Vector3d c;
-      if (lat >= 0) c = Eigen::Vector3d(0.35, 0.5, 0.9) * (0.6 + 0.4 * std::sin(lat));
-      else c = Eigen::Vector3d(0.25, 0.22, 0.2);
+      if (lat >= 0)
+        c = Eigen::Vector3d(0.35, 0.5, 0.9) * (0.6 + 0.4 * std::sin(lat));
+      else
+        c = Eigen::Vector3d(0.25, 0.22, 0.2);
       for (int k = 0; k < 3; ++k) img.at(x, y, k) = static_cast<float>(c[k]);
     }
   }
   *sun_x = w / 3;
   *sun_y = h / 5;  // ~54 degrees up
   const double zenith_sky = 0.9;
-  for (int k = 0; k < 3; ++k) img.at(*sun_x, *sun_y, k) = static_cast<float>(sun_to_sky * zenith_sky * (k == 2 ? 0.9 : 1.0));
+  for (int k = 0; k < 3; ++k)
+    img.at(*sun_x, *sun_y, k) = static_cast<float>(sun_to_sky * zenith_sky * (k == 2 ? 0.9 : 1.0));
   return img;
 }
 
@@ -157,7 +161,8 @@ void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
   ImageWriteOptions wo;
   wo.tool = o.tool;
   wo.command_line = o.command_line;
-  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
+  const std::string note =
+      fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
   const Eigen::Matrix3d world_from_light = Eigen::Vector3d(1, -1, -1).asDiagonal();
   CameraModel light("LENSMODEL_STEREOGRAPHIC", {134, 134, 319.5, 319.5}, 640, 640);
   light.set_cam_from_ref(Rigid3(Eigen::Quaterniond(world_from_light.transpose()), Eigen::Vector3d::Zero()));
@@ -187,20 +192,24 @@ void WriteProbe(const SynthOptions& o, const Image& sky, Report* report) {
   so.world_from_cam = world_from_up;
   so.camera_body_radius = 0;
   so.supersample = 2;  // no silhouette to resolve
-  WriteBracket(o.out / "probe" / "fisheye", "sky", RenderEnvironmentView(env, up, so), HashCombine(o.seed, 99), wo, report);
+  WriteBracket(o.out / "probe" / "fisheye", "sky", RenderEnvironmentView(env, up, so), HashCombine(o.seed, 99), wo,
+               report);
   Json times = Json::array();
   for (double t : kProbeTimes) times.push_back(t);
-  WriteTextFile(o.out / "probe" / "truth.json",
-                Json({{"radius_m", radius},
-                      {"centre_cam_m", {centre.x(), centre.y(), centre.z()}},
-                      {"reflectance", reflectance},
-                      {"camera_body_radius_m", body},
-                      {"environment", "../env.exr"},
-                      {"bracket", {{"times_s", times}, {"response", "sRGB curve, saturating at exposure 1"},
-                                   {"blur_px", 1.0}, {"bits", 8}}},
-                      {"comment", note}})
-                        .dump(2) + "\n");
-  for (const char* f2 : {"probe/light.cameramodel", "probe/sphere.exr", "probe/truth.json", "probe/fisheye.cameramodel"})
+  WriteTextFile(
+      o.out / "probe" / "truth.json",
+      Json({{"radius_m", radius},
+            {"centre_cam_m", {centre.x(), centre.y(), centre.z()}},
+            {"reflectance", reflectance},
+            {"camera_body_radius_m", body},
+            {"environment", "../env.exr"},
+            {"bracket",
+             {{"times_s", times}, {"response", "sRGB curve, saturating at exposure 1"}, {"blur_px", 1.0}, {"bits", 8}}},
+            {"comment", note}})
+              .dump(2) +
+          "\n");
+  for (const char* f2 :
+       {"probe/light.cameramodel", "probe/sphere.exr", "probe/truth.json", "probe/fisheye.cameramodel"})
     report->AddOutput((o.out / f2).string());
 }
 
@@ -264,14 +273,14 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   }
   const double f = 0.9 * p.width;  // ~58 degree horizontal field of view
   c.camera = CameraModel("LENSMODEL_OPENCV4", {f, f, (p.width - 1) / 2.0, (p.height - 1) / 2.0, -0.02, 0.005, 0, 0},
-                     p.width, p.height);
+                         p.width, p.height);
   Trajectory& traj = c.trajectory;
   const Eigen::Vector3d target(0, 0.8, 0.2);
   for (int i = 0; i < p.frames; ++i) {
     const Eigen::Vector3d eye(-0.4 + 0.8 * i / std::max(1, p.frames - 1), 1.5, -2.2);
     const Eigen::Vector3d z = (target - eye).normalized();
     const Eigen::Vector3d x = Eigen::Vector3d::UnitY().cross(z).normalized() * -1.0;  // camera x to the right
-    const Eigen::Vector3d y = z.cross(x);  // camera y down
+    const Eigen::Vector3d y = z.cross(x);                                             // camera y down
     Eigen::Matrix3d R;
     R.col(0) = x;
     R.col(1) = y;
@@ -302,19 +311,22 @@ void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::s
     WriteTextFile(o.out / "lights.json", LightsToJson(c.lights, note).dump(2) + "\n");
     report->AddOutput((o.out / "lights.json").string());
   }
-  Json scene = {
-      {"version", 1},
-      {"comment", "synthetic capture (" + note + ")"},
-      {"camera", {{"model", "camera.cameramodel"}, {"frames", "photos/%05d.exr"}, {"frames_transfer", "linear"},
+  Json scene = {{"version", 1},
+                {"comment", "synthetic capture (" + note + ")"},
+                {"camera",
+                 {{"model", "camera.cameramodel"},
+                  {"frames", "photos/%05d.exr"},
+                  {"frames_transfer", "linear"},
                   {"poses", {{"format", "tum"}, {"path", "trajectory.txt"}}}}},
-      {"lighting", {{"environment", "env.exr"}}},
-      {"real", reals},
-      {"virtual", Json::array({{{"name", "object"}, {"mesh", "meshes/object.ply"},
-                                {"transform", {{"matrix", Json::array()}}},
-                                {"material", MaterialJson(c.object_material)}}})},
-      {"render", {{"method", "pt"}, {"spp", c.preset.render_spp}, {"max_depth", 8}, {"seed", o.seed}}},
-      {"output", {{"dir", "render"}, {"png", true}}},
-      {"reference", "truth/%05d.exr"}};
+                {"lighting", {{"environment", "env.exr"}}},
+                {"real", reals},
+                {"virtual", Json::array({{{"name", "object"},
+                                          {"mesh", "meshes/object.ply"},
+                                          {"transform", {{"matrix", Json::array()}}},
+                                          {"material", MaterialJson(c.object_material)}}})},
+                {"render", {{"method", "pt"}, {"spp", c.preset.render_spp}, {"max_depth", 8}, {"seed", o.seed}}},
+                {"output", {{"dir", "render"}, {"png", true}}},
+                {"reference", "truth/%05d.exr"}};
   if (!c.lights.empty()) scene["lighting"]["lights"] = "lights.json";
   Json& mat = scene["virtual"][0]["transform"]["matrix"];
   for (int r = 0; r < 4; ++r)
@@ -341,7 +353,8 @@ void RunSynth(const SynthOptions& o, Report* report) {
   std::error_code ec;
   for (const char* sub : {"", "meshes", "photos", "truth"}) fs::create_directories(o.out / sub, ec);
   if (!fs::is_directory(o.out / "truth")) ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the capture folder");
-  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
+  const std::string note =
+      fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
   WriteSynthInputs(o, c, note, report);
 
   // Render the truth; its real-only paths are the photographs.
@@ -389,7 +402,8 @@ void RunSynth(const SynthOptions& o, Report* report) {
         for (int ch = 0; ch < 3; ++ch) {
           const double u1 = std::max(1e-12, rng.NextDouble()), u2 = rng.NextDouble();
           const double gauss = std::sqrt(-2 * std::log(u1)) * std::cos(kTwoPi * u2);
-          const float v = LinearToSrgb(Clamp(photo.at(x, y, ch) * exposure, 0.0f, 1.0f)) + static_cast<float>(gauss / 255.0);
+          const float v =
+              LinearToSrgb(Clamp(photo.at(x, y, ch) * exposure, 0.0f, 1.0f)) + static_cast<float>(gauss / 255.0);
           ldr.at(x, y, ch) = SrgbToLinear(Clamp(v, 0.0f, 1.0f));  // WriteImage re-encodes sRGB
         }
       }
@@ -451,7 +465,8 @@ void RunSynthRgbd(const SynthOptions& o, const RgbdSynthSize& size, Report* repo
   // and the walls in view: the surfaces are 1 to 4 m away, as in a room scan.
   const Trajectory path = ScanPath(frames, Eigen::Vector3d(0, 0.6, 0.3), 2.0, 1.6, -60.0);
   fs::create_directories(o.out / "reference");
-  const std::string note = fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
+  const std::string note =
+      fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
   WriteRgbdSequence(o.out, rs, path, ro, report);
   WritePly(o.out / "reference" / "room.ply", room, "the synthetic room's real geometry; " + note);
   ImageWriteOptions wo;

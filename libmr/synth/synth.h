@@ -12,11 +12,11 @@
 
 #include <string>
 
+#include "camera/camera_model.h"
+#include "camera/trajectory.h"
 #include "core/file.h"
 #include "core/image.h"
 #include "core/report.h"
-#include "camera/camera_model.h"
-#include "camera/trajectory.h"
 #include "geometry/mesh.h"
 #include "light/lights_file.h"
 #include "scene/scene.h"
@@ -34,7 +34,7 @@ struct SynthOptions {
   // 0.25, GGX specular 0.6 at roughness 0.3) or mirror (specular 0.9 at
   // roughness 0.05).
   std::string object_material = "diffuse";
-  bool spot_light = false;        // a real spot light above the table (lights.json)
+  bool spot_light = false;  // a real spot light above the table (lights.json)
   std::string tool = "mr-synth", command_line;
 };
 

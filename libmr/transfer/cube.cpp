@@ -7,13 +7,12 @@
 namespace mr {
 
 const CubeFace& GetCubeFace(int f) {
-  static const CubeFace kFaces[6] = {
-      {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, -1, 0)},
-      {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, -1, 0)},
-      {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, 1)},
-      {Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, -1)},
-      {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, -1, 0)},
-      {Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)}};
+  static const CubeFace kFaces[6] = {{Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(0, -1, 0)},
+                                     {Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, -1, 0)},
+                                     {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, 1)},
+                                     {Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 0, -1)},
+                                     {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, -1, 0)},
+                                     {Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(-1, 0, 0), Eigen::Vector3d(0, -1, 0)}};
   return kFaces[f];
 }
 

@@ -1,24 +1,24 @@
 #include "transfer/formfactor.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <bit>
 #include <cstring>
 #include <fstream>
-#include <array>
 #include <map>
 
 #include "core/color.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/sampling.h"
+#include "core/sh.h"
 #include "core/spherical.h"
 #include "geometry/embree_scene.h"
 #include "light/environment.h"
 #include "transfer/cube.h"
-#include "core/hash.h"
-#include "core/sh.h"
 
 namespace mr {
 
@@ -84,11 +84,11 @@ namespace {
 // corners, from which the cosine-weighted solid angle is integrated exactly.
 struct Quadrature {
   std::vector<Eigen::Vector3d> dir;
-  std::vector<double> weight;  // solid angle
+  std::vector<double> weight;                           // solid angle
   std::vector<std::array<Eigen::Vector3d, 4>> corners;  // unit, in order around the sub-cell
   std::vector<Eigen::Vector3d> vector_form_factor;      // integral of w dw over the sub-cell
   std::vector<int> cell;
-  std::vector<double> sh;      // dir.size() x ShCount(order), for the SH basis
+  std::vector<double> sh;  // dir.size() x ShCount(order), for the SH basis
 };
 
 // Lambert's formula: the integral of w over a spherical polygon with unit
@@ -144,7 +144,8 @@ Quadrature MakeQuadrature(const TransferOptions& o) {
             q.dir.push_back(CubeDirection(f, a0 + step / 2, b0 + step / 2));
             q.weight.push_back(CubeRectSolidAngle(a0, b0, a0 + step, b0 + step));
             const std::array<Eigen::Vector3d, 4> c = {CubeDirection(f, a0, b0), CubeDirection(f, a0 + step, b0),
-                                                      CubeDirection(f, a0 + step, b0 + step), CubeDirection(f, a0, b0 + step)};
+                                                      CubeDirection(f, a0 + step, b0 + step),
+                                                      CubeDirection(f, a0, b0 + step)};
             q.corners.push_back(c);
             q.vector_form_factor.push_back(VectorFormFactor(c.data(), 4));
             q.cell.push_back((f * n + j) * n + i);
@@ -158,9 +159,12 @@ Quadrature MakeQuadrature(const TransferOptions& o) {
 }
 
 void CheckOptions(const TransferOptions& o) {
-  if (o.resolution < 1 || o.resolution > 256) throw UsageError(fmt::format("--resolution {} is outside 1..256", o.resolution));
-  if (o.order < 1 || o.order > kMaxShOrder) throw UsageError(fmt::format("--order {} is outside 1..{}", o.order, kMaxShOrder));
-  if (o.supersample < 1 || o.supersample > 16) throw UsageError(fmt::format("--supersample {} is outside 1..16", o.supersample));
+  if (o.resolution < 1 || o.resolution > 256)
+    throw UsageError(fmt::format("--resolution {} is outside 1..256", o.resolution));
+  if (o.order < 1 || o.order > kMaxShOrder)
+    throw UsageError(fmt::format("--order {} is outside 1..{}", o.order, kMaxShOrder));
+  if (o.supersample < 1 || o.supersample > 16)
+    throw UsageError(fmt::format("--supersample {} is outside 1..16", o.supersample));
   if (o.bounces < 0 || o.bounces > 16) throw UsageError(fmt::format("--bounces {} is outside 0..16", o.bounces));
   if (!(o.albedo >= 0 && o.albedo < 1)) throw UsageError(fmt::format("--albedo {} is outside [0, 1)", o.albedo));
 }
@@ -387,13 +391,15 @@ TransferHeader ComputeTransferToFile(const Mesh& mesh, const TransferOptions& op
     std::ofstream f(tmp, std::ios::binary);
     f.write(std::vector<char>(kHeaderSize, 0).data(), kHeaderSize);  // the header once its fields are known
     const ChunkSink sink = [&](const float* data, int64_t vertices) {
-      f.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(vertices * TransferCoefficients(options) * 4));
+      f.write(reinterpret_cast<const char*>(data),
+              static_cast<std::streamsize>(vertices * TransferCoefficients(options) * 4));
     };
     VertexTransfer t = ComputeTransferImpl(mesh, options, stats, needed, &sink);
     t.header.valid_spp = valid_spp;
     header = t.header;
     if (!t.data.empty())  // not streamed (bounces)
-      f.write(reinterpret_cast<const char*>(t.data.data()), static_cast<std::streamsize>(t.data.size() * sizeof(float)));
+      f.write(reinterpret_cast<const char*>(t.data.data()),
+              static_cast<std::streamsize>(t.data.size() * sizeof(float)));
     const std::vector<char> head = EncodeHeader(header);
     f.seekp(0);
     f.write(head.data(), static_cast<std::streamsize>(head.size()));
@@ -426,8 +432,8 @@ VertexTransfer ReadTransfer(const fs::path& path) {
   h.mesh_hash = Get<uint64_t>(head.data(), 48);
   h.valid_spp = static_cast<int>(Get<uint32_t>(head.data(), 56));
   const int expected = h.basis == TransferBasis::kCube ? 6 * h.resolution * h.resolution : h.order * h.order;
-  if (h.resolution < 1 || h.resolution > 256 || (h.basis == TransferBasis::kSh && (h.order < 1 || h.order > kMaxShOrder)) ||
-      h.coefficients != expected)
+  if (h.resolution < 1 || h.resolution > 256 ||
+      (h.basis == TransferBasis::kSh && (h.order < 1 || h.order > kMaxShOrder)) || h.coefficients != expected)
     ThrowErrorAt(loc, "inconsistent header: basis {}, resolution {}, order {}, {} coefficients per vertex",
                  h.basis == TransferBasis::kCube ? "cube" : "sh", h.resolution, h.order, h.coefficients);
   const auto size = fs::file_size(path);
@@ -445,7 +451,8 @@ VertexTransfer ReadTransfer(const fs::path& path) {
   return t;
 }
 
-void CheckTransferMatches(const VertexTransfer& t, const Mesh& mesh, const std::string& ffc_name, const std::string& mesh_name) {
+void CheckTransferMatches(const VertexTransfer& t, const Mesh& mesh, const std::string& ffc_name,
+                          const std::string& mesh_name) {
   if (t.header.mesh_hash != MeshHash(mesh) || t.header.vertex_count != static_cast<int64_t>(mesh.positions.size()))
     ThrowErrorAt(FileLoc{ffc_name},
                  "was computed for another mesh ({} vertices, hash {:016x}); {} has {} vertices, hash {:016x}: "
@@ -502,11 +509,13 @@ int EffectiveShOrder(const EnvironmentCoefficients& env, int order, double toler
   std::vector<double> band(static_cast<size_t>(order), 0.0);
   double total = 0;
   for (int l = 0; l < order; ++l)
-    for (int m = -l; m <= l; ++m) band[static_cast<size_t>(l)] += env.rgb.at(static_cast<size_t>(l * (l + 1) + m)).squaredNorm();
+    for (int m = -l; m <= l; ++m)
+      band[static_cast<size_t>(l)] += env.rgb.at(static_cast<size_t>(l * (l + 1) + m)).squaredNorm();
   for (double b : band) total += b;
   int keep = order;
   double tail = 0;
-  while (keep > 1 && tail + band[static_cast<size_t>(keep - 1)] <= tolerance * total) tail += band[static_cast<size_t>(--keep)];
+  while (keep > 1 && tail + band[static_cast<size_t>(keep - 1)] <= tolerance * total)
+    tail += band[static_cast<size_t>(--keep)];
   return keep;
 }
 

@@ -39,12 +39,12 @@ enum class TransferBasis : uint32_t { kCube = 0, kSh = 1 };
 
 struct TransferOptions {
   TransferBasis basis = TransferBasis::kCube;
-  int resolution = 8;   // cube cells per face edge (also the SH quadrature's)
-  int order = 4;        // SH bands (order^2 coefficients), 1..8
-  int supersample = 2;  // sub-cells per cell edge
-  int bounces = 0;      // interreflection on the object itself
-  double albedo = 0.8;  // of the object, for the bounces
-  int64_t chunk = 4096; // vertices per chunk: memory stays bounded (bounces 0)
+  int resolution = 8;    // cube cells per face edge (also the SH quadrature's)
+  int order = 4;         // SH bands (order^2 coefficients), 1..8
+  int supersample = 2;   // sub-cells per cell edge
+  int bounces = 0;       // interreflection on the object itself
+  double albedo = 0.8;   // of the object, for the bounces
+  int64_t chunk = 4096;  // vertices per chunk: memory stays bounded (bounces 0)
   // Benchmarks only: every bounce-0 ray, for replay through a bare Embree
   // loop (single-threaded runs: the log is not synchronised).
   std::vector<Ray>* ray_log = nullptr;
@@ -53,21 +53,21 @@ struct TransferOptions {
 // What ComputeTransfer found and did; nothing is changed without a count.
 struct TransferStats {
   int64_t vertices = 0;
-  int64_t normals_computed = 0;        // the mesh had none
-  int64_t normals_flipped = 0;         // given normals that disagreed with the faces: replaced
-  int64_t vertices_without_normal = 0; // only in zero-area faces, or unused: transfer zero
+  int64_t normals_computed = 0;         // the mesh had none
+  int64_t normals_flipped = 0;          // given normals that disagreed with the faces: replaced
+  int64_t vertices_without_normal = 0;  // only in zero-area faces, or unused: transfer zero
   int64_t degenerate_faces = 0;
-  int64_t nonmanifold_edges = 0;       // edges of more than two faces (transfer is per vertex: unaffected)
-  int64_t fully_occluded = 0;          // e.g. inside closed geometry: transfer zero
+  int64_t nonmanifold_edges = 0;  // edges of more than two faces (transfer is per vertex: unaffected)
+  int64_t fully_occluded = 0;     // e.g. inside closed geometry: transfer zero
   int64_t rays = 0;
-  int64_t skipped_vertices = 0;        // not needed by the caller (transfer left zero)
+  int64_t skipped_vertices = 0;  // not needed by the caller (transfer left zero)
 };
 
 struct TransferHeader {
   TransferBasis basis = TransferBasis::kCube;
   int resolution = 0, order = 0, supersample = 0, bounces = 0;
   float albedo = 0;
-  int coefficients = 0;       // per vertex
+  int coefficients = 0;  // per vertex
   int64_t vertex_count = 0;
   uint64_t mesh_hash = 0;
   // 0: every vertex computed.  Otherwise only the vertices that a render of
@@ -91,7 +91,7 @@ int TransferCoefficients(const TransferOptions& o);
 // Computes the transfer.  `needed` (optional) marks the vertices to compute;
 // the others stay zero and are counted as skipped.
 VertexTransfer ComputeTransfer(const Mesh& mesh, const TransferOptions& options, TransferStats* stats,
-                         const std::vector<char>* needed = nullptr);
+                               const std::vector<char>* needed = nullptr);
 
 // The .ffc file (docs/formats.md): a 64-byte little-endian header, then
 // float32 coefficients vertex by vertex.  Writing is atomic.
@@ -100,10 +100,12 @@ void WriteTransfer(const fs::path& path, const VertexTransfer& t);
 // with no bounces, memory stays bounded by the chunk whatever the mesh's
 // size (with bounces every vertex's transfer must stay in memory).
 TransferHeader ComputeTransferToFile(const Mesh& mesh, const TransferOptions& options, const fs::path& path,
-                                     TransferStats* stats, const std::vector<char>* needed = nullptr, int valid_spp = 0);
+                                     TransferStats* stats, const std::vector<char>* needed = nullptr,
+                                     int valid_spp = 0);
 VertexTransfer ReadTransfer(const fs::path& path);
 // Throws, naming the file, when `t` was computed for another mesh.
-void CheckTransferMatches(const VertexTransfer& t, const Mesh& mesh, const std::string& ffc_name, const std::string& mesh_name);
+void CheckTransferMatches(const VertexTransfer& t, const Mesh& mesh, const std::string& ffc_name,
+                          const std::string& mesh_name);
 
 // An environment (lat-long radiance, OpenEXR convention) in the transfer's
 // basis, in the object's frame: cube cells hold mean radiance over the cell

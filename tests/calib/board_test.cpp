@@ -63,7 +63,7 @@ TEST(Board, CharucoBoardIsDetectedWithEveryCorner) {
   }
   EXPECT_LT(worst, 0.75);
   std::string svg = BoardSvg(b);
-  EXPECT_NE(svg.find("width=\"212mm\""), std::string::npos);  // 8 x 24 mm + 2 x 10 mm
+  EXPECT_NE(svg.find("width=\"212mm\""), std::string::npos);                    // 8 x 24 mm + 2 x 10 mm
   EXPECT_NE(svg.find("data:image/png;base64,iVBORw0KGgo"), std::string::npos);  // PNG magic
 }
 
@@ -76,8 +76,10 @@ TEST(Board, BadDefinitionsNameTheKey) {
     }
     return std::string();
   };
-  EXPECT_EQ(err(R"({"inner_corners": [10], "square_mm": 30})"), "b.json: inner_corners: expected 2 integers [per row, per column]");
-  EXPECT_EQ(err(R"({"inner_corners": [10, 10], "square_mm": -1})"), "b.json: square_mm: expected a positive number (millimetres)");
+  EXPECT_EQ(err(R"({"inner_corners": [10], "square_mm": 30})"),
+            "b.json: inner_corners: expected 2 integers [per row, per column]");
+  EXPECT_EQ(err(R"({"inner_corners": [10, 10], "square_mm": -1})"),
+            "b.json: square_mm: expected a positive number (millimetres)");
   EXPECT_EQ(err(R"({"inner_corners": [10, 10], "square_mm": 30, "colour": 1})"), "b.json: colour: unknown key");
 }
 

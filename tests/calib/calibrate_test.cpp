@@ -48,8 +48,9 @@ namespace {
     if (!r.model.Unproject(q, &v_mr)) return ::testing::AssertionFailure() << "mr cannot unproject " << q.transpose();
     const double mine = r.uncertainty->StdevPx(q, r.model);
     const double angle = std::atan2(v_mr.normalized().cross(v_mrcal).norm(), v_mr.normalized().dot(v_mrcal));
-    std::printf("pixel (%.0f, %.0f): sigma mr %.4f px, mrcal %.4f px (%.4f with its default noise); rays %.2g rad apart\n",
-                q.x(), q.y(), mine, s, s_def, angle);
+    std::printf(
+        "pixel (%.0f, %.0f): sigma mr %.4f px, mrcal %.4f px (%.4f with its default noise); rays %.2g rad apart\n",
+        q.x(), q.y(), mine, s, s_def, angle);
     // Measured: equal to 4 digits; the rays to 1e-9 rad (both are libmrcal's).
     if (std::abs(mine - s) > 0.01 * s)
       return ::testing::AssertionFailure() << "sigma at " << q.transpose() << ": mr " << mine << ", mrcal " << s;
@@ -111,10 +112,11 @@ TruthAgreement CompareWithTruth(const CameraModel& truth, const CalibrationResul
     }
   }
   out.rms_px = dt.empty() ? INFINITY : std::sqrt(sum2 / static_cast<double>(dt.size()));
-  std::printf("fitted rotation between the frames %.4f deg; projection difference over the observed region: RMS %.3f "
-              "px, worst %.3f px; largest difference / sigma %.2f (%d of %d beyond 3 sigma)\n",
-              Eigen::AngleAxisd(Rfit).angle() / kDegToRad, out.rms_px, out.worst_px, out.max_ratio,
-              out.beyond_3_sigma, out.checked);
+  std::printf(
+      "fitted rotation between the frames %.4f deg; projection difference over the observed region: RMS %.3f "
+      "px, worst %.3f px; largest difference / sigma %.2f (%d of %d beyond 3 sigma)\n",
+      Eigen::AngleAxisd(Rfit).angle() / kDegToRad, out.rms_px, out.worst_px, out.max_ratio, out.beyond_3_sigma,
+      out.checked);
   return out;
 }
 
@@ -206,7 +208,8 @@ TEST(Calibrate, BoardsOnlyNearTheCentreLeaveTheEdgesUncertainAndSaySo) {
       const double sg = r.uncertainty->StdevPx(Eigen::Vector2d(479.0 * i / 8, 359.0 * j / 6), r.model);
       valid += std::isfinite(sg) && sg < 1;
     }
-  for (const Eigen::Vector2d& q : {Eigen::Vector2d(0, 0), Eigen::Vector2d(479, 0), Eigen::Vector2d(0, 359), Eigen::Vector2d(479, 359)}) {
+  for (const Eigen::Vector2d& q :
+       {Eigen::Vector2d(0, 0), Eigen::Vector2d(479, 0), Eigen::Vector2d(0, 359), Eigen::Vector2d(479, 359)}) {
     const double sg = r.uncertainty->StdevPx(q, r.model);
     Eigen::Vector3d d;
     Eigen::Vector2d p;
@@ -280,8 +283,9 @@ TEST(Calibrate, RigExtrinsicsWithinThreeSigmaOfTheTruth) {
   const BoardSpec b = test::SyntheticBoard86();
   const CameraModel cam0("LENSMODEL_OPENCV8", {330, 332, 241, 178, 0.08, -0.05, 0.001, -0.0015, 0, 0, 0, 0}, 480, 360);
   const CameraModel cam1("LENSMODEL_OPENCV8", {300, 301, 236, 182, 0.05, -0.02, -0.001, 0.001, 0, 0, 0, 0}, 480, 360);
-  const Rigid3 cam1_from_cam0(Eigen::Quaterniond(Eigen::AngleAxisd(4 * kDegToRad, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
-                              Eigen::Vector3d(-0.11, 0.004, 0.002));
+  const Rigid3 cam1_from_cam0(
+      Eigen::Quaterniond(Eigen::AngleAxisd(4 * kDegToRad, Eigen::Vector3d(0.2, 1, 0.1).normalized())),
+      Eigen::Vector3d(-0.11, 0.004, 0.002));
   std::vector<std::vector<CornerDetection>> detections(2);
   BoardViewOptions vo;
   vo.supersample = 2;
@@ -331,7 +335,8 @@ TEST(Calibrate, ViewsWithTooFewCornersAreLeftOutWithAReason) {
     CalibrateCamera(b, {few, few, few}, 640, 480, CalibrationOptions());
     ADD_FAILURE() << "accepted";
   } catch (const UsageError& e) {
-    EXPECT_NE(std::string(e.what()).find("0 usable views of the board (3 photographs, the board found in 3)"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("0 usable views of the board (3 photographs, the board found in 3)"),
+              std::string::npos)
         << e.what();
   }
 }
@@ -345,7 +350,8 @@ TEST(Calibrate, TooFewViewsIsAClearRefusal) {
     CalibrateCamera(b, {missing, missing}, 640, 480, CalibrationOptions());
     ADD_FAILURE() << "accepted";
   } catch (const UsageError& e) {
-    EXPECT_NE(std::string(e.what()).find("0 usable views of the board (2 photographs, the board found in 0)"), std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("0 usable views of the board (2 photographs, the board found in 0)"),
+              std::string::npos)
         << e.what();
   }
 }

@@ -35,7 +35,7 @@ TEST(Corners, SymmetriesOfBoards) {
   EXPECT_EQ(BoardSymmetries(b).size(), 1u);  // 10 x 7 squares: it does not
   b.inner_x = b.inner_y = 10;
   const auto s = BoardSymmetries(b);
-  ASSERT_EQ(s.size(), 4u);  // 11 x 11 squares: quarter turns too
+  ASSERT_EQ(s.size(), 4u);   // 11 x 11 squares: quarter turns too
   for (const auto& p : s) {  // each a permutation
     std::vector<int> q = p;
     std::sort(q.begin(), q.end());
@@ -74,8 +74,10 @@ TEST(Corners, RealStereoPhotographs) {
     const CornerDetection d = DetectCorners(ReadImage(f), b, f.filename().string());
     ++total;
     found += d.found;
-    if (d.found) EXPECT_TRUE(d.order.empty());  // 10 x 7 squares: no symmetry to resolve
-    else std::printf("%s: %s\n", d.image.c_str(), d.reason.c_str());
+    if (d.found)
+      EXPECT_TRUE(d.order.empty());  // 10 x 7 squares: no symmetry to resolve
+    else
+      std::printf("%s: %s\n", d.image.c_str(), d.reason.c_str());
   }
   std::printf("found %d of %d\n", found, total);
   EXPECT_GE(found, total * 3 / 4);
@@ -85,17 +87,20 @@ TEST(Corners, RealStereoPhotographs) {
 // `roll` about the optical axis and tilted by `tilt` about its x axis.
 Rigid3 BoardPose(const BoardSpec& b, double roll, double tilt, double distance = 0.45) {
   const Eigen::Vector3d centre(0.5 * (b.inner_x - 1) * b.square_m, 0.5 * (b.inner_y - 1) * b.square_m, 0);
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitX())).toRotationMatrix();
+  const Eigen::Matrix3d R =
+      (Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(tilt, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   return Rigid3(Eigen::Quaterniond(R), Eigen::Vector3d(0, 0, distance) - R * centre);
 }
 
-double RmsAgainstTruth(const CornerDetection& d, const BoardSpec& b, const CameraModel& cam, const Rigid3& cam_from_board,
-                       const std::vector<int>& order) {
+double RmsAgainstTruth(const CornerDetection& d, const BoardSpec& b, const CameraModel& cam,
+                       const Rigid3& cam_from_board, const std::vector<int>& order) {
   const auto obj = b.ObjectPoints();
   double s = 0;
   for (size_t i = 0; i < d.pixels.size(); ++i) {
     Eigen::Vector2d q;
-    EXPECT_TRUE(cam.Project(cam_from_board.rotation * obj[static_cast<size_t>(order[i])] + cam_from_board.translation, &q));
+    EXPECT_TRUE(
+        cam.Project(cam_from_board.rotation * obj[static_cast<size_t>(order[i])] + cam_from_board.translation, &q));
     s += (q - d.pixels[i]).squaredNorm();
   }
   return std::sqrt(s / static_cast<double>(d.pixels.size()));
@@ -122,8 +127,9 @@ TEST(Corners, SyntheticBoardsThroughKnownLenses) {
   // A stereographic fish-eye with a 200-degree field (2 f tan(50 deg) = 320
   // px): the board 50 degrees off the axis, where the lens bends it.
   const CameraModel fisheye("LENSMODEL_STEREOGRAPHIC", {134, 134, 319.5, 319.5}, 640, 640);
-  const Rigid3 side = Rigid3(Eigen::Quaterniond(Eigen::AngleAxisd(0.87, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
-                      BoardPose(b, 0.1, 0.2, 0.2);
+  const Rigid3 side =
+      Rigid3(Eigen::Quaterniond(Eigen::AngleAxisd(0.87, Eigen::Vector3d::UnitY())), Eigen::Vector3d::Zero()) *
+      BoardPose(b, 0.1, 0.2, 0.2);
   const Image fimg = RenderBoardView(b, fisheye, side);
   const CornerDetection f = DetectCorners(fimg, b, "fisheye");
   ASSERT_TRUE(f.found) << f.reason;
@@ -142,7 +148,8 @@ TEST(Corners, OverExposedAndBlurryImagesAreRejectedWithAReason) {
   EXPECT_NE(over.reason.find("over-exposed"), std::string::npos) << over.reason;
   BoardViewOptions blurred;
   blurred.blur_sigma_px = 4;
-  const CornerDetection blurry = DetectCorners(RenderBoardView(b, pinhole, BoardPose(b, 0, 0.3), blurred), b, "blurred");
+  const CornerDetection blurry =
+      DetectCorners(RenderBoardView(b, pinhole, BoardPose(b, 0, 0.3), blurred), b, "blurred");
   EXPECT_FALSE(blurry.found);
   EXPECT_TRUE(blurry.reason.find("blurry") != std::string::npos || blurry.reason.find("no 8x6") != std::string::npos)
       << blurry.reason;

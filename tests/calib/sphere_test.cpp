@@ -4,13 +4,13 @@
 
 #include <Eigen/Eigenvalues>
 
-#include "core/error.h"
-#include "core/image.h"
-#include "core/math.h"
 #include "calib/calibrate.h"
 #include "calib/corners.h"
 #include "calib/probe_file.h"
+#include "core/error.h"
+#include "core/image.h"
 #include "core/json.h"
+#include "core/math.h"
 #include "synth/board_view.h"
 #include "synth/sphere_view.h"
 #include "synthetic_board.h"
@@ -60,7 +60,8 @@ TEST(Sphere, CentreWithinThreeSigmaOfTheTruth) {
   const EnvironmentMap env = TestEnvironment();
   const double radius = 0.0254;
   const std::vector<Case> cases = {
-      {"opencv8", CameraModel("LENSMODEL_OPENCV8", {520, 522, 319, 241, 0.06, -0.04, 0.001, -0.001, 0, 0, 0, 0}, 640, 480),
+      {"opencv8",
+       CameraModel("LENSMODEL_OPENCV8", {520, 522, 319, 241, 0.06, -0.04, 0.001, -0.001, 0, 0, 0, 0}, 640, 480),
        Eigen::Vector3d(0.04, -0.03, 0.35)},
       {"fisheye 200 deg, 70 deg off axis", CameraModel("LENSMODEL_STEREOGRAPHIC", {134, 134, 319.5, 319.5}, 640, 640),
        Eigen::Vector3d(0.15 * std::sin(70 * kDegToRad), 0.01, 0.15 * std::cos(70 * kDegToRad))},
@@ -83,14 +84,16 @@ TEST(Sphere, CentreWithinThreeSigmaOfTheTruth) {
         Eigen::Vector3d u;
         c.camera.Unproject(e, &u);
         u.normalize();
-        std::printf("edge %.2f %.2f  err %.3f mrad\n", e.x(), e.y(), 1e3 * (std::atan2(u.cross(a).norm(), u.dot(a)) - al));
+        std::printf("edge %.2f %.2f  err %.3f mrad\n", e.x(), e.y(),
+                    1e3 * (std::atan2(u.cross(a).norm(), u.dot(a)) - al));
       }
     }
     const Eigen::Vector3d sigma = f.covariance.diagonal().cwiseSqrt();
-    std::printf("%s: centre (%.5f %.5f %.5f) m, truth (%.5f %.5f %.5f); sigma (%.2g %.2g %.2g) m; chi2 %.2f; "
-                "%d of %d edge points, RMS %.3f px, visible %.0f%%\n",
-                c.name, f.centre.x(), f.centre.y(), f.centre.z(), c.centre.x(), c.centre.y(), c.centre.z(), sigma.x(),
-                sigma.y(), sigma.z(), m2, f.inliers, f.edge_points, f.rms_px, 100 * f.visible_fraction);
+    std::printf(
+        "%s: centre (%.5f %.5f %.5f) m, truth (%.5f %.5f %.5f); sigma (%.2g %.2g %.2g) m; chi2 %.2f; "
+        "%d of %d edge points, RMS %.3f px, visible %.0f%%\n",
+        c.name, f.centre.x(), f.centre.y(), f.centre.z(), c.centre.x(), c.centre.y(), c.centre.z(), sigma.x(),
+        sigma.y(), sigma.z(), m2, f.inliers, f.edge_points, f.rms_px, 100 * f.visible_fraction);
     EXPECT_LT(m2, 14.2) << c.name;
     EXPECT_LT(sigma.maxCoeff(), 0.01 * c.centre.norm()) << c.name;
     EXPECT_LT(f.rms_px, 0.8) << c.name;  // measured 0.35 and 0.68 px: the reflection's texture at the rim
@@ -116,10 +119,12 @@ TEST(Sphere, PartlyOutsideTheFrameIsUsedOrRefusedWithAReason) {
   so.radius_m = radius;
   so.circle = Eigen::Vector3d(639 - 0.75 * r_px, 239.5, r_px);  // Hough needs the centre inside; a user gives it
   const SphereFit f = FitMirrorSphere(a, cam, so, "edge.exr");
-  std::printf("partly outside: visible %.0f%%, chi2 %.2f, centre (%.5f %.5f %.5f) truth (%.5f %.5f %.5f), sigma %.2g %.2g %.2g m, RMS %.3f px\n",
-              100 * f.visible_fraction, Mahalanobis2(f, inside), f.centre.x(), f.centre.y(), f.centre.z(), inside.x(),
-              inside.y(), inside.z(), std::sqrt(f.covariance(0, 0)), std::sqrt(f.covariance(1, 1)),
-              std::sqrt(f.covariance(2, 2)), f.rms_px);
+  std::printf(
+      "partly outside: visible %.0f%%, chi2 %.2f, centre (%.5f %.5f %.5f) truth (%.5f %.5f %.5f), sigma %.2g %.2g %.2g "
+      "m, RMS %.3f px\n",
+      100 * f.visible_fraction, Mahalanobis2(f, inside), f.centre.x(), f.centre.y(), f.centre.z(), inside.x(),
+      inside.y(), inside.z(), std::sqrt(f.covariance(0, 0)), std::sqrt(f.covariance(1, 1)),
+      std::sqrt(f.covariance(2, 2)), f.rms_px);
   EXPECT_GT(f.visible_fraction, 0.5);
   EXPECT_LT(f.visible_fraction, 0.8);
   // The direction to the centre within 3 sigma; the distance within 5%.
@@ -141,7 +146,8 @@ TEST(Sphere, PartlyOutsideTheFrameIsUsedOrRefusedWithAReason) {
     ADD_FAILURE() << "accepted";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("outside.exr"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("of the sphere's silhouette is inside the image"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("of the sphere's silhouette is inside the image"), std::string::npos)
+        << e.what();
   }
 }
 
@@ -169,7 +175,8 @@ TEST(Sphere, PhotographsCombine) {
         Eigen::Vector3d u;
         cam.Unproject(e, &u);
         u.normalize();
-        std::printf("edge %.2f %.2f  err %.3f px\n", e.x(), e.y(), 500 * (std::atan2(u.cross(a).norm(), u.dot(a)) - al));
+        std::printf("edge %.2f %.2f  err %.3f px\n", e.x(), e.y(),
+                    500 * (std::atan2(u.cross(a).norm(), u.dot(a)) - al));
       }
     }
     std::printf("fit %d: (%.5f %.5f %.5f) m, chi2 %.2f, RMS %.3f px, correlation %.1f\n", static_cast<int>(seed), c.x(),

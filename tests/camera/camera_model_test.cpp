@@ -35,7 +35,8 @@ std::vector<ModelCase> Cases() {
       {"LENSMODEL_OPENCV5", {500, 510, 319.5, 239.5, -0.2, 0.05, 1e-3, -1e-3, 0.01}, 40},
       {"LENSMODEL_OPENCV8", {500, 510, 319.5, 239.5, 0.3, 0.02, 1e-3, -1e-3, 0.001, 0.6, 0.05, 0.002}, 50},
       {"LENSMODEL_OPENCV12",
-       {500, 510, 319.5, 239.5, 0.3, 0.02, 1e-3, -1e-3, 0.001, 0.6, 0.05, 0.002, 1e-3, -1e-3, 2e-3, 1e-4}, 50},
+       {500, 510, 319.5, 239.5, 0.3, 0.02, 1e-3, -1e-3, 0.001, 0.6, 0.05, 0.002, 1e-3, -1e-3, 2e-3, 1e-4},
+       50},
       {"LENSMODEL_CAHVOR", {500, 510, 319.5, 239.5, 0.01, -0.02, 0.0, -0.1, 0.02}, 40},
       {"LENSMODEL_CAHVORE_linearity=0.00", {500, 510, 319.5, 239.5, 0.01, -0.02, 0.0, -0.05, 0.01, 0.0, 0.0, 0.0}, 40},
       // Fish-eye models: beyond 90 degrees off axis.
@@ -101,11 +102,10 @@ TEST_P(LensModels, FileRoundTripIsExact) {
   EXPECT_TRUE(back.cam_from_ref().IsApprox(m.cam_from_ref(), 1e-12));
 }
 
-INSTANTIATE_TEST_SUITE_P(AllMrcalModels, LensModels, ::testing::ValuesIn(Cases()),
-                         [](const auto& param_info) {
-                           std::string n = param_info.param.lensmodel.substr(10);
-                           return n.substr(0, n.find('_'));
-                         });
+INSTANTIATE_TEST_SUITE_P(AllMrcalModels, LensModels, ::testing::ValuesIn(Cases()), [](const auto& param_info) {
+  std::string n = param_info.param.lensmodel.substr(10);
+  return n.substr(0, n.find('_'));
+});
 
 TEST(CameraModel, EveryMrcalModelIsCovered) {
   std::set<std::string> tested;

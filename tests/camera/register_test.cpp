@@ -25,7 +25,8 @@ std::vector<Rigid3> RoomPoses(int n, bool line, uint64_t seed) {
   std::vector<Rigid3> out;
   for (int i = 0; i < n; ++i) {
     const double a = 0.1 * i;
-    const Eigen::Vector3d c = line ? Eigen::Vector3d(0.05 * i, 1.5, -2) : Eigen::Vector3d(2 * std::cos(a), 1.5 + 0.1 * u(rng), 2 * std::sin(a));
+    const Eigen::Vector3d c = line ? Eigen::Vector3d(0.05 * i, 1.5, -2)
+                                   : Eigen::Vector3d(2 * std::cos(a), 1.5 + 0.1 * u(rng), 2 * std::sin(a));
     const Eigen::Quaterniond q = Eigen::AngleAxisd(a + 0.2 * u(rng), Eigen::Vector3d::UnitY()) *
                                  Eigen::AngleAxisd(0.1 * u(rng), Eigen::Vector3d::UnitX());
     out.emplace_back(q, c);
@@ -97,7 +98,8 @@ TEST(FitSimilarity, DegenerateInputIsAnError) {
 
 // Points on the synthetic room's surfaces (floor, two walls, table, boxes),
 // in COLMAP's frame a of Known(), with noise.
-std::vector<Eigen::Vector3d> RoomPoints(const Mesh& room, const Similarity3& b_from_a, int n, double noise, uint64_t seed) {
+std::vector<Eigen::Vector3d> RoomPoints(const Mesh& room, const Similarity3& b_from_a, int n, double noise,
+                                        uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0, 1);
   std::normal_distribution<double> g(0, noise);
@@ -118,10 +120,11 @@ std::vector<Eigen::Vector3d> RoomPoints(const Mesh& room, const Similarity3& b_f
 TEST(RefineSimilarityToMesh, RecoversTheRoomFromARoughStart) {
   const Mesh room = MergeParts(SynthRoom());
   const Similarity3 k = Known();
-  auto pts = RoomPoints(room, k, 3000, 0.005, 7);  // COLMAP-like: 5 mm noise
+  auto pts = RoomPoints(room, k, 3000, 0.005, 7);                    // COLMAP-like: 5 mm noise
   for (int i = 0; i < 150; ++i) pts[static_cast<size_t>(i)] *= 1.3;  // 5% of the points far off the surfaces
-  Similarity3 start = k;  // a rough start: 4 degrees, 5% scale, 5 cm off
-  start.rotation = k.rotation * Eigen::Quaterniond(Eigen::AngleAxisd(4 * kDegToRad, Eigen::Vector3d(1, 2, 0.5).normalized()));
+  Similarity3 start = k;                                             // a rough start: 4 degrees, 5% scale, 5 cm off
+  start.rotation =
+      k.rotation * Eigen::Quaterniond(Eigen::AngleAxisd(4 * kDegToRad, Eigen::Vector3d(1, 2, 0.5).normalized()));
   start.scale *= 1.05;
   start.translation += Eigen::Vector3d(0.03, -0.04, 0.02);
   const MeshFit fit = RefineSimilarityToMesh(pts, room, start);
@@ -150,7 +153,8 @@ TEST(RefineSimilarityToMesh, AStartTooFarOffIsAnError) {
   // 6 degrees and 5% off: the fit would run away (the scale towards 0, where
   // point-to-plane distances vanish); it stops at its bound and says so.
   start = k;
-  start.rotation = k.rotation * Eigen::Quaterniond(Eigen::AngleAxisd(6 * kDegToRad, Eigen::Vector3d(1, 2, 0.5).normalized()));
+  start.rotation =
+      k.rotation * Eigen::Quaterniond(Eigen::AngleAxisd(6 * kDegToRad, Eigen::Vector3d(1, 2, 0.5).normalized()));
   start.scale *= 1.05;
   EXPECT_THROW(RefineSimilarityToMesh(RoomPoints(room, k, 3000, 0.005, 7), room, start), Error);
 }

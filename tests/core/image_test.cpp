@@ -65,7 +65,7 @@ TEST(Image, HeaderReadsSizeAndChannelsWithoutPixels) {
 TEST(Image, HalfRefusesOverflowUnlessClamping) {
   TempDir dir;
   Image img = Image::Rgb(4, 4, 1.0f);
-  img.at(1, 1, 0) = 7e4f;   // > 65504
+  img.at(1, 1, 0) = 7e4f;  // > 65504
   img.at(2, 2, 1) = -1e6f;
   ImageWriteOptions opt;
   opt.pixel_type = PixelType::kHalf;
@@ -172,7 +172,10 @@ TEST(Image, BadFilesGiveOneClearError) {
     std::ifstream in(dir / "full.exr", std::ios::binary);
     bytes.assign(std::istreambuf_iterator<char>(in), {});
   }
-  { std::ofstream(dir / "trunc.exr", std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2)); }
+  {
+    std::ofstream(dir / "trunc.exr", std::ios::binary)
+        .write(bytes.data(), static_cast<std::streamsize>(bytes.size() / 2));
+  }
   expect_error(dir / "trunc.exr", "");
   // Huge dimensions claimed by a header are refused before allocation.
   ImageReadOptions small;

@@ -37,7 +37,7 @@ TEST(Math, CompensatedSumKeepsSmallTermsAfterAHugeOne) {
     s += 1e-6f;
     naive += 1e-6f;
   }
-  EXPECT_EQ(naive, 1e6f);                  // the failure we guard against
+  EXPECT_EQ(naive, 1e6f);                      // the failure we guard against
   EXPECT_NEAR(s.Value(), 1e6f + 1.0f, 0.07f);  // float ulp at 1e6 is 0.0625
   CompensatedSum<double> d;
   d += 1e16;

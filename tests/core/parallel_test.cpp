@@ -12,10 +12,13 @@ namespace {
 double SumWithThreads(int threads) {
   SetThreadCount(threads);
   // Terms spanning 12 orders of magnitude, so that order matters for rounding.
-  return DeterministicSum(0, 1'000'003, [](int64_t i) {
-    Pcg32 rng(17, static_cast<uint64_t>(i));
-    return std::pow(10.0, 12.0 * rng.NextDouble() - 6.0);
-  }, 1000);
+  return DeterministicSum(
+      0, 1'000'003,
+      [](int64_t i) {
+        Pcg32 rng(17, static_cast<uint64_t>(i));
+        return std::pow(10.0, 12.0 * rng.NextDouble() - 6.0);
+      },
+      1000);
 }
 
 TEST(Parallel, SumsAreBitIdenticalForAnyThreadCount) {
@@ -30,10 +33,13 @@ TEST(Parallel, SumsAreBitIdenticalForAnyThreadCount) {
 TEST(Parallel, PerIndexOutputsDoNotDependOnSchedule) {
   std::vector<float> a(10007), b(10007);
   auto fill = [](std::vector<float>* v) {
-    ParallelFor(0, static_cast<int64_t>(v->size()), [&](int64_t i) {
-      Pcg32 rng(5, static_cast<uint64_t>(i));  // one generator per index
-      (*v)[static_cast<size_t>(i)] = rng.NextFloat();
-    }, 13);
+    ParallelFor(
+        0, static_cast<int64_t>(v->size()),
+        [&](int64_t i) {
+          Pcg32 rng(5, static_cast<uint64_t>(i));  // one generator per index
+          (*v)[static_cast<size_t>(i)] = rng.NextFloat();
+        },
+        13);
   };
   SetThreadCount(1);
   fill(&a);

@@ -1,8 +1,8 @@
 #include "core/spherical.h"
 
-#include <Eigen/Geometry>
 #include <OpenEXR/ImfEnvmap.h>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "core/math.h"
 #include "core/sampling.h"
@@ -37,7 +37,7 @@ TEST(LatLong, MatchesOpenExrEnvmap) {
 
 TEST(LatLong, RoundTripIncludingPoles) {
   for (const Eigen::Vector3d& d : {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(1e-9, 1, 0),
-                                  Eigen::Vector3d(0.3, -0.2, -0.9), Eigen::Vector3d(-1, 0, 0)}) {
+                                   Eigen::Vector3d(0.3, -0.2, -0.9), Eigen::Vector3d(-1, 0, 0)}) {
     Eigen::Vector3d n = d.normalized();
     Eigen::Vector3d back = LatLongToDirection(DirectionToLatLong(n));
     EXPECT_NEAR((back - n).norm(), 0.0, 1e-12) << n.transpose();
@@ -60,7 +60,7 @@ TEST(LatLong, SolidAnglesSumToFourPi) {
 
 TEST(CoordinateSystem, IsOrthonormalIncludingNegativeZ) {
   for (const Eigen::Vector3d& n : {Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(0, 0, -1), Eigen::Vector3d(1, 0, 0),
-                                  Eigen::Vector3d(0.6, 0.0, -0.8), Eigen::Vector3d(0, 1e-20, -1)}) {
+                                   Eigen::Vector3d(0.6, 0.0, -0.8), Eigen::Vector3d(0, 1e-20, -1)}) {
     Eigen::Vector3d t, b;
     CoordinateSystem(n.normalized(), &t, &b);
     EXPECT_NEAR(t.norm(), 1, 1e-12);

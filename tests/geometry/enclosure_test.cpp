@@ -22,7 +22,7 @@ TEST(ClosedSurfaces, ABoxSeparatesInsideFromOutside) {
   EXPECT_TRUE(c.Separates(inside, Eigen::AlignedBox3d()));  // a distant light, at infinity
   Eigen::AlignedBox3d far(Eigen::Vector3d(2, 2, 2), Eigen::Vector3d(3, 3, 3));
   EXPECT_TRUE(c.Separates(inside, far));
-  EXPECT_FALSE(c.Separates(inside, PointBox(0.5, 0.5, 0.5)));   // same side
+  EXPECT_FALSE(c.Separates(inside, PointBox(0.5, 0.5, 0.5)));  // same side
   EXPECT_FALSE(c.Separates(Eigen::Vector3d(5, 0, 0), PointBox(3, 0, 0)));
   // A box that straddles the wall is on neither side.
   EXPECT_FALSE(c.Separates(inside, Eigen::AlignedBox3d(Eigen::Vector3d(0.5, 0, 0), Eigen::Vector3d(1.5, 0.1, 0.1))));

@@ -66,7 +66,10 @@ TEST(Mesh, CorruptFilesGiveClearErrors) {
   EXPECT_EQ(ErrorOf(dir / "trunc.ply").rfind((dir / "trunc.ply").string() + ":15: face 0: bad vertex list", 0), 0u)
       << ErrorOf(dir / "trunc.ply");
   Write(dir / "trunc2.ply", s.substr(0, s.find("0 1 0\n")));
-  EXPECT_NE(ErrorOf(dir / "trunc2.ply").find("header declares 5 vertices and 3 faces, more than the 18 bytes after it can hold (truncated"), std::string::npos) << ErrorOf(dir / "trunc2.ply");
+  EXPECT_NE(ErrorOf(dir / "trunc2.ply")
+                .find("header declares 5 vertices and 3 faces, more than the 18 bytes after it can hold (truncated"),
+            std::string::npos)
+      << ErrorOf(dir / "trunc2.ply");
   std::string oob = kQuadPly;
   oob.replace(oob.find("3 0 1 4"), 7, "3 0 1 9");
   Write(dir / "oob.ply", oob);
@@ -75,14 +78,19 @@ TEST(Mesh, CorruptFilesGiveClearErrors) {
   std::string huge = kQuadPly;
   huge.replace(huge.find("element vertex 5"), 16, "element vertex 1000000000");
   Write(dir / "huge.ply", huge);
-  EXPECT_NE(ErrorOf(dir / "huge.ply").find("header declares 1000000000 vertices"), std::string::npos) << ErrorOf(dir / "huge.ply");
+  EXPECT_NE(ErrorOf(dir / "huge.ply").find("header declares 1000000000 vertices"), std::string::npos)
+      << ErrorOf(dir / "huge.ply");
   // Malformed headers that made OpenMesh spin (found by fuzz/fuzz_ply).
   std::string misspelt = kQuadPly;
   misspelt.replace(misspelt.find("format"), 6, "formaM");
   Write(dir / "misspelt.ply", misspelt);
-  EXPECT_EQ(ErrorOf(dir / "misspelt.ply"), (dir / "misspelt.ply").string() + ":2: PLY header: unknown keyword \"formaM\"");
+  EXPECT_EQ(ErrorOf(dir / "misspelt.ply"),
+            (dir / "misspelt.ply").string() + ":2: PLY header: unknown keyword \"formaM\"");
   std::string nul = kQuadPly;
-  nul.replace(nul.find("element face 3"), 14, std::string("element face \0" "3", 15));
+  nul.replace(nul.find("element face 3"), 14,
+              std::string("element face \0"
+                          "3",
+                          15));
   Write(dir / "nul.ply", nul);
   EXPECT_EQ(ErrorOf(dir / "nul.ply"), (dir / "nul.ply").string() + ":7: PLY header: NUL byte in the header");
   Write(dir / "x.ply", "not a ply\n");
@@ -118,7 +126,8 @@ TEST(Mesh, ObjOffStlLoad) {
   Write(dir / "a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 4 3\n");
   Write(dir / "a.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n0 1 0\n1 1 0\n3 0 1 2\n3 1 3 2\n");
   Write(dir / "a.stl",
-        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n");
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 "
+        "0\nendloop\nendfacet\nendsolid t\n");
   EXPECT_EQ(ReadMesh(dir / "a.obj").triangle_count(), 2u);
   EXPECT_EQ(ReadMesh(dir / "a.off").triangle_count(), 2u);
   EXPECT_EQ(ReadMesh(dir / "a.stl").triangle_count(), 1u);
@@ -128,13 +137,18 @@ TEST(Mesh, StanfordMeshesLoadWithEveryFace) {
   MR_REQUIRE_SHARED_DATA("meshes");
   // Vertex and face counts from the headers; the scans are non-manifold in
   // places, and a halfedge reader would split vertices and refuse faces.
-  struct Case { const char* file; size_t v, f; int64_t comments; };
+  struct Case {
+    const char* file;
+    size_t v, f;
+    int64_t comments;
+  };
   for (const Case& c : {Case{"bun_zipper_res4.ply", 453, 946, 2}, Case{"bun_zipper_res2.ply", 8171, 16301, 0},
                         Case{"dragon_vrip_res4.ply", 5205, 11102, 0}}) {
     MeshReadReport rep;
     Mesh m = ReadMesh(test::SharedData("meshes") / c.file, {}, &rep);
     EXPECT_EQ(m.vertex_count(), c.v) << c.file;
-    EXPECT_EQ(static_cast<size_t>(static_cast<int64_t>(m.triangle_count()) + rep.degenerate_faces_dropped), c.f) << c.file;
+    EXPECT_EQ(static_cast<size_t>(static_cast<int64_t>(m.triangle_count()) + rep.degenerate_faces_dropped), c.f)
+        << c.file;
     EXPECT_EQ(rep.comment_lines_skipped, c.comments) << c.file;
   }
 }

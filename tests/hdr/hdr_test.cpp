@@ -37,7 +37,8 @@ CameraResponse TrueResponse(int bits) {
   r.method = "truth";
   r.channels = {"R", "G", "B"};
   std::vector<double> g(256);
-  for (int k = 0; k < 256; ++k) g[static_cast<size_t>(k)] = TrueLogExposure(std::max(k, 1) / 255.0 * (k == 0 ? 0.5 : 1), bits);
+  for (int k = 0; k < 256; ++k)
+    g[static_cast<size_t>(k)] = TrueLogExposure(std::max(k, 1) / 255.0 * (k == 0 ? 0.5 : 1), bits);
   r.log_exposure = {g, g, g};
   return r;
 }
@@ -70,7 +71,8 @@ TEST(Response, RecoveredLikeTheTrueCurve) {
       }
       if (c == 0)
         for (int k = 0; k < 256; k += 32)
-          std::printf("  z %.2f: %.3f vs %.3f\n", k / 255.0, std::log(r.Exposure(c, k / 255.0)) - offset, TrueLogExposure(k / 255.0, 8));
+          std::printf("  z %.2f: %.3f vs %.3f\n", k / 255.0, std::log(r.Exposure(c, k / 255.0)) - offset,
+                      TrueLogExposure(k / 255.0, 8));
       std::printf("%s channel %d: worst ln error %.4f over codes 0.1-0.9 (%d samples, RMS %.3f)\n", method, c, worst,
                   rep.samples, rep.rms_log);
       EXPECT_LT(worst, 0.04) << method << " channel " << c;
@@ -147,7 +149,8 @@ TEST(Merge, DynamicRangeOfTwelveDecades) {
   double worst = 0;
   for (int y = 0; y < truth.height(); ++y)
     for (int x = 0; x < truth.width(); ++x)
-      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(static_cast<double>(hdr.at(x, y, c)) / truth.at(x, y, c) - 1));
+      for (int c = 0; c < 3; ++c)
+        worst = std::max(worst, std::abs(static_cast<double>(hdr.at(x, y, c)) / truth.at(x, y, c) - 1));
   std::printf("worst relative error over 1e-6..1e6: %.5f\n", worst);
   EXPECT_LT(worst, 0.02);
 }
@@ -173,7 +176,8 @@ TEST(Merge, SunSaturatedInEveryExposure) {
         int inside = 0;
         for (int sy = 0; sy < 16; ++sy)
           for (int sx = 0; sx < 16; ++sx)
-            inside += Square(x + (sx + 0.5) / 16 - 0.5 - 60.3) + Square(y + (sy + 0.5) / 16 - 0.5 - 44.6) < radius * radius;
+            inside +=
+                Square(x + (sx + 0.5) / 16 - 0.5 - 60.3) + Square(y + (sy + 0.5) / 16 - 0.5 - 44.6) < radius * radius;
         const double f = inside / 256.0;
         for (int c = 0; c < 3; ++c) truth.at(x, y, c) += static_cast<float>(f * sun * (c == 2 ? 0.8 : 1.0));
         sun_energy += f * sun;
@@ -201,8 +205,8 @@ TEST(Merge, SunSaturatedInEveryExposure) {
       const int sat = hdr.ChannelIndex("saturated.Y");
       EXPECT_EQ(hdr.at(60, 45, sat), 1.0f);  // the pixel holding the sun's centre
       EXPECT_EQ(hdr.at(5, 5, sat), 0.0f);
-      std::printf("blur %.1f px, %s: %lld censored px, sun energy %.4g of %.4g (ratio %.3f), blur fitted %.2f px\n", blur,
-                  fit ? "fitted" : "lower bound", static_cast<long long>(rep.censored_pixels), e, sun_energy,
+      std::printf("blur %.1f px, %s: %lld censored px, sun energy %.4g of %.4g (ratio %.3f), blur fitted %.2f px\n",
+                  blur, fit ? "fitted" : "lower bound", static_cast<long long>(rep.censored_pixels), e, sun_energy,
                   e / sun_energy, rep.regions[0].blur_px);
       if (!fit || blur == 0) {
         EXPECT_LT(e, sun_energy);
@@ -315,7 +319,8 @@ TEST(Merge, AlignsShiftedCrops) {
   // reference pixel q is its own pixel q + (crop_ref - crop_j).
   for (int j = 0; j < 3; ++j) {
     EXPECT_EQ(bracket[static_cast<size_t>(j)].codes.width(), crops[1][2]);
-    std::printf("exposure %d: shift (%d, %d)\n", j, shifts[static_cast<size_t>(j)].x(), shifts[static_cast<size_t>(j)].y());
+    std::printf("exposure %d: shift (%d, %d)\n", j, shifts[static_cast<size_t>(j)].x(),
+                shifts[static_cast<size_t>(j)].y());
   }
   const Image hdr = MergeExposures(bracket, TrueResponse(8), {});
   int good = 0, n = 0;
@@ -356,7 +361,8 @@ TEST(HdrRealData, MemorialChurch) {
       for (int c = 0; c < 3; ++c) {
         const double z = e.codes.values()[static_cast<size_t>(p * 3 + c)];
         if (z * 255 <= 25 || z * 255 >= 230) continue;
-        err.push_back(std::log(r.Exposure(c, z) / e.time_s) - std::log(hdr.values()[static_cast<size_t>(p * hdr.channels() + c)]));
+        err.push_back(std::log(r.Exposure(c, z) / e.time_s) -
+                      std::log(hdr.values()[static_cast<size_t>(p * hdr.channels() + c)]));
       }
   std::sort(err.begin(), err.end());
   const double med = err[err.size() / 2];

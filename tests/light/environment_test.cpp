@@ -1,7 +1,7 @@
 #include "light/environment.h"
 
-#include <Eigen/Geometry>
 #include <gtest/gtest.h>
+#include <Eigen/Geometry>
 
 #include "core/error.h"
 #include "core/math.h"

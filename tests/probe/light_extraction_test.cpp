@@ -5,9 +5,9 @@
 #include "core/error.h"
 #include "core/math.h"
 #include "core/spherical.h"
-#include "probe/light_extraction.h"
 #include "light/environment.h"
 #include "light/lights_file.h"
+#include "probe/light_extraction.h"
 #include "test_util.h"
 
 namespace mr {
@@ -78,8 +78,10 @@ TEST(Lights, TwelveDecadesOfDynamicRange) {
     const Eigen::Vector3d sun = LatLongPixelToDirection(Eigen::Vector2d(100, 30), 256, 128);
     for (const auto& l : ex.lights) {
       ASSERT_TRUE(l.power.allFinite());
-      if (AngleBetween(l.direction, sun) < 1e-9) ++sun_lights;
-      else sky += Luminance(l.power);
+      if (AngleBetween(l.direction, sun) < 1e-9)
+        ++sun_lights;
+      else
+        sky += Luminance(l.power);
     }
     const double sky_truth = MapEnergy(env) - sun_energy * Luminance(Eigen::Vector3d::Ones());
     std::printf("%s: sky energy %.6g of %.6g in the other lights\n", method, sky, sky_truth);

@@ -12,8 +12,8 @@
 #include "core/sampling.h"
 #include "core/spherical.h"
 #include "hdr/exposure_merge.h"
-#include "probe/unwrap.h"
 #include "light/environment.h"
+#include "probe/unwrap.h"
 #include "synth/sphere_view.h"
 #include "synth/synth.h"
 #include "test_util.h"
@@ -115,7 +115,8 @@ TEST(Probe, UnwrapRecoversTheEnvironment) {
   const EnvironmentMap truth(SmoothSky(256, 128), "sky");
   const CameraModel cam("LENSMODEL_OPENCV8", {2000, 2000, 319.5, 239.5, 0, 0, 0, 0, 0, 0, 0, 0}, 640, 480);
   const Eigen::Matrix3d world_from_cam =
-      (Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitX())).toRotationMatrix();
+      (Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(-0.3, Eigen::Vector3d::UnitX()))
+          .toRotationMatrix();
   const Eigen::Vector3d centre(0.01, 0.005, 0.3);
   SphereViewOptions vo;
   vo.world_from_cam = world_from_cam;
@@ -134,8 +135,8 @@ TEST(Probe, UnwrapRecoversTheEnvironment) {
     const double theta = std::acos(std::clamp((p - centre).normalized().dot(-centre.normalized()), -1.0, 1.0));
     return theta < 0.75 * theta_max && AngleBetween(d, back) > 20 * kDegToRad;
   });
-  std::printf("unwrapped: median %.4f, p95 %.4f over %d pixels; %.1f%% seen, median confidence %.2f\n", e.median,
-              e.p95, e.n, 100 * rep.seen_fraction, rep.median_confidence);
+  std::printf("unwrapped: median %.4f, p95 %.4f over %d pixels; %.1f%% seen, median confidence %.2f\n", e.median, e.p95,
+              e.n, 100 * rep.seen_fraction, rep.median_confidence);
   EXPECT_GT(e.n, 2000);
   EXPECT_LT(e.median, 0.02);
   EXPECT_LT(e.p95, 0.08);
@@ -168,9 +169,10 @@ TEST(Probe, FisheyePastOneEightyDegrees) {
   UnwrapReport rep;
   const Image env = UnwrapFisheye(photo, cam, world_from_cam, uo, "fisheye.exr", &rep);
   const Eigen::Vector3d axis = world_from_cam.col(2);
-  const Errors e = Compare(env, truth, [&](const Eigen::Vector3d& d) { return AngleBetween(d, axis) < 95 * kDegToRad; });
-  std::printf("fish-eye: median %.4f, p95 %.4f over %d pixels; %.1f%% seen (axis %.2f %.2f %.2f)\n", e.median, e.p95, e.n,
-              100 * rep.seen_fraction, axis.x(), axis.y(), axis.z());
+  const Errors e =
+      Compare(env, truth, [&](const Eigen::Vector3d& d) { return AngleBetween(d, axis) < 95 * kDegToRad; });
+  std::printf("fish-eye: median %.4f, p95 %.4f over %d pixels; %.1f%% seen (axis %.2f %.2f %.2f)\n", e.median, e.p95,
+              e.n, 100 * rep.seen_fraction, axis.x(), axis.y(), axis.z());
   EXPECT_LT(e.median, 0.02);
   EXPECT_LT(e.p95, 0.06);
   int wrong = 0;
@@ -180,8 +182,8 @@ TEST(Probe, FisheyePastOneEightyDegrees) {
       wrong += (a < 99 && !(env.at(x, y, 3) > 0)) || (a > 119 && env.at(x, y, 3) != 0);
     }
   EXPECT_EQ(wrong, 0);
-  EXPECT_GT(rep.seen_fraction, 0.587);  // 1 - cos(100 deg) over 2
-  EXPECT_LT(rep.seen_fraction, 0.743);  // 1 - cos(119 deg) over 2
+  EXPECT_GT(rep.seen_fraction, 0.587);                             // 1 - cos(100 deg) over 2
+  EXPECT_LT(rep.seen_fraction, 0.743);                             // 1 - cos(119 deg) over 2
   for (int x = 0; x < 128; ++x) EXPECT_EQ(env.at(x, 0, 3), 0.0f);  // the +y pole: behind the lens
 }
 
@@ -201,7 +203,8 @@ TEST(Probe, TwoViewsRemoveTheCamera) {
   for (const double yaw : {0.0, 90.0}) {
     // The camera orbits the sphere: the world sees it from a direction
     // turned by `yaw` about +y.
-    const Eigen::Matrix3d world_from_cam = Eigen::AngleAxisd(yaw * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Matrix3d world_from_cam =
+        Eigen::AngleAxisd(yaw * kDegToRad, Eigen::Vector3d::UnitY()).toRotationMatrix();
     SphereViewOptions vo;
     vo.world_from_cam = world_from_cam;
     vo.camera_body_radius = 0.04;
@@ -320,7 +323,6 @@ TEST(Probe, RimAtGrazingAngles) {
 }  // namespace
 }  // namespace mr
 
-
 namespace mr {
 namespace {
 
@@ -339,8 +341,8 @@ TEST(ProbeRealData, MirrorBallBracketToMap) {
   AlignExposures(&bracket);
   const Image hdr = MergeExposures(bracket, RecoverResponse(bracket, {}), {}).Layer("");
   const double fpx = 3300;
-  const CameraModel cam("LENSMODEL_PINHOLE", {fpx, fpx, 0.5 * (hdr.width() - 1), 0.5 * (hdr.height() - 1)},
-                        hdr.width(), hdr.height());
+  const CameraModel cam("LENSMODEL_PINHOLE", {fpx, fpx, 0.5 * (hdr.width() - 1), 0.5 * (hdr.height() - 1)}, hdr.width(),
+                        hdr.height());
   SphereOptions so;
   so.radius_m = 0.0254;
   so.circle = Eigen::Vector3d(0.5 * hdr.width(), 0.5 * hdr.height() + 5, 232);
@@ -362,7 +364,8 @@ TEST(ProbeRealData, MirrorBallBracketToMap) {
     for (int x = 0; x < hdr.width(); ++x) {
       Eigen::Vector3d d;
       if (!cam.Unproject(Eigen::Vector2d(x, y), &d)) continue;
-      if (AngleBetween(d.normalized(), fit.centre.normalized()) < 0.95 * fit.half_angle) photo_top = std::max<double>(photo_top, hdr.at(x, y, 1));
+      if (AngleBetween(d.normalized(), fit.centre.normalized()) < 0.95 * fit.half_angle)
+        photo_top = std::max<double>(photo_top, hdr.at(x, y, 1));
     }
   const double median = lum[lum.size() / 2], top = lum.back();
   std::printf("ball at %.3f m (radius %.1f px): %.1f%% seen; brightest %.3g (%.0f x the median), photograph's %.3g\n",
@@ -373,7 +376,6 @@ TEST(ProbeRealData, MirrorBallBracketToMap) {
 
 }  // namespace
 }  // namespace mr
-
 
 namespace mr {
 namespace {
@@ -424,7 +426,8 @@ TEST(ProbeChain, SyntheticBracketToWorldMap) {
       const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), env.width(), env.height());
       Eigen::Vector3d p;
       if (!MirrorSpherePoint(fit.centre, g.radius_m, g.world_from_cam.transpose() * d, &p)) continue;
-      const double theta = std::acos(std::clamp((p - fit.centre).normalized().dot(-fit.centre.normalized()), -1.0, 1.0));
+      const double theta =
+          std::acos(std::clamp((p - fit.centre).normalized().dot(-fit.centre.normalized()), -1.0, 1.0));
       if (theta > 0.75 * theta_max || AngleBetween(d, back) < 25 * kDegToRad) continue;
       ratio.push_back(Luminance(Eigen::Vector3d(env.at(x, y, 0), env.at(x, y, 1), env.at(x, y, 2))) /
                       Luminance(truth.Eval(d)));

@@ -84,7 +84,8 @@ TEST(Rpe, HandComputed) {
   // the relative rotation error is 10 degrees per step.
   Trajectory rot = ref;
   for (size_t i = 0; i < rot.poses.size(); ++i)
-    rot.poses[i].world_from_cam.rotation = Eigen::AngleAxisd(0.1745329251994330 * static_cast<double>(i), Eigen::Vector3d::UnitZ());
+    rot.poses[i].world_from_cam.rotation =
+        Eigen::AngleAxisd(0.1745329251994330 * static_cast<double>(i), Eigen::Vector3d::UnitZ());
   const RpeResult r3 = ComputeRpe(rot, ref, 0.1);
   EXPECT_NEAR(r3.rot_rmse_deg, 10.0, 1e-9);
 }

@@ -58,7 +58,9 @@ RgbdSynthOptions SmallSensor(bool noisy) {
 }
 
 // 1.4 cm per frame: twice the room preset's step at a quarter of its resolution.
-Trajectory RoomPath(int frames) { return ScanPath(frames, Eigen::Vector3d(0, 0.6, 0.3), 2.0, 1.6, -30.0 * frames / 60); }
+Trajectory RoomPath(int frames) {
+  return ScanPath(frames, Eigen::Vector3d(0, 0.6, 0.3), 2.0, 1.6, -30.0 * frames / 60);
+}
 
 FuseOptions Tracking() {
   FuseOptions f;
@@ -273,7 +275,8 @@ TEST(Fuse, RoiLeavesTheMeshInsideItUnchanged) {
   mo.roi = roi;
   const Mesh b = part.ExtractMesh(mo, nullptr);
   // Every vertex two voxels inside the ROI is in both meshes, bit for bit.
-  const Eigen::AlignedBox3f inner(roi.min() + Eigen::Vector3f::Constant(0.02f), roi.max() - Eigen::Vector3f::Constant(0.02f));
+  const Eigen::AlignedBox3f inner(roi.min() + Eigen::Vector3f::Constant(0.02f),
+                                  roi.max() - Eigen::Vector3f::Constant(0.02f));
   std::map<std::array<float, 3>, int> in_full;
   int64_t inside = 0;
   for (const auto& p : a.positions)

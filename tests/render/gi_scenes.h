@@ -5,9 +5,9 @@
 
 #include "core/math.h"
 #include "geometry/primitives.h"
+#include "light/lights_file.h"
 #include "render/path_tracer.h"
 #include "render/pt.h"
-#include "light/lights_file.h"
 
 namespace mr::gi_test {
 

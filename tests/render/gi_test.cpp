@@ -2,13 +2,13 @@
 // against pt on purpose-built scenes.
 #include <gtest/gtest.h>
 
-#include "core/math.h"
 #include "core/image_metrics.h"
+#include "core/math.h"
 #include "geometry/primitives.h"
+#include "light/lights_file.h"
+#include "render/gi_scenes.h"
 #include "render/irradiance_cache.h"
 #include "render/vpl.h"
-#include "render/gi_scenes.h"
-#include "light/lights_file.h"
 
 namespace mr {
 namespace {

@@ -5,9 +5,9 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "light/lights_file.h"
 #include "render/path_tracer.h"
 #include "render/pt.h"
-#include "light/lights_file.h"
 
 namespace mr {
 namespace {
@@ -74,7 +74,7 @@ TEST(Lights, SpotLightConeAndSmoothFalloff) {
   l.cone_deg = 30;
   l.falloff_start_deg = 20;
   const double full = 0.5 / kPi * 10 / 4;  // straight below: full intensity
-  auto at_angle = [&](double deg) {       // the spot's axis tilted `deg` away from the origin
+  auto at_angle = [&](double deg) {        // the spot's axis tilted `deg` away from the origin
     l.direction = Eigen::Vector3d(std::sin(deg * kDegToRad), -std::cos(deg * kDegToRad), 0);
     return Mean(RenderPlane({l}, 1), 1);
   };
@@ -177,10 +177,10 @@ TEST(LightsFile, RoundTripsAndRejectsBadInput) {
   fails_with(R"({"version":1,"lights":[{"type":"point","position":[0,0,0],"intensity":[1,1,1],"colour":1}]})",
              "lights[0].colour: unknown key");
   fails_with(R"({"version":1,"lights":[{"type":"area"}]})", "lights[0].type");
-  fails_with(R"({"version":1,"lights":[{"type":"distant","direction":[0,0,0],"irradiance":[1,1,1]}]})",
-             "non-zero");
-  fails_with(R"({"version":1,"lights":[{"type":"spot","position":[0,0,0],"intensity":[1,1,1],"direction":[0,-1,0],"cone_deg":10,"falloff_start_deg":20}]})",
-             "must not exceed cone_deg");
+  fails_with(R"({"version":1,"lights":[{"type":"distant","direction":[0,0,0],"irradiance":[1,1,1]}]})", "non-zero");
+  fails_with(
+      R"({"version":1,"lights":[{"type":"spot","position":[0,0,0],"intensity":[1,1,1],"direction":[0,-1,0],"cone_deg":10,"falloff_start_deg":20}]})",
+      "must not exceed cone_deg");
   fails_with(R"({"version":1,"lights":[{"type":"point","position":[0,0,0],"intensity":[-1,1,1]}]})",
              "lights[0].intensity");
   fails_with(R"({"version":2,"lights":[]})", "version");

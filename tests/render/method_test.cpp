@@ -61,14 +61,17 @@ TEST(MethodRegistry, IsTheOneListOfMethods) {
 // struct), unknown keys and bad values rejected with the key path.
 TEST(MethodRegistry, EachMethodChecksItsOwnBlock) {
   EXPECT_EQ(CheckError({{"method", "vpl"}, {"vpl", {{"paths", 16}}}, {"ic", {{"rays", 8}}}}), "");
-  EXPECT_EQ(CheckError({{"method", "magic"}}), "scene.json: render.method: \"magic\" is not one of pt, ic, vpl, vct, prt");
+  EXPECT_EQ(CheckError({{"method", "magic"}}),
+            "scene.json: render.method: \"magic\" is not one of pt, ic, vpl, vct, prt");
   EXPECT_EQ(CheckError({{"vpll", Json::object()}}).rfind("scene.json: render.vpll: unknown key", 0), 0u)
       << CheckError({{"vpll", Json::object()}});
-  EXPECT_EQ(CheckError({{"vpl", {{"clamp", 0.1}}}}).rfind("scene.json: render.vpl.clamp: unknown key (allowed here: paths,", 0),
+  EXPECT_EQ(CheckError({{"vpl", {{"clamp", 0.1}}}})
+                .rfind("scene.json: render.vpl.clamp: unknown key (allowed here: paths,", 0),
             0u);
   EXPECT_EQ(CheckError({{"vct", {{"relight", "both"}}}}),
             "scene.json: render.vct.relight: \"both\" is not one of delta, split");
-  EXPECT_EQ(CheckError({{"ic", {{"min_spacing_px", 40}}}}), "scene.json: render.ic.min_spacing_px: is larger than max_spacing_px");
+  EXPECT_EQ(CheckError({{"ic", {{"min_spacing_px", 40}}}}),
+            "scene.json: render.ic.min_spacing_px: is larger than max_spacing_px");
   EXPECT_EQ(CheckError({{"ic", {{"glossy_depth", -1}}}}),
             "scene.json: render.ic.glossy_depth: expected an integer in [0, 64], got -1");
   EXPECT_EQ(CheckError({{"prt", {{"spp", 4}}}}).rfind("scene.json: render.prt.spp: unknown key", 0), 0u);

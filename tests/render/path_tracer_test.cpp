@@ -181,7 +181,8 @@ TEST(PathTracer, VirtualObjectCoversPixelsAndShadowsTheRealPlane) {
   for (int y = 0; y < 16; ++y)
     for (int x = 0; x < 24; ++x)
       if (mask.at(x, y, 0) == 0) {
-        Eigen::Vector3d d(m.at(x, y, 0) - rl.at(x, y, 0), m.at(x, y, 1) - rl.at(x, y, 1), m.at(x, y, 2) - rl.at(x, y, 2));
+        Eigen::Vector3d d(m.at(x, y, 0) - rl.at(x, y, 0), m.at(x, y, 1) - rl.at(x, y, 1),
+                          m.at(x, y, 2) - rl.at(x, y, 2));
         diff += Luminance(d);
       }
   EXPECT_LT(diff, 0.0);
@@ -207,7 +208,7 @@ TEST(PathTracer, VirtualObjectOutOfViewChangesOnlyLighting) {
   TwoObjects s(true);
   // Camera far to the side looking away from the box: the mask is empty.
   PtFrameRenderer r(s.scene, Pinhole(16, 12, 10), Rigid3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 1, 5)),
-                  PathTracerSettings());
+                    PathTracerSettings());
   r.RenderPass(4);
   EXPECT_EQ(MeanOf(r.Mask(), 0), 0.0);
   EXPECT_EQ(CountNonFinite(r.Mixed()), 0);

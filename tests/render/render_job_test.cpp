@@ -7,17 +7,17 @@
 
 #include "core/error.h"
 #include "core/image.h"
-#include "core/parallel.h"
-#include "core/math.h"
-#include "core/video.h"
 #include "core/image_metrics.h"
+#include "core/math.h"
+#include "core/parallel.h"
+#include "core/video.h"
 #include "geometry/mesh.h"
 #include "hdr/response.h"
 #include "render/composite.h"
 #include "render/prt.h"
 #include "synth/synth.h"
-#include "transfer/formfactor.h"
 #include "test_util.h"
+#include "transfer/formfactor.h"
 
 namespace mr {
 namespace {
@@ -168,7 +168,8 @@ TEST_F(Capture, ObjectInAClosedCupboardLeavesThePhotograph) {
   EXPECT_EQ(r.metrics()["frames"][0]["copied_through"], true);
   // The photograph here is of the room without the cupboard; what matters is
   // that it is passed through untouched.
-  EXPECT_EQ(ReadImage(o.out_dir / "00000.exr").Layer("composite").values(), ReadImage(Cap() / "photos" / "00000.exr").values());
+  EXPECT_EQ(ReadImage(o.out_dir / "00000.exr").Layer("composite").values(),
+            ReadImage(Cap() / "photos" / "00000.exr").values());
 }
 
 // prt: the object shaded from its transfer; outside the object the
@@ -218,7 +219,8 @@ TEST_F(Capture, PrtShadesTheObjectAndLeavesTheRoom) {
     RunRenderJob(ReadScene(Cap() / "prt-none.json"), o, &r2);
     ADD_FAILURE() << "prt without form factors was accepted";
   } catch (const UsageError& e) {
-    EXPECT_NE(std::string(e.what()).find("needs form factors for virtual object \"object\""), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("needs form factors for virtual object \"object\""), std::string::npos)
+        << e.what();
   }
 }
 
@@ -278,7 +280,8 @@ TEST_F(Capture, NanInTheEnvironmentMapIsAClearError) {
     FAIL();
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("env.exr: pixel (7, 3) has non-finite radiance nan in channel B"),
-              std::string::npos) << e.what();
+              std::string::npos)
+        << e.what();
   }
   EXPECT_FALSE(fs::exists(d.path() / "out" / "00000.exr"));
 }

@@ -5,12 +5,12 @@
 #include <cstdio>
 #include <functional>
 
-#include "core/math.h"
 #include "core/image_metrics.h"
+#include "core/math.h"
 #include "geometry/primitives.h"
-#include "render/vct.h"
-#include "render/gi_scenes.h"
 #include "light/lights_file.h"
+#include "render/gi_scenes.h"
+#include "render/vct.h"
 
 namespace mr {
 namespace {
@@ -109,7 +109,7 @@ TEST(Vct, ContactShadowAgainstPathTracer) {
 TEST(Vct, ThinWallLeakMeasuredAgainstPathTracer) {
   RenderScene s;
   s.AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), Diffuse(0.6));
-  s.AddReal(Quad({-2, 0, 0.5}, {2, 0, 0.5}, {2, 2, 0.5}, {-2, 2, 0.5}), Diffuse(0.7));   // back wall
+  s.AddReal(Quad({-2, 0, 0.5}, {2, 0, 0.5}, {2, 2, 0.5}, {-2, 2, 0.5}), Diffuse(0.7));                  // back wall
   s.AddReal(Quad({-0.6, 0.0, 0.2}, {0.6, 0.0, 0.2}, {0.6, 0.8, 0.2}, {-0.6, 0.8, 0.2}), Diffuse(0.7));  // screen
   Eigen::Affine3d t = Eigen::Affine3d::Identity();
   t.translate(Eigen::Vector3d(0, 0.25, -0.1));

@@ -32,7 +32,8 @@ class SceneFiles : public ::testing::Test {
       ],
       "render": {"method": "pt", "spp": 16, "frames": "0:3", "seed": 7},
       "output": {"dir": "out", "layers": ["composite", "mask"]}
-    })", "scene.json");
+    })",
+                           "scene.json");
   }
   std::string ErrorOf(const Json& j) const {
     try {
@@ -69,10 +70,13 @@ TEST_F(SceneFiles, EnvironmentUpTurnsTheMap) {
   const Scene s = ParseScene(j, dir_.path(), "scene.json", true);
   // Exact up to round-off of a 3x3 rotation (1e-12).
   EXPECT_LT((s.lighting.world_from_env * Eigen::Vector3d::UnitY() - up).norm(), 1e-12);
-  EXPECT_LT((s.lighting.world_from_env.transpose() * s.lighting.world_from_env - Eigen::Matrix3d::Identity()).norm(), 1e-12);
+  EXPECT_LT((s.lighting.world_from_env.transpose() * s.lighting.world_from_env - Eigen::Matrix3d::Identity()).norm(),
+            1e-12);
   j["lighting"]["environment_up"] = {0, -1, 0};  // upside down: the antiparallel case
   EXPECT_LT((ParseScene(j, dir_.path(), "scene.json", true).lighting.world_from_env * Eigen::Vector3d::UnitY() -
-             Eigen::Vector3d(0, -1, 0)).norm(), 1e-12);
+             Eigen::Vector3d(0, -1, 0))
+                .norm(),
+            1e-12);
   j["lighting"]["environment_up"] = {0, 0, 0};
   EXPECT_NE(ErrorOf(j).find("lighting.environment_up: a zero vector"), std::string::npos) << ErrorOf(j);
 }
@@ -87,7 +91,10 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   j = Valid();
   j["virtual"][0]["colour"] = "red";
   EXPECT_EQ(ErrorOf(j).rfind("scene.json: virtual[0].colour: unknown key (allowed here: name, mesh, transform, "
-                             "material, formfactors)", 0), 0u) << ErrorOf(j);
+                             "material, formfactors)",
+                             0),
+            0u)
+      << ErrorOf(j);
   j = Valid();
   j["render"]["spp"] = "many";
   EXPECT_EQ(ErrorOf(j), "scene.json: render.spp: expected an integer in [1, 16777216], got string");

@@ -9,9 +9,9 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "core/sh.h"
 #include "test_util.h"
 #include "transfer/cube.h"
-#include "core/sh.h"
 
 namespace mr {
 namespace {
@@ -53,10 +53,12 @@ TEST(SphericalHarmonics, OrthonormalAndKnownValues) {
         const double w = CubeRectSolidAngle(a0, b0, a0 + 2.0 / n, b0 + 2.0 / n);
         ShEvaluate(CubeDirection(f, a0 + 1.0 / n, b0 + 1.0 / n), order, y.data());
         for (int a = 0; a < c; ++a)
-          for (int b = 0; b < c; ++b) gram[static_cast<size_t>(a * c + b)] += w * y[static_cast<size_t>(a)] * y[static_cast<size_t>(b)];
+          for (int b = 0; b < c; ++b)
+            gram[static_cast<size_t>(a * c + b)] += w * y[static_cast<size_t>(a)] * y[static_cast<size_t>(b)];
       }
   for (int a = 0; a < c; ++a)
-    for (int b = 0; b < c; ++b) EXPECT_NEAR(gram[static_cast<size_t>(a * c + b)], a == b ? 1.0 : 0.0, 2e-3) << a << " " << b;
+    for (int b = 0; b < c; ++b)
+      EXPECT_NEAR(gram[static_cast<size_t>(a * c + b)], a == b ? 1.0 : 0.0, 2e-3) << a << " " << b;
   ShEvaluate(Eigen::Vector3d(0, 0, 1), order, y.data());
   EXPECT_NEAR(y[0], 0.5 / std::sqrt(kPi), 1e-15);
   EXPECT_NEAR(y[2], std::sqrt(3 / (4 * kPi)), 1e-15);  // Y_1^0 = sqrt(3/4pi) cos(theta)
@@ -146,8 +148,8 @@ TEST(Transfer, VerticesInsideClosedGeometryAreFullyOccluded) {
 TEST(Transfer, BouncesAddLightFromTheObjectItselfAsTheReferenceDoes) {
   Mesh cup;  // floor and four walls of a unit box, open at the top (y = 1)
   cup.positions = {{0, 0, 0}, {1, 0, 0}, {1, 0, 1}, {0, 0, 1}, {0, 1, 0}, {1, 1, 0}, {1, 1, 1}, {0, 1, 1}};
-  cup.triangles = {{0, 2, 1}, {0, 3, 2}, {0, 1, 5}, {0, 5, 4}, {1, 2, 6}, {1, 6, 5},
-                   {2, 3, 7}, {2, 7, 6}, {3, 0, 4}, {3, 4, 7}};
+  cup.triangles = {{0, 2, 1}, {0, 3, 2}, {0, 1, 5}, {0, 5, 4}, {1, 2, 6},
+                   {1, 6, 5}, {2, 3, 7}, {2, 7, 6}, {3, 0, 4}, {3, 4, 7}};
   // Floor vertex normals up (+y), wall normals inwards: give them explicitly
   // at a floor-centre vertex by adding one.
   cup.positions.push_back({0.5f, 0.0f, 0.5f});

@@ -32,6 +32,9 @@ inline uint64_t HashCombine(uint64_t a, uint64_t b) {
 class Fnv1a {
  public:
   static constexpr uint64_t kOffset = 0xcbf29ce484222325ULL, kPrime = 0x100000001b3ULL;
+  // `offset`: the offset basis (the standard one unless a stored format
+  // fixed another).
+  explicit Fnv1a(uint64_t offset = kOffset) : h_(offset) {}
   void Bytes(const void* p, size_t n) {
     const auto* c = static_cast<const unsigned char*>(p);
     for (size_t i = 0; i < n; ++i) h_ = (h_ ^ c[i]) * kPrime;
@@ -41,7 +44,7 @@ class Fnv1a {
   uint64_t Mixed() const { return MixBits(h_ + kGoldenGamma); }
 
  private:
-  uint64_t h_ = kOffset;
+  uint64_t h_;
 };
 
 }  // namespace mr

@@ -369,9 +369,7 @@ void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int 
   Hit hit;
   ++row_rays;
   if (!embree.Intersect(ray, &hit)) {
-    const Eigen::Vector3d e = Escaped(scene_, ray, 0, kRealLights);
-    mixed += e + Escaped(scene_, ray, 0, kVirtualLights);
-    real += e;
+    AddEscapedCameraRay(scene_, ray, &mixed, &real);
   } else if (hit.is_virtual) {
     primary_virtual = true;
     const Entry& re = real_[k];
@@ -459,14 +457,12 @@ IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
   if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
   if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
-  o.max_depth = scene.render.max_depth;
-  o.seed = scene.render.seed;
-  return o;
+  return WithSceneRender(o, scene);
 }
 
-class IcMethod : public RenderMethod {
+class IcMethod : public SettingsMethod<IcSettings> {
  public:
-  explicit IcMethod(const IcSettings& st) : st_(st) {}
+  using SettingsMethod::SettingsMethod;
   void Prepare(const JobContext& job) override {
     st_.photograph = job.photograph;
     cache_ = std::make_unique<IrradianceCache>(job.rs, st_);
@@ -497,7 +493,6 @@ class IcMethod : public RenderMethod {
   }
 
  private:
-  IcSettings st_;
   std::unique_ptr<IrradianceCache> cache_;
   // The temporal figure: the previous frame's interpolated irradiance.
   std::vector<float> prev_irradiance_;

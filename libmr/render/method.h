@@ -82,6 +82,25 @@ class RenderMethod {
   virtual void Finish(Report* report) { (void)report; }
 };
 
+// A method's settings struct with the scene's generic render settings
+// (render.max_depth, render.seed) filled in.
+template <class Settings>
+Settings WithSceneRender(Settings s, const Scene& scene) {
+  s.max_depth = scene.render.max_depth;
+  s.seed = scene.render.seed;
+  return s;
+}
+
+// A RenderMethod that keeps the settings it was made with.
+template <class Settings>
+class SettingsMethod : public RenderMethod {
+ public:
+  explicit SettingsMethod(const Settings& settings) : st_(settings) {}
+
+ protected:
+  Settings st_;
+};
+
 struct MethodInfo {
   std::string name;     // scene.json render.method, mr-render --method
   std::string summary;  // one line, for --help and docs

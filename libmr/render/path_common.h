@@ -100,6 +100,15 @@ inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double 
   return L;
 }
 
+// A camera ray that meets nothing: what it sees of the environment and the
+// distant lights, the virtual lights in I_m only.
+inline void AddEscapedCameraRay(const RenderScene& scene, const Ray& ray, Eigen::Vector3d* mixed,
+                                Eigen::Vector3d* real) {
+  const Eigen::Vector3d e = Escaped(scene, ray, 0, kRealLights);
+  *mixed += e + Escaped(scene, ray, 0, kVirtualLights);
+  *real += e;
+}
+
 // Next-event estimates at `v`: one environment sample and one sample of each
 // light.  Calls emit(contribution, shadow ray, is_virtual_light) for each
 // unoccluded contribution (times beta: the caller's) still to be tested.  The

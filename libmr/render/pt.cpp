@@ -93,14 +93,12 @@ PathTracerSettings ParsePtSettings(const JsonNode& block, const Scene& scene) {
   block.RequireObject({"skip_environment_pixels"});
   PathTracerSettings st;
   if (block.Has("skip_environment_pixels")) st.skip_environment_pixels = block.Child("skip_environment_pixels").Bool();
-  st.max_depth = scene.render.max_depth;
-  st.seed = scene.render.seed;
-  return st;
+  return WithSceneRender(st, scene);
 }
 
-class PtMethod : public RenderMethod {
+class PtMethod : public SettingsMethod<PathTracerSettings> {
  public:
-  explicit PtMethod(const PathTracerSettings& st) : st_(st) {}
+  using SettingsMethod::SettingsMethod;
   void Prepare(const JobContext& job) override {
     bool vertex_albedo = false;
     for (const auto& r : job.scene.reals) vertex_albedo = vertex_albedo || r.material.albedo_from_vertex_colors;
@@ -115,9 +113,6 @@ class PtMethod : public RenderMethod {
     st.frame = f.frame;
     return std::make_unique<PtFrameRenderer>(f.rs, f.camera, f.world_from_cam, st);
   }
-
- private:
-  PathTracerSettings st_;
 };
 
 }  // namespace

@@ -686,9 +686,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
   Hit hit;
   ++c.rays;
   if (!embree.Intersect(ray, &hit)) {
-    const Eigen::Vector3d e = Escaped(scene_, ray, 0, kRealLights);
-    mixed += e + Escaped(scene_, ray, 0, kVirtualLights);
-    real += e;
+    AddEscapedCameraRay(scene_, ray, &mixed, &real);
   } else if (hit.is_virtual) {
     primary_virtual = true;
     Pcg32 real_rng = rng;
@@ -746,14 +744,12 @@ VctSettings ParseVctSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("far_field_width")) o.far_field_width = static_cast<int>(v.Child("far_field_width").Integer(8, 1024));
   if (v.Has("far_field_samples"))
     o.far_field_samples = static_cast<int>(v.Child("far_field_samples").Integer(1, 1 << 16));
-  o.max_depth = scene.render.max_depth;
-  o.seed = scene.render.seed;
-  return o;
+  return WithSceneRender(o, scene);
 }
 
-class VctMethod : public RenderMethod {
+class VctMethod : public SettingsMethod<VctSettings> {
  public:
-  explicit VctMethod(const VctSettings& st) : st_(st) {}
+  using SettingsMethod::SettingsMethod;
   void Prepare(const JobContext& job) override {
     volumes_ = VctVolumes::Build(job.rs, st_);
     volumes_->Describe(job.report);
@@ -768,7 +764,6 @@ class VctMethod : public RenderMethod {
   }
 
  private:
-  VctSettings st_;
   std::shared_ptr<const VctVolumes> volumes_;
 };
 

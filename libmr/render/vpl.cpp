@@ -569,14 +569,12 @@ VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("clamp_distance")) o.clamp_distance = v.Child("clamp_distance").Number(0, 1e9);
   if (v.Has("drop_threshold")) o.drop_threshold = v.Child("drop_threshold").Number(0, 1);
   if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
-  o.max_depth = scene.render.max_depth;
-  o.seed = scene.render.seed;
-  return o;
+  return WithSceneRender(o, scene);
 }
 
-class VplMethod : public RenderMethod {
+class VplMethod : public SettingsMethod<VplSettings> {
  public:
-  explicit VplMethod(const VplSettings& st) : st_(st) {}
+  using SettingsMethod::SettingsMethod;
   void Prepare(const JobContext& job) override {
     vpls_ = VplSet::Build(job.rs, st_);
     vpls_->Describe(job.report);
@@ -596,7 +594,6 @@ class VplMethod : public RenderMethod {
   }
 
  private:
-  VplSettings st_;
   std::shared_ptr<const VplSet> vpls_;
 };
 

@@ -25,7 +25,9 @@ namespace mr {
 static_assert(std::endian::native == std::endian::little, "the .ffc reader and writer assume a little-endian machine");
 
 uint64_t MeshHash(const Mesh& mesh) {
-  Fnv1a h;
+  // The .ffc header's mesh hash: FNV-1a from offset basis 1469598103934665603
+  // (the standard basis less its last digit), fixed by every .ffc written.
+  Fnv1a h(1469598103934665603ULL);
   const uint64_t nv = mesh.positions.size(), nt = mesh.triangles.size();
   h.Bytes(&nv, sizeof nv);
   h.Bytes(&nt, sizeof nt);

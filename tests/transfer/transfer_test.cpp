@@ -288,3 +288,17 @@ TEST(FfcFile, ChunkedStreamingWritesTheSameBytes) {
 
 }  // namespace
 }  // namespace mr
+
+namespace mr {
+namespace {
+// The .ffc header's mesh hash is part of the format: files already written
+// carry it, and a reader refuses a mismatch.  Pinned on one triangle (the
+// value of the hash as every earlier mr wrote it).
+TEST(Transfer, MeshHashIsStable) {
+  Mesh m;
+  m.positions = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+  m.triangles = {{0, 1, 2}};
+  EXPECT_EQ(MeshHash(m), 0x37b4d1896a9e0f22ULL);
+}
+}  // namespace
+}  // namespace mr

@@ -30,7 +30,7 @@ case "$mode" in
     CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMR_FUZZ=ON \
           -DMR_BUILD_TESTS=OFF -DMR_BUILD_BENCHMARKS=OFF
     cmake --build build-fuzz -j "$jobs" --target mr_fuzzers
-    for name in fuzz_scene fuzz_tum fuzz_sevenscenes fuzz_colmap fuzz_cameramodel fuzz_ply fuzz_lights fuzz_response fuzz_rgbdlist; do
+    for name in fuzz_scene fuzz_tum fuzz_sevenscenes fuzz_colmap fuzz_cameramodel fuzz_ply fuzz_lights fuzz_response fuzz_rgbdlist fuzz_obj fuzz_off fuzz_stl; do
       f=build-fuzz/fuzz/$name
       corpus=fuzz/corpus/${name#fuzz_}
       work=$(mktemp -d)

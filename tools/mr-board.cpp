@@ -26,14 +26,14 @@ int main(int argc, char** argv) {
           throw CLI::ValidationError("--inner-corners", "expected NxM");
       },
       "Inner corners, NxM (e.g. 10x10)");
-  app.add_option("--square-mm", square_mm, "Square side in millimetres")->check(CLI::PositiveNumber);
+  app.add_option("--square-mm", square_mm, "Square side in millimetres")->check(mr::kPositive);
   app.add_option("--margin-mm", margin_mm, "White margin around the board, millimetres")
       ->default_val(10)
-      ->check(CLI::NonNegativeNumber);
+      ->check(mr::kNonNegative);
   double ppmm = 20;
   app.add_option("--charuco-ppmm", ppmm, "ChArUco raster resolution, pixels per millimetre")
       ->default_val(20)
-      ->check(CLI::Range(1.0, 100.0));
+      ->check(mr::InRange(1.0, 100.0));
   app.add_option("--out", out, "Output SVG")->required();
   return mr::RunTool("mr-board", app, argc, argv, [&] {
     mr::BoardSpec b;

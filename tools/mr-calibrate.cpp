@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   sph->add_option("--radius", so.radius_m, "The sphere's radius, metres (measured with calipers)")
       ->required()
-      ->check(CLI::PositiveNumber);
+      ->check(mr::kPositive);
   sph->add_option("--circle", circle, "A first circle x,y,r px instead of the Hough transform")
       ->delimiter(',')
       ->expected(3);

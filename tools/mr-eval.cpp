@@ -38,7 +38,7 @@ int main(int argc, char** argv) {
   cmp->add_option("B", b, "Reference")->required()->check(CLI::ExistingFile);
   cmp->add_option("--region", region, "One-channel image: compare where > 0")->check(CLI::ExistingFile);
   cmp->add_option("--diff", diff, "Write |A - B| x scale (e.g. diff.png or diff.exr)");
-  cmp->add_option("--scale", scale, "Scale of the difference image")->default_val(10)->check(CLI::PositiveNumber);
+  cmp->add_option("--scale", scale, "Scale of the difference image")->default_val(10)->check(mr::kPositive);
   std::string csv, x_col, y_col, group_col, plot_out, title;
   bool linear_x = false, linear_y = false;
   CLI::App* plot =
@@ -136,7 +136,7 @@ int main(int argc, char** argv) {
       ->required()
       ->check(CLI::ExistingFile);
   merge->add_option("--video", merge_video, "Video to write (.mp4 or .avi)");
-  merge->add_option("--fps", mo.fps, "Frames per second of the video")->default_val(30)->check(CLI::PositiveNumber);
+  merge->add_option("--fps", mo.fps, "Frames per second of the video")->default_val(30)->check(mr::kPositive);
   merge->add_flag("--allow-gaps", mo.allow_gaps, "Merge even when some frames were rendered by no shard");
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
     if (merge->parsed()) {
@@ -251,9 +251,15 @@ int main(int argc, char** argv) {
       return mr::kExitOk;
     }
     mr::Image ia = mr::ReadRgbForComparison(a), ib = mr::ReadRgbForComparison(b);
+    if (ia.width() != ib.width() || ia.height() != ib.height())
+      mr::ThrowErrorAt(mr::FileLoc{a}, "image is {}x{}, the reference {} is {}x{}", ia.width(), ia.height(), b,
+                       ib.width(), ib.height());
     std::optional<mr::Image> reg;
     if (!region.empty()) {
       mr::Image r = mr::ReadImage(region);
+      if (r.width() != ia.width() || r.height() != ia.height())
+        mr::ThrowErrorAt(mr::FileLoc{region}, "region is {}x{}, the images {}x{}", r.width(), r.height(), ia.width(),
+                         ia.height());
       reg = r.channels() == 1 ? r : r.Layer(r.LayerNames().front());
     }
     mr::ImageMetrics m = mr::CompareImages(ia, ib, reg ? &*reg : nullptr);

@@ -74,8 +74,8 @@ int main(int argc, char** argv) {
   app.add_option("--max-dt", ro.max_dt, "TUM colour-depth association: largest time difference (s)")->default_val(0.02);
   app.add_option("--first", fo.first, "First frame (index in the recording)")->default_val(0);
   app.add_option("--count", fo.count, "Frames to use (-1: all)")->default_val(-1);
-  app.add_option("--stride", fo.stride, "Use every Nth frame")->default_val(1)->check(CLI::PositiveNumber);
-  app.add_option("--voxel", fo.tsdf.voxel_size, "Voxel size (m)")->default_val(0.01)->check(CLI::PositiveNumber);
+  app.add_option("--stride", fo.stride, "Use every Nth frame")->default_val(1)->check(mr::kPositive);
+  app.add_option("--voxel", fo.tsdf.voxel_size, "Voxel size (m)")->default_val(0.01)->check(mr::kPositive);
   app.add_option("--truncation", fo.tsdf.truncation, "Truncation distance (m); 0: 4 voxels, at least 1.5 cm")
       ->default_val(0);
   app.add_option("--max-weight", fo.tsdf.max_weight, "Running-average window (frames)")->default_val(128);
@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   app.add_option("--roi-scale", roi_scale, "--roi-from: the objects' bounding box scaled by this")
       ->default_val(2.0)
-      ->check(CLI::PositiveNumber);
+      ->check(mr::kPositive);
   app.add_option("--tracking-voxel", fo.tracking_voxel,
                  "With --roi/--roi-from: voxel of the whole-room volume that tracking uses (default: --voxel)")
       ->default_val(0);
@@ -113,7 +113,7 @@ int main(int argc, char** argv) {
   app.add_option("--raycast-level", fo.raycast_level,
                  "Raycast the model at this pyramid level (0: full resolution; 1: half, 4x fewer rays)")
       ->default_val(1)
-      ->check(CLI::Range(0, 2));
+      ->check(mr::InRange(0, 2));
   app.add_option("--max-lost", fo.max_lost, "Stop (keeping what is fused) after this many lost frames in a row")
       ->default_val(10);
   app.add_option("--poses", poses,
@@ -132,7 +132,7 @@ int main(int argc, char** argv) {
   app.add_option("--camera-scale", ao.camera_scale,
                  "Albedo: colour units per unit of radiance (mr-synth: truth.json's color_exposure)")
       ->default_val(1.0)
-      ->check(CLI::PositiveNumber);
+      ->check(mr::kPositive);
   app.add_flag("--no-albedo", no_albedo, "Skip the albedo pass (colour = fused voxel colour)");
   return mr::RunTool("mr-fuse", app, argc, argv, [&] {
     mr::Report& report = mr::ToolReport();

@@ -12,7 +12,7 @@ int main(int argc, char** argv) {
   mr::ConfigureApp(app, "mr-info",
                    "Says what each file that mr reads or writes is, and whether it is sound.\n"
                    "Kinds: .cameramodel (lens model, image size, field of view); images .exr .hdr .png\n"
-                   ".jpg .tif (size, layers, min/max/mean per channel, NaN/Inf counts); meshes .ply .obj\n"
+                   ".jpg .tif .pfm (size, layers, min/max/mean per channel, NaN/Inf counts); meshes .ply .obj\n"
                    ".off .stl (vertices, faces, bounds, degenerate faces); scene.json (full validation);\n"
                    "report.json; calibration boards (.json); TUM trajectories and 7-Scenes poses (.txt);\n"
                    "COLMAP text models (a folder with cameras.txt and images.txt).\n"
@@ -36,7 +36,7 @@ int main(int argc, char** argv) {
       }
       std::printf("%s: %s%s\n", fi.path.c_str(), fi.kind.c_str(), fi.sound ? "" : " (NOT SOUND)");
       for (const auto& l : fi.lines) std::printf("  %s\n", l.c_str());
-      for (const auto& p : fi.problems) std::fprintf(stderr, "mr-info: error: %s\n", p.c_str());
+      for (const auto& p : fi.problems) std::fprintf(stderr, "mr-info: error: %s\n", mr::PrintableMessage(p).c_str());
     }
     if (json) std::printf("%s\n", all.dump(2).c_str());
     mr::ToolReport().SetMetric("files", static_cast<int64_t>(files.size()));

@@ -8,6 +8,7 @@
 #include "core/image.h"
 #include "core/report.h"
 #include "eval/plot.h"
+#include "light/environment.h"
 #include "light/lights_file.h"
 #include "probe/light_extraction.h"
 
@@ -78,6 +79,7 @@ int main(int argc, char** argv) {
     {
       mr::ScopedTimer t(&report, "read");
       env = mr::ReadImage(env_file);
+      mr::CheckEnvironmentImage(env, env_file);
     }
     report.AddInput(env_file);
     const std::vector<Eigen::Vector3d> dirs = mr::SphereNormals(normals);

@@ -125,7 +125,7 @@ int main(int argc, char** argv) {
                   "With --trajectory: run COLMAP again (next seed) on a model "
                   "that does not fit, this often")
       ->default_val(3)
-      ->check(CLI::PositiveNumber);
+      ->check(mr::kPositive);
   run->add_option("--camera", camera, "Known intrinsics (PINHOLE or OPENCV4 .cameramodel), kept fixed")
       ->check(CLI::ExistingFile);
   common(run);
@@ -175,6 +175,9 @@ int main(int argc, char** argv) {
       return PrintAlignment(rep);
     } else {
       model = mr::ReadColmapText(model_dir);
+      if (model.images.empty())
+        mr::ThrowErrorAt(mr::FileLoc{(mr::fs::path(model_dir) / "images.txt").string()},
+                         "the COLMAP model has no registered images");
       rep.AddInput(model_dir);
     }
     mr::AlignColmapModel(model, ro, &rep);

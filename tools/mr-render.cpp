@@ -26,9 +26,9 @@ int main(int argc, char** argv) {
   for (const auto& m : mr::RenderMethodRegistry()) methods_help += "\n  " + m.name + ": " + m.summary;
   app.add_option("--method", method, "Rendering method (default: the scene's render.method):" + methods_help);
   auto* spp_opt =
-      app.add_option("--spp", spp, "Samples per pixel (default: the scene's render.spp)")->check(CLI::PositiveNumber);
+      app.add_option("--spp", spp, "Samples per pixel (default: the scene's render.spp)")->check(mr::kPositive);
   app.add_option("--time-budget", budget, "Seconds per frame; stops sampling when reached (0 = none)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(mr::kNonNegative)
       ->excludes(spp_opt);
   app.add_option("--frames", frames, "Frame range A:B (B exclusive; default: the scene's render.frames)");
   app.add_option("--reference", reference, "Ground truth image or pattern (e.g. truth/%05d.exr)");

@@ -22,12 +22,12 @@ int main(int argc, char** argv) {
   app.add_option("--seed", o.seed, "Random seed")->default_val(1);
   app.add_option("--object", o.object, "Virtual object: sphere, box, or a mesh file")->default_val("sphere");
   app.add_flag("--spot-light", o.spot_light, "Add a real spot light above the table (written to lights.json)");
-  app.add_option("--frames", o.frames, "Frames of the capture (default: the preset's)")->check(CLI::PositiveNumber);
+  app.add_option("--frames", o.frames, "Frames of the capture (default: the preset's)")->check(mr::kPositive);
   app.add_option("--object-material", o.object_material, "The object's material: diffuse, glossy or mirror")
       ->default_val("diffuse")
       ->check(CLI::IsMember({"diffuse", "glossy", "mirror"}));
   app.add_option("--truth-spp", o.truth_spp, "Samples per pixel of the ground truth (default: the preset's)")
-      ->check(CLI::PositiveNumber);
+      ->check(mr::kPositive);
   std::string boards, board_file;
   app.add_option(
       "--boards", boards,

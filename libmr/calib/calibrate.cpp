@@ -439,7 +439,7 @@ CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDete
   if (p.N() < o.min_views) {
     int found = 0;
     for (const auto& v : r.views) found += v.detection.found;
-    throw UsageError(
+    throw Error(
         fmt::format("{} usable views of the board ({} photographs, the board found in {}); at least {} "
                     "are needed, from different angles and covering the image",
                     p.N(), r.views.size(), found, o.min_views));
@@ -493,7 +493,7 @@ RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vecto
   const size_t instants = detections[0].size();
   for (int c = 1; c < C; ++c)
     if (detections[static_cast<size_t>(c)].size() != instants)
-      throw UsageError(
+      throw Error(
           fmt::format("camera {} has {} photographs and camera 0 has {}: a rig's cameras photograph "
                       "the board at the same instants, one photograph each",
                       c, detections[static_cast<size_t>(c)].size(), instants));
@@ -506,6 +506,8 @@ RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vecto
                                             sizes[static_cast<size_t>(c)].x(), sizes[static_cast<size_t>(c)].y(), o));
     } catch (const UsageError& e) {
       throw UsageError(fmt::format("camera {}: {}", c, e.what()));
+    } catch (const Error& e) {
+      throw Error(fmt::format("camera {}: {}", c, e.what()));
     }
     rig.stages.push_back(fmt::format("camera {} alone: {}", c, rig.cameras.back().stages.back()));
   }
@@ -531,7 +533,7 @@ RigCalibrationResult CalibrateRig(const BoardSpec& board, std::vector<std::vecto
       ++shared;
     }
     if (shared == 0)
-      throw UsageError(
+      throw Error(
           fmt::format("camera {} saw the board at no instant at which camera 0 saw it; the extrinsics "
                       "need photographs where both cameras see the whole board",
                       c));

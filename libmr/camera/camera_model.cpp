@@ -11,6 +11,7 @@ extern "C" {
 
 #include "core/error.h"
 #include "core/math.h"
+#include "core/stderr_capture.h"
 
 namespace mr {
 
@@ -178,9 +179,15 @@ CameraModel CameraModel::FromString(const std::string& text, const std::string& 
     ThrowErrorAt(FileLoc{name}, "not a text file (NUL byte at offset {})", nul);
   if (text.size() > (size_t{1} << 30)) ThrowErrorAt(FileLoc{name}, "file too large for a camera model");
   const std::string clean = DictLiteralChecker(text, name).Check();
-  // libmrcal prints its parse diagnostics to stderr and returns NULL.
+  // libmrcal prints its parse diagnostics to stderr and returns NULL: they
+  // go into the message instead of before it.
+  StderrCapture library_lines;
   std::unique_ptr<mrcal_cameramodel_t, CameramodelDeleter> cm(mrcal_read_cameramodel_string(clean.c_str(), 0));
-  if (!cm) ThrowErrorAt(FileLoc{name}, "not a valid mrcal .cameramodel (libmrcal's parser rejected it)");
+  if (!cm) {
+    const std::string printed = library_lines.Take();
+    ThrowErrorAt(FileLoc{name}, "not a valid mrcal .cameramodel (libmrcal's parser rejected it{}{})",
+                 printed.empty() ? "" : ": ", printed);
+  }
   try {
     return FromMrcal(*cm);
   } catch (const Error& e) {

@@ -63,7 +63,7 @@ void DescribeImage(const fs::path& path, FileInfo* fi) {
     bad += s.nan_count + s.inf_count;
   }
   for (const auto& [k, v] : info.attributes) fi->lines.push_back(fmt::format("  {}: {}", k, v));
-  if (bad > 0) fi->problems.push_back(fmt::format("{} NaN/Inf values", bad));
+  if (bad > 0) fi->problems.push_back(fmt::format("{}: {} NaN/Inf values", path.string(), bad));
   fi->json = {{"format", info.format},         {"width", img.width()}, {"height", img.height()},
               {"pixel_type", info.pixel_type}, {"channels", chans},    {"attributes", info.attributes}};
 }
@@ -162,9 +162,16 @@ void DescribeJson(const fs::path& path, FileInfo* fi) {
     for (const auto& v : s.virtuals) fi->lines.push_back(fmt::format("  {}: {}", v.name, v.mesh.string()));
     fi->lines.push_back(fmt::format("render: method {}, {} spp, max depth {}, seed {}", s.render.method, s.render.spp,
                                     s.render.max_depth, s.render.seed));
+    const CameraModel camera = CameraModel::Read(s.camera.model);
     const int n_frames = static_cast<int>(LoadScenePoses(s).size());
+    if (s.render.frame_begin >= n_frames)
+      ThrowErrorAt(FileLoc{path.string(), 0, 0, "render.frame_begin"}, "frame {} is past the scene's {} frames",
+                   s.render.frame_begin, n_frames);
+    const SceneInputCheck inputs =
+        CheckSceneInputs(s, camera.width(), camera.height(), s.render.frame_begin, s.render.frame_end);
     const int end = s.render.frame_end < 0 || s.render.frame_end > n_frames ? n_frames : s.render.frame_end;
     fi->lines.push_back(fmt::format("frames: {} (rendered: {}:{})", n_frames, s.render.frame_begin, end));
+    for (const std::string& w : inputs.warnings) fi->lines.push_back("warning: " + w);
     fi->lines.push_back("valid");
     fi->json = {{"virtual_objects", s.virtuals.size()},
                 {"method", s.render.method},
@@ -193,7 +200,7 @@ void Describe(const fs::path& path, FileInfo* fi) {
   const std::string fname = path.filename().string();
   if (ext == ".cameramodel") return DescribeCamera(path, fi);
   if (ext == ".exr" || ext == ".hdr" || ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" ||
-      ext == ".tiff")
+      ext == ".tiff" || ext == ".pfm")
     return DescribeImage(path, fi);
   if (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl") return DescribeMesh(path, fi);
   if (ext == ".json") return DescribeJson(path, fi);

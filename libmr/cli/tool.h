@@ -8,6 +8,7 @@
 
 #include <functional>
 #include <string>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
 
@@ -18,6 +19,17 @@ namespace mr {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitFailure = 1;
 inline constexpr int kExitUsage = 2;
+
+// Number checks for options, with messages a person reads ("--spp 0: must be
+// greater than 0"), unlike CLI11's, which print DBL_MAX in 309 digits.
+extern const CLI::Validator kPositive;         // > 0
+extern const CLI::Validator kNonNegative;      // >= 0
+CLI::Validator InRange(double lo, double hi);  // lo <= x <= hi
+
+// `s` with control bytes and bytes that are not well-formed UTF-8 written as
+// \xNN, so that a message quoting a corrupt file never sends binary to a
+// terminal; newlines, tabs and UTF-8 file names pass unchanged.
+std::string PrintableMessage(std::string_view s);
 
 // The command line as one shell-quoted string (for provenance).
 std::string JoinCommandLine(int argc, char** argv);

@@ -1,11 +1,16 @@
 #include "core/file.h"
 
+#include <fcntl.h>
 #include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
 
 #include <atomic>
 #include <fstream>
 #include <sstream>
 
+#include "core/check.h"
 #include "core/error.h"
 
 namespace mr {
@@ -37,14 +42,69 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
   }
 }
 
-void WriteTextFile(const fs::path& path, const std::string& text) {
+void WriteTextFile(const fs::path& path, std::string_view text) {
   WriteAtomically(path, [&](const fs::path& tmp) {
-    std::ofstream out(tmp, std::ios::binary);
-    if (!out) ThrowErrorAt(FileLoc{path.string()}, "cannot open for writing");
-    out.write(text.data(), static_cast<std::streamsize>(text.size()));
-    out.close();
-    if (!out) ThrowErrorAt(FileLoc{path.string()}, "write failed (disk full?)");
+    OutputFile out(tmp, path.string());
+    out.Write(text.data(), text.size());
+    out.Close();
   });
+}
+
+OutputFile::OutputFile(const fs::path& path, const std::string& name) : name_(name) {
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0666);
+  if (fd_ < 0) Fail("cannot open for writing");
+}
+
+OutputFile::~OutputFile() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void OutputFile::Fail(const char* what) {
+  const int err = errno;
+  if (fd_ >= 0) ::close(fd_);
+  fd_ = -1;
+  ThrowErrorAt(FileLoc{name_}, "{}: {}", what, std::strerror(err));
+}
+
+void OutputFile::Write(const void* data, size_t bytes) {
+  MR_CHECK(fd_ >= 0);
+  const char* p = static_cast<const char*>(data);
+  while (bytes > 0) {
+    const ssize_t n = ::write(fd_, p, bytes);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (n == 0) errno = ENOSPC;
+      Fail("write failed");
+    }
+    p += n;
+    bytes -= static_cast<size_t>(n);
+  }
+}
+
+void OutputFile::WriteAt(uint64_t offset, const void* data, size_t bytes) {
+  MR_CHECK(fd_ >= 0);
+  const char* p = static_cast<const char*>(data);
+  while (bytes > 0) {
+    const ssize_t n = ::pwrite(fd_, p, bytes, static_cast<off_t>(offset));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) {
+      if (n == 0) errno = ENOSPC;
+      Fail("write failed");
+    }
+    p += n;
+    offset += static_cast<uint64_t>(n);
+    bytes -= static_cast<size_t>(n);
+  }
+}
+
+void OutputFile::Close() {
+  MR_CHECK(fd_ >= 0);
+  const int fd = fd_;
+  fd_ = -1;
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ThrowErrorAt(FileLoc{name_}, "write failed: {}", std::strerror(err));
+  }
 }
 
 void RequireFile(const fs::path& path, const std::string& what) {

@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <string_view>
 
 namespace mr {
 
@@ -15,8 +16,28 @@ namespace fs = std::filesystem;
 // temporary is removed and `path` is untouched: no half-written output.
 void WriteAtomically(const fs::path& path, const std::function<void(const fs::path& tmp)>& write);
 
-// Atomic write of a whole string.
-void WriteTextFile(const fs::path& path, const std::string& text);
+// Atomic write of a whole string (text or bytes).
+void WriteTextFile(const fs::path& path, std::string_view text);
+
+// A file open for writing whose every write is checked: a short write, a
+// full disk (ENOSPC), a file-size limit (EFBIG; RunTool ignores SIGXFSZ so
+// that the limit arrives as this error) or a failed close throws mr::Error
+// naming `name` (the final path, not the temporary) with the system's reason.
+class OutputFile {
+ public:
+  OutputFile(const fs::path& path, const std::string& name);
+  ~OutputFile();  // closes unchecked: only reached without Close() after an error
+  OutputFile(const OutputFile&) = delete;
+  OutputFile& operator=(const OutputFile&) = delete;
+  void Write(const void* data, size_t bytes);
+  void WriteAt(uint64_t offset, const void* data, size_t bytes);  // pwrite
+  void Close();
+
+ private:
+  [[noreturn]] void Fail(const char* what);
+  int fd_ = -1;
+  std::string name_;
+};
 
 // Reads a whole file; throws mr::Error naming the file when it cannot.
 std::string ReadTextFile(const fs::path& path);

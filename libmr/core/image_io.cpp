@@ -1,4 +1,5 @@
 // Image reading and writing through OpenImageIO (kept out of public headers).
+#include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
 #include <cmath>
@@ -6,6 +7,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
+#include "core/stderr_capture.h"
 #include "core/version.h"
 
 namespace mr {
@@ -42,10 +44,12 @@ ImageFileInfo InfoFromSpec(const OIIO::ImageInput& in, const OIIO::ImageSpec& sp
 
 std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* spec) {
   RequireFile(path, "image");
+  StderrCapture library_lines;  // libpng prints its errors before OpenImageIO reports them
   auto in = OIIO::ImageInput::open(path.string());
   if (!in) {
+    const std::string printed = library_lines.Take();
     std::string err = OIIO::geterror();
-    if (err.empty()) err = "not a readable image";
+    if (err.empty()) err = printed.empty() ? "not a readable image" : printed;
     ThrowErrorAt(FileLoc{path.string()}, "cannot read image: {}", err);
   }
   *spec = in->spec();
@@ -84,9 +88,14 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   for (size_t i = 0; i < names.size(); ++i)
     if (names[i].empty()) names[i] = fmt::format("ch{}", i);
   Image img(spec.width, spec.height, names);
-  if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.data())) {
-    std::string err = in->geterror();
-    ThrowErrorAt(loc, "cannot read pixels (truncated or corrupt file?): {}", err.empty() ? "unknown error" : err);
+  {
+    StderrCapture library_lines;
+    if (!in->read_image(0, 0, 0, spec.nchannels, OIIO::TypeDesc::FLOAT, img.data())) {
+      const std::string printed = library_lines.Take();
+      std::string err = in->geterror();
+      if (err.empty()) err = printed.empty() ? "unknown error" : printed;
+      ThrowErrorAt(loc, "cannot read pixels (truncated or corrupt file?): {}", err);
+    }
   }
 
   if (IsIntegerType(spec.format)) {
@@ -193,13 +202,32 @@ ImageWriteResult WriteImage(const fs::path& path, const Image& img, const ImageW
   if (ext == ".exr") spec.attribute("compression", "zip");
   if (ext == ".jpg" || ext == ".jpeg") spec.attribute("Compression", fmt::format("jpeg:{}", options.jpeg_quality));
 
-  WriteAtomically(path, [&](const fs::path& tmp) {
-    auto out = OIIO::ImageOutput::create(tmp.string());
-    if (!out) ThrowErrorAt(loc, "cannot create image writer: {}", OIIO::geterror());
-    if (!out->open(tmp.string(), spec)) ThrowErrorAt(loc, "cannot open for writing: {}", out->geterror());
+  // Encoded in memory where the format's writer allows it (EXR, PNG, JPEG,
+  // TIFF, HDR in OpenImageIO 2.4), then written through mr's checked file
+  // writes: OpenImageIO's PNG and JPEG writers do not report a failed write,
+  // so a full disk would otherwise leave a truncated file under its final name.
+  auto out = OIIO::ImageOutput::create(path.string());
+  if (!out) ThrowErrorAt(loc, "cannot create image writer: {}", OIIO::geterror());
+  if (out->supports("ioproxy")) {
+    std::vector<unsigned char> bytes;
+    OIIO::Filesystem::IOVecOutput proxy(bytes);
+    if (!out->set_ioproxy(&proxy)) ThrowErrorAt(loc, "cannot encode in memory: {}", out->geterror());
+    if (!out->open(path.string(), spec)) ThrowErrorAt(loc, "cannot open for writing: {}", out->geterror());
     if (!out->write_image(OIIO::TypeDesc::FLOAT, pixels.data()))
       ThrowErrorAt(loc, "cannot write pixels: {}", out->geterror());
     if (!out->close()) ThrowErrorAt(loc, "cannot finish writing: {}", out->geterror());
+    out.reset();
+    WriteTextFile(path, std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size()));
+    return result;
+  }
+  out.reset();
+  WriteAtomically(path, [&](const fs::path& tmp) {
+    auto writer = OIIO::ImageOutput::create(tmp.string());
+    if (!writer) ThrowErrorAt(loc, "cannot create image writer: {}", OIIO::geterror());
+    if (!writer->open(tmp.string(), spec)) ThrowErrorAt(loc, "cannot open for writing: {}", writer->geterror());
+    if (!writer->write_image(OIIO::TypeDesc::FLOAT, pixels.data()))
+      ThrowErrorAt(loc, "cannot write pixels: {}", writer->geterror());
+    if (!writer->close()) ThrowErrorAt(loc, "cannot finish writing: {}", writer->geterror());
   });
   return result;
 }

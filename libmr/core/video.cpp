@@ -59,6 +59,7 @@ struct VideoWriter::Impl {
   fs::path path, tmp;
   cv::VideoWriter writer;
   int width = 0, height = 0;
+  int64_t frames = 0;
   bool closed = false;
 };
 
@@ -103,11 +104,27 @@ void VideoWriter::Write(const Image& img) {
       }
     }
   impl_->writer.write(m);
+  ++impl_->frames;
 }
 
 void VideoWriter::Close() {
   if (impl_->closed) return;
   impl_->writer.release();
+  // OpenCV's FFmpeg writer does not report failed writes (a full disk, a
+  // file-size limit): read the file back, and refuse one that does not hold
+  // every frame written.
+  {
+    cv::VideoCapture check(impl_->tmp.string(), cv::CAP_FFMPEG);
+    const double n = check.isOpened() ? check.get(cv::CAP_PROP_FRAME_COUNT) : -1.0;
+    if (!check.isOpened() || std::llround(n) != impl_->frames) {
+      std::error_code ignored;
+      fs::remove(impl_->tmp, ignored);
+      impl_->closed = true;
+      ThrowErrorAt(FileLoc{impl_->path.string()},
+                   "write failed: the video holds {} of the {} frames written (disk full or a file-size limit?)",
+                   check.isOpened() ? std::to_string(std::llround(n)) : std::string("none"), impl_->frames);
+    }
+  }
   std::error_code ec;
   fs::rename(impl_->tmp, impl_->path, ec);
   if (ec) ThrowErrorAt(FileLoc{impl_->path.string()}, "cannot write: {}", ec.message());

@@ -1,7 +1,8 @@
-// Mesh reading through OpenMesh, with an ASCII-PLY pre-pass that OpenMesh
-// lacks: it finds non-standard comment lines inside element data (the
-// Stanford bunny res4 has two), non-finite coordinates and out-of-range face
-// indices, and reports each with its line number.
+// Mesh reading: PLY through OpenMesh behind a strict header pass (and an
+// ASCII-PLY pre-pass that finds non-standard comment lines inside element
+// data, as the Stanford bunny res4 has, non-finite coordinates and
+// out-of-range face indices, each with its line number); OBJ, OFF and STL
+// through mr's own readers (mesh_formats.h).
 #include <OpenMesh/Core/IO/IOManager.hh>
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
@@ -14,6 +15,7 @@
 #include "core/error.h"
 #include "core/math.h"
 #include "geometry/mesh.h"
+#include "geometry/mesh_formats.h"
 
 namespace mr {
 
@@ -309,42 +311,59 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
   report.format = ext.substr(1);
   std::string text = ReadTextFile(path);
   if (text.empty()) ThrowErrorAt(loc, "empty file");
-  std::vector<char> bad_vertex;
+  detail::MeshSoup soup;
   if (ext == ".ply") {
+    std::vector<char> bad_vertex;
     PlyHeader h;
     if (!ParsePlyHeader(text, &h, name)) ThrowErrorAt(loc, "not a PLY file (no \"ply\" magic)");
     report.declared_faces = h.faces;
     report.format = h.ascii ? "ply (ascii)" : "ply (binary)";
     if (h.ascii) text = CleanAsciiPly(text, h, name, options, &report, &bad_vertex);
+    // OpenMesh's PLY parser feeds a soup importer: its halfedge meshes cannot
+    // hold the non-manifold vertices of real scans (the Stanford bunny has
+    // them) and would silently split vertices and refuse faces.
+    SoupImporter importer;
+    OpenMesh::IO::Options opt;
+    opt += OpenMesh::IO::Options::VertexNormal;
+    opt += OpenMesh::IO::Options::VertexColor;
+    opt += OpenMesh::IO::Options::VertexTexCoord;
+    std::istringstream in(text);
+    if (!OpenMesh::IO::IOManager().read(in, ext, importer, opt))
+      ThrowErrorAt(loc, "cannot parse {} (OpenMesh rejected it: corrupt or truncated?)", report.format);
+    soup.positions = std::move(importer.positions);
+    if (opt.check(OpenMesh::IO::Options::VertexNormal) && importer.has_normals)
+      soup.normals = std::move(importer.normals);
+    if (opt.check(OpenMesh::IO::Options::VertexColor) && importer.has_colors) soup.colors = std::move(importer.colors);
+    if (opt.check(OpenMesh::IO::Options::VertexTexCoord) && importer.has_uvs) soup.uvs = std::move(importer.uvs);
+    soup.faces = std::move(importer.faces);
+    soup.bad_vertex = std::move(bad_vertex);
+  } else if (ext == ".obj") {
+    soup = detail::ParseObj(text, name, options);
+  } else if (ext == ".off") {
+    soup = detail::ParseOff(text, name, options);
+  } else {
+    soup = detail::ParseStl(text, name, options);
+    report.format = soup.format;
   }
-
-  // OpenMesh's parsers feed a soup importer: its halfedge meshes cannot hold
-  // the non-manifold vertices of real scans (the Stanford bunny has them) and
-  // would silently split vertices and refuse faces.
-  SoupImporter soup;
-  OpenMesh::IO::Options opt;
-  opt += OpenMesh::IO::Options::VertexNormal;
-  opt += OpenMesh::IO::Options::VertexColor;
-  opt += OpenMesh::IO::Options::VertexTexCoord;
-  if (ext == ".stl" && text.rfind("solid", 0) != 0) opt += OpenMesh::IO::Options::Binary;
-  std::istringstream in(text);
-  if (!OpenMesh::IO::IOManager().read(in, ext, soup, opt))
-    ThrowErrorAt(loc, "cannot parse {} (OpenMesh rejected it: corrupt or truncated?)", report.format);
   if (soup.positions.empty()) ThrowErrorAt(loc, "mesh has no vertices");
+  for (std::string& n : soup.notes) report.notes.push_back(std::move(n));
 
   Mesh mesh;
   mesh.positions = std::move(soup.positions);
-  if (bad_vertex.size() != mesh.positions.size()) bad_vertex.assign(mesh.positions.size(), 0);
+  std::vector<char>& bad_vertex = soup.bad_vertex;
+  if (bad_vertex.size() != mesh.positions.size()) bad_vertex.resize(mesh.positions.size(), 0);
+  report.nonfinite_vertices = 0;
   for (size_t i = 0; i < mesh.positions.size(); ++i) {
-    if (mesh.positions[i].allFinite()) continue;
-    if (options.nonfinite == BadVertices::kReject) ThrowErrorAt(loc, "vertex {} has a non-finite coordinate", i);
-    if (!bad_vertex[i]) ++report.nonfinite_vertices;
-    bad_vertex[i] = 1;
+    if (!bad_vertex[i] && !mesh.positions[i].allFinite()) {
+      if (options.nonfinite == BadVertices::kReject) ThrowErrorAt(loc, "vertex {} has a non-finite coordinate", i);
+      bad_vertex[i] = 1;
+    }
+    report.nonfinite_vertices += bad_vertex[i] ? 1 : 0;
   }
+  mesh.normals = std::move(soup.normals);
+  mesh.colors = std::move(soup.colors);
+  mesh.uvs = std::move(soup.uvs);
   const size_t nv = mesh.positions.size();
-  if (opt.check(OpenMesh::IO::Options::VertexNormal) && soup.has_normals) mesh.normals = std::move(soup.normals);
-  if (opt.check(OpenMesh::IO::Options::VertexColor) && soup.has_colors) mesh.colors = std::move(soup.colors);
-  if (opt.check(OpenMesh::IO::Options::VertexTexCoord) && soup.has_uvs) mesh.uvs = std::move(soup.uvs);
   mesh.normals.resize(mesh.normals.empty() ? 0 : nv, Eigen::Vector3f::Zero());
   mesh.colors.resize(mesh.colors.empty() ? 0 : nv, Eigen::Vector3f::Zero());
   mesh.uvs.resize(mesh.uvs.empty() ? 0 : nv, Eigen::Vector2f::Zero());

@@ -9,12 +9,28 @@
 
 namespace mr {
 
+void CheckEnvironmentImage(const Image& img, const std::string& name) {
+  const int r = img.ChannelIndex("R"), g = img.ChannelIndex("G"), b = img.ChannelIndex("B");
+  if (r < 0 || g < 0 || b < 0) ThrowErrorAt(FileLoc{name}, "environment map needs R, G and B channels");
+  if (img.width() < 2 || img.height() < 2) ThrowErrorAt(FileLoc{name}, "environment map must be at least 2x2 pixels");
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      for (int k : {r, g, b}) {
+        const float v = img.at(x, y, k);
+        if (!std::isfinite(v) || v < 0)
+          ThrowErrorAt(FileLoc{name},
+                       "pixel ({}, {}) has {} radiance {} in channel {}; an environment map must be "
+                       "finite and non-negative",
+                       x, y, std::isfinite(v) ? "negative" : "non-finite", v,
+                       img.channel_names()[static_cast<size_t>(k)]);
+      }
+}
+
 EnvironmentMap::EnvironmentMap(const Image& img, const std::string& name, double scale,
                                const Eigen::Matrix3d& world_from_env)
     : width_(img.width()), height_(img.height()), world_from_env_(world_from_env) {
+  CheckEnvironmentImage(img, name);
   const int r = img.ChannelIndex("R"), g = img.ChannelIndex("G"), b = img.ChannelIndex("B");
-  if (r < 0 || g < 0 || b < 0) ThrowErrorAt(FileLoc{name}, "environment map needs R, G and B channels");
-  if (width_ < 2 || height_ < 2) ThrowErrorAt(FileLoc{name}, "environment map must be at least 2x2 pixels");
   if (!(scale >= 0) || !std::isfinite(scale)) ThrowErrorAt(FileLoc{name}, "environment scale must be finite and >= 0");
   radiance_.resize(static_cast<size_t>(width_) * height_);
   solid_angle_.resize(radiance_.size());
@@ -23,13 +39,7 @@ EnvironmentMap::EnvironmentMap(const Image& img, const std::string& name, double
   CompensatedSum<double> sum;
   for (int y = 0; y < height_; ++y)
     for (int x = 0; x < width_; ++x) {
-      Eigen::Vector3f c(img.at(x, y, r), img.at(x, y, g), img.at(x, y, b));
-      for (int k = 0; k < 3; ++k)
-        if (!std::isfinite(c[k]) || c[k] < 0)
-          ThrowErrorAt(FileLoc{name},
-                       "pixel ({}, {}) has {} radiance {} in channel {}; an environment map must be "
-                       "finite and non-negative",
-                       x, y, std::isfinite(c[k]) ? "negative" : "non-finite", c[k], "RGB"[k]);
+      const Eigen::Vector3f c(img.at(x, y, r), img.at(x, y, g), img.at(x, y, b));
       const size_t i = static_cast<size_t>(y) * width_ + x;
       radiance_[i] = c * static_cast<float>(scale);
       solid_angle_[i] = LatLongPixelSolidAngle(x, y, width_, height_);

@@ -18,6 +18,11 @@
 
 namespace mr {
 
+// Throws mr::Error naming `name` unless `img` is an environment map mr can
+// light with: R, G and B channels, at least 2x2 pixels, every value finite
+// and non-negative (the first bad pixel is named).
+void CheckEnvironmentImage(const Image& img, const std::string& name);
+
 class EnvironmentMap {
  public:
   EnvironmentMap() = default;

@@ -12,6 +12,7 @@
 #include "render/frame_io.h"
 #include "render/method.h"
 #include "render/render_scene.h"
+#include "scene/frames.h"
 
 namespace mr {
 
@@ -22,9 +23,6 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const int spp = o.spp > 0 ? o.spp : scene.render.spp;
   const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
   const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (!fs::is_directory(out_dir)) ThrowErrorAt(FileLoc{out_dir.string()}, "cannot create the output folder");
 
   RenderScene rs;
   CameraModel camera;
@@ -39,9 +37,24 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const int n_frames = static_cast<int>(poses.size());
   int begin = o.frame_begin >= 0 ? o.frame_begin : scene.render.frame_begin;
   int end = o.frame_end >= 0 ? o.frame_end : scene.render.frame_end;
+  if (begin >= n_frames)
+    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  {
+    // Every input of every frame to render, checked before the first frame.
+    ScopedTimer t(report, "check inputs");
+    for (const std::string& w : CheckSceneInputs(scene, camera.width(), camera.height(), begin, end).warnings) {
+      spdlog::warn("{}", w);
+      report->Warn(w);
+    }
+  }
   if (end < 0 || end > n_frames) end = n_frames;
   if (begin >= end)
     throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  // The output folder only once every input is known to be sound: a refused
+  // run leaves nothing behind, not even an empty folder.
+  std::error_code ec;
+  fs::create_directories(out_dir, ec);
+  if (!fs::is_directory(out_dir)) ThrowErrorAt(FileLoc{out_dir.string()}, "cannot create the output folder");
   const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
   const bool shard = begin > 0 || end < n_frames;
   report->SetMetric("shard", Json{{"begin", begin}, {"end", end}, {"scene_frames", n_frames}});

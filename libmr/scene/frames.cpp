@@ -124,4 +124,69 @@ std::vector<Rigid3> LoadScenePoses(const Scene& s) {
   return world_from_cam;
 }
 
+SceneInputCheck CheckSceneInputs(const Scene& s, int width, int height, int begin, int end) {
+  SceneInputCheck out;
+  const std::string camera_name = s.camera.model.string();
+  if (width <= 0 || height <= 0)
+    ThrowErrorAt(FileLoc{camera_name}, "camera is {}x{} pixels: no image to render", width, height);
+  const int64_t pixels = static_cast<int64_t>(width) * height;
+  if (pixels > kMaxCameraPixels)
+    ThrowErrorAt(FileLoc{camera_name}, "camera is {}x{} = {:.3g} pixels, more than mr renders ({:.0e}; corrupt model?)",
+                 width, height, static_cast<double>(pixels), static_cast<double>(kMaxCameraPixels));
+  out.poses = static_cast<int>(LoadScenePoses(s).size());
+  const std::string poses_name = s.camera.poses ? s.camera.poses->string() : std::string("the scene");
+  if (end < 0) end = out.poses;
+  if (end > out.poses) {
+    out.warnings.push_back(fmt::format("frames {}:{} asked for, but {} has {} poses: frames {}:{} are rendered", begin,
+                                       end, poses_name, out.poses, begin, out.poses));
+    end = out.poses;
+  }
+  // Every frame of a pattern in [begin, end): present, and of the camera's size.
+  auto check_pattern = [&](const fs::path& pattern, const char* what) {
+    std::error_code ec;
+    for (int f = begin; f < end; ++f) {
+      const fs::path p = FramePath(pattern, f);
+      if (!fs::is_regular_file(p, ec))
+        ThrowErrorAt(FileLoc{p.string()}, "{} {} is missing ({} names {} frames from {}, one per pose)", what, f,
+                     pattern.string(), end - begin, begin);
+      int w = 0, h = 0;
+      ReadImageHeader(p, &w, &h, nullptr);
+      if (w != width || h != height)
+        ThrowErrorAt(FileLoc{p.string()}, "{} {} is {}x{}, the camera model {} says {}x{}", what, f, w, h, camera_name,
+                     width, height);
+    }
+  };
+  if (s.camera.frames && !s.camera.frames_are_video) {
+    const fs::path& pattern = *s.camera.frames;
+    check_pattern(pattern, "frame");
+    if (pattern.string().find('%') != std::string::npos) {
+      std::error_code ec;
+      int n = end;
+      while (n < end + 1000000 && fs::exists(FramePath(pattern, n), ec)) ++n;
+      out.frames = n;
+      if (n > out.poses)
+        out.warnings.push_back(
+            fmt::format("{} has frames past the {} poses of {}: frames {} and later are not rendered", pattern.string(),
+                        out.poses, poses_name, out.poses));
+    } else {
+      out.frames = 1;
+    }
+  } else if (s.camera.frames) {
+    VideoReader video(*s.camera.frames);
+    out.frames = video.frame_count();
+    if (video.width() != width || video.height() != height)
+      ThrowErrorAt(FileLoc{s.camera.frames->string()}, "video is {}x{}, the camera model {} says {}x{}", video.width(),
+                   video.height(), camera_name, width, height);
+    if (out.frames < end)
+      ThrowErrorAt(FileLoc{s.camera.frames->string()},
+                   "video holds {} frames, but frames {}:{} are to be rendered ({} has {} poses)", out.frames, begin,
+                   end, poses_name, out.poses);
+    if (out.frames > out.poses)
+      out.warnings.push_back(fmt::format("{} holds {} frames, {} has {} poses: frames {} and later are not rendered",
+                                         s.camera.frames->string(), out.frames, poses_name, out.poses, out.poses));
+  }
+  if (s.reference) check_pattern(*s.reference, "reference frame");
+  return out;
+}
+
 }  // namespace mr

@@ -2,6 +2,7 @@
 // camera poses the scene names (docs/formats.md, scene.json "camera").
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -29,5 +30,26 @@ bool ParseFrameRange(const std::string& text, int* begin, int* end, std::string*
 // The camera poses (world_from_cam) of the scene's frames; one identity pose
 // when the scene names none.
 std::vector<Rigid3> LoadScenePoses(const Scene& scene);
+
+// The largest camera mr renders: 1e8 pixels (a 12K cinema frame is 8e7).  A
+// larger imager size is a corrupt or mistaken camera model, refused before
+// any buffer is allocated.
+inline constexpr int64_t kMaxCameraPixels = 100'000'000;
+
+// What CheckSceneInputs found.
+struct SceneInputCheck {
+  int poses = 0;
+  int frames = -1;                    // frames the scene's camera.frames holds; -1 when it names none
+  std::vector<std::string> warnings;  // frames and poses that differ in number
+};
+
+// Checks a scene's inputs before any frame is rendered, so that a bad one
+// fails at once instead of mid-render with earlier frames written: the
+// camera's size (at most kMaxCameraPixels); every frame of camera.frames
+// (pattern) and of the reference pattern in [begin, end) exists and has the
+// camera's size; a video holds a frame for every pose in [begin, end).
+// `end` < 0 means every pose.  Throws mr::Error naming the first bad file;
+// more frames than poses, or a range cut by the poses, are warnings.
+SceneInputCheck CheckSceneInputs(const Scene& scene, int camera_width, int camera_height, int begin = 0, int end = -1);
 
 }  // namespace mr

@@ -379,10 +379,10 @@ void WriteTransfer(const fs::path& path, const VertexTransfer& t) {
   MR_CHECK(static_cast<int64_t>(t.data.size()) == h.vertex_count * h.coefficients);
   const std::vector<char> head = EncodeHeader(h);
   WriteAtomically(path, [&](const fs::path& tmp) {
-    std::ofstream f(tmp, std::ios::binary);
-    f.write(head.data(), static_cast<std::streamsize>(head.size()));
-    f.write(reinterpret_cast<const char*>(t.data.data()), static_cast<std::streamsize>(t.data.size() * sizeof(float)));
-    if (!f) ThrowErrorAt(FileLoc{path.string()}, "write failed");
+    OutputFile f(tmp, path.string());
+    f.Write(head.data(), head.size());
+    f.Write(t.data.data(), t.data.size() * sizeof(float));
+    f.Close();
   });
 }
 
@@ -390,22 +390,18 @@ TransferHeader ComputeTransferToFile(const Mesh& mesh, const TransferOptions& op
                                      TransferStats* stats, const std::vector<char>* needed, int valid_spp) {
   TransferHeader header;
   WriteAtomically(path, [&](const fs::path& tmp) {
-    std::ofstream f(tmp, std::ios::binary);
-    f.write(std::vector<char>(kHeaderSize, 0).data(), kHeaderSize);  // the header once its fields are known
+    OutputFile f(tmp, path.string());
+    f.Write(std::vector<char>(kHeaderSize, 0).data(), kHeaderSize);  // the header once its fields are known
     const ChunkSink sink = [&](const float* data, int64_t vertices) {
-      f.write(reinterpret_cast<const char*>(data),
-              static_cast<std::streamsize>(vertices * TransferCoefficients(options) * 4));
+      f.Write(data, static_cast<size_t>(vertices * TransferCoefficients(options)) * sizeof(float));
     };
     VertexTransfer t = ComputeTransferImpl(mesh, options, stats, needed, &sink);
     t.header.valid_spp = valid_spp;
     header = t.header;
-    if (!t.data.empty())  // not streamed (bounces)
-      f.write(reinterpret_cast<const char*>(t.data.data()),
-              static_cast<std::streamsize>(t.data.size() * sizeof(float)));
+    if (!t.data.empty()) f.Write(t.data.data(), t.data.size() * sizeof(float));  // not streamed (bounces)
     const std::vector<char> head = EncodeHeader(header);
-    f.seekp(0);
-    f.write(head.data(), static_cast<std::streamsize>(head.size()));
-    if (!f) ThrowErrorAt(FileLoc{path.string()}, "write failed");
+    f.WriteAt(0, head.data(), head.size());
+    f.Close();
   });
   return header;
 }

@@ -334,7 +334,7 @@ TEST(Calibrate, ViewsWithTooFewCornersAreLeftOutWithAReason) {
   try {
     CalibrateCamera(b, {few, few, few}, 640, 480, CalibrationOptions());
     ADD_FAILURE() << "accepted";
-  } catch (const UsageError& e) {
+  } catch (const Error& e) {  // bad data (exit 1), not a usage error
     EXPECT_NE(std::string(e.what()).find("0 usable views of the board (3 photographs, the board found in 3)"),
               std::string::npos)
         << e.what();
@@ -349,7 +349,7 @@ TEST(Calibrate, TooFewViewsIsAClearRefusal) {
   try {
     CalibrateCamera(b, {missing, missing}, 640, 480, CalibrationOptions());
     ADD_FAILURE() << "accepted";
-  } catch (const UsageError& e) {
+  } catch (const Error& e) {  // bad data (exit 1), not a usage error
     EXPECT_NE(std::string(e.what()).find("0 usable views of the board (2 photographs, the board found in 0)"),
               std::string::npos)
         << e.what();

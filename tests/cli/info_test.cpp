@@ -3,11 +3,24 @@
 #include <gtest/gtest.h>
 
 #include "camera/camera_model.h"
+#include "cli/tool.h"
 #include "core/image.h"
 #include "test_util.h"
 
 namespace mr {
 namespace {
+
+// Messages quoting a corrupt file never send binary to a terminal; UTF-8 file
+// names, newlines and tabs pass unchanged.
+TEST(Tool, PrintableMessageEscapesBinaryButKeepsUtf8) {
+  EXPECT_EQ(PrintableMessage("plain: text\tand\nlines"), "plain: text\tand\nlines");
+  EXPECT_EQ(PrintableMessage("ünïcødé.obj € \xf0\x9f\x98\x80"), "ünïcødé.obj € \xf0\x9f\x98\x80");
+  EXPECT_EQ(PrintableMessage(std::string("a\x01\x1b[31mred\xff\xfe\x7f", 13)), "a\\x01\\x1b[31mred\\xff\\xfe\\x7f");
+  EXPECT_EQ(PrintableMessage(std::string("nul\0", 4)), "nul\\x00");
+  EXPECT_EQ(PrintableMessage("\xc3"), "\\xc3");                    // a cut sequence
+  EXPECT_EQ(PrintableMessage("\xc0\xaf"), "\\xc0\\xaf");           // an overlong '/'
+  EXPECT_EQ(PrintableMessage("\xed\xa0\x80"), "\\xed\\xa0\\x80");  // a surrogate
+}
 
 TEST(Info, DescribesEveryKindAndFlagsUnsoundFiles) {
   test::TempDir dir;

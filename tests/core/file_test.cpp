@@ -1,6 +1,11 @@
 #include "core/file.h"
 
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <csignal>
 
 #include "core/error.h"
 #include "test_util.h"
@@ -21,6 +26,49 @@ TEST(File, AtomicWriteLeavesNothingWhenTheWriterFails) {
   EXPECT_EQ(dir.FileCount(), 1u);                 // temporary removed
   WriteTextFile(dir / "a.txt", "new");
   EXPECT_EQ(ReadTextFile(dir / "a.txt"), "new");
+}
+
+// A full disk: every write is checked, and the message names the file and
+// gives the system's reason.
+TEST(File, FullDiskIsAnErrorNamingTheFile) {
+  if (!fs::exists("/dev/full")) GTEST_SKIP() << "/dev/full is absent";
+  try {
+    OutputFile out("/dev/full", "out.bin");
+    const std::string block(1 << 16, 'x');
+    for (int i = 0; i < 4; ++i) out.Write(block.data(), block.size());
+    out.Close();
+    ADD_FAILURE() << "a write to /dev/full succeeded";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("out.bin: write failed: No space left on device"), std::string::npos)
+        << e.what();
+  }
+}
+
+// A file-size limit (ulimit -f) with SIGXFSZ ignored, as every tool runs:
+// the write fails with EFBIG, the temporary is removed, the old file stays.
+// In a child process, so that the limit does not outlive the test.
+TEST(File, FileSizeLimitIsAnErrorAndLeavesNothing) {
+  test::TempDir dir;
+  WriteTextFile(dir / "a.txt", "old");
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    std::signal(SIGXFSZ, SIG_IGN);
+    rlimit limit{4096, 4096};
+    setrlimit(RLIMIT_FSIZE, &limit);
+    try {
+      WriteTextFile(dir / "a.txt", std::string(100000, 'y'));
+    } catch (const Error& e) {
+      _exit(std::string(e.what()).find("a.txt: write failed: File too large") != std::string::npos ? 0 : 3);
+    }
+    _exit(2);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status)) << "killed by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "2: no error; 3: the wrong message";
+  EXPECT_EQ(ReadTextFile(dir / "a.txt"), "old");
+  EXPECT_EQ(dir.FileCount(), 1u);
 }
 
 TEST(File, TemporaryKeepsTheExtension) {

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <fstream>
 
 #include "core/error.h"
@@ -131,6 +132,142 @@ TEST(Mesh, ObjOffStlLoad) {
   EXPECT_EQ(ReadMesh(dir / "a.obj").triangle_count(), 2u);
   EXPECT_EQ(ReadMesh(dir / "a.off").triangle_count(), 2u);
   EXPECT_EQ(ReadMesh(dir / "a.stl").triangle_count(), 1u);
+}
+
+// Regressions (issue: the mesh readers' crash and hangs).  Each of these
+// aborted inside OpenMesh, grew without bound, or hung: now each is one error
+// naming the file (and line), reached after reading the file once.  A
+// regression shows as an abort, or as the test running past CTest's timeout.
+TEST(Mesh, ObjFaceCornerWithoutVertexIndexIsAnError) {
+  test::TempDir dir;
+  Write(dir / "a.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf /1 2 3\n");
+  EXPECT_NE(ErrorOf(dir / "a.obj").find("a.obj:4: face corner \"/1\" has no vertex index"), std::string::npos)
+      << ErrorOf(dir / "a.obj");
+  for (const char* face : {"f 1 2 x", "f 1 2 0", "f 1 2 4", "f 1 2 -4", "f 1/2 2 3", "f 1//9 2 3", "f 1/// 2 3",
+                           "f 1 2", "f 1/2/3/4 2 3"}) {
+    Write(dir / "b.obj", std::string("v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\n") + face + "\n");
+    EXPECT_NE(ErrorOf(dir / "b.obj").find("b.obj:5: "), std::string::npos) << face << ": " << ErrorOf(dir / "b.obj");
+  }
+}
+
+TEST(Mesh, ObjVertexThatDoesNotParseIsAnErrorAtItsLine) {
+  test::TempDir dir;
+  // Dropped silently before, shifting every later index (4 vertices, wrong area).
+  Write(dir / "n.obj", "v 0 0 0\nv nan 0 0\nv 0 1 0\nv 1 1 0\nv 2 2 2\nf 1 3 4\n");
+  EXPECT_NE(ErrorOf(dir / "n.obj").find("n.obj:2: vertex 2 has a non-finite coordinate (\"nan\")"), std::string::npos)
+      << ErrorOf(dir / "n.obj");
+  Write(dir / "x.obj", "v 0 0 0\nv 1 zero 0\nv 0 1 0\nf 1 2 3\n");
+  EXPECT_NE(ErrorOf(dir / "x.obj").find("x.obj:2: vertex 2: \"zero\" is not a number"), std::string::npos)
+      << ErrorOf(dir / "x.obj");
+  Write(dir / "s.obj", "v 0 0\n");
+  EXPECT_NE(ErrorOf(dir / "s.obj").find("s.obj:1: vertex 1: expected"), std::string::npos) << ErrorOf(dir / "s.obj");
+  // Dropping faces instead, when asked: the vertex keeps its index.
+  MeshReadOptions drop;
+  drop.nonfinite = BadVertices::kDropFaces;
+  Write(dir / "d.obj", "v 0 0 0\nv nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 3 4\nf 1 2 3\n");
+  MeshReadReport rep;
+  const Mesh m = ReadMesh(dir / "d.obj", drop, &rep);
+  EXPECT_EQ(m.vertex_count(), 4u);
+  ASSERT_EQ(m.triangle_count(), 1u);
+  EXPECT_EQ(m.triangles[0], Eigen::Vector3i(0, 2, 3));
+  EXPECT_EQ(rep.nonfinite_vertices, 1);
+  EXPECT_EQ(rep.faces_dropped_for_nonfinite, 1);
+}
+
+TEST(Mesh, ObjIndicesAttributesAndIgnoredLines) {
+  test::TempDir dir;
+  // Negative (relative) indices, v/vt/vn corners, comments, a continued line,
+  // groups and materials (ignored, counted), CRLF line ends.
+  Write(dir / "a.obj",
+        "# a quad\r\nmtllib a.mtl\r\no quad\r\nv 0 0 0\r\nv 1 0 0 1\r\nv 1 1 0\r\nv 0 1 0 0.5 0.25 1\r\n"
+        "vt 0 0\r\nvt 1 1\r\nvn 0 0 1\r\nusemtl red\r\ng g1\r\nf -4/1/1 -3/1/1 \\\r\n -2/2/1 -1//1 # the quad\r\n");
+  MeshReadReport rep;
+  const Mesh m = ReadMesh(dir / "a.obj", {}, &rep);
+  EXPECT_EQ(m.vertex_count(), 4u);
+  ASSERT_EQ(m.triangle_count(), 2u);
+  EXPECT_EQ(m.triangles[0], Eigen::Vector3i(0, 1, 2));
+  EXPECT_EQ(m.triangles[1], Eigen::Vector3i(0, 2, 3));
+  ASSERT_EQ(m.uvs.size(), 4u);
+  EXPECT_EQ(m.uvs[2], Eigen::Vector2f(1, 1));
+  ASSERT_EQ(m.normals.size(), 4u);
+  EXPECT_EQ(m.normals[3], Eigen::Vector3f(0, 0, 1));
+  ASSERT_EQ(m.colors.size(), 4u);
+  EXPECT_EQ(m.colors[3], Eigen::Vector3f(0.5f, 0.25f, 1));
+  std::string notes;
+  for (const auto& n : rep.notes) notes += n + "\n";
+  EXPECT_NE(notes.find("ignored 1 \"usemtl\" line"), std::string::npos) << notes;
+  EXPECT_NE(notes.find("ignored 1 \"g\" line"), std::string::npos) << notes;
+}
+
+TEST(Mesh, OffCountsAreCheckedAgainstTheFileBeforeAllocating) {
+  test::TempDir dir;
+  Write(dir / "x.off", "hello\n");
+  EXPECT_NE(ErrorOf(dir / "x.off").find("x.off:1: not an OFF file"), std::string::npos) << ErrorOf(dir / "x.off");
+  Write(dir / "big.off", "OFF\n99999999999 1 0\n");
+  EXPECT_NE(ErrorOf(dir / "big.off").find("big.off:2: header declares 99999999999 vertices"), std::string::npos)
+      << ErrorOf(dir / "big.off");
+  Write(dir / "faces.off", "OFF\n3 2000000000 0\n0 0 0\n1 0 0\n0 1 0\n");
+  EXPECT_NE(ErrorOf(dir / "faces.off").find("2000000000 faces, more than the"), std::string::npos)
+      << ErrorOf(dir / "faces.off");
+  Write(dir / "neg.off", "OFF\n-3 1 0\n");
+  EXPECT_NE(ErrorOf(dir / "neg.off").find("bad vertex count \"-3\""), std::string::npos) << ErrorOf(dir / "neg.off");
+  Write(dir / "idx.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n");
+  EXPECT_NE(ErrorOf(dir / "idx.off").find("idx.off:6: face 0 uses vertex \"3\", but there are 3 vertices"),
+            std::string::npos)
+      << ErrorOf(dir / "idx.off");
+  Write(dir / "nan.off", "OFF\n3 1 0\n0 0 0\n1 inf 0\n0 1 0\n3 0 1 2\n");
+  EXPECT_NE(ErrorOf(dir / "nan.off").find("nan.off:4: vertex 1 has a non-finite coordinate"), std::string::npos)
+      << ErrorOf(dir / "nan.off");
+  Write(dir / "trail.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n3 0 1 2\n");
+  EXPECT_NE(ErrorOf(dir / "trail.off").find("trailing data"), std::string::npos) << ErrorOf(dir / "trail.off");
+  // Counts on the OFF line, comments, and a coloured variant.
+  Write(dir / "c.off",
+        "COFF 3 1 0 # counts on the first line\n0 0 0 255 0 0 255\n1 0 0 0 255 0 255\n"
+        "0 1 0 0 0 255 255\n3 0 1 2\n");
+  const Mesh m = ReadMesh(dir / "c.off");
+  EXPECT_EQ(m.triangle_count(), 1u);
+  ASSERT_EQ(m.colors.size(), 3u);
+  EXPECT_EQ(m.colors[1], Eigen::Vector3f(0, 1, 0));
+}
+
+TEST(Mesh, StlHeadersAreCheckedAgainstTheFileSize) {
+  test::TempDir dir;
+  // The first 200 bytes of a text file, named .stl: neither ASCII STL nor a
+  // binary one whose declared size matches.
+  std::string text;
+  while (text.size() < 200) text += "Lorem ipsum dolor sit amet, consectetur adipiscing elit. ";
+  Write(dir / "t.stl", text.substr(0, 200));
+  EXPECT_NE(ErrorOf(dir / "t.stl").find("t.stl: binary STL header declares"), std::string::npos)
+      << ErrorOf(dir / "t.stl");
+  // A binary STL claiming 4e9 triangles in 84 bytes.
+  std::string bin(84, '\0');
+  const uint32_t count = 4000000000u;
+  std::memcpy(&bin[80], &count, 4);
+  Write(dir / "b.stl", bin);
+  EXPECT_NE(ErrorOf(dir / "b.stl").find("declares 4000000000 triangles"), std::string::npos) << ErrorOf(dir / "b.stl");
+  // A well-formed binary STL of two triangles sharing an edge: corners welded.
+  std::string two(84, '\0');
+  const uint32_t n2 = 2;
+  std::memcpy(&two[80], &n2, 4);
+  const float tris[2][12] = {{0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 0}, {0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 0}};
+  for (const auto& t : tris) {
+    two.append(reinterpret_cast<const char*>(t), 48);
+    two.append(2, '\0');
+  }
+  Write(dir / "two.stl", two);
+  MeshReadReport rep;
+  const Mesh m = ReadMesh(dir / "two.stl", {}, &rep);
+  EXPECT_EQ(m.vertex_count(), 4u);
+  EXPECT_EQ(m.triangle_count(), 2u);
+  EXPECT_EQ(rep.format, "stl (binary)");
+  // ASCII: a malformed facet names its line.
+  Write(dir / "a.stl", "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0\n");
+  EXPECT_NE(ErrorOf(dir / "a.stl").find("a.stl:5: expected \"vertex x y z\""), std::string::npos)
+      << ErrorOf(dir / "a.stl");
+  Write(dir / "c.stl",
+        "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+        "endloop\nendfacet\n");
+  EXPECT_NE(ErrorOf(dir / "c.stl").find("truncated: no \"endsolid\""), std::string::npos) << ErrorOf(dir / "c.stl");
 }
 
 TEST(Mesh, StanfordMeshesLoadWithEveryFace) {

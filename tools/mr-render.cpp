@@ -32,6 +32,10 @@ int main(int argc, char** argv) {
       ->excludes(spp_opt);
   app.add_option("--frames", frames, "Frame range A:B (B exclusive; default: the scene's render.frames)");
   app.add_option("--reference", reference, "Ground truth image or pattern (e.g. truth/%05d.exr)");
+  bool resume = false;
+  app.add_flag("--resume", resume,
+               "Keep the frames an earlier (killed) run with the same settings completed in the output folder, and "
+               "render from the first missing one; the outputs equal one uninterrupted run's");
   return mr::RunTool("mr-render", app, argc, argv, [&] {
     mr::Scene scene = mr::ReadScene(scene_file);
     mr::RenderOptions o;
@@ -47,6 +51,7 @@ int main(int argc, char** argv) {
     }
     if (!reference.empty()) o.reference = reference;
     o.out_dir = out;
+    o.resume = resume;
     o.command_line = mr::JoinCommandLine(argc, argv);
     mr::RunRenderJob(scene, o, &mr::ToolReport());
     return mr::kExitOk;

@@ -1,9 +1,11 @@
 #include "core/file.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 
 #include <atomic>
@@ -40,6 +42,22 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
     fs::remove(tmp, ignored);
     throw;
   }
+}
+
+int RemoveStaleTemporaries(const fs::path& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) return 0;
+  int removed = 0;
+  for (const auto& e : fs::directory_iterator(dir, ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(".mr-tmp-", 0) != 0) continue;
+    const long pid = std::strtol(name.c_str() + 8, nullptr, 10);
+    if (pid <= 0 || pid == getpid()) continue;
+    if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
+    std::error_code rm;
+    if (fs::remove(e.path(), rm)) ++removed;
+  }
+  return removed;
 }
 
 void WriteTextFile(const fs::path& path, std::string_view text) {

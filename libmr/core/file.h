@@ -16,6 +16,12 @@ namespace fs = std::filesystem;
 // temporary is removed and `path` is untouched: no half-written output.
 void WriteAtomically(const fs::path& path, const std::function<void(const fs::path& tmp)>& write);
 
+// Removes the temporaries (".mr-tmp-PID-...") that runs killed before they
+// could clean up (SIGKILL, power loss) left in `dir`: those whose process no
+// longer exists.  Returns how many were removed.  A running process's
+// temporaries are left alone.
+int RemoveStaleTemporaries(const fs::path& dir);
+
 // Atomic write of a whole string (text or bytes).
 void WriteTextFile(const fs::path& path, std::string_view text);
 

@@ -202,13 +202,14 @@ ImageWriteResult WriteImage(const fs::path& path, const Image& img, const ImageW
   if (ext == ".exr") spec.attribute("compression", "zip");
   if (ext == ".jpg" || ext == ".jpeg") spec.attribute("Compression", fmt::format("jpeg:{}", options.jpeg_quality));
 
-  // Encoded in memory where the format's writer allows it (EXR, PNG, JPEG,
-  // TIFF, HDR in OpenImageIO 2.4), then written through mr's checked file
-  // writes: OpenImageIO's PNG and JPEG writers do not report a failed write,
-  // so a full disk would otherwise leave a truncated file under its final name.
+  // Every format but TIFF is encoded in memory, then written through mr's
+  // checked file writes: OpenImageIO 2.4's writers do not report a failed
+  // write (a full disk left a truncated PNG and an unreadable EXR under their
+  // final names).  libtiff cannot write through a memory proxy: a TIFF is
+  // written to the temporary file and read back whole before it is renamed.
   auto out = OIIO::ImageOutput::create(path.string());
   if (!out) ThrowErrorAt(loc, "cannot create image writer: {}", OIIO::geterror());
-  if (out->supports("ioproxy")) {
+  if (ext != ".tif" && ext != ".tiff" && out->supports("ioproxy")) {
     std::vector<unsigned char> bytes;
     OIIO::Filesystem::IOVecOutput proxy(bytes);
     if (!out->set_ioproxy(&proxy)) ThrowErrorAt(loc, "cannot encode in memory: {}", out->geterror());
@@ -228,6 +229,14 @@ ImageWriteResult WriteImage(const fs::path& path, const Image& img, const ImageW
     if (!writer->write_image(OIIO::TypeDesc::FLOAT, pixels.data()))
       ThrowErrorAt(loc, "cannot write pixels: {}", writer->geterror());
     if (!writer->close()) ThrowErrorAt(loc, "cannot finish writing: {}", writer->geterror());
+    writer.reset();
+    try {
+      ImageReadOptions check;
+      check.nonfinite = NonFinite::kAllow;
+      ReadImage(tmp, check);
+    } catch (const Error& e) {
+      ThrowErrorAt(loc, "write failed: the file written does not read back ({}; disk full?)", e.message());
+    }
   });
   return result;
 }

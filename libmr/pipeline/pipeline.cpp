@@ -683,7 +683,18 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
     fs::create_directories(p.work / ".mr-pipeline", ec);
     fs::create_directories(p.work / "reports", ec);
     fs::create_directories(p.work / "logs", ec);
-    if (!fs::is_directory(p.work / "logs")) ThrowErrorAt(FileLoc{p.work.string()}, "cannot create the work folder");
+    if (!fs::is_directory(p.work / "logs"))
+      ThrowErrorAt(FileLoc{p.work.string()}, "cannot create the work folder{}", ec ? ": " + ec.message() : "");
+    // A stage killed before it could clean up (SIGKILL, power loss) leaves
+    // temporaries beside its outputs; its outputs themselves are whole (every
+    // write is atomic) and the stage is not recorded as done, so it runs again.
+    int stale = 0;
+    for (auto it = fs::recursive_directory_iterator(p.work, ec); !ec && it != fs::recursive_directory_iterator();
+         it.increment(ec))
+      if (it->is_directory()) stale += RemoveStaleTemporaries(it->path());
+    stale += RemoveStaleTemporaries(p.work);
+    if (stale > 0)
+      report->Warn(fmt::format("removed {} temporary files that killed runs left in {}", stale, p.work.string()));
   }
   Json stages = Json::array();
   std::set<std::string> remade;  // outputs of stages that run (or would) in this invocation

@@ -131,4 +131,18 @@ void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, c
   }
 }
 
+bool FrameComplete(const fs::path& out_dir, int frame, const SceneOutput& output, const std::string& provenance) {
+  std::error_code ec;
+  const fs::path exr = out_dir / fmt::format("{:05d}.exr", frame);
+  if (!fs::is_regular_file(exr, ec)) return false;
+  if (output.png && !fs::is_regular_file(out_dir / fmt::format("{:05d}.png", frame), ec)) return false;
+  try {
+    const ImageFileInfo info = ReadImageHeader(exr, nullptr, nullptr, nullptr);
+    const auto it = info.attributes.find("mr:render");
+    return it != info.attributes.end() && it->second == provenance;
+  } catch (const Error&) {
+    return false;  // unreadable: rendered again
+  }
+}
+
 }  // namespace mr

@@ -65,6 +65,12 @@ class FrameReader {
 // A reference (ground-truth) frame, checked against the camera's size.
 Image ReadReferenceFrame(const fs::path& path, int width, int height);
 
+// True when frame `frame`'s files (EXR, and PNG when the scene writes it) are
+// in `out_dir` and the EXR was written with `provenance` (WriteFrameFiles'
+// "mr:render" attribute).  Files are written atomically, so present means
+// complete.
+bool FrameComplete(const fs::path& out_dir, int frame, const SceneOutput& output, const std::string& provenance);
+
 // Every layer a frame file can hold, in the order they are written.
 const std::vector<std::string>& FrameLayerNames();
 

@@ -54,13 +54,28 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   // run leaves nothing behind, not even an empty folder.
   std::error_code ec;
   fs::create_directories(out_dir, ec);
-  if (!fs::is_directory(out_dir)) ThrowErrorAt(FileLoc{out_dir.string()}, "cannot create the output folder");
+  if (!fs::is_directory(out_dir))
+    ThrowErrorAt(FileLoc{out_dir.string()}, "cannot create the output folder{}", ec ? ": " + ec.message() : "");
   const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
   const bool shard = begin > 0 || end < n_frames;
   report->SetMetric("shard", Json{{"begin", begin}, {"end", end}, {"scene_frames", n_frames}});
   const std::string frame_provenance =
       fmt::format("scene {} method {} spp {} time_budget {} seed {}", scene.file.filename().string(), method_name, spp,
                   budget, scene.render.seed);
+  if (const int stale = RemoveStaleTemporaries(out_dir); stale > 0)
+    report->Warn(fmt::format("removed {} temporary files that killed runs left in {}", stale, out_dir.string()));
+  // --resume: frames an earlier run of the same settings completed are kept,
+  // and rendering starts at the first missing one (as a shard starting
+  // there would: byte-identical frames).
+  int resumed_end = begin;
+  if (o.resume) {
+    while (resumed_end < end &&
+           FrameComplete(out_dir, resumed_end, scene.output, frame_provenance + fmt::format(" frame {}", resumed_end)))
+      ++resumed_end;
+    if (resumed_end > begin)
+      report->Skip(fmt::format("frames {}:{}", begin, resumed_end),
+                   "--resume: complete in the output folder from an earlier run with the same settings");
+  }
   const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
   FrameReader frames(scene, camera, decoding);
   std::unique_ptr<VideoWriter> video_out;
@@ -81,7 +96,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (copy_through)
     report->Skip("rendering", "no virtual object can change any frame: frames are copied through from the photographs");
   if (!copy_through) {
-    const JobContext job{scene, rs, camera, spp, begin, decoding.photograph, report};
+    const JobContext job{scene, rs, camera, spp, resumed_end, decoding.photograph, report};
     if (info.prepare_timing.empty()) {
       method->Prepare(job);
     } else {
@@ -93,7 +108,21 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   Json frames_json = Json::array();
   ErrorCurve errors;
   int64_t clamped = 0, nonfinite = 0;
-  for (int f = begin; f < end; ++f) {
+  for (int f = begin; f < resumed_end; ++f) {  // kept by --resume
+    Json fj = {{"frame", f}, {"resumed", true}};
+    if (video_out || reference) {
+      const Image composite = ReadImage(out_dir / fmt::format("{:05d}.exr", f)).Layer("composite");
+      if (video_out) video_out->Write(composite);
+      if (reference) {
+        const Image ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
+        const FrameError e = MeasureFrame(composite, ref, nullptr);
+        fj["rmse"] = e.rmse;
+        fj["relmse"] = e.relmse;
+      }
+    }
+    frames_json.push_back(fj);
+  }
+  for (int f = resumed_end; f < end; ++f) {
     const Rigid3& pose = poses[static_cast<size_t>(f)];
     const auto t0 = std::chrono::steady_clock::now();
     std::string enclosed;

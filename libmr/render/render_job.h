@@ -21,6 +21,10 @@ struct RenderOptions {
   int frame_begin = -1, frame_end = -1;  // -1: the scene's
   std::optional<fs::path> reference;     // overrides the scene's
   fs::path out_dir;                      // empty: the scene's output.dir
+  // Keep the frames an earlier run of the same settings completed (their
+  // files present, with the same provenance) and render from the first
+  // missing one: the outputs equal one uninterrupted run's.
+  bool resume = false;
   std::string tool = "mr-render", command_line;
 };
 

@@ -30,7 +30,9 @@ case "$mode" in
     CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMR_FUZZ=ON \
           -DMR_BUILD_TESTS=OFF -DMR_BUILD_BENCHMARKS=OFF
     cmake --build build-fuzz -j "$jobs" --target mr_fuzzers
-    for name in fuzz_scene fuzz_tum fuzz_sevenscenes fuzz_colmap fuzz_cameramodel fuzz_ply fuzz_lights fuzz_response fuzz_rgbdlist fuzz_obj fuzz_off fuzz_stl; do
+    # One target per folder of fuzz/corpus (fuzz/CMakeLists.txt builds them).
+    for corpus_dir in fuzz/corpus/*/; do
+      name=fuzz_$(basename "$corpus_dir")
       f=build-fuzz/fuzz/$name
       corpus=fuzz/corpus/${name#fuzz_}
       work=$(mktemp -d)

@@ -1,0 +1,73 @@
+// Fuzzes one reader of untrusted files, chosen at build time by
+// MR_FUZZ_KIND: the bytes are written to a file with the reader's extension
+// and read; every input must give a result or an mr::Error, never a crash, a
+// hang or unbounded memory (libFuzzer's -rss_limit_mb and -timeout).
+#include <unistd.h>
+
+#include <cstdint>
+#include <fstream>
+#include <string>
+
+#include "calib/board.h"
+#include "calib/probe_file.h"
+#include "core/error.h"
+#include "core/image.h"
+#include "hdr/exposures_file.h"
+#include "light/environment.h"
+#include "pipeline/pipeline.h"
+#include "recon/rgbd.h"
+#include "transfer/formfactor.h"
+
+namespace {
+
+#define MR_STR2(x) #x
+#define MR_STR(x) MR_STR2(x)
+const std::string kKind = MR_STR(MR_FUZZ_KIND);
+
+std::string Extension() {
+  if (kKind == "ffc") return ".ffc";
+  if (kKind == "exr") return ".exr";
+  if (kKind == "hdrenv") return ".hdr";
+  if (kKind == "depth") return ".png";
+  if (kKind == "exposures") return ".txt";
+  return ".json";  // probe, pipeline, board
+}
+
+void Read(const std::string& path) {
+  if (kKind == "ffc") {
+    mr::ReadTransfer(path);
+  } else if (kKind == "probe") {
+    mr::ReadProbe(path);
+  } else if (kKind == "pipeline") {
+    mr::PlanPipeline(path);
+  } else if (kKind == "board") {
+    mr::ReadBoard(path);
+  } else if (kKind == "exposures") {
+    mr::ReadExposures(path, {"a.png", "b.png", "c.png"});
+  } else if (kKind == "exr") {
+    mr::ImageReadOptions o;
+    o.nonfinite = mr::NonFinite::kAllow;
+    const mr::Image img = mr::ReadImage(path, o);
+    for (const std::string& l : img.LayerNames()) img.Layer(l);
+  } else if (kKind == "hdrenv") {
+    mr::EnvironmentMap env(mr::ReadImage(path), path);
+  } else if (kKind == "depth") {
+    mr::ReadDepth(path, mr::DepthReadOptions(), 0, 0);
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  static const std::string path = "/tmp/mr-fuzz-" + std::to_string(getpid()) + "-" + kKind + Extension();
+  {
+    std::ofstream out(path, std::ios::binary);
+    out.write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));
+  }
+  try {
+    Read(path);
+  } catch (const mr::Error&) {
+  } catch (const mr::UsageError&) {
+  }
+  return 0;
+}

@@ -17,25 +17,35 @@ mkdir -p "$out"
 bad() {
   local name=$1 want=$2 needle=$3
   shift 4
-  local before after text errors
+  local before after text rc errors ok=1
   before=$(ls -A "$out")
-  check "$name" "$want" "$needle" -- "$@"
-  text=$("$@" 2>&1 >/dev/null)
+  "$@" > "$tmp/stdout" 2> "$tmp/stderr"
+  rc=$?
+  text=$(cat "$tmp/stderr")
+  if [ "$rc" -ne "$want" ]; then
+    echo "FAIL $name: exit $rc, expected $want"; ok=0
+  elif [ -n "$needle" ] && ! grep -qF -- "$needle" "$tmp/stderr"; then
+    echo "FAIL $name: stderr lacks '$needle'"; ok=0
+  fi
   errors=$(grep -c -E '^mr-[a-z]+: (usage )?error' <<<"$text")
   if [ "$errors" -ne 1 ]; then
-    echo "FAIL $name: $errors error lines on stderr, expected 1"; echo "$text" | sed 's/^/    /'; fail=$((fail + 1))
-  fi
-  if [ "$(head -n 1 <<<"$text" | grep -c -E '^mr-[a-z]+: ')" -ne 1 ]; then
-    echo "FAIL $name: stderr does not start with the tool's line"; echo "$text" | sed 's/^/    /'; fail=$((fail + 1))
+    echo "FAIL $name: $errors error lines on stderr, expected 1"; ok=0
+  elif [ "$(head -n 1 <<<"$text" | grep -c -E '^mr-[a-z]+: ')" -ne 1 ]; then
+    echo "FAIL $name: stderr does not start with the tool's line"; ok=0
   fi
   if grep -q -P '[\x00-\x08\x0b-\x1f\x7f]' <<<"$text"; then
-    echo "FAIL $name: binary bytes on stderr"; fail=$((fail + 1))
+    echo "FAIL $name: binary bytes on stderr"; ok=0
   fi
   after=$(ls -A "$out")
   if [ "$before" != "$after" ]; then
     echo "FAIL $name: left in the output folder: $(comm -13 <(echo "$before") <(echo "$after") | tr '\n' ' ')"
-    fail=$((fail + 1))
+    ok=0
     rm -rf "$out" && mkdir -p "$out"
+  fi
+  if [ "$ok" -eq 1 ]; then
+    echo "ok   $name"; pass=$((pass + 1))
+  else
+    sed 's/^/    /' "$tmp/stderr"; fail=$((fail + 1))
   fi
 }
 
@@ -139,7 +149,9 @@ bad "pipeline: unknown key" 1 "pipeline.json: stages: unknown key" -- "$bin/mr-p
 printf '{"name": "b", "type": "chessboard", "inner_corners": [8, 6], "square_m": -0.03}\n' > "$d/board.json"
 bad "board: bad square" 1 "board.json" -- "$bin/mr-board" "$d/board.json" --out "$out/b.svg"
 printf 'not a camera model\n' > "$d/bad.cameramodel"
-bad "camera model: mrcal's words in one line" 1 "bad.cameramodel: " -- "$bin/mr-info" "$d/bad.cameramodel"
+bad "camera model: not a dict" 1 "bad.cameramodel:1: not a valid .cameramodel" -- "$bin/mr-info" "$d/bad.cameramodel"
+printf "{'lensmodel': 'LENSMODEL_NOPE', 'intrinsics': [1, 2, 3, 4], 'extrinsics': [0, 0, 0, 0, 0, 0], 'imagersize': [10, 10]}\n" > "$d/nope.cameramodel"
+bad "camera model: libmrcal's words folded into one line" 1 "nope.cameramodel: not a valid mrcal .cameramodel (libmrcal's parser rejected it: " -- "$bin/mr-info" "$d/nope.cameramodel"
 mkdir -p "$d/colmap"
 printf '# cameras\n1 PINHOLE 64 48 50 50 32 24\n' > "$d/colmap/cameras.txt"
 printf '1 1 0 0 0 0 0 0 7 a.png\n\n' > "$d/colmap/images.txt"

@@ -121,6 +121,11 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"sequential", "exhaustive"}));
   run->add_option("--overlap", co.overlap, "sequential: each frame is matched with this many following ones")
       ->default_val(10);
+  run->add_option("--colmap-timeout", co.timeout_s,
+                  "Seconds a colmap step may run before it is ended and reported (0: no limit)")
+      ->default_val(0)
+      ->check(mr::kNonNegative);
+  run->add_option("--colmap", co.colmap, "The colmap executable")->default_val("colmap");
   run->add_option("--attempts", attempts,
                   "With --trajectory: run COLMAP again (next seed) on a model "
                   "that does not fit, this often")

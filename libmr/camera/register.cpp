@@ -470,10 +470,15 @@ ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOption
   auto step = [&](const std::string& name, std::vector<std::string> args) {
     args.insert(args.begin(), {o.colmap, name});
     ScopedTimer t(report, "colmap " + name);
-    const int rc = RunProcess(args, log, true);
+    const int rc = RunProcess(args, log, true, o.timeout_s);
+    if (rc == kProcessTimedOut)
+      ThrowErrorAt(FileLoc{log.string()},
+                   "colmap {} ran past the time limit of {} s and was ended; its output is in "
+                   "this log",
+                   name, o.timeout_s);
     if (rc != 0)
-      ThrowErrorAt(FileLoc{log.string()}, "colmap {} failed (exit {}{}); its output is in this log", name, rc,
-                   rc == 127 ? ": colmap not found, apt install colmap" : "");
+      ThrowErrorAt(FileLoc{log.string()}, "colmap {} failed ({}{}); its output is in this log", name,
+                   DescribeExitStatus(rc), rc == 127 ? ": apt install colmap" : "");
   };
   const std::string db = (ws / "database.db").string();
   std::vector<std::string> fe = {"--database_path",

@@ -136,6 +136,7 @@ struct ColmapRunOptions {
   int overlap = 10;                    // sequential: neighbours matched
   std::string colmap = "colmap";       // the executable
   int seed = 1;                        // COLMAP's --random_seed
+  double timeout_s = 0;                // a colmap step running longer is ended and is an error (0: no limit)
 };
 
 // Registers `images` (a folder's image files, or a printf pattern's frames)

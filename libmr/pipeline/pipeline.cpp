@@ -822,11 +822,10 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
       const int rc = RunProcess(argv, log);
       if (rc != 0) {
         report->SetMetric("stages", stages);
-        throw Error(
-            FileLoc{p.file.string(), 0, 0, s.name},
-            fmt::format(
-                "stage {} failed ({} exited with {}{}):\n  {}\n  full log: {}; finished stages' outputs are kept",
-                s.name, s.tool, rc, rc == 127 ? ": not found" : "", ErrorLines(log), log.string()));
+        throw Error(FileLoc{p.file.string(), 0, 0, s.name},
+                    fmt::format("stage {} failed ({} {}):\n  {}\n  full log: {}; finished stages' outputs are kept",
+                                s.name, s.tool, rc < 127 ? fmt::format("exited with {}", rc) : DescribeExitStatus(rc),
+                                ErrorLines(log), log.string()));
       }
     }
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -89,6 +89,36 @@ done
 check "pipeline: outputs equal an uninterrupted run's" 0 "" -- test "$same" -eq 1
 check "pipeline: no temporaries left" 0 "" -- test -z "$(find "$tmp/pipe-killed" -name '.mr-tmp-*')"
 
+# A subprocess (colmap) that hangs, crashes or writes garbage: reported with
+# the step and its log, and mr does not hang.  A stand-in colmap plays each.
+mkdir -p "$tmp/frames" && cp "$cap"/photos/*.png "$tmp/frames/" && cp "$cap/photos/00000.png" "$tmp/frames/00002.png"
+cat > "$tmp/colmap-hang" <<'SH'
+#!/bin/sh
+echo "colmap $1: starting"; exec sleep 60
+SH
+cat > "$tmp/colmap-crash" <<'SH'
+#!/bin/sh
+echo "colmap $1: about to crash"; kill -SEGV $$
+SH
+cat > "$tmp/colmap-garbage" <<'SH'
+#!/bin/sh
+step=$1; out=""
+while [ $# -gt 0 ]; do [ "$1" = "--output_path" ] && out=$2; shift; done
+case $step in
+  mapper) mkdir -p "$out/0" ;;
+  model_converter) printf '\001garbage\n' > "$out/cameras.txt"; printf 'garbage\n' > "$out/images.txt" ;;
+esac
+exit 0
+SH
+chmod +x "$tmp"/colmap-*
+start=$(date +%s)
+check "colmap hangs: ended at the limit, named" 1 "colmap feature_extractor ran past the time limit of 2 s" -- "$bin/mr-register" colmap "$tmp/frames" --workspace "$tmp/ws-hang" --colmap "$tmp/colmap-hang" --colmap-timeout 2 --out "$tmp/p.txt"
+check "colmap hangs: mr does not" 0 "" -- test $(($(date +%s) - start)) -lt 30
+check "colmap crashes: the signal named" 1 "colmap feature_extractor failed (killed by signal 11" -- "$bin/mr-register" colmap "$tmp/frames" --workspace "$tmp/ws-crash" --colmap "$tmp/colmap-crash" --out "$tmp/p.txt"
+check "colmap crashes: its log named" 1 "ws-crash/colmap.log" -- "$bin/mr-register" colmap "$tmp/frames" --workspace "$tmp/ws-crash" --colmap "$tmp/colmap-crash" --out "$tmp/p.txt"
+check "colmap writes garbage: the file named" 1 "cameras.txt:1" -- "$bin/mr-register" colmap "$tmp/frames" --workspace "$tmp/ws-garbage" --colmap "$tmp/colmap-garbage" --out "$tmp/p.txt"
+check "no poses written by a failed registration" 1 "" -- test -e "$tmp/p.txt"
+
 # An output path under a file, and a folder that does not exist for the file.
 touch "$tmp/afile"
 check "output under a file" 1 "afile/r: cannot create the output folder" -- "$bin/mr-render" "$cap/video.json" --out "$tmp/afile/r" --spp 1

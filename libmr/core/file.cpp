@@ -18,11 +18,19 @@
 namespace mr {
 
 namespace {
+std::string HostName() {
+  char host[256] = {0};
+  if (gethostname(host, sizeof(host) - 1) != 0 || host[0] == '\0') return "host";
+  std::string h = host;
+  for (char& c : h)
+    if (c == '@' || c == '/') c = '_';
+  return h;
+}
+
 fs::path TemporaryBeside(const fs::path& path) {
   static std::atomic<unsigned> counter{0};
   fs::path dir = path.parent_path();
-  std::string name = fmt::format(".mr-tmp-{}-{}-{}", getpid(), counter++, path.stem().string());
-  return dir / (name + path.extension().string());
+  return dir / (TemporaryName(path.stem().string(), counter++) + path.extension().string());
 }
 }  // namespace
 
@@ -44,15 +52,26 @@ void WriteAtomically(const fs::path& path, const std::function<void(const fs::pa
   }
 }
 
+std::string TemporaryName(const std::string& stem, unsigned counter) {
+  static const std::string host = HostName();
+  return fmt::format(".mr-tmp-{}@{}@{}-{}", getpid(), host, counter, stem);
+}
+
 int RemoveStaleTemporaries(const fs::path& dir) {
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) return 0;
   int removed = 0;
   for (const auto& e : fs::directory_iterator(dir, ec)) {
+    // ".mr-tmp-PID@HOST@...": only this host's, and only a process's that is gone
+    // (another host sharing the folder, a render farm's, may be writing it).
+    static const std::string host = HostName();
     const std::string name = e.path().filename().string();
     if (name.rfind(".mr-tmp-", 0) != 0) continue;
-    const long pid = std::strtol(name.c_str() + 8, nullptr, 10);
-    if (pid <= 0 || pid == getpid()) continue;
+    char* end = nullptr;
+    const long pid = std::strtol(name.c_str() + 8, &end, 10);
+    if (pid <= 0 || pid == getpid() || *end != '@' ||
+        name.compare(end + 1 - name.c_str(), host.size() + 1, host + "@") != 0)
+      continue;
     if (::kill(static_cast<pid_t>(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to judge)
     std::error_code rm;
     if (fs::remove(e.path(), rm)) ++removed;

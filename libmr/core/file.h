@@ -16,10 +16,15 @@ namespace fs = std::filesystem;
 // temporary is removed and `path` is untouched: no half-written output.
 void WriteAtomically(const fs::path& path, const std::function<void(const fs::path& tmp)>& write);
 
-// Removes the temporaries (".mr-tmp-PID-...") that runs killed before they
-// could clean up (SIGKILL, power loss) left in `dir`: those whose process no
-// longer exists.  Returns how many were removed.  A running process's
-// temporaries are left alone.
+// The name of a temporary file for an output whose name (without extension)
+// is `stem`: ".mr-tmp-PID@HOST@COUNTER-STEM", so that RemoveStaleTemporaries
+// can tell whose it is.
+std::string TemporaryName(const std::string& stem, unsigned counter);
+
+// Removes the temporaries that runs killed before they could clean up
+// (SIGKILL, power loss) left in `dir`: those of this host whose process no
+// longer exists.  Returns how many were removed.  A running process's, and
+// another host's (a render farm writing to a shared folder), are left alone.
 int RemoveStaleTemporaries(const fs::path& dir);
 
 // Atomic write of a whole string (text or bytes).

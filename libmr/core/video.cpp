@@ -68,7 +68,7 @@ VideoWriter::VideoWriter(const fs::path& path, int width, int height, double fps
   impl_->path = path;
   impl_->width = width;
   impl_->height = height;
-  impl_->tmp = path.parent_path() / fmt::format(".mr-tmp-{}-{}-{}", getpid(), counter++, path.filename().string());
+  impl_->tmp = path.parent_path() / TemporaryName(path.filename().string(), counter++);
   const std::string ext = LowerExtension(path);
   int fourcc;
   if (ext == ".mp4")

@@ -23,7 +23,9 @@ struct RenderOptions {
   fs::path out_dir;                      // empty: the scene's output.dir
   // Keep the frames an earlier run of the same settings completed (their
   // files present, with the same provenance) and render from the first
-  // missing one: the outputs equal one uninterrupted run's.
+  // missing one, as a shard starting there: the outputs equal one
+  // uninterrupted run's (ic's, whose cache carries across frames, those of
+  // such a shard; its report warns).
   bool resume = false;
   std::string tool = "mr-render", command_line;
 };

@@ -133,19 +133,30 @@ if [ "$(id -u)" -eq 0 ] && mkdir -p "$tmp/full" && mount -t tmpfs -o size=96k tm
   check "full disk: mr-synth" 1 "No space left on device" -- "$bin/mr-synth" --preset small --out "$tmp/full/cap" --truth-spp 1
   check "full disk: mr-synth leaves no temporaries" 0 "" -- test -z "$(find "$tmp/full" -name '.mr-tmp-*')"
   umount "$tmp/full"
+  # mr-pipeline on a disk that fills during its render stage: the stage is
+  # named, the earlier stages' outputs stay whole, nothing partial is left.
+  mkdir -p "$tmp/full2" && mount -t tmpfs -o size=160k tmpfs "$tmp/full2"
+  sed "s|\"work\": \"pipe-one\"|\"work\": \"$tmp/full2/w\"|" "$tmp/pipe-one.json" > "$tmp/pipe-full.json"
+  check "full disk: pipeline names the stage" 1 "stage render failed" -- "$bin/mr-pipeline" "$tmp/pipe-full.json" -q
+  check "full disk: the scene stage's output intact" 0 "valid" -- "$bin/mr-info" "$tmp/full2/w/scene.json"
+  check "full disk: pipeline leaves no temporaries" 0 "" -- test -z "$(find "$tmp/full2" -name '.mr-tmp-*')"
+  check "full disk: pipeline's renders whole" 0 "" -- all_readable "$tmp"/full2/w/render/*.exr "$tmp"/full2/w/render/*.png
+  umount "$tmp/full2"
 else
   echo "ok   full disk: skipped (needs root to mount a small tmpfs)"
 fi
 
-if [ "$(id -u)" -eq 0 ] && command -v runuser > /dev/null; then
+chmod -R a+rX "$tmp/cap"
+if [ "$(id -u)" -eq 0 ] && command -v runuser > /dev/null && runuser -u nobody -- test -x "$bin/mr-render" &&
+   runuser -u nobody -- test -r "$cap/video.json"; then
   # A read-only folder, as a user who cannot write there.
   mkdir -p "$tmp/ro"
   chmod -R a+rX "$tmp/cap"
-  check "read-only folder: error names the file" 1 "Permission denied" -- runuser -u nobody -- "$bin/mr-render" "$cap/video.json" --out "$tmp/ro" --spp 1 --frames 0:1
+  check "read-only folder: error names the file" 1 "Permission denied" -- runuser -u nobody -- env ASAN_OPTIONS="${ASAN_OPTIONS:-}" UBSAN_OPTIONS="${UBSAN_OPTIONS:-}" "$bin/mr-render" "$cap/video.json" --out "$tmp/ro" --spp 1 --frames 0:1
   check "read-only folder: nothing written" 0 "" -- test -z "$(ls -A "$tmp/ro")"
-  check "read-only parent: no folder" 1 "ro/sub: cannot create the output folder: Permission denied" -- runuser -u nobody -- "$bin/mr-render" "$cap/video.json" --out "$tmp/ro/sub" --spp 1
+  check "read-only parent: no folder" 1 "ro/sub: cannot create the output folder: Permission denied" -- runuser -u nobody -- env ASAN_OPTIONS="${ASAN_OPTIONS:-}" UBSAN_OPTIONS="${UBSAN_OPTIONS:-}" "$bin/mr-render" "$cap/video.json" --out "$tmp/ro/sub" --spp 1
 else
-  echo "ok   read-only folder: skipped (needs root to run as another user)"
+  echo "ok   read-only folder: skipped (needs root, and a build and folder that user nobody can read)"
 fi
 
 echo "$pass passed, $fail failed"

@@ -71,6 +71,27 @@ TEST(File, FileSizeLimitIsAnErrorAndLeavesNothing) {
   EXPECT_EQ(dir.FileCount(), 1u);
 }
 
+// The temporaries a killed run left are removed by the next run; those of a
+// live process, and another host's (a render farm sharing the folder), stay.
+TEST(File, StaleTemporariesOfDeadProcessesAreRemoved) {
+  test::TempDir dir;
+  const pid_t child = fork();  // a process that is surely gone once reaped
+  ASSERT_GE(child, 0);
+  if (child == 0) _exit(0);
+  waitpid(child, nullptr, 0);
+  char host[256] = {0};
+  gethostname(host, sizeof(host) - 1);
+  const std::string dead = fmt::format(".mr-tmp-{}@{}@0-frame.exr", child, host);
+  const std::string other_host = fmt::format(".mr-tmp-{}@not-{}@0-frame.exr", child, host);
+  const std::string alive = TemporaryName("frame", 7) + ".exr";  // this process's
+  for (const std::string& n : {dead, other_host, alive, std::string("00000.exr")}) WriteTextFile(dir / n, "x");
+  EXPECT_EQ(RemoveStaleTemporaries(dir.path()), 1);
+  EXPECT_FALSE(fs::exists(dir / dead));
+  EXPECT_TRUE(fs::exists(dir / other_host));
+  EXPECT_TRUE(fs::exists(dir / alive));
+  EXPECT_TRUE(fs::exists(dir / "00000.exr"));
+}
+
 TEST(File, TemporaryKeepsTheExtension) {
   test::TempDir dir;
   fs::path seen;

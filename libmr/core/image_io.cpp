@@ -3,10 +3,13 @@
 #include <OpenImageIO/imageio.h>
 
 #include <cmath>
+#include <cstring>
+#include <fstream>
 
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
+#include "core/png_check.h"
 #include "core/stderr_capture.h"
 #include "core/version.h"
 
@@ -44,6 +47,7 @@ ImageFileInfo InfoFromSpec(const OIIO::ImageInput& in, const OIIO::ImageSpec& sp
 
 std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* spec) {
   RequireFile(path, "image");
+  CheckPngChunks(path);
   StderrCapture library_lines;  // libpng prints its errors before OpenImageIO reports them
   auto in = OIIO::ImageInput::open(path.string());
   if (!in) {
@@ -57,6 +61,33 @@ std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* sp
 }
 
 }  // namespace
+
+void CheckPngChunks(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return;  // the reader reports it
+  unsigned char sig[8];
+  static const unsigned char kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  if (!in.read(reinterpret_cast<char*>(sig), 8) || std::memcmp(sig, kSignature, 8) != 0) return;
+  std::error_code ec;
+  const uint64_t size = fs::file_size(path, ec);
+  if (ec) return;
+  uint64_t at = 8;
+  while (true) {
+    unsigned char head[8];
+    in.seekg(static_cast<std::streamoff>(at));
+    if (!in.read(reinterpret_cast<char*>(head), 8))
+      ThrowErrorAt(FileLoc{path.string()}, "PNG ends at byte {} without an IEND chunk (truncated file?)", at);
+    const uint64_t length = (uint64_t{head[0]} << 24) | (uint64_t{head[1]} << 16) | (uint64_t{head[2]} << 8) | head[3];
+    std::string type;
+    for (int k = 4; k < 8; ++k) type += (head[k] >= 0x20 && head[k] < 0x7f) ? static_cast<char>(head[k]) : '?';
+    if (length > 0x7fffffffu || at + 12 + length > size)
+      ThrowErrorAt(FileLoc{path.string()},
+                   "PNG chunk \"{}\" at byte {} declares {} bytes, the file holds {} more (truncated or corrupt file)",
+                   type, at, length, size - std::min(size, at + 12));
+    if (type == "IEND") return;
+    at += 12 + length;
+  }
+}
 
 ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height, std::vector<std::string>* channels) {
   OIIO::ImageSpec spec;

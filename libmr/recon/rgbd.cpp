@@ -10,6 +10,7 @@
 
 #include "camera/camera_model.h"
 #include "core/error.h"
+#include "core/png_check.h"
 
 namespace mr {
 
@@ -196,6 +197,7 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
   if (seq.frames.empty()) ThrowErrorAt(FileLoc{dir.string()}, "holds no frames");
   seq.K = *K;
   if (seq.K.width <= 0 || seq.K.height <= 0) {  // size from the first depth map
+    CheckPngChunks(seq.frames.front().depth);
     cv::Mat d = cv::imread(seq.frames.front().depth.string(), cv::IMREAD_ANYDEPTH);
     if (d.empty()) ThrowErrorAt(FileLoc{seq.frames.front().depth.string()}, "cannot be read as an image");
     seq.K.width = d.cols;
@@ -207,6 +209,7 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
 DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int expect_width, int expect_height,
                    DepthReadStats* stats) {
   RequireFile(path, "depth map");
+  CheckPngChunks(path);
   cv::Mat raw = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
   if (raw.empty()) ThrowErrorAt(FileLoc{path.string()}, "cannot be read as a depth image");
   if (raw.channels() != 1) ThrowErrorAt(FileLoc{path.string()}, "has {} channels, depth needs 1", raw.channels());

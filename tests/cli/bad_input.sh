@@ -88,7 +88,9 @@ bad "missing mesh named by a scene" 1 "nomesh.json: real.mesh: mesh $d/nope.ply 
 # --- Images --------------------------------------------------------------
 size=$(stat -c %s "$cap/photos/00000.png")
 head -c $((size / 2)) "$cap/photos/00000.png" > "$d/trunc.png"
-bad "truncated PNG" 1 "trunc.png: cannot read" -- "$bin/mr-info" "$d/trunc.png"
+bad "truncated PNG" 1 "trunc.png: PNG chunk \"IDAT\"" -- "$bin/mr-info" "$d/trunc.png"
+# fuzz/fuzz_depth's finding: a 358-byte PNG whose text chunk claims 1 GB made libpng clear 1 GB (10 s).
+bad "PNG chunk longer than the file" 1 "declares 1090519147 bytes, the file holds 292 more" -- timeout 20 "$bin/mr-info" "$src/fuzz/corpus/depth/regression-huge-text-chunk.png"
 printf 'v/1\001\002\000\000garbage' > "$d/corrupt.exr"
 bad "corrupt EXR" 1 "corrupt.exr: cannot read image" -- "$bin/mr-info" "$d/corrupt.exr"
 : > "$d/empty.exr"

@@ -5,6 +5,7 @@
 
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <mutex>
 
 namespace mr {
@@ -17,10 +18,13 @@ StderrCapture::StderrCapture() {
   g_capture_mutex.lock();
   locked_ = true;
   std::fflush(stderr);
-  char name[] = "/tmp/mr-stderr-XXXXXX";
-  file_ = ::mkstemp(name);
+  // mkstemp's template in the temporary folder ($TMPDIR, else /tmp).
+  std::error_code ec;
+  std::string name = (std::filesystem::temp_directory_path(ec) / "mr-stderr-XXXXXX").string();
+  if (ec) name = "/tmp/mr-stderr-XXXXXX";
+  file_ = ::mkstemp(name.data());
   if (file_ < 0) return;  // nothing captured: the library's lines go to stderr as before
-  ::unlink(name);
+  ::unlink(name.c_str());
   saved_ = ::dup(2);
   if (saved_ < 0 || ::dup2(file_, 2) < 0) {
     if (saved_ >= 0) ::close(saved_);

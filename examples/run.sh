@@ -5,7 +5,7 @@
 # ground truth), then the whole chain in one command, mr-pipeline
 # (examples/synthetic/pipeline.json): calibrate -> sphere -> hdr -> probe ->
 # lights -> fuse -> scene -> render -> sweep (error against run time).
-# About 3 minutes on 2 cores after the build.
+# About 5 minutes on 2 cores after the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh
@@ -34,6 +34,7 @@ echo "captured light:  $w/env.exr (merged bracket $w/probe-raw.exr), lights $w/l
 echo "room:            $w/room/room.ply, trajectory $w/room/trajectory.txt"
 echo "scene:           $w/scene.json"
 echo "composites:      $w/render/*.png (layers in $w/render/*.exr)"
+echo "review sheet:    $(ls "$w"/render/*-review.png | head -1) (plate | composite | difference | mask; one per frame)"
 echo "error vs time:   $w/sweep/sweep.csv, plots $w/sweep/error-vs-time*.svg, differences $w/sweep/diff/"
 echo "reports:         $w/reports/*.json, all of them in $out/pipeline-report.json; logs in $w/logs/"
 /usr/bin/python3 - "$out" <<'PY' || true

@@ -135,8 +135,9 @@ int main(int argc, char** argv) {
   merge->add_option("REPORTS", merge_reports, "Shard reports (mr-render --report)")
       ->required()
       ->check(CLI::ExistingFile);
-  merge->add_option("--video", merge_video, "Video to write (.mp4 or .avi)");
-  merge->add_option("--fps", mo.fps, "Frames per second of the video")->default_val(30)->check(mr::kPositive);
+  merge->add_option("--video", merge_video, "Video to write (.mp4, .avi, or .mkv: FFV1, lossless)");
+  merge->add_option("--fps", mo.fps, "Frames per second of the video (default: the plate's, else 30)")
+      ->check(mr::kPositive);
   merge->add_flag("--allow-gaps", mo.allow_gaps, "Merge even when some frames were rendered by no shard");
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
     if (merge->parsed()) {

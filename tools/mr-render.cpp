@@ -12,14 +12,17 @@ int main(int argc, char** argv) {
   std::string scene_file, out, method, frames, reference;
   int spp = 0;
   double budget = -1;
-  mr::ConfigureApp(app, "mr-render",
-                   "Renders the virtual objects of SCENE.json into every frame with global illumination and\n"
-                   "composites them differentially: I_f = M*I_m + (1-M)*(I_c + I_m - I_r).\n"
-                   "Writes per frame OUT/NNNNN.exr (layers composite, mixed, real, mask, difference, variance,\n"
-                   "samples, photo) and OUT/NNNNN.png (the composite, sRGB). With a reference (--reference or\n"
-                   "the scene's \"reference\"), the report holds rmse, relmse, region_relmse and the error-vs-time\n"
-                   "curve at 1, 2, 4, ... samples per pixel.",
-                   "  mr-render capture/scene.json --out render --spp 64 --report render/report.json");
+  mr::ConfigureApp(
+      app, "mr-render",
+      "Renders the virtual objects of SCENE.json into every frame with global illumination and\n"
+      "composites them differentially: I_f = M*I_m + (1-M)*(I_c + I_m - I_r).\n"
+      "Writes per frame OUT/NNNNN.exr (layers composite, mixed, real, mask, difference, variance,\n"
+      "samples, photo) and OUT/NNNNN.png: the composite as the plate's own code values (encoded\n"
+      "through the inverse of the frames' decoding: an untouched pixel keeps the plate's value);\n"
+      "a video plate also gives OUT/composite.mp4 or .mkv (output.video). With a reference (--reference or\n"
+      "the scene's \"reference\"), the report holds rmse, relmse, region_relmse and the error-vs-time\n"
+      "curve at 1, 2, 4, ... samples per pixel.",
+      "  mr-render capture/scene.json --out render --spp 64 --report render/report.json");
   app.add_option("scene", scene_file, "Scene description (docs/formats.md)")->required()->check(CLI::ExistingFile);
   app.add_option("--out", out, "Output folder (default: the scene's output.dir)");
   std::string methods_help;

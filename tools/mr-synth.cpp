@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
                    "photographs I_c (linear EXR and 8-bit PNG), room meshes with their albedos, a sky with a sun,\n"
                    "the virtual object, scene.json, and the ground truth (converged render of room + object)\n"
                    "named by scene.json's \"reference\". Presets: small (64x48, 2 frames, seconds), medium\n"
-                   "(160x120, 4 frames, the main job's), room\n"
+                   "(320x240, 2 frames, the main job's), room\n"
                    "(640x480, 4 frames, for benchmarks).",
                    "  mr-synth --preset small --out capture && mr-render capture/scene.json");
   app.add_option("--preset", o.preset, "small, medium or room")->default_val("small");

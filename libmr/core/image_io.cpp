@@ -228,7 +228,8 @@ ImageWriteResult WriteImage(const fs::path& path, const Image& img, const ImageW
   // an empty one keeps outputs byte-identical from run to run.
   spec.attribute("DateTime", "");
   for (const auto& [k, v] : options.attributes) spec.attribute(k, v);
-  if (format == OIIO::TypeDesc::UINT8 || format == OIIO::TypeDesc::UINT16)
+  if ((format == OIIO::TypeDesc::UINT8 || format == OIIO::TypeDesc::UINT16) &&
+      !options.attributes.count("oiio:ColorSpace"))  // values already encoded may name their own
     spec.attribute("oiio:ColorSpace", options.ldr_transfer == Transfer::kSrgb ? "sRGB" : "Linear");
   if (ext == ".exr") spec.attribute("compression", "zip");
   if (ext == ".jpg" || ext == ".jpeg") spec.attribute("Compression", fmt::format("jpeg:{}", options.jpeg_quality));

@@ -83,11 +83,11 @@ ImageMetrics CompareImages(const Image& a, const Image& b, const Image* region) 
   return m;
 }
 
-Image ReadRgbForComparison(const fs::path& path, Transfer transfer, bool raw) {
+Image ReadRgbForComparison(const fs::path& path, Transfer transfer, bool raw, ImageFileInfo* info) {
   ImageReadOptions opt;
   opt.default_ldr_transfer = raw ? Transfer::kLinear : transfer;
   opt.use_file_transfer = !raw;
-  Image img = ReadImage(path, opt);
+  Image img = ReadImage(path, opt, info);
   if (img.ChannelIndex("R") < 0 && img.ChannelIndex("composite.R") >= 0) img = img.Layer("composite");
   if (img.ChannelIndex("R") < 0 || img.ChannelIndex("G") < 0 || img.ChannelIndex("B") < 0)
     ThrowErrorAt(FileLoc{path.string()}, "image has neither R, G, B channels nor a composite layer");

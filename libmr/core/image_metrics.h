@@ -27,7 +27,9 @@ ImageMetrics CompareImages(const Image& a, const Image& b, const Image* region =
 // Reads the RGB of an image for comparison: its R, G, B channels, or the
 // composite layer of an mr-render EXR.  Integer files decode with `transfer`.
 // `raw` keeps integer pixels as code values / max (display values).
-Image ReadRgbForComparison(const fs::path& path, Transfer transfer = Transfer::kLinear, bool raw = false);
+// `info`, when given, receives how the file stored its pixels.
+Image ReadRgbForComparison(const fs::path& path, Transfer transfer = Transfer::kLinear, bool raw = false,
+                           ImageFileInfo* info = nullptr);
 
 // |a - b| * scale per channel, for comparison figures.
 Image ScaledDifference(const Image& a, const Image& b, double scale);

@@ -75,8 +75,10 @@ VideoWriter::VideoWriter(const fs::path& path, int width, int height, double fps
     fourcc = cv::VideoWriter::fourcc('m', 'p', '4', 'v');
   else if (ext == ".avi")
     fourcc = cv::VideoWriter::fourcc('M', 'J', 'P', 'G');
+  else if (ext == ".mkv")
+    fourcc = cv::VideoWriter::fourcc('F', 'F', 'V', '1');
   else
-    ThrowErrorAt(FileLoc{path.string()}, "unsupported video extension \"{}\" (use .mp4 or .avi)", ext);
+    ThrowErrorAt(FileLoc{path.string()}, "unsupported video extension \"{}\" (use .mp4, .avi or .mkv)", ext);
   if (!impl_->writer.open(impl_->tmp.string(), cv::CAP_FFMPEG, fourcc, fps, cv::Size(width, height), true))
     ThrowErrorAt(FileLoc{path.string()}, "cannot open a video writer (FFmpeg backend)");
 }
@@ -90,6 +92,12 @@ VideoWriter::~VideoWriter() {
 }
 
 void VideoWriter::Write(const Image& img) {
+  Image codes = img;
+  for (float& v : codes.values()) v = LinearToSrgb(Clamp(std::isfinite(v) ? v : 0.0f, 0.0f, 1.0f));
+  WriteCodes(codes);
+}
+
+void VideoWriter::WriteCodes(const Image& img) {
   if (img.width() != impl_->width || img.height() != impl_->height || img.channels() < 3)
     ThrowErrorAt(FileLoc{impl_->path.string()}, "frame is {}x{}, the video {}x{}", img.width(), img.height(),
                  impl_->width, impl_->height);
@@ -100,7 +108,7 @@ void VideoWriter::Write(const Image& img) {
       for (int c = 0; c < 3; ++c) {
         float v = img.at(x, y, c);
         if (!std::isfinite(v)) v = 0;
-        p[2 - c] = static_cast<uint8_t>(std::lround(LinearToSrgb(Clamp(v, 0.0f, 1.0f)) * 255.0f));
+        p[2 - c] = static_cast<uint8_t>(std::lround(Clamp(v, 0.0f, 1.0f) * 255.0f));
       }
     }
   impl_->writer.write(m);

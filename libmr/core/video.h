@@ -27,12 +27,15 @@ class VideoReader {
 };
 
 // Writes frames to a temporary file beside `path` and renames it on Close():
-// an interrupted run leaves no half-written video.  mp4 (MPEG-4 part 2) or avi (MJPG).
+// an interrupted run leaves no half-written video.  By extension: .mp4
+// (MPEG-4 part 2, lossy), .avi (MJPG, lossy) or .mkv (FFV1: lossless, every
+// code value kept).
 class VideoWriter {
  public:
   VideoWriter(const fs::path& path, int width, int height, double fps);
   ~VideoWriter();
   void Write(const Image& linear_rgb);  // encoded as sRGB 8-bit, clamped to [0,1]
+  void WriteCodes(const Image& codes);  // code values in [0,1] as they are: round(255 v)
   void Close();
 
  private:

@@ -7,6 +7,7 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "core/image_metrics.h"
 #include "core/json.h"
 #include "core/video.h"
 
@@ -149,13 +150,23 @@ void MergeRenderReports(const MergeOptions& o, Report* report) {
     // NNNNN.exr: frame order, whichever folder each shard wrote to.
     std::sort(composites.begin(), composites.end(),
               [](const fs::path& a, const fs::path& b) { return a.filename() < b.filename(); });
+    // The plate's frame rate, as the shards report it, unless given.
+    const Json& m = first.json["metrics"];
+    const double fps = o.fps > 0 ? o.fps : m.contains("plate_fps") ? m["plate_fps"].get<double>() : 30.0;
     std::unique_ptr<VideoWriter> writer;
     for (const fs::path& p : composites) {
       RequireFile(p, "a shard's frame");
-      const Image layers = ReadImage(p);
-      const Image composite = layers.Layer("composite");
-      if (!writer) writer = std::make_unique<VideoWriter>(*o.video, composite.width(), composite.height(), o.fps);
-      writer->Write(composite);
+      // The frame's PNG holds the composite as the plate's code values (the
+      // codes a single run writes to its video); without one, sRGB.
+      const fs::path png = fs::path(p).replace_extension(".png");
+      std::error_code ec;
+      const bool codes = fs::is_regular_file(png, ec);
+      const Image frame = codes ? ReadRgbForComparison(png, Transfer::kLinear, true) : ReadImage(p).Layer("composite");
+      if (!writer) writer = std::make_unique<VideoWriter>(*o.video, frame.width(), frame.height(), fps);
+      if (codes)
+        writer->WriteCodes(frame);
+      else
+        writer->Write(frame);
     }
     writer->Close();
     report->AddOutput(o.video->string());

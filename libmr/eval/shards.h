@@ -14,7 +14,7 @@ namespace mr {
 struct MergeOptions {
   std::vector<fs::path> reports;  // one per shard, any order
   std::optional<fs::path> video;  // write the composites, in frame order, as this video
-  double fps = 30;
+  double fps = 0;                 // 0: the plate's (the shards' plate_fps), else 30
   // A range that no shard rendered is an error unless allowed (a partial merge).
   bool allow_gaps = false;
 };

@@ -66,6 +66,7 @@ std::vector<Setting> Settings(const Scene& base, const SweepOptions& options) {
       Setting s{m, "", m, base, base.render.spp};
       s.scene.render.method = m;
       s.scene.render.time_budget_s = 0;
+      s.scene.output.review = false;  // the sweep compares files; review sheets are for the scene's own render
       std::string name, dir;
       // Keys other than spp first, in axis order: "rays=256 spp=4", "ic-rays256-spp4".
       for (int pass = 0; pass < 2; ++pass)

@@ -225,6 +225,19 @@ double CameraResponse::ExposureSlope(int channel, double z) const {
   return Exposure(channel, z) * (g[static_cast<size_t>(k + 1)] - g[static_cast<size_t>(k)]) * (L - 1);
 }
 
+double CameraResponse::Code(int channel, double exposure) const {
+  if (identity) return std::clamp(exposure, 0.0, 1.0);
+  if (!(exposure > 0)) return 0;  // also NaN
+  const std::vector<double>& g = log_exposure[static_cast<size_t>(channel)];
+  const double x = std::log(exposure);
+  if (x <= g.front()) return 0;
+  if (x >= g.back()) return 1;
+  // The first entry above x: g[k-1] <= x < g[k] (g is non-decreasing).
+  const size_t k = static_cast<size_t>(std::upper_bound(g.begin(), g.end(), x) - g.begin());
+  const double f = (x - g[k - 1]) / (g[k] - g[k - 1]);  // g[k] > x >= g[k-1]: no division by 0
+  return (static_cast<double>(k - 1) + f) / (levels() - 1);
+}
+
 CameraResponse LinearResponse(int channels, int levels) {
   CameraResponse r;
   r.method = "linear";
@@ -341,6 +354,16 @@ Image Linearise(const Image& codes, const CameraResponse& r) {
   const int nc = codes.channels();
   for (size_t i = 0; i < codes.values().size(); ++i)
     out.values()[i] = static_cast<float>(r.Exposure(static_cast<int>(i % static_cast<size_t>(nc)), codes.values()[i]));
+  return out;
+}
+
+Image Delinearise(const Image& exposures, const CameraResponse& r) {
+  if (static_cast<int>(r.channels.size()) != exposures.channels())
+    ThrowError("the response has {} channels, the image {}", r.channels.size(), exposures.channels());
+  Image out(exposures.width(), exposures.height(), exposures.channel_names());
+  const int nc = exposures.channels();
+  for (size_t i = 0; i < exposures.values().size(); ++i)
+    out.values()[i] = static_cast<float>(r.Code(static_cast<int>(i % static_cast<size_t>(nc)), exposures.values()[i]));
   return out;
 }
 

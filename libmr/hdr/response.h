@@ -36,6 +36,11 @@ struct CameraResponse {
   double Exposure(int channel, double z) const;
   // dX/dz at z: how much exposure one unit of normalised code spans.
   double ExposureSlope(int channel, double z) const;
+  // The inverse of Exposure: the normalised code z in [0, 1] whose exposure
+  // is X (0 below the table's first entry, 1 above its last).  Exact to
+  // rounding where g is strictly increasing, so Code(c, Exposure(c, z)) = z;
+  // on a flat run of g (codes the camera cannot tell apart) the lowest z.
+  double Code(int channel, double exposure) const;
 };
 
 // X = z: what linear (float, or linear-encoded 16-bit) inputs have.
@@ -81,5 +86,7 @@ CameraResponse ReadResponse(const fs::path& path);
 
 // Linear relative exposure of a whole photograph through `r` (R G B).
 Image Linearise(const Image& codes, const CameraResponse& r);
+// Its inverse: exposures X to normalised codes, channel by channel (Code).
+Image Delinearise(const Image& exposures, const CameraResponse& r);
 
 }  // namespace mr

@@ -555,7 +555,7 @@ Pipeline PlanPipeline(const fs::path& file) {
       if (v2.contains("formfactors")) s.inputs.push_back(w / v2["formfactors"].get<std::string>());
     s.outputs = {scene_file};
     s.does = fused_mesh.empty() ? "scene.json naming every input"
-                                : "scene.json naming every input (the fused room's mean albedo)";
+                                : "scene.json naming every input (the fused room's per-vertex albedo)";
   }
   if (!fused_mesh.empty()) {
     // The albedo is the fused mesh's mean, filled in when the scene stage runs.
@@ -644,24 +644,16 @@ std::string Quote(const std::string& s) {
   return q + "'";
 }
 
-// The scene stage: scene.json, with the fused room's mean albedo (the render
-// methods read one albedo per mesh).
-void WriteSceneJson(const Pipeline& p, Report* report) {
+// The scene stage: scene.json, with the fused room's own albedo (its
+// vertex colours, mr-fuse's de-lit albedo) for every render method.
+void WriteSceneJson(const Pipeline& p) {
   Json scene = p.scene;
   if (!p.fused_room.empty()) {
     Json& r = scene["real"][0];
     const Mesh m = ReadMesh(p.fused_room);
     if (m.colors.size() != m.positions.size())
       ThrowErrorAt(FileLoc{p.fused_room.string()}, "the fused room has no vertex colours (albedo)");
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (const auto& c : m.colors) sum += c.cast<double>();
-    Eigen::Vector3d mean = sum / std::max<size_t>(1, m.colors.size());
-    for (int c = 0; c < 3; ++c) mean[c] = std::clamp(mean[c], 0.0, 0.99);
-    r["material"]["albedo"] = {mean[0], mean[1], mean[2]};
-    report->Warn(
-        fmt::format("the fused room is rendered with its mean albedo ({:.3f}, {:.3f}, {:.3f}): the render "
-                    "methods read one albedo per mesh",
-                    mean[0], mean[1], mean[2]));
+    r["material"]["albedo_from_vertex_colors"] = true;
   }
   CheckRenderSettings(ParseScene(scene, p.work, (p.work / "scene.json").string(), true));
   WriteTextFile(p.work / "scene.json", scene.dump(2) + "\n");
@@ -817,7 +809,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
     const fs::path log = p.work / "logs" / (s.name + ".log");
     fs::remove(stamp, ec);
     if (s.tool.empty()) {
-      WriteSceneJson(p, report);
+      WriteSceneJson(p);
     } else {
       const int rc = RunProcess(argv, log);
       if (rc != 0) {

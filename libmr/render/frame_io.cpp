@@ -1,7 +1,9 @@
 #include "render/frame_io.h"
 
 #include <algorithm>
+#include <cmath>
 
+#include "core/contact_sheet.h"
 #include "core/error.h"
 #include "core/image_metrics.h"
 #include "core/math.h"
@@ -47,11 +49,34 @@ CompositeResult FrameDecoding::Compose(const FrameMethod& frame, const Image* ph
   return r;
 }
 
+Image FrameDecoding::ToCodes(const Image& radiance, const PhotoEncoding& enc) const {
+  Image codes = radiance;
+  const float e = static_cast<float>(exposure);
+  if (display_space) {
+    for (float& v : codes.values()) v = LinearToSrgb(Clamp(v * e, 0.0f, 1.0f));
+  } else if (response) {
+    for (float& v : codes.values()) v *= e;
+    codes = Delinearise(codes, *response);
+  } else if (enc.has_codes && enc.transfer == Transfer::kLinear) {
+    for (float& v : codes.values()) v = Clamp(v, 0.0f, 1.0f);
+  } else {
+    for (float& v : codes.values()) v = LinearToSrgb(Clamp(v, 0.0f, 1.0f));
+  }
+  for (float& v : codes.values())
+    if (!std::isfinite(v)) v = 0;  // cannot happen for a checked composite; never an unencodable pixel
+  return codes;
+}
+
+std::string FrameDecoding::CodesColorSpace(const PhotoEncoding& enc) const {
+  return !display_space && !response && enc.has_codes && enc.transfer == Transfer::kLinear ? "Linear" : "sRGB";
+}
+
 namespace {
 
 // A photograph or reference, checked against the camera's size.
-Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool raw = false) {
-  Image img = ReadRgbForComparison(path, transfer, raw);
+Image ReadRgb(const fs::path& path, int w, int h, const Transfer transfer, bool raw = false,
+              ImageFileInfo* info = nullptr) {
+  Image img = ReadRgbForComparison(path, transfer, raw, info);
   if (img.width() != w || img.height() != h)
     ThrowErrorAt(FileLoc{path.string()}, "image is {}x{}, the camera model says {}x{}", img.width(), img.height(), w,
                  h);
@@ -74,15 +99,23 @@ FrameReader::~FrameReader() = default;
 
 double FrameReader::fps() const { return video_ && video_->fps() > 0 ? video_->fps() : 30.0; }
 
-std::optional<Image> FrameReader::Photo(int f) {
+std::optional<Image> FrameReader::Photo(int f, PhotoEncoding* enc) {
   std::optional<Image> photo;
+  PhotoEncoding e;
   if (video_) {
     photo = video_->Frame(f);  // decoded through sRGB
     if (decoding_.raw_codes)
       for (float& v : photo->values()) v = LinearToSrgb(v);  // back to code values
+    e.has_codes = true;
   } else if (scene_.camera.frames) {
-    photo = ReadRgb(FramePath(*scene_.camera.frames, f), width_, height_, decoding_.file_transfer, decoding_.raw_codes);
+    ImageFileInfo info;
+    photo = ReadRgb(FramePath(*scene_.camera.frames, f), width_, height_, decoding_.file_transfer, decoding_.raw_codes,
+                    &info);
+    e.has_codes = info.decoded_from_ldr;
+    e.transfer = info.transfer;
+    e.type = info.pixel_type == "uint16" ? PixelType::kUint16 : PixelType::kUint8;
   }
+  if (enc) *enc = e;
   if (photo && decoding_.response) {
     *photo = Linearise(*photo, *decoding_.response);
     for (float& v : photo->values()) v /= static_cast<float>(decoding_.exposure);
@@ -100,8 +133,9 @@ const std::vector<std::string>& FrameLayerNames() {
   return names;
 }
 
-void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, const SceneOutput& output,
-                     const std::string& tool, const std::string& provenance, Report* report) {
+void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, const PhotoEncoding& enc,
+                     const std::string& color_space, const SceneOutput& output, const std::string& tool,
+                     const std::string& provenance, Report* report) {
   auto wanted = [&](const char* name) {
     return std::find(output.layers.begin(), output.layers.end(), name) != output.layers.end();
   };
@@ -124,11 +158,39 @@ void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, c
   report->AddOutput(exr.string());
   if (output.png) {
     const fs::path png = out_dir / fmt::format("{:05d}.png", frame);
+    // The code values as they are (ToCodes encoded them), at the
+    // photograph's bit depth: an unchanged pixel keeps its code exactly.
     ImageWriteOptions po = wo;
-    po.pixel_type = PixelType::kUint8;
-    WriteImage(png, *l.composite, po);
+    po.pixel_type = enc.has_codes ? enc.type : PixelType::kUint8;
+    if (l.codes) {
+      po.ldr_transfer = Transfer::kLinear;
+      po.attributes["oiio:ColorSpace"] = color_space;
+    }
+    WriteImage(png, l.codes ? *l.codes : *l.composite, po);
     report->AddOutput(png.string());
   }
+}
+
+fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate, const Image& composite,
+                          const Image& mask, bool photograph, const std::string& tool, Report* report) {
+  Image d = composite;
+  for (size_t i = 0; i < d.values().size(); ++i) d.values()[i] -= plate.values()[i];
+  double scale = 0;
+  const Image diff = SignedDifferencePanel(d, 0, &scale);
+  const Image sheet = ContactSheet({{&plate, photograph ? "plate" : "I_r (no plate: rendered room)"},
+                                    {&composite, "composite"},
+                                    {&diff, fmt::format("composite - plate, x{:.3g}", 0.5 / scale)},
+                                    {&mask, "mask (virtual object)"}},
+                                   2);
+  ImageWriteOptions wo;
+  wo.tool = tool;
+  wo.pixel_type = PixelType::kUint8;
+  wo.ldr_transfer = Transfer::kLinear;  // already display values
+  wo.attributes["oiio:ColorSpace"] = "sRGB";
+  const fs::path path = out_dir / fmt::format("{:05d}-review.png", frame);
+  WriteImage(path, sheet, wo);
+  report->AddOutput(path.string());
+  return path;
 }
 
 bool FrameComplete(const fs::path& out_dir, int frame, const SceneOutput& output, const std::string& provenance) {
@@ -136,6 +198,7 @@ bool FrameComplete(const fs::path& out_dir, int frame, const SceneOutput& output
   const fs::path exr = out_dir / fmt::format("{:05d}.exr", frame);
   if (!fs::is_regular_file(exr, ec)) return false;
   if (output.png && !fs::is_regular_file(out_dir / fmt::format("{:05d}.png", frame), ec)) return false;
+  if (output.review && !fs::is_regular_file(out_dir / fmt::format("{:05d}-review.png", frame), ec)) return false;
   try {
     const ImageFileInfo info = ReadImageHeader(exr, nullptr, nullptr, nullptr);
     const auto it = info.attributes.find("mr:render");

@@ -18,6 +18,16 @@
 
 namespace mr {
 
+// How one photograph was stored, so that the 8/16-bit outputs can be
+// encoded back the same way (FrameDecoding::ToCodes).
+struct PhotoEncoding {
+  // False for float files (EXR, HDR, PFM) and synthetic composites: there are
+  // no code values to keep, and the outputs are an sRGB view.
+  bool has_codes = false;
+  Transfer transfer = Transfer::kSrgb;  // how its integer codes were decoded (the file's tag, else frames_transfer)
+  PixelType type = PixelType::kUint8;   // kUint8 or kUint16
+};
+
 // How the photographs relate to radiance.
 //  - "srgb", "linear": decoded to radiance; the composite is linear.
 //  - "display": the camera response is unknown, so the photograph stays in
@@ -42,6 +52,16 @@ struct FrameDecoding {
   // The composite of a rendered frame over `photo` (null: over its own I_r),
   // in the compositing space, returned as radiance.
   CompositeResult Compose(const FrameMethod& frame, const Image* photo) const;
+  // A composite (radiance, as Compose gives it) as the code values in [0, 1]
+  // of a photograph stored as `enc` says: the exact inverse of the decoding
+  // (sRGB or linear codes; display: sRGB and exposure; response: the
+  // camera's response and exposure), so that a pixel the composite leaves
+  // unchanged gets back the photograph's code value (docs/formats.md).
+  // Without codes (float frames, synthetic composites): sRGB(clamp(L)).
+  Image ToCodes(const Image& radiance, const PhotoEncoding& enc) const;
+  // The colour space ToCodes' values are in, as image files tag it: "sRGB"
+  // (display-referred codes: srgb, display, response) or "Linear".
+  std::string CodesColorSpace(const PhotoEncoding& enc) const;
 };
 
 // The scene's photographs, frame by frame: an image sequence or a video.
@@ -53,7 +73,8 @@ class FrameReader {
   double fps() const;
   // Frame `f` in the compositing space (radiance, or display code values),
   // checked against the camera's size; nullopt when the scene names none.
-  std::optional<Image> Photo(int f);
+  // `enc`, when given, receives how the frame was stored.
+  std::optional<Image> Photo(int f, PhotoEncoding* enc = nullptr);
 
  private:
   const Scene& scene_;
@@ -69,6 +90,14 @@ Image ReadReferenceFrame(const fs::path& path, int width, int height);
 // in `out_dir` and the EXR was written with `provenance` (WriteFrameFiles'
 // "mr:render" attribute).  Files are written atomically, so present means
 // complete.
+// OUT/NNNNN-review.png, what a user looks at first: the plate | the
+// composite | the difference the composite made to the plate (code values,
+// signed and scaled, mid-grey = unchanged) | the mask, labelled.  The plate
+// and composite are code values (ToCodes); without a photograph the plate
+// is the rendered room I_r.  Returns its path.
+fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate_codes, const Image& composite_codes,
+                          const Image& mask, bool photograph, const std::string& tool, Report* report);
+
 bool FrameComplete(const fs::path& out_dir, int frame, const SceneOutput& output, const std::string& provenance);
 
 // Every layer a frame file can hold, in the order they are written.
@@ -77,14 +106,17 @@ const std::vector<std::string>& FrameLayerNames();
 // What a frame file holds.
 struct FrameLayers {
   const Image* composite = nullptr;
+  const Image* codes = nullptr;  // the composite as the photograph's code values (ToCodes): the PNG
   const Image *mixed = nullptr, *real = nullptr, *mask = nullptr, *difference = nullptr, *variance = nullptr,
               *samples = nullptr, *photo = nullptr;  // photo: null when the scene names no frames
 };
 
 // Writes OUT/NNNNN.exr (the layers output.layers names, composite always)
-// and, with output.png, OUT/NNNNN.png; adds them to the report.
+// and, with output.png, OUT/NNNNN.png (layers.codes, of `enc`'s integer
+// type, tagged with `color_space`); adds them to the report.
 // `provenance` goes into the files' mr:render attribute.
-void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& layers, const SceneOutput& output,
-                     const std::string& tool, const std::string& provenance, Report* report);
+void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& layers, const PhotoEncoding& enc,
+                     const std::string& color_space, const SceneOutput& output, const std::string& tool,
+                     const std::string& provenance, Report* report);
 
 }  // namespace mr

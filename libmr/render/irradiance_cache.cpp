@@ -330,28 +330,28 @@ void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int 
     const bool xv = hit.is_virtual;
     if (want_m) mixed += v.material->emission;
     if (want_r) real += v.material->emission;
-    if (v.bsdf->IsBlack()) return;
+    if (v.bsdf.IsBlack()) return;
     const bool glossy = v.material->IsGlossy();
     PathVertex vd = v;
-    vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
-    row_rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
+    vd.bsdf = DiffuseLobe(scene_, v);
+    row_rays += DirectDiffuse(scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
       sr.mask = kMaskVirtual;
       ++row_rays;
       return embree.Occluded(sr) ? 0.0 : 1.0;
     });
-    const Eigen::Vector3d f = v.material->albedo * kInvPi;
+    const Eigen::Vector3d f = v.albedo * kInvPi;
     if (want_m) mixed += f.cwiseProduct(e_m);
     if (want_r) real += f.cwiseProduct(e_r);
     if (!glossy) return;
     PathVertex vg = v;
-    vg.bsdf = &scene_.glossy_bsdf(v.geometry_id);
+    vg.bsdf = scene_.glossy_bsdf(v.geometry_id);
     NextEvent(scene_, vg, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
       row_rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
     });
     if (cache_->settings().glossy_depth == 0) return;  // next-event light only
     BsdfSample bs;
     const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
-    if (!vg.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return;
+    if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return;
     const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
     const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
     if (want_r && !want_m) {

@@ -47,11 +47,15 @@ inline Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, ui
 }
 
 // A surface vertex: position, shading frame facing the incoming ray, BSDF.
+// The BSDF is held by value: with vertex-colour albedo it differs from
+// point to point (RenderScene::AlbedoAt).
 struct PathVertex {
   Eigen::Vector3d p, wo_world;
   double offset = 0;  // along the normal, for rays leaving p
   ShadingFrame frame{Eigen::Vector3d::UnitZ()};
-  const Bsdf* bsdf = nullptr;
+  Bsdf bsdf{Material()};
+  Eigen::Vector3d albedo = Eigen::Vector3d::Zero();  // the diffuse albedo here
+  bool vertex_albedo = false;                        // albedo varies over the surface
   const Material* material = nullptr;
   uint32_t geometry_id = 0;
 };
@@ -66,10 +70,22 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
   if (n.dot(d) > 0) n = -n;  // two-sided: face the incoming ray
   v.frame = ShadingFrame(n);
   v.wo_world = -d;
-  v.bsdf = &scene.bsdf(hit.geometry_id);
   v.material = &scene.material(hit.geometry_id);
   v.geometry_id = hit.geometry_id;
+  v.vertex_albedo = scene.has_vertex_albedo(hit.geometry_id);
+  if (v.vertex_albedo) {
+    v.albedo = scene.AlbedoAt(hit);
+    v.bsdf = scene.BsdfWith(hit.geometry_id, v.albedo);
+  } else {
+    v.albedo = v.material->albedo;
+    v.bsdf = scene.bsdf(hit.geometry_id);
+  }
   return v;
+}
+
+// The diffuse lobe alone at v (for methods that treat the lobes apart).
+inline Bsdf DiffuseLobe(const RenderScene& scene, const PathVertex& v) {
+  return v.vertex_albedo ? scene.DiffuseBsdfWith(v.geometry_id, v.albedo) : scene.diffuse_bsdf(v.geometry_id);
 }
 
 // Which emitters a path sees: the environment and real lights exist in both
@@ -130,9 +146,9 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Pcg32& rng, Emit&&
       const Eigen::Vector3d le = env.Sample(u0, u1, u2, &wi, &pdf_light);
       const Eigen::Vector3d wi_l = v.frame.ToLocal(wi);
       if (pdf_light > 0 && wi_l.z() > 0) {
-        const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
+        const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
         if (f.maxCoeff() > 0) {
-          const double w = mis ? PowerHeuristic(pdf_light, v.bsdf->Pdf(wo_l, wi_l)) : 1.0;
+          const double w = mis ? PowerHeuristic(pdf_light, v.bsdf.Pdf(wo_l, wi_l)) : 1.0;
           emit(Eigen::Vector3d(f.cwiseProduct(le) * (wi_l.z() * w / pdf_light)), MakeRay(origin, wi, kMaskAll), false);
         }
       }
@@ -144,9 +160,9 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Pcg32& rng, Emit&&
     if (!l.Sample(v.p, u0, u1, &ls)) continue;
     const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
     if (wi_l.z() <= 0) continue;
-    const Eigen::Vector3d f = v.bsdf->Eval(wo_l, wi_l);
+    const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
     if (f.maxCoeff() <= 0) continue;
-    const double w = ls.delta || !mis ? 1.0 : PowerHeuristic(ls.pdf, v.bsdf->Pdf(wo_l, wi_l));
+    const double w = ls.delta || !mis ? 1.0 : PowerHeuristic(ls.pdf, v.bsdf.Pdf(wo_l, wi_l));
     // A point light's shadow ray stops just short of it.
     const double tfar = std::isinf(ls.distance) ? INFINITY : ls.distance * (1 - 1e-6);
     emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / ls.pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),

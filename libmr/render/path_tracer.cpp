@@ -25,7 +25,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     }
     PathVertex v = MakeVertex(scene_, ray, hit);
     L += beta.cwiseProduct(v.material->emission);
-    if (depth >= settings_.max_depth || v.bsdf->IsBlack()) break;
+    if (depth >= settings_.max_depth || v.bsdf.IsBlack()) break;
     NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
       if (virtual_light && !(lights & kVirtualLights)) return;
       shadow.mask = mask;
@@ -34,7 +34,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     });
     BsdfSample s;
     const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
-    if (!v.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) break;
+    if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) break;
     beta = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
     prev_pdf = s.pdf;
     if (depth + 1 >= settings_.rr_depth) {
@@ -80,7 +80,7 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
     const Eigen::Vector3d e = beta.cwiseProduct(v.material->emission);
     out.mixed += e;
     out.real += e;
-    if (depth >= settings_.max_depth || v.bsdf->IsBlack()) return out;
+    if (depth >= settings_.max_depth || v.bsdf.IsBlack()) return out;
     const bool virtual_geometry = scene_.has_virtual_geometry();
     NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
       if (virtual_light) {  // lights I_m only, blocked by anything
@@ -101,7 +101,7 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
     });
     BsdfSample s;
     const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
-    if (!v.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return out;
+    if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return out;
     beta = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
     prev_pdf = s.pdf;
     if (depth + 1 >= settings_.rr_depth) {

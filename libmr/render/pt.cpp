@@ -99,14 +99,6 @@ PathTracerSettings ParsePtSettings(const JsonNode& block, const Scene& scene) {
 class PtMethod : public SettingsMethod<PathTracerSettings> {
  public:
   using SettingsMethod::SettingsMethod;
-  void Prepare(const JobContext& job) override {
-    bool vertex_albedo = false;
-    for (const auto& r : job.scene.reals) vertex_albedo = vertex_albedo || r.material.albedo_from_vertex_colors;
-    for (const auto& v : job.scene.virtuals) vertex_albedo = vertex_albedo || v.material.albedo_from_vertex_colors;
-    if (vertex_albedo)
-      job.report->Warn(
-          "material.albedo_from_vertex_colors is not used by pt yet: the materials' albedo is used instead");
-  }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     PathTracerSettings st = st_;
     st.seed = f.seed;

@@ -79,13 +79,20 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
   FrameReader frames(scene, camera, decoding);
   std::unique_ptr<VideoWriter> video_out;
-  if (frames.is_video() && shard) {
+  const fs::path video_path = out_dir / ("composite." + scene.output.video);
+  // A video's frames are 8-bit sRGB code values (FrameReader).
+  const PhotoEncoding video_encoding{true, Transfer::kSrgb, PixelType::kUint8};
+  if (frames.is_video() && scene.output.video == "none") {
+    report->Skip("composite video", "output.video is \"none\"");
+  } else if (frames.is_video() && shard) {
     report->Skip("composite video", fmt::format("frames {}:{} are a shard of {}: `mr-eval merge` writes the video "
                                                 "from every shard's frames",
                                                 begin, end, n_frames));
   } else if (frames.is_video()) {
-    video_out = std::make_unique<VideoWriter>(out_dir / "composite.mp4", camera.width(), camera.height(), frames.fps());
+    // The input's frame rate and size; a frame per frame rendered.
+    video_out = std::make_unique<VideoWriter>(video_path, camera.width(), camera.height(), frames.fps());
   }
+  if (frames.is_video()) report->SetMetric("plate_fps", frames.fps());  // mr-eval merge's video
   if (!decoding.photograph)
     report->Skip("photograph",
                  "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
@@ -106,13 +113,14 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   }
 
   Json frames_json = Json::array();
+  fs::path review_sheet;  // the last one written
   ErrorCurve errors;
   int64_t clamped = 0, nonfinite = 0;
   for (int f = begin; f < resumed_end; ++f) {  // kept by --resume
     Json fj = {{"frame", f}, {"resumed", true}};
     if (video_out || reference) {
       const Image composite = ReadImage(out_dir / fmt::format("{:05d}.exr", f)).Layer("composite");
-      if (video_out) video_out->Write(composite);
+      if (video_out) video_out->WriteCodes(decoding.ToCodes(composite, video_encoding));
       if (reference) {
         const Image ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
         const FrameError e = MeasureFrame(composite, ref, nullptr);
@@ -131,7 +139,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (frame_copy && !copy_through)
       report->Skip(fmt::format("rendering frame {}", f),
                    enclosed + ": I_m - I_r = 0 exactly, the photograph is copied through");
-    const std::optional<Image> photo = frames.Photo(f);
+    PhotoEncoding encoding;
+    const std::optional<Image> photo = frames.Photo(f, &encoding);
     std::optional<Image> ref;
     if (reference) ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
     std::optional<Image> photo_radiance;  // prt's background
@@ -204,9 +213,17 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     frames_json.push_back(fj);
     {
       ScopedTimer t(report, "write");
-      FrameLayers layers{&cr.composite, &mixed, &real, &mask, &cr.difference, &variance, &samples, photo_ptr};
-      WriteFrameFiles(out_dir, f, layers, scene.output, o.tool, frame_provenance + fmt::format(" frame {}", f), report);
-      if (video_out) video_out->Write(cr.composite);
+      // The 8-bit outputs through the inverse of the frames' decoding: a
+      // pixel the object does not change keeps the plate's code value.
+      const Image codes = decoding.ToCodes(cr.composite, encoding);
+      FrameLayers layers{&cr.composite, &codes, &mixed, &real, &mask, &cr.difference, &variance, &samples, photo_ptr};
+      WriteFrameFiles(out_dir, f, layers, encoding, decoding.CodesColorSpace(encoding), scene.output, o.tool,
+                      frame_provenance + fmt::format(" frame {}", f), report);
+      if (video_out) video_out->WriteCodes(codes);
+      if (scene.output.review) {
+        const Image plate = decoding.ToCodes(photo ? decoding.ToRadiance(*photo) : real, encoding);
+        review_sheet = WriteReviewSheet(out_dir, f, plate, codes, mask, photo.has_value(), o.tool, report);
+      }
     }
     spdlog::info("frame {}: {} spp in {:.2f} s{}", f, done, seconds,
                  ref ? fmt::format(", relMSE {:.3g}", fj["relmse"].get<double>()) : std::string());
@@ -214,7 +231,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   method->Finish(report);
   if (video_out) {
     video_out->Close();
-    report->AddOutput((out_dir / "composite.mp4").string());
+    report->AddOutput(video_path.string());
+  }
+  if (!review_sheet.empty()) {
+    report->SetMetric("review_sheet", review_sheet.string());
+    spdlog::info("review sheet: {}", review_sheet.string());
   }
   report->SetMetric("method", method_name);
   report->SetMetric("frames", frames_json);

@@ -12,7 +12,7 @@ uint32_t RenderScene::AddReal(const Mesh& mesh, const Material& material) {
   uint32_t id = embree_->AddMesh(mesh, /*is_virtual=*/false);
   closed_.Add(mesh);
   geometry_bounds_.push_back(mesh.Bounds().cast<double>());
-  SetSurface(id, material, Eigen::Matrix3d::Identity());
+  SetSurface(id, material, Eigen::Matrix3d::Identity(), mesh);
   return id;
 }
 
@@ -25,19 +25,51 @@ uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_
   geometry_bounds_.push_back(wb);
   virtual_bounds_.push_back(wb);
   virtual_ids_.push_back(id);
-  SetSurface(id, material, world_from_object.linear().inverse().transpose());
+  SetSurface(id, material, world_from_object.linear().inverse().transpose(), mesh);
   has_virtual_ = has_virtual_geometry_ = true;
   return id;
 }
 
-void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world) {
+void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world,
+                             const Mesh& mesh) {
   if (surfaces_.size() <= id)
     surfaces_.resize(id + 1, Surface{Material(), Bsdf(Material()), Eigen::Matrix3d::Identity()});
   Material d = material, g = material;
   d.specular.setZero();
   g.albedo.setZero();
-  surfaces_[id] = Surface{material, Bsdf(material), normal_to_world, Bsdf(d), Bsdf(g)};
+  surfaces_[id] = Surface{material, Bsdf(material), normal_to_world, Bsdf(d), Bsdf(g), {}, {}};
+  if (material.albedo_from_vertex_colors) {
+    if (mesh.colors.size() != mesh.positions.size())
+      ThrowError("material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
+    surfaces_[id].vertex_albedo = mesh.colors;
+    surfaces_[id].triangles = mesh.triangles;
+  }
   has_glossy_ = has_glossy_ || material.IsGlossy();
+}
+
+Eigen::Vector3d RenderScene::AlbedoAt(const Hit& hit) const {
+  const Surface& s = surfaces_[hit.geometry_id];
+  if (s.vertex_albedo.empty() || hit.primitive_id >= s.triangles.size()) return s.material.albedo;
+  const Eigen::Vector3i& t = s.triangles[hit.primitive_id];
+  const double u = hit.uv.x(), v = hit.uv.y();
+  const Eigen::Vector3d a = (1 - u - v) * s.vertex_albedo[static_cast<size_t>(t[0])].cast<double>() +
+                            u * s.vertex_albedo[static_cast<size_t>(t[1])].cast<double>() +
+                            v * s.vertex_albedo[static_cast<size_t>(t[2])].cast<double>();
+  const Eigen::Vector3d hi = (Eigen::Vector3d::Ones() - s.material.specular).cwiseMax(0.0);
+  return a.cwiseMax(0.0).cwiseMin(hi);
+}
+
+Bsdf RenderScene::BsdfWith(uint32_t id, const Eigen::Vector3d& albedo) const {
+  Material m = surfaces_.at(id).material;
+  m.albedo = albedo;
+  return Bsdf(m);
+}
+
+Bsdf RenderScene::DiffuseBsdfWith(uint32_t id, const Eigen::Vector3d& albedo) const {
+  Material m = surfaces_.at(id).material;
+  m.albedo = albedo;
+  m.specular.setZero();
+  return Bsdf(m);
 }
 
 void RenderScene::AddLight(const Light& light) {
@@ -88,8 +120,21 @@ Eigen::Vector3d RenderScene::WorldNormal(const Hit& hit) const {
 }
 
 void LoadRenderScene(const Scene& scene, RenderScene* out) {
-  for (const auto& r : scene.reals) out->AddReal(ReadMesh(r.mesh), r.material);
-  for (const auto& v : scene.virtuals) out->AddVirtual(ReadMesh(v.mesh), v.world_from_object, v.material);
+  auto with_name = [](const fs::path& mesh, auto&& add) {
+    try {
+      add();
+    } catch (const Error& e) {
+      ThrowErrorAt(FileLoc{mesh.string()}, "{}", e.message());
+    }
+  };
+  for (const auto& r : scene.reals) {
+    const Mesh mesh = ReadMesh(r.mesh);
+    with_name(r.mesh, [&] { out->AddReal(mesh, r.material); });
+  }
+  for (const auto& v : scene.virtuals) {
+    const Mesh mesh = ReadMesh(v.mesh);
+    with_name(v.mesh, [&] { out->AddVirtual(mesh, v.world_from_object, v.material); });
+  }
   if (scene.lighting.environment) {
     const std::string name = scene.lighting.environment->string();
     ImageReadOptions opt;

@@ -21,7 +21,9 @@ namespace mr {
 class RenderScene {
  public:
   RenderScene();
-  // The captured room (or any real geometry), in world coordinates.
+  // The captured room (or any real geometry), in world coordinates.  With
+  // material.albedo_from_vertex_colors the mesh's vertex colours are its
+  // albedo (mr-fuse's de-lit room): mr::Error when it has none.
   uint32_t AddReal(const Mesh& mesh, const Material& material);
   // A virtual object: `mesh` in object coordinates, placed by world_from_object.
   uint32_t AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material);
@@ -40,6 +42,17 @@ class RenderScene {
   // methods that treat the lobes differently (ic, vpl).
   const Bsdf& diffuse_bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).diffuse; }
   const Bsdf& glossy_bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).glossy; }
+  // Whether the geometry's albedo varies over it (vertex colours).
+  bool has_vertex_albedo(uint32_t geometry_id) const { return !surfaces_.at(geometry_id).vertex_albedo.empty(); }
+  // The diffuse albedo at a hit: the vertex colours interpolated over the
+  // triangle (barycentric) where the geometry has them, each channel
+  // clamped to [0, 1 - specular] so that the surface stays
+  // energy-conserving; else the material's.
+  Eigen::Vector3d AlbedoAt(const Hit& hit) const;
+  // The BSDF, and its diffuse lobe alone, of a geometry's material with
+  // its albedo replaced by `albedo` (AlbedoAt).
+  Bsdf BsdfWith(uint32_t geometry_id, const Eigen::Vector3d& albedo) const;
+  Bsdf DiffuseBsdfWith(uint32_t geometry_id, const Eigen::Vector3d& albedo) const;
   // Whether any surface has a glossy lobe.
   bool has_glossy() const { return has_glossy_; }
   // Unit world-space geometric normal of a hit (Embree reports instance
@@ -67,8 +80,10 @@ class RenderScene {
     Bsdf bsdf;
     Eigen::Matrix3d normal_to_world;
     Bsdf diffuse{Material()}, glossy{Material()};
+    std::vector<Eigen::Vector3f> vertex_albedo;  // empty: the material's albedo everywhere
+    std::vector<Eigen::Vector3i> triangles;      // with vertex_albedo: the mesh's, by primitive id
   };
-  void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world);
+  void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world, const Mesh& mesh);
   bool has_glossy_ = false;
   std::unique_ptr<EmbreeScene> embree_;
   std::vector<Surface> surfaces_;  // by geometry id
@@ -82,7 +97,8 @@ class RenderScene {
 };
 
 // Builds a RenderScene from a validated scene description: reads the meshes
-// and the environment map (NaN/Inf pixels are an error naming the file and pixel).
+// and the environment map (NaN/Inf pixels are an error naming the file and
+// pixel; albedo_from_vertex_colors on a mesh without colours names the mesh).
 void LoadRenderScene(const Scene& scene, RenderScene* out);
 
 }  // namespace mr

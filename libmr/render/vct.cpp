@@ -214,7 +214,7 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
       const Eigen::Vector3d p = o + static_cast<double>(h.t) * d;
       size_t vi;
       if (!voxel_of(p, &vi)) return;
-      const Eigen::Vector3d value = scene.material(h.geometry_id).albedo.cwiseProduct(power(p, h.t)) * kInvPi;
+      const Eigen::Vector3d value = scene.AlbedoAt(h).cwiseProduct(power(p, h.t)) * kInvPi;
       Eigen::Vector3d n = scene.WorldNormal(h);
       if (n.dot(d) > 0) n = -n;
       if (value.allFinite() && value.maxCoeff() > 0) list->push_back({vi, value, n, m, r});
@@ -601,11 +601,11 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
     const bool xv = hit.is_virtual;
     if (want_m) mixed += v.material->emission;
     if (want_r) real += v.material->emission;
-    if (v.bsdf->IsBlack()) return;
+    if (v.bsdf.IsBlack()) return;
     // Direct light; a real point's virtual shadows by shadow cone.
     PathVertex vd = v;
-    vd.bsdf = &scene_.diffuse_bsdf(v.geometry_id);
-    c.rays += DirectDiffuse(scene_, vd, v.material->albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
+    vd.bsdf = DiffuseLobe(scene_, v);
+    c.rays += DirectDiffuse(scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
       const Eigen::Vector3d o = sr.origin.cast<double>(), d = sr.direction.cast<double>().normalized();
       const double tfar = sr.tfar;
       if (!SegmentMeetsBoxes(o, d, tfar, vbounds)) {
@@ -638,7 +638,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
       er += w * cr.real;
       ed += w * cr.delta;
     }
-    const Eigen::Vector3d f = v.material->albedo * kInvPi;
+    const Eigen::Vector3d f = v.albedo * kInvPi;
     if (xv) {
       if (want_m) mixed += f.cwiseProduct(em);
     } else {
@@ -651,7 +651,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
     // the rest through the specular cone, weighted by the lobe's
     // reflectance (one BSDF sample's f cos / pdf).
     PathVertex vg = v;
-    vg.bsdf = &scene_.glossy_bsdf(v.geometry_id);
+    vg.bsdf = scene_.glossy_bsdf(v.geometry_id);
     const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
     for (const LightSource& l : scene_.lights()) {
       if (l.light().type == LightType::kDistant) continue;
@@ -659,7 +659,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
       if (!l.Sample(v.p, 0.5, 0.5, &ls)) continue;
       const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
       if (wi_l.z() <= 0) continue;
-      const Eigen::Vector3d fg = vg.bsdf->Eval(wo_l, wi_l);
+      const Eigen::Vector3d fg = vg.bsdf.Eval(wo_l, wi_l);
       if (fg.maxCoeff() <= 0) continue;
       c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / ls.pdf)),
                              MakeRay(v.p + v.frame.n * v.offset, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)),
@@ -667,7 +667,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
     }
     BsdfSample bs;
     const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
-    if (!vg.bsdf->Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
+    if (!vg.bsdf.Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
     const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
     const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
     const double alpha = v.material->roughness;

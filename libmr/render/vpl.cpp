@@ -217,10 +217,10 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
                 p.depth = depth;
                 vs.push_back(p);
               }
-              if (v.bsdf->IsBlack() || depth == max_vpl_depth) return;
+              if (v.bsdf.IsBlack() || depth == max_vpl_depth) return;
               BsdfSample s;
               const double ul = g.NextDouble(), a = g.NextDouble(), b = g.NextDouble();
-              if (!v.bsdf->Sample(v.frame.ToLocal(v.wo_world), ul, a, b, &s)) return;
+              if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, a, b, &s)) return;
               phi = phi.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
               const double q = std::min(1.0, phi.maxCoeff() / flux0);
               if (g.NextDouble() >= q) {
@@ -318,16 +318,16 @@ class VplShader {
   void ShadeAt(const PathVertex& v, bool x_virtual, bool want_m, bool want_r, int depth, const Eigen::Vector3d& beta,
                Pcg32& rng, Accum* acc, bool emission) const {
     if (emission) Add(acc, want_m, want_r, beta.cwiseProduct(v.material->emission));
-    if (v.bsdf->IsBlack()) return;
+    if (v.bsdf.IsBlack()) return;
     const bool split = v.material->IsGlossy() && depth < st_.glossy_depth;
     if (!split) {
-      Gather(v, *v.bsdf, x_virtual, want_m, want_r, beta, acc, depth == 0);
+      Gather(v, v.bsdf, x_virtual, want_m, want_r, beta, acc, depth == 0);
     } else {
       // Diffuse lobe by VPLs; glossy lobe by next-event estimation and one
       // BSDF-sampled ray, gathered where it lands.
-      const Bsdf* diffuse = DiffuseOf(v);
-      const Bsdf* glossy = GlossyOf(v);
-      Gather(v, *diffuse, x_virtual, want_m, want_r, beta, acc, depth == 0);
+      const Bsdf diffuse = DiffuseLobe(scene_, v);
+      const Bsdf& glossy = scene_.glossy_bsdf(Id(v));
+      Gather(v, diffuse, x_virtual, want_m, want_r, beta, acc, depth == 0);
       PathVertex g = v;
       g.bsdf = glossy;
       NextEvent(scene_, g, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
@@ -336,7 +336,7 @@ class VplShader {
       });
       BsdfSample s;
       const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
-      if (glossy->Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
+      if (glossy.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
         const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
         ShadeRay(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
                  b, rng, acc);
@@ -387,9 +387,7 @@ class VplShader {
     }
   }
 
-  const Bsdf* DiffuseOf(const PathVertex& v) const { return &scene_.diffuse_bsdf(Id(v)); }
-  const Bsdf* GlossyOf(const PathVertex& v) const { return &scene_.glossy_bsdf(Id(v)); }
-  Eigen::Vector3d DiffuseAlbedo(const PathVertex& v) const { return v.material->albedo; }
+  Eigen::Vector3d DiffuseAlbedo(const PathVertex& v) const { return v.albedo; }
   uint32_t Id(const PathVertex& v) const { return v.geometry_id; }
 
   // Every VPL, directional VPL and delta light at v through `bsdf`.
@@ -435,7 +433,7 @@ class VplShader {
       if (cos_x <= 0 || cos_y <= 0) continue;
       const Eigen::Vector3d fx = bsdf.Eval(wo_l, v.frame.ToLocal(d));
       if (fx.maxCoeff() <= 0) continue;
-      const Eigen::Vector3d fy = p.bsdf->Eval(p.wi_local, p.frame.ToLocal(-d));
+      const Eigen::Vector3d fy = p.bsdf.Eval(p.wi_local, p.frame.ToLocal(-d));
       const Eigen::Vector3d e = p.flux.cwiseProduct(fy).cwiseProduct(fx) * (cos_x * cos_y);
       const double g = 1 / std::max(d2, clamp2_);
       push(e * g, measure_bias ? Eigen::Vector3d(e * (1 / d2 - g)) : Eigen::Vector3d::Zero(), d, dist * (1 - 1e-5),

@@ -37,8 +37,8 @@ struct Vpl {
   ShadingFrame frame{Eigen::Vector3d::UnitZ()};  // n faces the side the light arrived on
   Eigen::Vector3d wi_local;                      // towards where the light came from, in frame
   Eigen::Vector3d flux;                          // arriving flux (W)
-  const Bsdf* bsdf = nullptr;
-  uint8_t sets = kLightsBoth;  // which solutions it lights
+  Bsdf bsdf{Material()};                         // the surface's, with its albedo there
+  uint8_t sets = kLightsBoth;                    // which solutions it lights
   bool on_virtual = false;
   int depth = 0;  // surfaces met along its path before (0: lit by the emitter)
 };

@@ -89,6 +89,10 @@ struct SceneOutput {
   fs::path dir = "out";
   bool png = true;
   bool half = false;  // EXR layers as half floats (refused where values exceed 65504)
+  // The composite video, written when the frames are a video: "mp4"
+  // (MPEG-4, lossy), "mkv" (FFV1, lossless) or "none".
+  std::string video = "mp4";
+  bool review = false;  // OUT/review/NNNNN.png: plate | composite | difference | mask, labelled
   // EXR layers written (OutputLayers(); composite is required): all by default.
   std::vector<std::string> layers = OutputLayers();
 };

@@ -26,7 +26,7 @@ namespace mr {
 
 SynthPreset GetSynthPreset(const std::string& name) {
   if (name == "small") return {64, 48, 2, 256, 16, 1e4};
-  if (name == "medium") return {160, 120, 4, 256, 16, 1e4};
+  if (name == "medium") return {320, 240, 2, 256, 16, 1e4};
   if (name == "room") return {640, 480, 4, 1024, 64, 1e6};
   throw UsageError(fmt::format("unknown preset \"{}\" (small, medium, room)", name));
 }

@@ -11,8 +11,8 @@ namespace mr {
 
 namespace {
 
-constexpr int kStrip = 22;   // label strip height, pixels
-constexpr int kMargin = 4;   // between panels
+constexpr int kStrip = 22;  // label strip height, pixels
+constexpr int kMargin = 4;  // between panels
 constexpr float kGround = 0.15f;
 
 }  // namespace
@@ -49,8 +49,8 @@ Image ContactSheet(const std::vector<SheetPanel>& panels, int columns) {
       scale *= static_cast<double>(pw) / sz.width;
       sz = cv::getTextSize(label, cv::FONT_HERSHEY_SIMPLEX, scale, 1, &base);
     }
-    cv::putText(sheet, label, cv::Point(x0 + 2, y0 + kStrip - 7), cv::FONT_HERSHEY_SIMPLEX, scale,
-                cv::Scalar::all(235), 1, cv::LINE_AA);
+    cv::putText(sheet, label, cv::Point(x0 + 2, y0 + kStrip - 7), cv::FONT_HERSHEY_SIMPLEX, scale, cv::Scalar::all(235),
+                1, cv::LINE_AA);
   }
   Image out = Image::Rgb(W, H);
   for (int y = 0; y < H; ++y)

@@ -26,7 +26,7 @@ case "$mode" in
     cmake --build build-asan -j "$jobs"
     # Leak checking is off: TBB, OpenImageIO and Embree keep process-lifetime pools.
     ASAN_OPTIONS=detect_leaks=0:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-      ctest --test-dir build-asan -j "$jobs" --output-on-failure
+      ctest --test-dir build-asan -j "$jobs" --output-on-failure --label-exclude release_only
     ;;
   --fuzz)
     seconds=${2:-20}  # a fixed seed keeps CI deterministic; longer local runs find more

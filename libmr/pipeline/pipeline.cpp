@@ -384,10 +384,15 @@ Pipeline PlanPipeline(const fs::path& file) {
     if (room.Has("real")) {
       const Node r = room.Child("real");
       Json reals = Json::array();
+      auto rebase = [&](const Node& one) {
+        Json e = Rebase(pl, one, {"mesh"});
+        if (one.Has("material")) e["material"] = Rebase(pl, one.Child("material"), {"albedo_texture"});
+        return e;
+      };
       if (r.json().is_array()) {
-        for (size_t i = 0; i < r.json().size(); ++i) reals.push_back(Rebase(pl, r.Index(i), {"mesh"}));
+        for (size_t i = 0; i < r.json().size(); ++i) reals.push_back(rebase(r.Index(i)));
       } else {
-        reals.push_back(Rebase(pl, r, {"mesh"}));
+        reals.push_back(rebase(r));
       }
       scene["real"] = reals;
       s.skip = fmt::format("room.real gives {} mesh{}: no RGB-D recording to fuse", reals.size(),
@@ -513,6 +518,8 @@ Pipeline PlanPipeline(const fs::path& file) {
     for (size_t i = 0; i < v.json().size(); ++i) {
       const Node o = v.Index(i);
       Json e = Rebase(pl, o, {"mesh", "formfactors"});
+      if (o.Has("material"))  // its texture, like the mesh, relative to the work folder
+        e["material"] = Rebase(pl, o.Child("material"), {"albedo_texture"});
       const bool wants = uses_ffc ? !(o.Has("formfactors") && o.Child("formfactors").json().is_string())
                                   : o.Has("formfactors") && o.Child("formfactors").json().is_boolean() &&
                                         o.Child("formfactors").Bool();

@@ -58,6 +58,59 @@ struct ShadingResidual {
 
 }  // namespace
 
+int64_t FillFromNeighbours(const std::vector<Eigen::Vector3i>& triangles, const std::vector<bool>& known,
+                           const Eigen::Vector3d& fallback, std::vector<Eigen::Vector3d>* values, int64_t* isolated) {
+  const size_t nv = values->size();
+  std::vector<std::vector<int>> adjacent(nv);
+  for (const Eigen::Vector3i& t : triangles)
+    for (int k = 0; k < 3; ++k) {
+      const int a = t[k], b = t[(k + 1) % 3];
+      if (a < 0 || b < 0 || static_cast<size_t>(a) >= nv || static_cast<size_t>(b) >= nv) continue;
+      adjacent[static_cast<size_t>(a)].push_back(b);
+      adjacent[static_cast<size_t>(b)].push_back(a);
+    }
+  std::vector<bool> have = known;
+  int64_t filled = 0;
+  std::vector<size_t> ring;
+  for (;;) {
+    // The next ring: unknown vertices with a known neighbour, all computed
+    // from the values before this ring (so the result does not depend on
+    // the vertices' order).
+    ring.clear();
+    for (size_t v = 0; v < nv; ++v)
+      if (!have[v])
+        for (int u : adjacent[v])
+          if (have[static_cast<size_t>(u)]) {
+            ring.push_back(v);
+            break;
+          }
+    if (ring.empty()) break;
+    std::vector<Eigen::Vector3d> next(ring.size(), Eigen::Vector3d::Zero());
+    for (size_t i = 0; i < ring.size(); ++i) {
+      int n = 0;
+      for (int u : adjacent[ring[i]])
+        if (have[static_cast<size_t>(u)]) {
+          next[i] += (*values)[static_cast<size_t>(u)];
+          ++n;
+        }
+      next[i] /= n;
+    }
+    for (size_t i = 0; i < ring.size(); ++i) {
+      (*values)[ring[i]] = next[i];
+      have[ring[i]] = true;
+    }
+    filled += static_cast<int64_t>(ring.size());
+  }
+  int64_t alone = 0;
+  for (size_t v = 0; v < nv; ++v)
+    if (!have[v]) {
+      (*values)[v] = fallback;
+      ++alone;
+    }
+  if (isolated) *isolated = alone;
+  return filled;
+}
+
 AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, double max_depth,
                           const AlbedoOptions& options, Mesh* mesh, Report* report) {
   AlbedoStats st;
@@ -264,6 +317,14 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
       st.gain_max = std::max(st.gain_max, gain[f]);
     }
   }
+  // Vertices no frame saw: the albedo of the surface around them (the
+  // fused voxel colour is a raw colour in the camera's units, not an albedo).
+  if (st.vertices_unobserved > 0) {
+    std::vector<bool> known(nv);
+    for (size_t v = 0; v < nv; ++v) known[v] = wsum[v] > 0;
+    st.vertices_from_neighbours =
+        FillFromNeighbours(mesh->triangles, known, Eigen::Vector3d::Constant(0.5), &albedo, &st.vertices_isolated);
+  }
   Mesh::Scalar ar{"albedo_r", {}}, ag{"albedo_g", {}}, ab{"albedo_b", {}}, orr{"observed_r", {}}, og{"observed_g", {}},
       ob{"observed_b", {}};
   mesh->colors.resize(nv);
@@ -290,9 +351,13 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
     } else {
       report->Skip("de-lit albedo", "no --lights or --env: albedo is the viewing-angle-weighted mean colour");
     }
+    report->SetMetric("albedo.vertices_from_neighbours", st.vertices_from_neighbours);
+    report->SetMetric("albedo.vertices_isolated", st.vertices_isolated);
     if (st.vertices_unobserved)
-      report->Warn(fmt::format("{} vertices are seen in no albedo frame: they keep the fused voxel colour",
-                               st.vertices_unobserved));
+      report->Warn(
+          fmt::format("{} vertices are seen in no albedo frame: {} take the albedo of the surface around "
+                      "them, {} (with nothing seen connected to them) albedo 0.5",
+                      st.vertices_unobserved, st.vertices_from_neighbours, st.vertices_isolated));
   }
   return st;
 }

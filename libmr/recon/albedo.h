@@ -40,11 +40,23 @@ struct AlbedoOptions {
 struct AlbedoStats {
   int frames_used = 0;
   int64_t vertices_observed = 0, vertices_unobserved = 0;
+  int64_t vertices_from_neighbours = 0;  // unobserved, albedo from the surface around them
+  int64_t vertices_isolated = 0;         // unobserved with nothing observed connected: albedo 0.5
   bool delit = false;
   double gain_min = 1, gain_max = 1;
   double mean_irradiance = 0;
   int64_t albedo_clamped = 0;  // vertices whose albedo came out above 1
 };
+
+// Gives every vertex that is not `known` the mean of its known neighbours'
+// values, in rings outwards along the triangles' edges (each ring from the
+// one inside it), so that a vertex no frame saw takes the albedo of the
+// surface around it.  Vertices with no known vertex in their connected part
+// of the mesh get `fallback`.  Returns the number filled from neighbours;
+// *isolated (optional) receives the number given `fallback`.
+int64_t FillFromNeighbours(const std::vector<Eigen::Vector3i>& triangles, const std::vector<bool>& known,
+                           const Eigen::Vector3d& fallback, std::vector<Eigen::Vector3d>* values,
+                           int64_t* isolated = nullptr);
 
 // Sets mesh->colors to the albedo (clamped to [0,1]) and adds scalars
 // albedo_r/g/b (unclamped) and observed_r/g/b (mean observed colour over

@@ -72,7 +72,7 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
   v.wo_world = -d;
   v.material = &scene.material(hit.geometry_id);
   v.geometry_id = hit.geometry_id;
-  v.vertex_albedo = scene.has_vertex_albedo(hit.geometry_id);
+  v.vertex_albedo = scene.has_varying_albedo(hit.geometry_id);
   if (v.vertex_albedo) {
     v.albedo = scene.AlbedoAt(hit);
     v.bsdf = scene.BsdfWith(hit.geometry_id, v.albedo);

@@ -68,8 +68,20 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
     if (v.material.albedo_from_vertex_colors && mesh.colors.size() != mesh.positions.size())
       ThrowErrorAt(FileLoc{v.mesh.string()},
                    "material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
+    // A texture is sampled at each vertex's uv: prt shades per vertex.
+    std::vector<Eigen::Vector3f> texels;
+    if (!v.material.albedo_texture.empty()) {
+      if (mesh.uvs.size() != mesh.positions.size())
+        ThrowErrorAt(FileLoc{v.mesh.string()},
+                     "material.albedo_texture is set but the mesh has no texture coordinates");
+      const Image tex = ReadAlbedoTexture(v.material.albedo_texture);
+      for (const Eigen::Vector2f& uv : mesh.uvs)
+        texels.push_back(RenderScene::SampleTexture(tex, uv.cast<double>()).cast<float>());
+    }
     po.vertex_radiance = ShadeVertices(t, ec, v.material.albedo, &clamped, nullptr,
-                                       v.material.albedo_from_vertex_colors ? &mesh.colors : nullptr);
+                                       v.material.albedo_from_vertex_colors ? &mesh.colors
+                                       : texels.empty()                     ? nullptr
+                                                                            : &texels);
     po.triangles = mesh.triangles;
     po.emission = v.material.emission;
     if (clamped > 0)

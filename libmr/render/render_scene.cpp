@@ -1,6 +1,8 @@
 #include "render/render_scene.h"
 
 #include <algorithm>
+#include <cmath>
+#include <type_traits>
 
 #include "core/error.h"
 
@@ -44,19 +46,69 @@ void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen:
     surfaces_[id].vertex_albedo = mesh.colors;
     surfaces_[id].triangles = mesh.triangles;
   }
+  if (!material.albedo_texture.empty()) {
+    if (mesh.uvs.size() != mesh.positions.size())
+      ThrowError("material.albedo_texture is set but the mesh has no texture coordinates");
+    surfaces_[id].texture = ReadAlbedoTexture(material.albedo_texture);
+    surfaces_[id].uvs = mesh.uvs;
+    surfaces_[id].triangles = mesh.triangles;
+  }
   has_glossy_ = has_glossy_ || material.IsGlossy();
 }
 
 Eigen::Vector3d RenderScene::AlbedoAt(const Hit& hit) const {
   const Surface& s = surfaces_[hit.geometry_id];
-  if (s.vertex_albedo.empty() || hit.primitive_id >= s.triangles.size()) return s.material.albedo;
+  if ((s.vertex_albedo.empty() && s.texture.width() == 0) || hit.primitive_id >= s.triangles.size())
+    return s.material.albedo;
   const Eigen::Vector3i& t = s.triangles[hit.primitive_id];
   const double u = hit.uv.x(), v = hit.uv.y();
-  const Eigen::Vector3d a = (1 - u - v) * s.vertex_albedo[static_cast<size_t>(t[0])].cast<double>() +
-                            u * s.vertex_albedo[static_cast<size_t>(t[1])].cast<double>() +
-                            v * s.vertex_albedo[static_cast<size_t>(t[2])].cast<double>();
+  // A concrete return type: an Eigen expression would refer to at()'s
+  // temporaries after they are gone.
+  auto lerp = [&](const auto& at) -> std::decay_t<decltype(at(0))> {
+    return (1 - u - v) * at(t[0]) + u * at(t[1]) + v * at(t[2]);
+  };
+  Eigen::Vector3d a;
+  if (!s.vertex_albedo.empty()) {
+    a = lerp([&](int i) -> Eigen::Vector3d { return s.vertex_albedo[static_cast<size_t>(i)].cast<double>(); });
+  } else {
+    const Eigen::Vector2d st =
+        lerp([&](int i) -> Eigen::Vector2d { return s.uvs[static_cast<size_t>(i)].cast<double>(); });
+    a = SampleTexture(s.texture, st);
+  }
   const Eigen::Vector3d hi = (Eigen::Vector3d::Ones() - s.material.specular).cwiseMax(0.0);
   return a.cwiseMax(0.0).cwiseMin(hi);
+}
+
+Image ReadAlbedoTexture(const fs::path& path) {
+  const Image tex = ReadImage(path);
+  const int r = tex.ChannelIndex("R"), g = tex.ChannelIndex("G"), b = tex.ChannelIndex("B");
+  const int y = tex.ChannelIndex("Y");
+  const bool rgb = r >= 0 && g >= 0 && b >= 0;
+  if (!rgb && y < 0) ThrowErrorAt(FileLoc{path.string()}, "an albedo texture needs R, G, B or Y channels");
+  Image out = Image::Rgb(tex.width(), tex.height());
+  for (int yy = 0; yy < tex.height(); ++yy)
+    for (int x = 0; x < tex.width(); ++x)
+      for (int c = 0; c < 3; ++c) out.at(x, yy, c) = tex.at(x, yy, rgb ? (c == 0 ? r : c == 1 ? g : b) : y);
+  return out;
+}
+
+Eigen::Vector3d RenderScene::SampleTexture(const Image& tex, const Eigen::Vector2d& uv) {
+  // Texel centres at (i + 0.5) / W; v = 0 is the bottom row; repeating.
+  const int W = tex.width(), H = tex.height();
+  const double x = uv.x() * W - 0.5, y = (1.0 - uv.y()) * H - 0.5;
+  if (!std::isfinite(x) || !std::isfinite(y)) return Eigen::Vector3d::Zero();
+  const double fx = std::floor(x), fy = std::floor(y);
+  const double ax = x - fx, ay = y - fy;
+  auto wrap = [](double i, int n) {
+    const double m = std::fmod(i, static_cast<double>(n));
+    return static_cast<int>(m < 0 ? m + n : m);
+  };
+  const int x0 = wrap(fx, W), x1 = wrap(fx + 1, W), y0 = wrap(fy, H), y1 = wrap(fy + 1, H);
+  Eigen::Vector3d out;
+  for (int c = 0; c < 3; ++c)
+    out[c] = (1 - ay) * ((1 - ax) * tex.at(x0, y0, c) + ax * tex.at(x1, y0, c)) +
+             ay * ((1 - ax) * tex.at(x0, y1, c) + ax * tex.at(x1, y1, c));
+  return out;
 }
 
 Bsdf RenderScene::BsdfWith(uint32_t id, const Eigen::Vector3d& albedo) const {

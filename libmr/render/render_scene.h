@@ -23,7 +23,8 @@ class RenderScene {
   RenderScene();
   // The captured room (or any real geometry), in world coordinates.  With
   // material.albedo_from_vertex_colors the mesh's vertex colours are its
-  // albedo (mr-fuse's de-lit room): mr::Error when it has none.
+  // albedo (mr-fuse's de-lit room), with material.albedo_texture the
+  // texture at its uvs (read here): mr::Error when the mesh has none.
   uint32_t AddReal(const Mesh& mesh, const Material& material);
   // A virtual object: `mesh` in object coordinates, placed by world_from_object.
   uint32_t AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material);
@@ -42,16 +43,23 @@ class RenderScene {
   // methods that treat the lobes differently (ic, vpl).
   const Bsdf& diffuse_bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).diffuse; }
   const Bsdf& glossy_bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).glossy; }
-  // Whether the geometry's albedo varies over it (vertex colours).
-  bool has_vertex_albedo(uint32_t geometry_id) const { return !surfaces_.at(geometry_id).vertex_albedo.empty(); }
+  // Whether the geometry's albedo varies over it (vertex colours, texture).
+  bool has_varying_albedo(uint32_t geometry_id) const {
+    const Surface& s = surfaces_.at(geometry_id);
+    return !s.vertex_albedo.empty() || s.texture.width() > 0;
+  }
   // The diffuse albedo at a hit: the vertex colours interpolated over the
-  // triangle (barycentric) where the geometry has them, each channel
+  // triangle (barycentric), or the texture at the interpolated uv
+  // (bilinear, repeating), where the geometry has them, each channel
   // clamped to [0, 1 - specular] so that the surface stays
   // energy-conserving; else the material's.
   Eigen::Vector3d AlbedoAt(const Hit& hit) const;
   // The BSDF, and its diffuse lobe alone, of a geometry's material with
   // its albedo replaced by `albedo` (AlbedoAt).
   Bsdf BsdfWith(uint32_t geometry_id, const Eigen::Vector3d& albedo) const;
+  // An RGB texture at uv: bilinear between texel centres, repeating, v = 0
+  // at the bottom row (the OBJ/PLY convention).  Non-finite uv: black.
+  static Eigen::Vector3d SampleTexture(const Image& texture, const Eigen::Vector2d& uv);
   Bsdf DiffuseBsdfWith(uint32_t geometry_id, const Eigen::Vector3d& albedo) const;
   // Whether any surface has a glossy lobe.
   bool has_glossy() const { return has_glossy_; }
@@ -81,7 +89,9 @@ class RenderScene {
     Eigen::Matrix3d normal_to_world;
     Bsdf diffuse{Material()}, glossy{Material()};
     std::vector<Eigen::Vector3f> vertex_albedo;  // empty: the material's albedo everywhere
-    std::vector<Eigen::Vector3i> triangles;      // with vertex_albedo: the mesh's, by primitive id
+    Image texture;                               // albedo texture (RGB); empty: none
+    std::vector<Eigen::Vector2f> uvs;            // with texture: the mesh's, per vertex
+    std::vector<Eigen::Vector3i> triangles;      // with either: the mesh's, by primitive id
   };
   void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world, const Mesh& mesh);
   bool has_glossy_ = false;
@@ -95,6 +105,11 @@ class RenderScene {
   bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false;
   double epsilon_ = 1e-5;
 };
+
+// An albedo texture as RGB (linear: 8-bit files decode through sRGB unless
+// they say otherwise; one grey channel Y is repeated).  mr::Error naming the
+// file when it has neither R, G, B nor Y.
+Image ReadAlbedoTexture(const fs::path& path);
 
 // Builds a RenderScene from a validated scene description: reads the meshes
 // and the environment map (NaN/Inf pixels are an error naming the file and

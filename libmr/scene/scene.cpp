@@ -33,14 +33,19 @@ fs::path ResolveFile(const Node& n, const fs::path& base, bool check, const char
   return p;
 }
 
-Material ParseMaterial(const Node& n) {
-  n.RequireObject({"albedo", "specular", "roughness", "emission", "albedo_from_vertex_colors"});
+Material ParseMaterial(const Node& n, const fs::path& base, bool check) {
+  n.RequireObject({"albedo", "specular", "roughness", "emission", "albedo_from_vertex_colors", "albedo_texture"});
   Material m;
   if (n.Has("albedo")) m.albedo = n.Child("albedo").Vec3(0, 1);
   if (n.Has("specular")) m.specular = n.Child("specular").Vec3(0, 1);
   if (n.Has("roughness")) m.roughness = n.Child("roughness").Number(1e-3, 1);
   if (n.Has("emission")) m.emission = n.Child("emission").Vec3(0, kHuge);
   if (n.Has("albedo_from_vertex_colors")) m.albedo_from_vertex_colors = n.Child("albedo_from_vertex_colors").Bool();
+  if (n.Has("albedo_texture")) {
+    m.albedo_texture = ResolveFile(n.Child("albedo_texture"), base, check, "albedo texture");
+    if (m.albedo_from_vertex_colors)
+      n.Child("albedo_texture").Fail("give albedo_from_vertex_colors or albedo_texture, not both");
+  }
   for (int c = 0; c < 3; ++c)
     if (m.albedo[c] + m.specular[c] > 1.0)
       n.Fail(fmt::format("albedo + specular is {:.4g} in channel {}: a surface cannot reflect more than it receives",
@@ -178,7 +183,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
       r.RequireObject({"mesh", "material"});
       SceneReal real;
       real.mesh = ResolveFile(r.Required("mesh"), base, check, "mesh");
-      if (r.Has("material")) real.material = ParseMaterial(r.Child("material"));
+      if (r.Has("material")) real.material = ParseMaterial(r.Child("material"), base, check);
       s.reals.push_back(real);
     };
     Node r = root.Child("real");
@@ -202,7 +207,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
       if (!names.insert(sv.name).second) o.Child("name").Fail(fmt::format("name \"{}\" is used twice", sv.name));
       sv.mesh = ResolveFile(o.Required("mesh"), base, check, "mesh");
       if (o.Has("transform")) sv.world_from_object = ParseTransform(o.Child("transform"));
-      if (o.Has("material")) sv.material = ParseMaterial(o.Child("material"));
+      if (o.Has("material")) sv.material = ParseMaterial(o.Child("material"), base, check);
       if (o.Has("formfactors")) sv.formfactors = ResolveFile(o.Child("formfactors"), base, check, "form factors");
       s.virtuals.push_back(sv);
     }

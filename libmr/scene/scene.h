@@ -27,6 +27,9 @@ struct Material {
   double roughness = 0.5;                                   // GGX alpha in (0,1]
   Eigen::Vector3d emission = Eigen::Vector3d::Zero();       // radiance, W/(sr m^2), >= 0
   bool albedo_from_vertex_colors = false;
+  // An image whose texels are the albedo at the mesh's texture coordinates
+  // (uv (0,0) at the image's bottom left, repeating; bilinear); empty: none.
+  fs::path albedo_texture;
   bool IsGlossy() const { return specular.maxCoeff() > 0; }
   bool IsEmissive() const { return emission.maxCoeff() > 0; }
 };

@@ -417,3 +417,40 @@ TEST(Albedo, DelitAlbedoRecoversTheTrueAlbedoUnderAKnownSky) {
 
 }  // namespace
 }  // namespace mr
+
+namespace mr {
+namespace {
+
+// A room vertex no frame saw takes the albedo of the surface around it, ring
+// by ring; a part of the mesh with nothing seen gets the fallback; both are
+// counted.  A strip of four quads: vertices 0,1 (left edge) seen dark, 8,9
+// (right edge) seen bright, the middle unseen; a lone triangle unseen.
+TEST(Albedo, UnseenVerticesTakeTheirNeighboursAlbedo) {
+  std::vector<Eigen::Vector3i> tris;
+  for (int q = 0; q < 4; ++q) {
+    const int a = 2 * q;  // a, a+1 on the left; a+2, a+3 on the right
+    tris.emplace_back(a, a + 2, a + 1);
+    tris.emplace_back(a + 1, a + 2, a + 3);
+  }
+  tris.emplace_back(10, 11, 12);  // nothing seen
+  std::vector<Eigen::Vector3d> v(13, Eigen::Vector3d::Constant(-1));
+  std::vector<bool> known(13, false);
+  for (int i : {0, 1}) v[static_cast<size_t>(i)] = Eigen::Vector3d::Constant(0.1), known[static_cast<size_t>(i)] = true;
+  for (int i : {8, 9}) v[static_cast<size_t>(i)] = Eigen::Vector3d::Constant(0.9), known[static_cast<size_t>(i)] = true;
+  int64_t isolated = 0;
+  EXPECT_EQ(FillFromNeighbours(tris, known, Eigen::Vector3d::Constant(0.5), &v, &isolated), 6);
+  EXPECT_EQ(isolated, 3);
+  // Ring 1: 2 and 3 (next to the dark edge), 6 and 7 (next to the bright);
+  // ring 2: 4 and 5, from both sides.
+  for (int i : {2, 3}) EXPECT_NEAR(v[static_cast<size_t>(i)][0], 0.1, 1e-12) << i;
+  for (int i : {6, 7}) EXPECT_NEAR(v[static_cast<size_t>(i)][0], 0.9, 1e-12) << i;
+  for (int i : {4, 5}) {
+    EXPECT_GT(v[static_cast<size_t>(i)][0], 0.1) << i;
+    EXPECT_LT(v[static_cast<size_t>(i)][0], 0.9) << i;
+  }
+  for (int i : {10, 11, 12}) EXPECT_EQ(v[static_cast<size_t>(i)][0], 0.5) << i;
+  for (const auto& x : v) EXPECT_TRUE(x.allFinite());
+}
+
+}  // namespace
+}  // namespace mr

@@ -1,17 +1,19 @@
 // The room's own albedo in every method (issue "real plates", section 2): a
-// floor whose two halves differ in albedo (0.1 and 0.9), given once as one
-// mesh with vertex colours (albedo_from_vertex_colors, what mr-fuse writes)
-// and once as two meshes with one albedo each.  Every method renders the
+// floor whose two halves differ in albedo (0.1 and 0.9), given as one mesh
+// with vertex colours (albedo_from_vertex_colors, what mr-fuse writes), as
+// one mesh with an albedo texture, and as two meshes with one albedo each.  Every method renders the
 // two alike (the same random numbers meet the same albedos), and the
 // object's shadow and bounce light on each half match pt's.
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "core/file.h"
 #include "core/image_metrics.h"
 #include "render/gi_scenes.h"
 #include "render/irradiance_cache.h"
 #include "render/vct.h"
 #include "render/vpl.h"
+#include "test_util.h"
 
 namespace mr {
 namespace {
@@ -20,12 +22,31 @@ using namespace gi_test;
 
 constexpr double kDark = 0.1, kBright = 0.9;
 
+enum class Albedo { kMeshes, kVertexColours, kTexture };
+
+// A 256x4 texture, the left half kDark and the right kBright, as an EXR.
+fs::path SplitTexture(const fs::path& dir) {
+  Image t = Image::Rgb(256, 4);
+  for (int y = 0; y < 4; ++y)
+    for (int x = 0; x < 256; ++x)
+      for (int c = 0; c < 3; ++c) t.at(x, y, c) = static_cast<float>(x < 128 ? kDark : kBright);
+  const fs::path p = dir / "split.exr";
+  WriteImage(p, t);
+  return p;
+}
+
 // The floor, x < 0 dark and x > 0 bright; a back wall; a virtual sphere on
 // the seam; a sky with a sun.
-void SplitFloor(RenderScene* s, bool vertex_colours) {
+void SplitFloor(RenderScene* s, Albedo how, const fs::path& texture = {}) {
   const Mesh dark = Quad({-2, 0, -2}, {0, 0, -2}, {0, 0, 2}, {-2, 0, 2});
   const Mesh bright = Quad({0, 0, -2}, {2, 0, -2}, {2, 0, 2}, {0, 0, 2});
-  if (vertex_colours) {
+  if (how == Albedo::kTexture) {
+    Mesh floor = Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2});
+    for (const auto& p : floor.positions) floor.uvs.emplace_back((p.x() + 2) / 4, (p.z() + 2) / 4);
+    Material m = Diffuse(0.5);  // not used: the texture is
+    m.albedo_texture = texture;
+    s->AddReal(floor, m);
+  } else if (how == Albedo::kVertexColours) {
     Mesh floor = dark;  // the seam's vertices twice, so that each half is uniform
     floor.colors.assign(dark.positions.size(), Eigen::Vector3f::Constant(kDark));
     const int n = static_cast<int>(floor.positions.size());
@@ -101,10 +122,12 @@ Renders RenderAll(const RenderScene& s, int spp) {
 }
 
 TEST(VertexAlbedo, EveryMethodUsesTheRoomsPerVertexAlbedo) {
-  RenderScene per_vertex, per_mesh;
-  SplitFloor(&per_vertex, true);
-  SplitFloor(&per_mesh, false);
-  const Renders a = RenderAll(per_vertex, 64), b = RenderAll(per_mesh, 64);
+  test::TempDir dir;
+  RenderScene per_vertex, per_mesh, textured;
+  SplitFloor(&per_vertex, Albedo::kVertexColours);
+  SplitFloor(&per_mesh, Albedo::kMeshes);
+  SplitFloor(&textured, Albedo::kTexture, SplitTexture(dir.path()));
+  const Renders a = RenderAll(per_vertex, 64), b = RenderAll(per_mesh, 64), c = RenderAll(textured, 64);
   const std::vector<int> halves = Halves(per_mesh);
   int dark = 0, bright = 0;
   for (int h : halves) (h < 0 ? dark : bright) += h != 0;
@@ -113,6 +136,7 @@ TEST(VertexAlbedo, EveryMethodUsesTheRoomsPerVertexAlbedo) {
   const std::pair<const char*, const FrameMethod*> methods[] = {
       {"pt", a.pt.get()}, {"ic", a.ic.get()}, {"vpl", a.vpl.get()}, {"vct", a.vct.get()}};
   const FrameMethod* same[] = {b.pt.get(), b.ic.get(), b.vpl.get(), b.vct.get()};
+  const FrameMethod* tex[] = {c.pt.get(), c.ic.get(), c.vpl.get(), c.vct.get()};
   // 1. The vertex colours give what one albedo per half gives: the same
   // paths meet the same albedos, to rounding of the barycentric
   // interpolation (which can flip a rare Russian-roulette decision).
@@ -120,6 +144,11 @@ TEST(VertexAlbedo, EveryMethodUsesTheRoomsPerVertexAlbedo) {
     SCOPED_TRACE(methods[k].first);
     EXPECT_LT(CompareImages(methods[k].second->Mixed(), same[k]->Mixed()).relmse, 1e-4);
     EXPECT_LT(CompareImages(methods[k].second->Real(), same[k]->Real()).relmse, 1e-4);
+    // The texture: the same but within a texel of the seam (1.6 cm of a
+    // 4 m floor, where bilinear filtering blends the halves), and for the
+    // floor's triangulation differing (two quads against one).
+    EXPECT_LT(CompareImages(tex[k]->Mixed(), same[k]->Mixed()).relmse, 1e-3);
+    EXPECT_LT(CompareImages(tex[k]->Real(), same[k]->Real()).relmse, 1e-3);
   }
   // 2. The room reflects by its albedo: the bright half of I_r is about 9x
   // the dark half's (the same sky and sun; the wall's bounce adds to both).
@@ -178,11 +207,26 @@ TEST(VertexAlbedo, EveryMethodUsesTheRoomsPerVertexAlbedo) {
   }
 }
 
+// Bilinear between texel centres, repeating, v = 0 at the bottom row.
+TEST(VertexAlbedo, TextureSampling) {
+  Image t = Image::Rgb(2, 2);
+  t.at(0, 1, 0) = 1;  // bottom left, red
+  t.at(1, 0, 1) = 1;  // top right, green
+  EXPECT_NEAR(RenderScene::SampleTexture(t, {0.25, 0.25})[0], 1.0, 1e-12);
+  EXPECT_NEAR(RenderScene::SampleTexture(t, {0.75, 0.75})[1], 1.0, 1e-12);
+  EXPECT_NEAR(RenderScene::SampleTexture(t, {0.5, 0.25})[0], 0.5, 1e-12);    // halfway along the bottom row
+  EXPECT_NEAR(RenderScene::SampleTexture(t, {1.25, -0.75})[0], 1.0, 1e-12);  // repeats
+  EXPECT_EQ(RenderScene::SampleTexture(t, {NAN, 0.5}), Eigen::Vector3d::Zero());
+}
+
 TEST(VertexAlbedo, MeshWithoutColoursIsRefused) {
   RenderScene s;
   Material m;
   m.albedo_from_vertex_colors = true;
   EXPECT_THROW(s.AddReal(Quad({-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}), m), Error);
+  Material t;
+  t.albedo_texture = "/nonexistent.exr";
+  EXPECT_THROW(s.AddReal(Quad({-1, 0, -1}, {1, 0, -1}, {1, 0, 1}, {-1, 0, 1}), t), Error);  // no uvs
 }
 
 // Vertex colours above 1 - specular (a fused albedo's noise) are clamped so

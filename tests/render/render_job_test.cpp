@@ -51,11 +51,16 @@ class Capture : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new test::TempDir();
-    SynthOptions o;
-    o.out = dir_->path() / "cap";
-    o.truth_spp = 1024;  // truth noise is 1/128 of the 8-spp estimate's: negligible below
-    Report r("mr-synth", "test");
-    RunSynth(o, &r);
+    // Made once for all of this file's test processes, then copied: the
+    // tests write scene variants into their copy.
+    const fs::path made = test::SharedFixture("render-job-capture", [](const fs::path& out) {
+      SynthOptions o;
+      o.out = out;
+      o.truth_spp = 1024;  // truth noise is 1/128 of the 8-spp estimate's: negligible below
+      Report r("mr-synth", "test");
+      RunSynth(o, &r);
+    });
+    fs::copy(made, dir_->path() / "cap", fs::copy_options::recursive);
   }
   static void TearDownTestSuite() { delete dir_; }
   static fs::path Cap() { return dir_->path() / "cap"; }

@@ -5,7 +5,7 @@
 # ground truth), then the whole chain in one command, mr-pipeline
 # (examples/synthetic/pipeline.json): calibrate -> sphere -> hdr -> probe ->
 # lights -> fuse -> scene -> render -> sweep (error against run time).
-# About 5 minutes on 2 cores after the build.
+# About 3 minutes on 2 cores after the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/install-deps.sh

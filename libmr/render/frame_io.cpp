@@ -175,8 +175,24 @@ fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate
                           const Image& mask, bool photograph, const std::string& tool, Report* report) {
   Image d = composite;
   for (size_t i = 0; i < d.values().size(); ++i) d.values()[i] -= plate.values()[i];
+  // Scaled to what the object does to the plate around it (its shadow and
+  // bounce light): the 99th percentile of the changes on pixels it does not
+  // cover, so that a few noise spikes do not flatten the rest; the object
+  // itself and the spikes clip.
+  std::vector<float> changes;
+  for (int y = 0; y < d.height(); ++y)
+    for (int x = 0; x < d.width(); ++x)
+      if (mask.at(x, y, 0) == 0)
+        for (int c = 0; c < d.channels(); ++c)
+          if (d.at(x, y, c) != 0.0f && std::isfinite(d.at(x, y, c))) changes.push_back(std::abs(d.at(x, y, c)));
+  float around = 0;
+  if (!changes.empty()) {
+    const size_t k = changes.size() * 99 / 100;
+    std::nth_element(changes.begin(), changes.begin() + static_cast<std::ptrdiff_t>(k), changes.end());
+    around = changes[k];
+  }
   double scale = 0;
-  const Image diff = SignedDifferencePanel(d, 0, &scale);
+  const Image diff = SignedDifferencePanel(d, around, &scale);
   const Image sheet = ContactSheet({{&plate, photograph ? "plate" : "I_r (no plate: rendered room)"},
                                     {&composite, "composite"},
                                     {&diff, fmt::format("composite - plate, x{:.3g}", 0.5 / scale)},

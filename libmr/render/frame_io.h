@@ -92,7 +92,8 @@ Image ReadReferenceFrame(const fs::path& path, int width, int height);
 // complete.
 // OUT/NNNNN-review.png, what a user looks at first: the plate | the
 // composite | the difference the composite made to the plate (code values,
-// signed and scaled, mid-grey = unchanged) | the mask, labelled.  The plate
+// signed, mid-grey = unchanged, scaled to fill the range with what the
+// object does around it: its shadow and bounce light) | the mask, labelled.  The plate
 // and composite are code values (ToCodes); without a photograph the plate
 // is the rendered room I_r.  Returns its path.
 fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate_codes, const Image& composite_codes,

@@ -34,12 +34,14 @@ std::string Bytes(const fs::path& p) {
 }
 
 // Integer code values of an 8-bit image (PNG) or video frame.
-std::vector<int> Codes(const Image& raw) {
+std::vector<int> Codes(const Image& raw, double max = 255) {
   std::vector<int> c(raw.values().size());
-  for (size_t i = 0; i < c.size(); ++i) c[i] = static_cast<int>(std::lround(raw.values()[i] * 255.0f));
+  for (size_t i = 0; i < c.size(); ++i) c[i] = static_cast<int>(std::lround(raw.values()[i] * max));
   return c;
 }
-std::vector<int> PngCodes(const fs::path& p) { return Codes(ReadRgbForComparison(p, Transfer::kLinear, true)); }
+std::vector<int> PngCodes(const fs::path& p, double max = 255) {
+  return Codes(ReadRgbForComparison(p, Transfer::kLinear, true), max);
+}
 std::vector<int> VideoCodes(const fs::path& p, int f) {
   Image img = VideoReader(p).Frame(f);
   for (float& v : img.values()) v = LinearToSrgb(v);
@@ -420,9 +422,9 @@ TEST_F(Capture, FramesThroughTheCameraResponse) {
 // Section 1 of the real-plate work: the 8-bit outputs are encoded through
 // the inverse of exactly the decoding the frames went through, so that with
 // the virtual object far outside the view the PNG output equals the input
-// frame code for code, for every frames_transfer mode, image sequences and
-// videos alike.  (Before, "display" at exposure != 1 and "response" wrote
-// sRGB(radiance): every untouched pixel came out brighter or darker.)
+// frame code for code, for every frames_transfer mode, for 8-bit PNG plates
+// with clipped highlights, 16-bit PNG plates (a 16-bit PNG out) and videos.  (Before, "display" at exposure != 1 and
+// "response" wrote sRGB(radiance): every untouched pixel came out brighter or darker.)
 TEST_F(Capture, EightBitOutputsKeepThePlatesCodeValues) {
   // A response that is neither sRGB nor linear (a 2.2 power with a toe).
   CameraResponse resp;
@@ -432,11 +434,32 @@ TEST_F(Capture, EightBitOutputsKeepThePlatesCodeValues) {
   for (int k = 0; k < 256; ++k) g[static_cast<size_t>(k)] = std::log((1e-3 + std::pow(k / 255.0, 2.2)) / (1 + 1e-3));
   resp.log_exposure = {g, g, g};
   WriteResponse(Cap() / "response-toe.json", resp);
+  // The plates as 8-bit PNGs with clipped highlights (a 12x8 block at code
+  // 255: clipped pixels keep their code value), and as 16-bit PNGs (the
+  // output PNG keeps 16 bits).
+  fs::create_directories(Cap() / "clipped");
+  fs::create_directories(Cap() / "deep");
+  for (int f = 0; f < 2; ++f) {
+    Image codes = ReadRgbForComparison(Cap() / "photos" / fmt::format("{:05d}.png", f), Transfer::kLinear, true);
+    for (int y = 4; y < 12; ++y)
+      for (int x = 40; x < 52; ++x)
+        for (int c = 0; c < 3; ++c) codes.at(x, y, c) = 1.0f;
+    ImageWriteOptions wo;
+    wo.ldr_transfer = Transfer::kLinear;  // the values are codes already
+    wo.attributes["oiio:ColorSpace"] = "sRGB";
+    wo.pixel_type = PixelType::kUint8;
+    WriteImage(Cap() / "clipped" / fmt::format("{:05d}.png", f), codes, wo);
+    for (float& v : codes.values()) v = std::min(1.0f, v + 37.0f / 65535.0f);  // codes between the 8-bit ones
+    wo.pixel_type = PixelType::kUint16;
+    WriteImage(Cap() / "deep" / fmt::format("{:05d}.png", f), codes, wo);
+  }
   for (const std::string mode : {"srgb", "linear", "display", "response"})
-    for (const bool video : {false, true}) {
-      SCOPED_TRACE(mode + (video ? " video" : " png"));
+    for (const std::string plate : {"clipped", "deep", "video"}) {
+      const bool video = plate == "video", deep = plate == "deep";
+      const double max = deep ? 65535 : 255;
+      SCOPED_TRACE(mode + " " + plate);
       Json j = ReadJsonFile(Cap() / "scene.json");
-      j["camera"]["frames"] = video ? "photos.mp4" : "photos/%05d.png";
+      j["camera"]["frames"] = video ? "photos.mp4" : plate + "/%05d.png";
       j["camera"]["frames_transfer"] = mode;
       j["camera"]["exposure"] = 0.37;  // != 1: display and response divide by it
       if (mode == "response") j["camera"]["response"] = "response-toe.json";
@@ -447,13 +470,19 @@ TEST_F(Capture, EightBitOutputsKeepThePlatesCodeValues) {
       RenderOptions o;
       o.spp = 1;
       o.frame_end = 2;
-      o.out_dir = dir_->path() / ("codes-" + mode + (video ? "-video" : ""));
+      o.out_dir = dir_->path() / ("codes-" + mode + "-" + plate);
       Report r("mr-render", "test");
       RunRenderJob(ReadScene(Cap() / "codes.json"), o, &r);
       for (int f = 0; f < 2; ++f) {
         const std::vector<int> in =
-            video ? VideoCodes(Cap() / "photos.mp4", f) : PngCodes(Cap() / "photos" / fmt::format("{:05d}.png", f));
-        const std::vector<int> out = PngCodes(o.out_dir / fmt::format("{:05d}.png", f));
+            video ? VideoCodes(Cap() / "photos.mp4", f) : PngCodes(Cap() / plate / fmt::format("{:05d}.png", f), max);
+        const std::vector<int> out = PngCodes(o.out_dir / fmt::format("{:05d}.png", f), max);
+        int width = 0;
+        EXPECT_EQ(ReadImageHeader(o.out_dir / fmt::format("{:05d}.png", f), &width, nullptr, nullptr).pixel_type,
+                  deep ? "uint16" : "uint8");
+        if (plate == "clipped") {
+          EXPECT_EQ(out[(8 * 64 + 45) * 3], 255);
+        }
         ASSERT_EQ(in.size(), out.size());
         int64_t differ = 0;
         for (size_t i = 0; i < in.size(); ++i) differ += in[i] != out[i];

@@ -31,6 +31,7 @@ case "$mode" in
   --fuzz)
     seconds=${2:-20}  # a fixed seed keeps CI deterministic; longer local runs find more
     CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMR_FUZZ=ON \
+          -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
           -DMR_BUILD_TESTS=OFF -DMR_BUILD_BENCHMARKS=OFF
     cmake --build build-fuzz -j "$jobs" --target mr_fuzzers
     # One target per folder of fuzz/corpus (fuzz/CMakeLists.txt builds them).

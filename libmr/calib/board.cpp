@@ -21,6 +21,10 @@ BoardSpec ParseBoard(const Json& j, const std::string& name) {
     if (k != "name" && k != "type" && k != "inner_corners" && k != "square_mm" && k != "marker_mm" &&
         k != "dictionary" && k != "detector" && k != "comment")
       fail(k, "unknown key");
+  // The string keys checked before they are read (found by fuzz/fuzz_board:
+  // "type": 1 ended the process with nlohmann's type_error).
+  for (const char* key : {"name", "type", "detector", "comment"})
+    if (j.contains(key) && !j[key].is_string()) fail(key, "expected a string");
   BoardSpec b;
   b.name = j.value("name", name);
   b.type = j.value("type", "chessboard");

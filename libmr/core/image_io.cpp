@@ -114,6 +114,17 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   if (pixels > options.max_pixels)
     ThrowErrorAt(loc, "image is {}x{} = {} pixels, more than the limit of {} (corrupt header?)", spec.width,
                  spec.height, pixels, options.max_pixels);
+  // Radiance HDR's run-length coding holds at most 127 pixels in 8 bytes
+  // (a run per component), so a header claiming more than 16 pixels a byte
+  // lies: refused before the buffer is allocated (found by fuzz/fuzz_hdrenv:
+  // 109 bytes claiming 83333333x2 pixels, a 2 GB allocation).
+  if (info.format == "hdr") {
+    std::error_code ec;
+    const auto bytes = fs::file_size(path, ec);
+    if (!ec && pixels > 16 * static_cast<int64_t>(bytes) + 4096)
+      ThrowErrorAt(loc, "the header claims {}x{} pixels, more than the file's {} bytes can hold", spec.width,
+                   spec.height, bytes);
+  }
 
   std::vector<std::string> names = spec.channelnames;
   for (size_t i = 0; i < names.size(); ++i)

@@ -24,11 +24,7 @@ struct Shard {
 Shard ReadShard(const fs::path& file) {
   Shard s;
   s.file = file;
-  try {
-    s.json = Json::parse(ReadTextFile(file));
-  } catch (const Json::parse_error& e) {
-    ThrowErrorAt(FileLoc{file.string()}, "not JSON: {}", e.what());
-  }
+  s.json = ReadJsonFile(file);  // every JSON error as an mr::Error naming the file
   ValidateReportJson(s.json, file.string());
   if (s.json["tool"] != "mr-render")
     ThrowErrorAt(FileLoc{file.string()}, "a report of {}, not of mr-render", s.json["tool"].get<std::string>());

@@ -204,11 +204,9 @@ Pipeline PlanPipeline(const fs::path& file) {
   p.file = file;
   p.base = file.parent_path().empty() ? fs::path(".") : file.parent_path();
   p.base = fs::absolute(p.base).lexically_normal();
-  try {
-    p.json = Json::parse(ReadTextFile(file));
-  } catch (const Json::parse_error& e) {
-    ThrowErrorAt(FileLoc{file.string()}, "not JSON: {}", e.what());
-  }
+  // ParseJsonStrict: every JSON error (a number too large for a double
+  // too, found by fuzz/fuzz_pipeline) as one mr::Error naming the file.
+  p.json = ReadJsonFile(file);
   const std::string name = file.string();
   const Node root(p.json, "", &name);
   root.RequireObject({"version", "comment", "work", "camera", "lighting", "room", "video", "virtual", "render",

@@ -14,6 +14,28 @@
 
 namespace mr {
 
+namespace {
+
+// OpenCV's imread picks its decoder by the file's bytes, not its name, and
+// some of those decoders (GDCM's DICOM reader) abort the process on a
+// malformed file (found by fuzz/fuzz_depth).  Depth maps are PNG, TIFF, EXR
+// or PFM: any other file is refused before a decoder sees it.
+void CheckDepthSignature(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  unsigned char b[8] = {};
+  in.read(reinterpret_cast<char*>(b), 8);
+  const std::streamsize n = in.gcount();
+  const bool png = n == 8 && b[0] == 0x89 && b[1] == 'P' && b[2] == 'N' && b[3] == 'G' && b[4] == '\r' &&
+                   b[5] == '\n' && b[6] == 0x1a && b[7] == '\n';
+  const bool tiff = n >= 4 && ((b[0] == 'I' && b[1] == 'I' && b[2] == 42 && b[3] == 0) ||
+                               (b[0] == 'M' && b[1] == 'M' && b[2] == 0 && b[3] == 42));
+  const bool pfm = n >= 2 && b[0] == 'P' && (b[1] == 'f' || b[1] == 'F');
+  const bool exr = n >= 4 && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01;
+  if (!png && !tiff && !pfm && !exr) ThrowErrorAt(FileLoc{path.string()}, "is not a PNG, TIFF, EXR or PFM depth image");
+}
+
+}  // namespace
+
 PinholeIntrinsics PinholeIntrinsics::Level(int level) const {
   PinholeIntrinsics k = *this;
   for (int i = 0; i < level; ++i) {
@@ -197,6 +219,7 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
   if (seq.frames.empty()) ThrowErrorAt(FileLoc{dir.string()}, "holds no frames");
   seq.K = *K;
   if (seq.K.width <= 0 || seq.K.height <= 0) {  // size from the first depth map
+    CheckDepthSignature(seq.frames.front().depth);
     CheckPngChunks(seq.frames.front().depth);
     cv::Mat d = cv::imread(seq.frames.front().depth.string(), cv::IMREAD_ANYDEPTH);
     if (d.empty()) ThrowErrorAt(FileLoc{seq.frames.front().depth.string()}, "cannot be read as an image");
@@ -209,6 +232,7 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
 DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int expect_width, int expect_height,
                    DepthReadStats* stats) {
   RequireFile(path, "depth map");
+  CheckDepthSignature(path);
   CheckPngChunks(path);
   cv::Mat raw = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
   if (raw.empty()) ThrowErrorAt(FileLoc{path.string()}, "cannot be read as a depth image");

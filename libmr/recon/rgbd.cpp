@@ -34,6 +34,18 @@ void CheckDepthSignature(const fs::path& path) {
   if (!png && !tiff && !pfm && !exr) ThrowErrorAt(FileLoc{path.string()}, "is not a PNG, TIFF, EXR or PFM depth image");
 }
 
+// cv::imread, with OpenCV's exceptions (its PFM reader asserts on a malformed
+// header; found by fuzz/fuzz_depth) as an mr::Error naming the file.
+cv::Mat ReadDepthPixels(const fs::path& path, int flags) {
+  CheckDepthSignature(path);
+  CheckPngChunks(path);
+  try {
+    return cv::imread(path.string(), flags);
+  } catch (const cv::Exception& e) {
+    ThrowErrorAt(FileLoc{path.string()}, "cannot be read as a depth image: {}", e.err);
+  }
+}
+
 }  // namespace
 
 PinholeIntrinsics PinholeIntrinsics::Level(int level) const {
@@ -219,9 +231,7 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
   if (seq.frames.empty()) ThrowErrorAt(FileLoc{dir.string()}, "holds no frames");
   seq.K = *K;
   if (seq.K.width <= 0 || seq.K.height <= 0) {  // size from the first depth map
-    CheckDepthSignature(seq.frames.front().depth);
-    CheckPngChunks(seq.frames.front().depth);
-    cv::Mat d = cv::imread(seq.frames.front().depth.string(), cv::IMREAD_ANYDEPTH);
+    cv::Mat d = ReadDepthPixels(seq.frames.front().depth, cv::IMREAD_ANYDEPTH);
     if (d.empty()) ThrowErrorAt(FileLoc{seq.frames.front().depth.string()}, "cannot be read as an image");
     seq.K.width = d.cols;
     seq.K.height = d.rows;
@@ -232,9 +242,7 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
 DepthMap ReadDepth(const fs::path& path, const DepthReadOptions& options, int expect_width, int expect_height,
                    DepthReadStats* stats) {
   RequireFile(path, "depth map");
-  CheckDepthSignature(path);
-  CheckPngChunks(path);
-  cv::Mat raw = cv::imread(path.string(), cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
+  cv::Mat raw = ReadDepthPixels(path, cv::IMREAD_ANYDEPTH | cv::IMREAD_GRAYSCALE);
   if (raw.empty()) ThrowErrorAt(FileLoc{path.string()}, "cannot be read as a depth image");
   if (raw.channels() != 1) ThrowErrorAt(FileLoc{path.string()}, "has {} channels, depth needs 1", raw.channels());
   if (raw.depth() == CV_8U)

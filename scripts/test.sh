@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what mr needs, builds, and runs the test suite.
 #   scripts/test.sh            release build in build/, all tests
-#   scripts/test.sh --sanitize AddressSanitizer + UBSan build in build-asan/, all tests
+#   scripts/test.sh --sanitize AddressSanitizer + UBSan build in build-asan/, all tests but release_only
 #   scripts/test.sh --fuzz S   libFuzzer targets (clang) in build-fuzz/, S seconds each
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -29,7 +29,7 @@ case "$mode" in
       ctest --test-dir build-asan -j "$jobs" --output-on-failure --label-exclude release_only
     ;;
   --fuzz)
-    seconds=${2:-20}  # a fixed seed keeps CI deterministic; longer local runs find more
+    seconds=${2:-20}  # a fixed seed keeps runs reproducible; longer runs find more
     CC=clang CXX=clang++ cmake -S . -B build-fuzz -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DMR_FUZZ=ON \
           -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
           -DMR_BUILD_TESTS=OFF -DMR_BUILD_BENCHMARKS=OFF

@@ -347,24 +347,28 @@ void WriteResponse(const fs::path& path, const CameraResponse& r, const std::str
 
 CameraResponse ReadResponse(const fs::path& path) { return ParseResponse(ReadJsonFile(path), path.string()); }
 
-Image Linearise(const Image& codes, const CameraResponse& r) {
-  if (static_cast<int>(r.channels.size()) != codes.channels())
-    ThrowError("the response has {} channels, the image {}", r.channels.size(), codes.channels());
-  Image out(codes.width(), codes.height(), codes.channel_names());
-  const int nc = codes.channels();
-  for (size_t i = 0; i < codes.values().size(); ++i)
-    out.values()[i] = static_cast<float>(r.Exposure(static_cast<int>(i % static_cast<size_t>(nc)), codes.values()[i]));
+namespace {
+
+// `f(channel, value)` applied to every value of `img`, channel by channel.
+template <class F>
+Image PerChannel(const Image& img, const CameraResponse& r, F f) {
+  if (static_cast<int>(r.channels.size()) != img.channels())
+    ThrowError("the response has {} channels, the image {}", r.channels.size(), img.channels());
+  Image out(img.width(), img.height(), img.channel_names());
+  const size_t nc = static_cast<size_t>(img.channels());
+  for (size_t i = 0; i < img.values().size(); ++i)
+    out.values()[i] = static_cast<float>(f(static_cast<int>(i % nc), img.values()[i]));
   return out;
 }
 
+}  // namespace
+
+Image Linearise(const Image& codes, const CameraResponse& r) {
+  return PerChannel(codes, r, [&r](int c, double z) { return r.Exposure(c, z); });
+}
+
 Image Delinearise(const Image& exposures, const CameraResponse& r) {
-  if (static_cast<int>(r.channels.size()) != exposures.channels())
-    ThrowError("the response has {} channels, the image {}", r.channels.size(), exposures.channels());
-  Image out(exposures.width(), exposures.height(), exposures.channel_names());
-  const int nc = exposures.channels();
-  for (size_t i = 0; i < exposures.values().size(); ++i)
-    out.values()[i] = static_cast<float>(r.Code(static_cast<int>(i % static_cast<size_t>(nc)), exposures.values()[i]));
-  return out;
+  return PerChannel(exposures, r, [&r](int c, double x) { return r.Code(c, x); });
 }
 
 }  // namespace mr

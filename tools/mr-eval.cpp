@@ -11,6 +11,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/image_metrics.h"
+#include "eval/plate_check.h"
 #include "eval/plot.h"
 #include "eval/shards.h"
 #include "eval/sweep.h"
@@ -121,6 +122,45 @@ int main(int argc, char** argv) {
         "= --set " + key + "=L" + (flag == "vpl-paths" ? " (and vpl.directions: a quarter of each, at least 16)" : ""));
   sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
+  mr::PlateCheckOptions po_plate;
+  std::string plate_scene, plate_frames;
+  CLI::App* plate = app.add_subcommand(
+      "plate",
+      "The plate's radiometric fit and the capture chain's error on real frames: renders the real room\n"
+      "alone (geometry, albedo, captured light, camera and poses) for each frame of SCENE's plate, fits\n"
+      "the per-channel gain that takes the render to the plate over the pixels showing the room (clipped\n"
+      "and outlying pixels left out; standard error by a delete-one-tile jackknife), smooths the gains\n"
+      "over time without crossing exposure jumps, and reports the re-rendering error after the fit\n"
+      "(relMSE, SSIM, and relMSE around the virtual objects). Writes OUT/gains.json, which scene.json's\n"
+      "camera.gains names so that mr-render lights the objects in the plate's units (docs/radiometry.md).");
+  plate->fallthrough();
+  plate->add_option("SCENE", plate_scene, "scene.json with a plate (camera.frames)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  plate->add_option("--out", po_plate.out, "Output folder")->required();
+  plate->add_option("--method", po_plate.method, "Method that renders the room: " + mr::RenderMethodNames())
+      ->default_val("pt");
+  plate->add_option("--spp", po_plate.spp, "Samples per pixel of the room's render")
+      ->default_val(16)
+      ->check(CLI::Range(1, 1 << 20));
+  plate->add_option("--stride", po_plate.stride, "Fit every Nth frame; the others take their neighbours' gains")
+      ->default_val(1)
+      ->check(CLI::Range(1, 1 << 20));
+  plate->add_option("--frames", plate_frames, "Frame range BEGIN:END (default: the scene's)");
+  plate
+      ->add_option("--smooth", po_plate.smoothing.time_constant,
+                   "Time constant of the gains' smoothing in frames (Gaussian; 0: none)")
+      ->default_val(3)
+      ->check(CLI::Range(0.0, 1e6));
+  plate
+      ->add_option("--jump-ratio", po_plate.smoothing.jump_ratio,
+                   "Gains of neighbouring frames differing by more than this ratio (and 4 standard errors)\n"
+                   "are an exposure jump, which smoothing does not cross")
+      ->default_val(1.15)
+      ->check(CLI::Range(1.0001, 1e6));
+  plate->add_flag("--images", po_plate.images,
+                  "Write OUT/NNNNN-rerender.png per fitted frame: plate | room rendered at the gain | difference |\n"
+                  "pixels compared");
   mr::MergeOptions mo;
   std::vector<std::string> merge_reports;
   std::string merge_video;
@@ -147,6 +187,22 @@ int main(int argc, char** argv) {
       const auto& m = mr::ToolReport().metrics();
       std::printf("merged %d shards: %zu frames%s\n", m["shards"].get<int>(), m["frames"].size(),
                   m.contains("relmse") ? fmt::format(", relMSE {:.4g}", m["relmse"].get<double>()).c_str() : "");
+      return mr::kExitOk;
+    }
+    if (plate->parsed()) {
+      if (!plate_frames.empty() && !mr::ParseFrameRange(plate_frames, &po_plate.frame_begin, &po_plate.frame_end))
+        throw mr::UsageError(fmt::format("--frames {}: expected BEGIN:END", plate_frames));
+      po_plate.command_line = mr::ToolReport().ToJson().value("command_line", "");
+      const mr::Scene scene = mr::ReadScene(plate_scene);
+      mr::RunPlateCheck(scene, po_plate, &mr::ToolReport());
+      const auto& m = mr::ToolReport().metrics();
+      std::printf("gains: %s\n", m["gains_file"].get<std::string>().c_str());
+      if (m.contains("relmse"))
+        std::printf("re-rendering error after the fit: relMSE %.4g, SSIM %.4f%s\n", m["relmse"].get<double>(),
+                    m["ssim"].get<double>(),
+                    m.contains("region_relmse")
+                        ? fmt::format(", around the objects relMSE {:.4g}", m["region_relmse"].get<double>()).c_str()
+                        : "");
       return mr::kExitOk;
     }
     if (sweep->parsed()) {

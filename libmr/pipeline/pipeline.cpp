@@ -24,8 +24,8 @@
 namespace mr {
 
 const std::vector<std::string>& PipelineStageNames() {
-  static const std::vector<std::string> n = {"calibrate", "sphere",     "hdr",   "probe",  "lights", "fuse",
-                                             "register",  "formfactor", "scene", "render", "sweep"};
+  static const std::vector<std::string> n = {"calibrate", "sphere",     "hdr",   "probe",      "lights", "fuse",
+                                             "register",  "formfactor", "scene", "radiometry", "render", "sweep"};
   return n;
 }
 
@@ -415,12 +415,43 @@ Pipeline PlanPipeline(const fs::path& file) {
 
   // The video to augment and its poses.
   const Node video = root.Required("video");
-  video.RequireObject({"frames", "frames_transfer", "exposure", "response", "poses"});
+  video.RequireObject({"frames", "frames_transfer", "exposure", "response", "gains", "poses"});
   Json camera = {{"model", pl.Rel(camera_model)}};
   if (video.Has("frames")) camera["frames"] = pl.Rel(pl.Pattern(video.Child("frames"), "video frames"));
   if (video.Has("frames_transfer")) camera["frames_transfer"] = video.Child("frames_transfer").String();
   if (video.Has("exposure")) camera["exposure"] = video.Child("exposure").json();
   if (video.Has("response")) camera["response"] = pl.Rel(pl.Path(video.Child("response"), "camera response"));
+  // The plate's radiometric gains: fitted (mr-eval plate) unless the video
+  // has none, they are given, turned off, or an exposure is hand-set for a
+  // display-space plate (where the two would say the same thing twice).
+  const fs::path gains_dir = w / "radiometry", fitted_gains = gains_dir / "gains.json";
+  std::string gains_skip;
+  std::vector<std::string> gains_options;
+  const bool display = video.Has("frames_transfer") && video.Child("frames_transfer").String() == "display";
+  if (!video.Has("frames")) {
+    gains_skip = "the video names no frames (a synthetic composite): there is no plate to fit";
+  } else if (video.Has("gains")) {
+    const Node g = video.Child("gains");
+    if (g.json().is_string()) {
+      camera["gains"] = pl.Rel(pl.Path(g, "plate gains"));
+      gains_skip = "video.gains names them: " + g.String();
+    } else if (g.json().is_boolean()) {
+      if (g.Bool()) g.Fail("expected false, a gains file, or {\"options\": {...}} (fitting is the default)");
+      gains_skip = "video.gains is false";
+    } else if (g.json().is_object()) {
+      g.RequireObject({"options"});
+      gains_options = pl.Options(g);
+    } else {
+      g.Fail("expected false, a gains file, or {\"options\": {...}}");
+    }
+    if (display && video.Has("exposure") && !gains_skip.empty() && g.json().is_string())
+      video.Child("exposure").Fail("with video.gains the gains scale the render: give one of the two");
+    if (display && video.Has("exposure") && gains_skip.empty())
+      video.Child("exposure").Fail("a hand-set exposure and fitted gains both scale the render: give one of the two");
+  } else if (display && video.Has("exposure")) {
+    gains_skip = "video.exposure is hand-set for the display-space plate";
+  }
+  if (gains_skip.empty()) camera["gains"] = pl.Rel(fitted_gains);
   fs::path poses;
   {
     PipelineStage& s = stage("register");
@@ -575,6 +606,19 @@ Pipeline PlanPipeline(const fs::path& file) {
   const Node outs(outputs, "outputs", &name);
   outs.RequireObject({"render", "sweep"});
   {
+    PipelineStage& s = stage("radiometry");
+    s.tool = "mr-eval";
+    if (!gains_skip.empty()) {
+      s.skip = gains_skip;
+    } else {
+      s.args = {"plate", scene_file.string(), "--out", gains_dir.string()};
+      Append(&s.args, gains_options);
+      s.inputs = {scene_file};
+      s.outputs = {gains_dir};
+      s.does = "the plate's gains fitted against the rendered room, and the capture chain's re-rendering error";
+    }
+  }
+  {
     PipelineStage& s = stage("render");
     s.tool = "mr-render";
     if (outs.Has("render") && !outs.Child("render").Bool()) {
@@ -582,6 +626,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     } else {
       s.args = {scene_file.string(), "--out", (w / "render").string()};
       s.inputs = {scene_file};
+      if (gains_skip.empty()) s.inputs.push_back(fitted_gains);
       s.outputs = {w / "render"};
       s.does = fmt::format("the virtual objects rendered into every frame ({}) and composited", method);
     }
@@ -604,6 +649,7 @@ Pipeline PlanPipeline(const fs::path& file) {
           Append(&s.args, pl.Options(sw));
         }
         s.inputs = {scene_file};
+        if (gains_skip.empty()) s.inputs.push_back(fitted_gains);
         s.outputs = {w / "sweep"};
         s.does = "error against run time of the rendering methods against the reference";
       }

@@ -22,12 +22,46 @@ FrameDecoding FrameDecoding::FromScene(const Scene& scene, Report* report) {
     report->AddInput(scene.camera.response->string());
   }
   d.raw_codes = d.display_space || d.response.has_value();
+  if (d.photograph && scene.camera.gains) {
+    d.gains_file = scene.camera.gains->string();
+    d.frame_gains = ReadPlateGains(*scene.camera.gains);
+    report->AddInput(d.gains_file);
+  }
   if (d.photograph)
     report->SetMetric("compositing", d.display_space ? "display space (camera response unknown)"
                                      : d.response    ? "linear radiance (frames through the camera's response)"
                                                      : "linear radiance");
   return d;
 }
+
+FrameDecoding FrameDecoding::ForFrame(int f) const {
+  FrameDecoding d = *this;
+  if (frame_gains.empty()) {
+    d.gain = display_space ? Rgb{exposure, exposure, exposure} : Rgb{1, 1, 1};
+    return d;
+  }
+  const auto it = std::lower_bound(frame_gains.begin(), frame_gains.end(), f,
+                                   [](const FrameGain& g, int frame) { return g.frame < frame; });
+  if (it == frame_gains.end() || it->frame != f)
+    ThrowErrorAt(FileLoc{gains_file},
+                 "has no gain for frame {} (it covers frames {} to {}): run mr-eval plate "
+                 "over every frame to render",
+                 f, frame_gains.front().frame, frame_gains.back().frame);
+  d.gain = it->gain;
+  return d;
+}
+
+namespace {
+
+// img * gain per channel (RGB).
+Image Scaled(Image img, const Rgb& gain) {
+  const int n = img.channels();
+  std::vector<float>& v = img.values();
+  for (size_t i = 0; i < v.size(); ++i) v[i] *= static_cast<float>(gain[i % static_cast<size_t>(n) % 3]);
+  return img;
+}
+
+}  // namespace
 
 Image FrameDecoding::ToRadiance(const Image& photo) const {
   Image out = photo;
@@ -36,12 +70,28 @@ Image FrameDecoding::ToRadiance(const Image& photo) const {
   return out;
 }
 
+Image FrameDecoding::ToPlateLinear(const Image& photo) const {
+  Image out = photo;
+  if (display_space)
+    for (float& v : out.values()) v = SrgbToLinear(Clamp(v, 0.0f, 1.0f));
+  return out;
+}
+
+Image FrameDecoding::ToRenderUnits(const Image& photo) const {
+  return Scaled(ToPlateLinear(photo), {1 / gain[0], 1 / gain[1], 1 / gain[2]});
+}
+
 CompositeResult FrameDecoding::Compose(const FrameMethod& frame, const Image* photo) const {
   Image real = frame.Real(), mixed = frame.Mixed();
-  if (!display_space) return Composite(photo ? *photo : real, mixed, real, frame.Mask());
+  if (!photo) return Composite(real, mixed, real, frame.Mask());  // synthetic: the render's own units
+  if (!display_space) return Composite(*photo, Scaled(mixed, gain), Scaled(real, gain), frame.Mask());
   const float e = static_cast<float>(exposure);
-  auto tm = [e](Image img) {
-    for (float& v : img.values()) v = LinearToSrgb(Clamp(v * e, 0.0f, 1.0f));
+  const Rgb g = gain;
+  auto tm = [&g](Image img) {
+    const int n = img.channels();
+    std::vector<float>& v = img.values();
+    for (size_t i = 0; i < v.size(); ++i)
+      v[i] = LinearToSrgb(Clamp(v[i] * static_cast<float>(g[i % static_cast<size_t>(n) % 3]), 0.0f, 1.0f));
     return img;
   };
   CompositeResult r = Composite(*photo, tm(mixed), tm(real), frame.Mask());

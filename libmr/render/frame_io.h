@@ -14,6 +14,7 @@
 #include "hdr/response.h"
 #include "render/composite.h"
 #include "render/method.h"
+#include "render/radiometry.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -43,12 +44,29 @@ struct FrameDecoding {
   Transfer file_transfer = Transfer::kSrgb;
   std::optional<CameraResponse> response;
   double exposure = 1;
+  // The render-to-plate gain of the frame (ForFrame), per channel: the plate's
+  // linear values P (display: the sRGB-decoded codes; response: through the
+  // response over the exposure time; otherwise as decoded) are gain x the
+  // render.  camera.gains' value for the frame, else exposure (display) or 1.
+  // The outputs' radiance is P / exposure (display) or P: the plate's units.
+  Rgb gain{1, 1, 1};
+  std::vector<FrameGain> frame_gains;  // camera.gains (mr-eval plate); empty: none
+  std::string gains_file;
+
+  // A copy for frame `f`, its gain set; throws mr::Error naming the gains
+  // file when it has no entry for `f`.
+  FrameDecoding ForFrame(int f) const;
 
   // From the scene; reads the response file (added to the report's inputs)
   // and states the compositing space in the report.
   static FrameDecoding FromScene(const Scene& scene, Report* report);
-  // `photo` (as Photo() gives it) as linear radiance.
+  // `photo` (as Photo() gives it) as linear radiance in the outputs' units.
   Image ToRadiance(const Image& photo) const;
+  // `photo` in the render's units (P / gain): prt's background.
+  Image ToRenderUnits(const Image& photo) const;
+  // The plate's linear values P (display: sRGB-decoded codes; otherwise
+  // ToRadiance): what the radiometric fit compares with the render.
+  Image ToPlateLinear(const Image& photo) const;
   // The composite of a rendered frame over `photo` (null: over its own I_r),
   // in the compositing space, returned as radiance.
   CompositeResult Compose(const FrameMethod& frame, const Image* photo) const;

@@ -50,6 +50,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (end < 0 || end > n_frames) end = n_frames;
   if (begin >= end)
     throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
+  for (int f = begin; f < end; ++f) (void)decoding.ForFrame(f);  // a gain for every frame, before the first
   // The output folder only once every input is known to be sound: a refused
   // run leaves nothing behind, not even an empty folder.
   std::error_code ec;
@@ -67,16 +69,24 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   // --resume: frames an earlier run of the same settings completed are kept,
   // and rendering starts at the first missing one (as a shard starting
   // there would: byte-identical frames).
+  // A frame's provenance: the job's settings, the frame and its plate gain
+  // (a refitted gains file re-renders the frames whose gain changed).
+  auto provenance = [&](int f) {
+    std::string p = frame_provenance + fmt::format(" frame {}", f);
+    if (!decoding.frame_gains.empty()) {
+      const Rgb g = decoding.ForFrame(f).gain;
+      p += fmt::format(" gain {:.9g},{:.9g},{:.9g}", g[0], g[1], g[2]);
+    }
+    return p;
+  };
   int resumed_end = begin;
   if (o.resume) {
-    while (resumed_end < end &&
-           FrameComplete(out_dir, resumed_end, scene.output, frame_provenance + fmt::format(" frame {}", resumed_end)))
+    while (resumed_end < end && FrameComplete(out_dir, resumed_end, scene.output, provenance(resumed_end)))
       ++resumed_end;
     if (resumed_end > begin)
       report->Skip(fmt::format("frames {}:{}", begin, resumed_end),
                    "--resume: complete in the output folder from an earlier run with the same settings");
   }
-  const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
   FrameReader frames(scene, camera, decoding);
   std::unique_ptr<VideoWriter> video_out;
   const fs::path video_path = out_dir / ("composite." + scene.output.video);
@@ -139,12 +149,13 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (frame_copy && !copy_through)
       report->Skip(fmt::format("rendering frame {}", f),
                    enclosed + ": I_m - I_r = 0 exactly, the photograph is copied through");
+    const FrameDecoding dec = decoding.ForFrame(f);
     PhotoEncoding encoding;
     const std::optional<Image> photo = frames.Photo(f, &encoding);
     std::optional<Image> ref;
     if (reference) ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
     std::optional<Image> photo_radiance;  // prt's background
-    if (photo && !frame_copy) photo_radiance = decoding.ToRadiance(*photo);
+    if (photo && !frame_copy) photo_radiance = dec.ToRenderUnits(*photo);
     const FrameContext fc{rs, camera, pose, scene.render.seed, f, photo_radiance ? &*photo_radiance : nullptr};
     std::unique_ptr<FrameMethod> fr;
     if (!frame_copy) fr = method->NewFrame(fc);
@@ -165,7 +176,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       if (ref)
         errors.Checkpoint(seconds, done,
-                          MeasureFrame(decoding.Compose(*fr, photo_ptr).composite, *ref, region ? &*region : nullptr));
+                          MeasureFrame(dec.Compose(*fr, photo_ptr).composite, *ref, region ? &*region : nullptr));
       if (budget > 0 && seconds >= budget) {
         report->Warn(fmt::format("frame {}: time budget {} s reached at {} spp", f, budget, done));
         break;
@@ -176,7 +187,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     Image mixed, real, mask, variance, samples;
     if (fr) {
       ScopedTimer t(report, "composite");
-      cr = decoding.Compose(*fr, photo_ptr);
+      cr = dec.Compose(*fr, photo_ptr);
       mixed = fr->Mixed();
       real = fr->Real();
       mask = fr->Mask();
@@ -193,6 +204,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     nonfinite += frame_nonfinite;
     const int64_t env_pixels = fr ? fr->skipped_pixels() : 0;
     Json fj = {{"frame", f},
+               {"gain", dec.gain},
                {"spp", done},
                {"seconds", seconds},
                {"clamped_negative", cr.clamped_negative},
@@ -218,7 +230,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       const Image codes = decoding.ToCodes(cr.composite, encoding);
       FrameLayers layers{&cr.composite, &codes, &mixed, &real, &mask, &cr.difference, &variance, &samples, photo_ptr};
       WriteFrameFiles(out_dir, f, layers, encoding, decoding.CodesColorSpace(encoding), scene.output, o.tool,
-                      frame_provenance + fmt::format(" frame {}", f), report);
+                      provenance(f), report);
       if (video_out) video_out->WriteCodes(codes);
       if (scene.output.review) {
         const Image plate = decoding.ToCodes(photo ? decoding.ToRadiance(*photo) : real, encoding);

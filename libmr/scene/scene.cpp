@@ -126,7 +126,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   if (root.Has("comment")) root.Child("comment").String();
 
   Node cam = root.Required("camera");
-  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "response", "poses"});
+  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "response", "gains", "poses"});
   s.camera.model = ResolveFile(cam.Required("model"), base, check, "camera model");
   if (cam.Has("frames")) {
     Node f = cam.Child("frames");
@@ -145,6 +145,15 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     (cam.Has("response") ? cam.Child("response") : cam.Child("frames_transfer"))
         .Fail("frames_transfer \"response\" and a response file go together");
   if (cam.Has("exposure")) s.camera.exposure = cam.Child("exposure").Number(1e-12, 1e12);
+  if (cam.Has("gains")) {
+    // Not checked here: mr-pipeline's scene names the gains its radiometry
+    // stage is yet to fit (mr-render's FrameDecoding reads and checks them).
+    s.camera.gains = ResolveFile(cam.Child("gains"), base, false, "plate gains");
+    if (!cam.Has("frames")) cam.Child("gains").Fail("plate gains need a plate: camera.frames is not given");
+    if (s.camera.frames_transfer == "display" && cam.Has("exposure"))
+      cam.Child("exposure")
+          .Fail("with camera.gains the gains scale the render in \"display\" mode: give one of the two");
+  }
   if (cam.Has("poses")) {
     Node p = cam.Child("poses");
     p.RequireObject({"format", "path"});

@@ -48,6 +48,11 @@ struct SceneCamera {
   std::string frames_transfer = "srgb";
   double exposure = 1.0;  // "display": display value = sRGB(clamp(exposure x radiance)); "response": seconds
   std::optional<fs::path> response;
+  // The plate's radiometric gains per frame (mr-eval plate's gains.json): the
+  // render-to-plate scale that lights the virtual objects in the plate's own
+  // units; replaces `exposure` as the render's scale in "display" (the two
+  // together are refused).  Absent: exposure ("display") or 1.
+  std::optional<fs::path> gains;
   std::optional<fs::path> poses;  // TUM file, 7-Scenes folder, or COLMAP text folder
   PoseFormat pose_format = PoseFormat::kTum;
 };

@@ -1,0 +1,323 @@
+#include "eval/plate_check.h"
+
+#include <spdlog/spdlog.h>
+
+#include <opencv2/imgproc.hpp>
+
+#include <cmath>
+#include <numbers>
+
+#include "core/color.h"
+#include "core/contact_sheet.h"
+#include "core/error.h"
+#include "core/image_metrics.h"
+#include "core/progress.h"
+#include "render/camera_sampler.h"
+#include "render/frame_io.h"
+#include "render/method.h"
+#include "render/render_scene.h"
+#include "scene/frames.h"
+
+namespace mr {
+
+namespace {
+
+// 1 where the pixel shows the reconstructed room: the rays through its four
+// corners all hit real geometry at depths within 10% of one another (so
+// silhouettes, where a small pose error swaps foreground and background,
+// and pixels that see the environment are left out).
+Image RoomPixels(const RenderScene& rs, const CameraModel& camera, const Rigid3& pose) {
+  const CameraSampler cs(camera, pose, 0, 0);
+  Image room = Image::Gray(camera.width(), camera.height());
+  for (int y = 0; y < camera.height(); ++y)
+    for (int x = 0; x < camera.width(); ++x) {
+      if (!cs.PixelValid(x, y)) continue;
+      Eigen::Vector3d c[4];
+      cs.CornerDirections(x, y, c);
+      float lo = std::numeric_limits<float>::infinity(), hi = 0;
+      bool all = true;
+      for (const Eigen::Vector3d& d : c) {
+        Ray ray;
+        ray.origin = pose.translation.cast<float>();
+        ray.direction = d.cast<float>();
+        ray.mask = kMaskReal;
+        Hit hit;
+        if (!rs.embree().Intersect(ray, &hit)) {
+          all = false;
+          break;
+        }
+        lo = std::min(lo, hit.t);
+        hi = std::max(hi, hit.t);
+      }
+      if (all && hi <= 1.1f * lo) room.at(x, y, 0) = 1;
+    }
+  return room;
+}
+
+Image Scaled(Image img, const Rgb& g) {
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) *= static_cast<float>(g[c]);
+  return img;
+}
+
+Json ToJson(const Rgb& v) { return Json::array({v[0], v[1], v[2]}); }
+
+}  // namespace
+
+Image AroundObjects(const Image& mask) {
+  const int w = mask.width(), h = mask.height();
+  cv::Mat1b foot(h, w, uchar{0});
+  int64_t area = 0;
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (mask.at(x, y, 0) > 0.5f) foot(y, x) = 255, ++area;
+  Image out = Image::Gray(w, h);
+  if (area == 0) return out;
+  const int r = std::max(8, static_cast<int>(std::lround(std::sqrt(static_cast<double>(area) / std::numbers::pi))));
+  cv::Mat1b grown;
+  cv::dilate(foot, grown, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * r + 1, 2 * r + 1)));
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x)
+      if (grown(y, x) && !foot(y, x)) out.at(x, y, 0) = 1;
+  return out;
+}
+
+void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* report) {
+  if (!scene_in.camera.frames)
+    throw UsageError(fmt::format("{}: the scene names no plate (camera.frames): there is nothing to fit or check",
+                                 scene_in.file.string()));
+  if (o.out.empty()) throw UsageError("--out is required");
+  if (o.spp < 1 || o.stride < 1) throw UsageError("--spp and --stride must be at least 1");
+  // The gains are what this fits: a gains file the scene names (an earlier
+  // fit) is not read.
+  Scene scene = scene_in;
+  if (scene.camera.gains) {
+    report->Skip("camera.gains " + scene.camera.gains->string(), "mr-eval plate fits the gains the file holds");
+    scene.camera.gains.reset();
+  }
+  const MethodInfo& info = FindRenderMethod(o.method);
+  std::unique_ptr<RenderMethod> method = CreateRenderMethod(scene, o.method);
+  RenderScene rs;
+  CameraModel camera;
+  std::vector<Rigid3> poses;
+  {
+    ScopedTimer t(report, "load");
+    camera = CameraModel::Read(scene.camera.model);
+    poses = LoadScenePoses(scene);
+    LoadRenderScene(scene, &rs);
+  }
+  report->AddInput(scene.file.string());
+  const int n_frames = static_cast<int>(poses.size());
+  const int begin = o.frame_begin >= 0 ? o.frame_begin : scene.render.frame_begin;
+  int end = o.frame_end >= 0 ? o.frame_end : scene.render.frame_end;
+  if (end < 0 || end > n_frames) end = n_frames;
+  if (begin >= end)
+    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  {
+    ScopedTimer t(report, "check inputs");
+    for (const std::string& w : CheckSceneInputs(scene, camera.width(), camera.height(), begin, end).warnings) {
+      spdlog::warn("{}", w);
+      report->Warn(w);
+    }
+  }
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (!fs::is_directory(o.out))
+    ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the output folder{}", ec ? ": " + ec.message() : "");
+  const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
+  FrameReader frames(scene, camera, decoding);
+  {
+    ScopedTimer t(report, info.prepare_timing.empty() ? "prepare" : info.prepare_timing);
+    method->Prepare(JobContext{scene, rs, camera, o.spp, begin, true, report});
+  }
+  if (o.stride > 1)
+    report->Skip(fmt::format("fits of frames between every {}th", o.stride),
+                 "--stride: they take the gains of the fitted frames around them");
+
+  // Per rendered frame: the sums that give the error at any per-channel
+  // gain g exactly (sum of (g I - P)^2 / (P^2 + eps) is quadratic in g), so
+  // that the error at the smoothed gain needs no image kept.
+  struct ErrorSums {
+    Rgb a{0, 0, 0}, b{0, 0, 0}, c{0, 0, 0};     // relMSE: I^2 w, I P w, P^2 w with w = 1 / (P^2 + eps)
+    Rgb ii{0, 0, 0}, ip{0, 0, 0}, pp{0, 0, 0};  // RMSE
+    int64_t n = 0;
+    void Add(const Image& real, const Image& plate, const Image& where) {
+      for (int y = 0; y < real.height(); ++y)
+        for (int x = 0; x < real.width(); ++x) {
+          if (!(where.at(x, y, 0) > 0)) continue;
+          bool finite = true;
+          for (int ch = 0; ch < 3; ++ch)
+            finite = finite && std::isfinite(real.at(x, y, ch)) && std::isfinite(plate.at(x, y, ch));
+          if (!finite) continue;
+          ++n;
+          for (int ch = 0; ch < 3; ++ch) {
+            const double i = real.at(x, y, ch), p = plate.at(x, y, ch), w = 1 / (p * p + kRelMseEpsilon);
+            a[ch] += i * i * w, b[ch] += i * p * w, c[ch] += p * p * w;
+            ii[ch] += i * i, ip[ch] += i * p, pp[ch] += p * p;
+          }
+        }
+    }
+    double RelMse(const Rgb& g) const {
+      double s = 0;
+      for (int ch = 0; ch < 3; ++ch) s += g[ch] * g[ch] * a[ch] - 2 * g[ch] * b[ch] + c[ch];
+      return std::max(0.0, s) / (3.0 * static_cast<double>(n));
+    }
+    double Rmse(const Rgb& g) const {
+      double s = 0;
+      for (int ch = 0; ch < 3; ++ch) s += g[ch] * g[ch] * ii[ch] - 2 * g[ch] * ip[ch] + pp[ch];
+      return std::sqrt(std::max(0.0, s) / (3.0 * static_cast<double>(n)));
+    }
+  };
+  struct Measured {
+    ErrorSums room, region;
+    double ssim = 0;  // at the frame's own fitted gain
+  };
+  std::vector<int> frame_ids;
+  std::vector<GainFit> fits;
+  std::vector<Measured> measured;  // per rendered frame
+  Progress progress("plate fit", end - begin);
+  for (int f = begin; f < end; ++f) {
+    frame_ids.push_back(f);
+    if ((f - begin) % o.stride != 0) {
+      GainFit none;
+      none.why = "--stride";
+      fits.push_back(none);
+      progress.Update(f - begin + 1);
+      continue;
+    }
+    const Rigid3& pose = poses[static_cast<size_t>(f)];
+    PhotoEncoding enc;
+    const Image photo = *frames.Photo(f, &enc);
+    const Image plate = decoding.ToPlateLinear(photo);
+    Image codes;
+    if (enc.has_codes) codes = decoding.ToCodes(decoding.ToRadiance(photo), enc);
+    Image real, mask;
+    {
+      ScopedTimer t(report, "render room");
+      const FrameContext fc{rs, camera, pose, scene.render.seed, f, nullptr};
+      std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
+      fr->RenderPass(o.spp);
+      real = fr->Real();
+      mask = fr->Mask();
+    }
+    Measured m;
+    Image room;
+    {
+      ScopedTimer t(report, "fit");
+      room = RoomPixels(rs, camera, pose);
+      fits.push_back(FitPlateGain(plate, real, room, enc.has_codes ? &codes : nullptr, o.fit));
+      Image region = AroundObjects(mask);
+      for (size_t p = 0; p < region.values().size(); ++p) region.values()[p] *= room.values()[p];
+      m.room.Add(real, plate, room);
+      m.region.Add(real, plate, region);
+    }
+    const GainFit& fit = fits.back();
+    if (!fit.ok) {
+      spdlog::warn("frame {}: no gain fit: {}", f, fit.why);
+      report->Warn(fmt::format("frame {}: no gain fit: {}", f, fit.why));
+    }
+    const Image fitted = Scaled(real, fit.ok ? fit.gain : Rgb{1, 1, 1});
+    m.ssim = CompareImages(fitted, plate, &room).ssim;
+    if (o.images) {
+      auto srgb = [](Image img) {
+        for (float& v : img.values()) v = LinearToSrgb(std::clamp(v, 0.0f, 1.0f));
+        return img;
+      };
+      const Image plate_srgb = srgb(plate), fitted_srgb = srgb(fitted);
+      Image diff = fitted_srgb;
+      for (size_t p = 0; p < diff.values().size(); ++p) diff.values()[p] -= plate_srgb.values()[p];
+      const Image diff_panel = SignedDifferencePanel(diff, 0.25);
+      const Rgb g = fit.ok ? fit.gain : Rgb{1, 1, 1};
+      const Image sheet = ContactSheet(
+          {{&plate_srgb, fmt::format("plate, frame {}", f)},
+           {&fitted_srgb, fmt::format("room rendered, x ({:.3g}, {:.3g}, {:.3g})", g[0], g[1], g[2])},
+           {&diff_panel, "rendered - plate (sRGB), +-0.25"},
+           {&room, "pixels compared (the room)"}},
+          2);
+      ImageWriteOptions wo;
+      wo.tool = o.tool;
+      wo.command_line = o.command_line;
+      wo.pixel_type = PixelType::kUint8;
+      wo.ldr_transfer = Transfer::kLinear;  // already display values
+      wo.attributes["oiio:ColorSpace"] = "sRGB";
+      const fs::path path = o.out / fmt::format("{:05d}-rerender.png", f);
+      WriteImage(path, sheet, wo);
+      report->AddOutput(path.string());
+    }
+    measured.push_back(std::move(m));
+    progress.Update(f - begin + 1);
+  }
+  progress.Done();
+  const std::vector<FrameGain> gains = SmoothGains(frame_ids, fits, o.smoothing);
+  const fs::path gains_path = o.out / "gains.json";
+  WritePlateGains(gains_path, gains,
+                  fmt::format("written by {} ({}) from {}: render-to-plate gains per frame, {} at {} spp", o.tool,
+                              o.command_line, scene.file.string(), o.method, o.spp));
+  report->AddOutput(gains_path.string());
+
+  // The error after the fit (at the smoothed gain), per rendered frame.
+  Json frames_json = Json::array();
+  double sum_relmse = 0, sum_ssim = 0, sum_region = 0;
+  int n_measured = 0, n_region = 0, jumps = 0;
+  Rgb gmin{1e300, 1e300, 1e300}, gmax{0, 0, 0};
+  size_t ki = 0;
+  for (size_t i = 0; i < gains.size(); ++i) {
+    const FrameGain& g = gains[i];
+    const GainFit& fit = fits[i];
+    jumps += g.jump_before;
+    for (int c = 0; c < 3; ++c) gmin[c] = std::min(gmin[c], g.gain[c]), gmax[c] = std::max(gmax[c], g.gain[c]);
+    Json fj = {{"frame", g.frame}, {"gain", ToJson(g.gain)}, {"sigma", ToJson(g.sigma)}, {"fitted", g.fitted}};
+    if (g.jump_before) fj["jump_before"] = true;
+    if ((g.frame - begin) % o.stride == 0) {
+      const Measured& m = measured[ki++];
+      fj["room_pixels"] = fit.room_pixels;
+      fj["clipped"] = fit.clipped;
+      fj["outliers"] = fit.outliers;
+      fj["nonfinite"] = fit.nonfinite;
+      if (fit.ok) {
+        fj["fit"] = ToJson(fit.gain);
+        fj["fit_sigma"] = ToJson(fit.sigma);
+        fj["pixels"] = fit.pixels;
+      } else {
+        fj["why"] = fit.why;
+      }
+      if (m.room.n > 0) {
+        fj["relmse"] = m.room.RelMse(g.gain);
+        fj["rmse"] = m.room.Rmse(g.gain);
+        fj["ssim"] = m.ssim;
+        sum_relmse += m.room.RelMse(g.gain);
+        sum_ssim += m.ssim;
+        ++n_measured;
+      }
+      if (m.region.n > 0) {
+        fj["region_relmse"] = m.region.RelMse(g.gain);
+        fj["region_pixels"] = m.region.n;
+        sum_region += m.region.RelMse(g.gain);
+        ++n_region;
+      }
+    }
+    frames_json.push_back(fj);
+  }
+  report->SetMetric("frames", frames_json);
+  report->SetMetric("method", o.method);
+  report->SetMetric("spp", o.spp);
+  report->SetMetric("gains_file", gains_path.string());
+  report->SetMetric("gain_min", ToJson(gmin));
+  report->SetMetric("gain_max", ToJson(gmax));
+  report->SetMetric("exposure_jumps", jumps);
+  if (n_measured > 0) {
+    report->SetMetric("relmse", sum_relmse / n_measured);
+    report->SetMetric("ssim", sum_ssim / n_measured);
+  }
+  if (n_region > 0) report->SetMetric("region_relmse", sum_region / n_region);
+  spdlog::info("plate gains: R {:.4g}..{:.4g}, G {:.4g}..{:.4g}, B {:.4g}..{:.4g} over {} frames, {} exposure jumps",
+               gmin[0], gmax[0], gmin[1], gmax[1], gmin[2], gmax[2], gains.size(), jumps);
+  if (n_measured > 0)
+    spdlog::info("re-rendering error after the fit: relMSE {:.4g}, SSIM {:.4f}{}", sum_relmse / n_measured,
+                 sum_ssim / n_measured,
+                 n_region > 0 ? fmt::format(", around the objects relMSE {:.4g}", sum_region / n_region) : "");
+  spdlog::info("gains: {}", gains_path.string());
+}
+
+}  // namespace mr

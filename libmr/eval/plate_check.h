@@ -1,0 +1,43 @@
+// mr-eval plate: the capture chain checked against the plate itself.  For
+// every frame of a scene's plate the real room alone (its geometry, its
+// albedo, the captured light, the calibrated camera and pose) is rendered,
+// the plate's radiometric gains are fitted against it (render/radiometry.h)
+// and smoothed over time, and the re-rendering error after the fit is
+// measured: over the room, and in the region around the virtual objects,
+// where their shadows and bounce light land.  There is no ground truth for
+// an inserted object on real video; there is one for the room, and this is
+// it.  The gains file it writes is what scene.json's camera.gains names, so
+// that mr-render lights the objects in the plate's own units.
+#pragma once
+
+#include <string>
+
+#include "core/report.h"
+#include "render/radiometry.h"
+#include "scene/scene.h"
+
+namespace mr {
+
+struct PlateCheckOptions {
+  fs::path out;              // folder: gains.json (and NNNNN-rerender.png with `images`)
+  std::string method = "pt";  // renders I_r
+  int spp = 16;
+  int stride = 1;  // fit every stride-th frame; the others take their neighbours' gains
+  int frame_begin = -1, frame_end = -1;  // -1: the scene's
+  GainFitOptions fit;
+  GainSmoothing smoothing;
+  // Per fitted frame, OUT/NNNNN-rerender.png: the plate | the room rendered
+  // at the fitted gain | their signed difference | the pixels fitted.
+  bool images = false;
+  std::string tool = "mr-eval", command_line;
+};
+
+// The pixels where the region around the virtual objects is measured: those
+// within r of the objects' footprint (`mask` > 0.5; r = max(8, sqrt(area /
+// pi)) px, the footprint's equivalent radius) and not in it.  One channel.
+Image AroundObjects(const Image& mask);
+
+// Throws mr::Error / mr::UsageError (a scene without a plate).
+void RunPlateCheck(const Scene& scene, const PlateCheckOptions& options, Report* report);
+
+}  // namespace mr

@@ -4,9 +4,10 @@
 # (300 RGB-D frames). mr-pipeline fuses every 10th depth frame into the room,
 # registers the 30 matching colour frames with COLMAP and aligns them to the
 # fused trajectory, extracts lights from a real light probe (grace.hdr; the
-# kitchen's own light was not captured), and renders the Stanford bunny, set
-# upright on a surface in front of the first camera, into the colour frames
-# with vct.  About 5 minutes on 2 cores after the build (COLMAP may run up
+# kitchen's own light was not captured), fits the plate's gains per frame
+# against the rendered room (mr-eval plate: no hand-set exposure) and
+# renders the Stanford bunny, set upright on a surface in front of the first
+# camera, into the colour frames with vct.  About 5 minutes on 2 cores after the build (COLMAP may run up
 # to 3 times: see docs/benchmarks.md).
 # Usage: examples/real/run.sh [OUT] [SHARED_DATA]
 set -euo pipefail
@@ -55,7 +56,8 @@ write_pipeline() {  # write_pipeline TRANSFORM_JSON
     "lights": {"options": {"method": "blobs", "count": 4, "threshold": 20, "residual-width": 128}}
   },
   "room": {"rgbd": "$kitchen", "options": {"stride": 10, "voxel": 0.02, "albedo-rays": 32}},
-  "video": {"frames": "video/%05d.jpg", "frames_transfer": "display", "exposure": 0.5,
+  "video": {"frames": "video/%05d.jpg", "frames_transfer": "display",
+            "gains": {"options": {"spp": 16, "images": true}},
             "poses": {"register": {"matcher": "sequential", "overlap": 10}}},
   "virtual": [{"name": "bunny", "mesh": "$data/meshes/bun_zipper_res2.ply", "transform": $1,
                "material": {"albedo": [0.75, 0.72, 0.68]}}],
@@ -116,4 +118,10 @@ print("registration: %d of %d frames registered; alignment to the fused trajecto
       % (r["registered"], r["frames"], a["scale"], 1000 * a["centre_rmse_m"], a["rotation_rmse_deg"]))
 f = json.load(open(w + "/reports/fuse.json"))["metrics"]["summary"]
 print("fusion: %d frames, %d lost" % (f["frames"], f["lost"]))
+p = json.load(open(w + "/reports/radiometry.json"))["metrics"]
+print("plate gains (fitted, no hand-set exposure): R %.3f..%.3f G %.3f..%.3f B %.3f..%.3f, %d exposure jumps"
+      % (p["gain_min"][0], p["gain_max"][0], p["gain_min"][1], p["gain_max"][1], p["gain_min"][2], p["gain_max"][2],
+         p["exposure_jumps"]))
+print("capture chain re-rendering the plate: relMSE %.4g, SSIM %.3f, around the bunny relMSE %.4g (%s/radiometry/*-rerender.png)"
+      % (p["relmse"], p["ssim"], p.get("region_relmse", float("nan")), w))
 PYR

@@ -229,12 +229,12 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       for (size_t p = 0; p < diff.values().size(); ++p) diff.values()[p] -= plate_srgb.values()[p];
       const Image diff_panel = SignedDifferencePanel(diff, 0.25);
       const Rgb g = fit.ok ? fit.gain : Rgb{1, 1, 1};
-      const Image sheet = ContactSheet(
-          {{&plate_srgb, fmt::format("plate, frame {}", f)},
-           {&fitted_srgb, fmt::format("room rendered, x ({:.3g}, {:.3g}, {:.3g})", g[0], g[1], g[2])},
-           {&diff_panel, "rendered - plate (sRGB), +-0.25"},
-           {&room, "pixels compared (the room)"}},
-          2);
+      const Image sheet =
+          ContactSheet({{&plate_srgb, fmt::format("plate, frame {}", f)},
+                        {&fitted_srgb, fmt::format("room rendered, x ({:.3g}, {:.3g}, {:.3g})", g[0], g[1], g[2])},
+                        {&diff_panel, "rendered - plate (sRGB), +-0.25"},
+                        {&room, "pixels compared (the room)"}},
+                       2);
       ImageWriteOptions wo;
       wo.tool = o.tool;
       wo.command_line = o.command_line;

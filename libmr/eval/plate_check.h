@@ -19,10 +19,10 @@
 namespace mr {
 
 struct PlateCheckOptions {
-  fs::path out;              // folder: gains.json (and NNNNN-rerender.png with `images`)
+  fs::path out;               // folder: gains.json (and NNNNN-rerender.png with `images`)
   std::string method = "pt";  // renders I_r
   int spp = 16;
-  int stride = 1;  // fit every stride-th frame; the others take their neighbours' gains
+  int stride = 1;                        // fit every stride-th frame; the others take their neighbours' gains
   int frame_begin = -1, frame_end = -1;  // -1: the scene's
   GainFitOptions fit;
   GainSmoothing smoothing;

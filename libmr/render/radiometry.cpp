@@ -90,9 +90,10 @@ GainFit FitPlateGain(const Image& plate, const Image& rendered, const Image& roo
     logs.push_back(cell_log[k]);
   }
   if (usable < o.min_pixels) {
-    fit.why = fmt::format("{} usable room pixels (of {} showing the room: {} clipped or too dark, {} not finite), "
-                          "fewer than {}",
-                          usable, fit.room_pixels, fit.clipped, fit.nonfinite, o.min_pixels);
+    fit.why = fmt::format(
+        "{} usable room pixels (of {} showing the room: {} clipped or too dark, {} not finite), "
+        "fewer than {}",
+        usable, fit.room_pixels, fit.clipped, fit.nonfinite, o.min_pixels);
     return fit;
   }
   const double med = Median(logs);
@@ -129,9 +130,10 @@ GainFit FitPlateGain(const Image& plate, const Image& rendered, const Image& roo
     for (int c = 0; c < 3; ++c) sp[c] += tile_p[t][c], sr[c] += tile_r[t][c];
   }
   if (fit.pixels < o.min_pixels || fit.tiles < 2) {
-    fit.why = fmt::format("{} room pixels in {} of {} tiles after leaving out outliers: too few to fit and to "
-                          "estimate the uncertainty",
-                          fit.pixels, fit.tiles, nt * nt);
+    fit.why = fmt::format(
+        "{} room pixels in {} of {} tiles after leaving out outliers: too few to fit and to "
+        "estimate the uncertainty",
+        fit.pixels, fit.tiles, nt * nt);
     return fit;
   }
   for (int c = 0; c < 3; ++c) {
@@ -198,7 +200,7 @@ std::vector<FrameGain> SmoothGains(const std::vector<int>& frames, const std::ve
   for (size_t i = 0, k = 0; i < n; ++i) {
     while (k < fitted.size() && fitted[k] < i) ++k;
     if (segment[i] >= 0) continue;
-    const bool has_next = k < fitted.size(), has_prev = k > 0;
+    const bool has_next = k<fitted.size(), has_prev = k> 0;
     if (!has_prev) {
       segment[i] = segment[fitted[k]];
     } else if (!has_next) {

@@ -41,7 +41,7 @@ struct GainFit {
   int64_t pixels = 0;  // used
   int64_t room_pixels = 0, clipped = 0, nonfinite = 0, outliers = 0;  // of the room's pixels, left out
   int tiles = 0;                                                      // tiles with pixels used
-  std::string why;  // when !ok: why there is no fit
+  std::string why;                                                    // when !ok: why there is no fit
 };
 
 // P: the plate's linear values (RGB); rendered: I_r (RGB, same size);
@@ -64,7 +64,7 @@ struct FrameGain {
   int frame = 0;
   Rgb gain{1, 1, 1}, sigma{0, 0, 0};  // smoothed (or interpolated)
   Rgb fit{1, 1, 1}, fit_sigma{0, 0, 0};
-  bool fitted = false;      // this frame had its own fit
+  bool fitted = false;       // this frame had its own fit
   bool jump_before = false;  // an exposure jump between the previous fitted frame and this one
   int64_t pixels = 0;
 };

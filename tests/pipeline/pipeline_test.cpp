@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "core/error.h"
 #include "test_util.h"
 
@@ -53,12 +55,50 @@ TEST(PlanPipeline, LeavesOutWhatTheInputsDoNotNeed) {
     "virtual": [{"mesh": "ball.ply"}], "render": {"method": "prt"}})");
   const Pipeline p = PlanPipeline(dir / "p.json");
   ASSERT_EQ(p.stages.size(), PipelineStageNames().size());
-  for (const char* s : {"calibrate", "sphere", "hdr", "probe", "lights", "fuse", "register", "sweep"})
+  for (const char* s : {"calibrate", "sphere", "hdr", "probe", "lights", "fuse", "register", "radiometry", "sweep"})
     EXPECT_FALSE(Stage(p, s).skip.empty()) << s;
   for (const char* s : {"formfactor", "scene", "render"}) EXPECT_TRUE(Stage(p, s).skip.empty()) << s;
   EXPECT_EQ(Stage(p, "formfactor").tool, "mr-formfactor");  // prt needs form factors
   EXPECT_EQ(p.scene["virtual"][0]["formfactors"], "object0.ffc");
   EXPECT_EQ(p.scene["real"][0]["mesh"], "../room.ply");  // relative to work/
+}
+
+// A plate's gains are fitted unless given, turned off or hand-set; the
+// render (and the sweep) then depend on the fitted file.
+TEST(PlanPipeline, FitsThePlatesGainsUnlessToldOtherwise) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "env.exr", "room.ply", "poses.txt", "ball.ply", "g.json"})
+    WriteTextFile(dir / f, "x");
+  fs::create_directories(dir / "v");
+  WriteTextFile(dir / "v" / "00000.jpg", "x");
+  auto plan = [&](const std::string& video) {
+    WriteTextFile(dir / "p.json", R"({"version": 1,
+      "camera": {"model": "cam.cameramodel"}, "lighting": {"environment": "env.exr"},
+      "room": {"real": {"mesh": "room.ply"}}, "video": {"frames": "v/%05d.jpg", "poses": {"tum": "poses.txt"})" +
+                                      video + R"(}, "virtual": [{"mesh": "ball.ply"}]})");
+    return PlanPipeline(dir / "p.json");
+  };
+  Pipeline p = plan("");
+  const PipelineStage& r = Stage(p, "radiometry");
+  EXPECT_TRUE(r.skip.empty());
+  EXPECT_EQ(r.tool, "mr-eval");
+  EXPECT_EQ(r.args[0], "plate");
+  EXPECT_EQ(p.scene["camera"]["gains"], "radiometry/gains.json");
+  const auto& in = Stage(p, "render").inputs;
+  EXPECT_NE(std::find(in.begin(), in.end(), dir.path() / "work" / "radiometry" / "gains.json"), in.end());
+  p = plan(R"(, "gains": {"options": {"spp": 64, "stride": 5}})");
+  EXPECT_NE(std::find(Stage(p, "radiometry").args.begin(), Stage(p, "radiometry").args.end(), "--stride"),
+            Stage(p, "radiometry").args.end());
+  p = plan(R"(, "gains": false)");
+  EXPECT_EQ(Stage(p, "radiometry").skip, "video.gains is false");
+  EXPECT_FALSE(p.scene["camera"].contains("gains"));
+  p = plan(R"(, "gains": "g.json")");
+  EXPECT_FALSE(Stage(p, "radiometry").skip.empty());
+  EXPECT_EQ(p.scene["camera"]["gains"], "../g.json");
+  p = plan(R"(, "frames_transfer": "display", "exposure": 0.5)");
+  EXPECT_NE(Stage(p, "radiometry").skip.find("hand-set"), std::string::npos);
+  EXPECT_THROW(plan(R"(, "frames_transfer": "display", "exposure": 0.5, "gains": {"options": {}})"), Error);
+  EXPECT_THROW(plan(R"(, "gains": true)"), Error);
 }
 
 TEST(PlanPipeline, ErrorsNameTheFileAndKey) {

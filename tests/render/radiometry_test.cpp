@@ -206,12 +206,13 @@ TEST(PlateGainsFile, RoundTripsAndRefusesBadFiles) {
   EXPECT_EQ(r[0].gain, g[0].gain);
   EXPECT_EQ(r[1].frame, 7);
   EXPECT_TRUE(r[1].jump_before);
-  for (const std::string bad :
-       {R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 0, "gain": [1, 0, 1]}]})",
-        R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 0, "gain": [1, 1]}]})",
-        R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 1, "gain": [1, 1, 1]}, {"frame": 1, "gain": [1, 1, 1]}]})",
-        R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 0, "gain": [1, 1, 1], "gian": 1}]})",
-        R"({"version": 1, "kind": "mr-plate-gains", "frames": []})", R"({"version": 1, "kind": "lights"})"}) {
+  for (
+      const std::string bad :
+      {R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 0, "gain": [1, 0, 1]}]})",
+       R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 0, "gain": [1, 1]}]})",
+       R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 1, "gain": [1, 1, 1]}, {"frame": 1, "gain": [1, 1, 1]}]})",
+       R"({"version": 1, "kind": "mr-plate-gains", "frames": [{"frame": 0, "gain": [1, 1, 1], "gian": 1}]})",
+       R"({"version": 1, "kind": "mr-plate-gains", "frames": []})", R"({"version": 1, "kind": "lights"})"}) {
     WriteTextFile(dir / "bad.json", bad);
     try {
       ReadPlateGains(dir / "bad.json");

@@ -117,6 +117,20 @@ Image FrameDecoding::ToCodes(const Image& radiance, const PhotoEncoding& enc) co
   return codes;
 }
 
+Image FrameDecoding::FromCodes(const Image& codes, const PhotoEncoding& enc) const {
+  Image out = codes;
+  for (float& v : out.values()) v = Clamp(v, 0.0f, 1.0f);
+  if (response) {
+    out = Linearise(out, *response);
+    for (float& v : out.values()) v /= static_cast<float>(exposure);
+  } else if (display_space) {
+    for (float& v : out.values()) v = SrgbToLinear(v) / static_cast<float>(exposure);
+  } else if (!(enc.has_codes && enc.transfer == Transfer::kLinear)) {
+    for (float& v : out.values()) v = SrgbToLinear(v);
+  }
+  return out;
+}
+
 std::string FrameDecoding::CodesColorSpace(const PhotoEncoding& enc) const {
   return !display_space && !response && enc.has_codes && enc.transfer == Transfer::kLinear ? "Linear" : "sRGB";
 }

@@ -77,6 +77,9 @@ struct FrameDecoding {
   // unchanged gets back the photograph's code value (docs/formats.md).
   // Without codes (float frames, synthetic composites): sRGB(clamp(L)).
   Image ToCodes(const Image& radiance, const PhotoEncoding& enc) const;
+  // Code values (as ToCodes gives them) back to radiance: ToCodes' inverse
+  // within [0, 1] (grain is added to the codes and brought back this way).
+  Image FromCodes(const Image& codes, const PhotoEncoding& enc) const;
   // The colour space ToCodes' values are in, as image files tag it: "sRGB"
   // (display-referred codes: srgb, display, response) or "Linear".
   std::string CodesColorSpace(const PhotoEncoding& enc) const;

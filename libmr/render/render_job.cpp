@@ -10,6 +10,7 @@
 #include "core/video.h"
 #include "render/error_curve.h"
 #include "render/frame_io.h"
+#include "render/grain.h"
 #include "render/method.h"
 #include "render/render_scene.h"
 #include "scene/frames.h"
@@ -73,6 +74,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   // (a refitted gains file re-renders the frames whose gain changed).
   auto provenance = [&](int f) {
     std::string p = frame_provenance + fmt::format(" frame {}", f);
+    if (scene.output.grain != "off") p += " grain " + scene.output.grain;
     if (!decoding.frame_gains.empty()) {
       const Rgb g = decoding.ForFrame(f).gain;
       p += fmt::format(" gain {:.9g},{:.9g},{:.9g}", g[0], g[1], g[2]);
@@ -88,6 +90,40 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                    "--resume: complete in the output folder from an earlier run with the same settings");
   }
   FrameReader frames(scene, camera, decoding);
+  // The plate's grain, measured on up to 8 frames spread over the whole
+  // scene (not the shard: every shard adds the same grain).
+  std::optional<NoiseProfile> grain;
+  if (scene.output.grain == "off") {
+    report->Skip("grain", "output.grain is \"off\"");
+  } else if (!decoding.photograph) {
+    report->Skip("grain", "no plate: a synthetic composite has no sensor noise to match");
+  } else if (!rs.has_virtual()) {
+    report->Skip("grain", "no virtual object: nothing rendered shows in the composite");
+  } else {
+    ScopedTimer t(report, "grain estimate");
+    FrameReader sample_frames(scene, camera, decoding);
+    std::vector<Image> codes;
+    bool has_codes = true;
+    const int n = std::min(8, n_frames);
+    for (int k = 0; k < n && has_codes; ++k) {
+      const int f = static_cast<int>(static_cast<int64_t>(k) * n_frames / n);
+      PhotoEncoding enc;
+      const Image photo = *sample_frames.Photo(f, &enc);
+      has_codes = enc.has_codes;
+      codes.push_back(decoding.ToCodes(decoding.ToRadiance(photo), enc));
+    }
+    if (!has_codes && scene.output.grain == "auto") {
+      report->Skip("grain",
+                   "output.grain is \"auto\" and the plate is float (no code values, no sensor noise to "
+                   "match); \"on\" measures it anyway");
+    } else {
+      grain = EstimateNoise(codes);
+      report->SetMetric("grain", grain->ToJson());
+      report->SetMetric("grain.frames", n);
+      spdlog::info("grain: plate noise {:.2f}/255 at mid-grey (G), from {} patches of {} frames",
+                   255 * grain->At(1, 0.5), grain->patches_used, n);
+    }
+  }
   std::unique_ptr<VideoWriter> video_out;
   const fs::path video_path = out_dir / ("composite." + scene.output.video);
   // A video's frames are 8-bit sRGB code values (FrameReader).
@@ -193,6 +229,20 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       mask = fr->Mask();
       variance = fr->DifferenceVariance();
       samples = fr->SampleCount();
+      if (grain) {
+        // The plate's noise where the composite shows the render, added to
+        // the codes and brought back to radiance: pixels the object does not
+        // cover keep their values exactly.
+        const Image codes0 = dec.ToCodes(cr.composite, encoding);
+        Image noisy = codes0;
+        AddGrain(*grain, mask, scene.render.seed, f, &noisy);
+        const Image r0 = dec.FromCodes(codes0, encoding), r1 = dec.FromCodes(noisy, encoding);
+        for (int y = 0; y < mask.height(); ++y)
+          for (int x = 0; x < mask.width(); ++x)
+            if (mask.at(x, y, 0) > 0)
+              for (int c = 0; c < 3; ++c)
+                cr.composite.at(x, y, c) = std::max(0.0f, cr.composite.at(x, y, c) + r1.at(x, y, c) - r0.at(x, y, c));
+      }
     } else {  // copied through
       cr.composite = decoding.ToRadiance(*photo);
       cr.difference = Image::Rgb(camera.width(), camera.height());

@@ -255,7 +255,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
 
   if (root.Has("output")) {
     Node o = root.Child("output");
-    o.RequireObject({"dir", "png", "half", "video", "review", "layers"});
+    o.RequireObject({"dir", "png", "half", "video", "review", "grain", "layers"});
     if (o.Has("dir")) {
       fs::path d = o.Child("dir").String();
       s.output.dir = d.is_relative() ? base / d : d;
@@ -266,6 +266,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     if (o.Has("half")) s.output.half = o.Child("half").Bool();
     if (o.Has("video")) s.output.video = o.Child("video").OneOf({"mp4", "mkv", "none"});
     if (o.Has("review")) s.output.review = o.Child("review").Bool();
+    if (o.Has("grain")) s.output.grain = o.Child("grain").OneOf({"auto", "on", "off"});
     if (o.Has("layers")) {
       Node l = o.Child("layers");
       if (!l.json().is_array() || l.json().empty()) l.Fail("expected a non-empty array of layer names");

@@ -100,7 +100,11 @@ struct SceneOutput {
   // The composite video, written when the frames are a video: "mp4"
   // (MPEG-4, lossy), "mkv" (FFV1, lossless) or "none".
   std::string video = "mp4";
-  bool review = false;  // OUT/review/NNNNN.png: plate | composite | difference | mask, labelled
+  bool review = false;  // OUT/NNNNN-review.png: plate | composite | difference | mask, labelled
+  // The plate's grain added where the composite shows the render: "auto"
+  // (for plates with code values: photographs and video; float plates and
+  // synthetic composites have no sensor noise to match), "on" or "off".
+  std::string grain = "auto";
   // EXR layers written (OutputLayers(); composite is required): all by default.
   std::vector<std::string> layers = OutputLayers();
 };

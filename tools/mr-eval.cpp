@@ -158,6 +158,11 @@ int main(int argc, char** argv) {
                    "are an exposure jump, which smoothing does not cross")
       ->default_val(1.15)
       ->check(CLI::Range(1.0001, 1e6));
+  plate
+      ->add_option("--at-gain", po_plate.at_gain,
+                   "Measure the errors at this gain (all channels and frames: a hand-set exposure) instead of\n"
+                   "the fitted ones, to compare the two; the fitted gains are still written")
+      ->check(mr::kPositive);
   plate->add_flag("--images", po_plate.images,
                   "Write OUT/NNNNN-rerender.png per fitted frame: plate | room rendered at the gain | difference |\n"
                   "pixels compared");

@@ -195,7 +195,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     Image real, mask;
     {
       ScopedTimer t(report, "render room");
-      const FrameContext fc{rs, camera, pose, scene.render.seed, f, nullptr};
+      const FrameContext fc{rs, camera, pose, scene.render.seed, f, nullptr, FrameExposure(scene, poses, f)};
       std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
       fr->RenderPass(o.spp);
       real = fr->Real();
@@ -262,12 +262,15 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
   int n_measured = 0, n_region = 0, jumps = 0;
   Rgb gmin{1e300, 1e300, 1e300}, gmax{0, 0, 0};
   size_t ki = 0;
+  if (o.at_gain > 0) report->SetMetric("errors_at_gain", o.at_gain);
   for (size_t i = 0; i < gains.size(); ++i) {
-    const FrameGain& g = gains[i];
+    FrameGain g = gains[i];
+    if (o.at_gain > 0) g.gain = {o.at_gain, o.at_gain, o.at_gain};
     const GainFit& fit = fits[i];
     jumps += g.jump_before;
-    for (int c = 0; c < 3; ++c) gmin[c] = std::min(gmin[c], g.gain[c]), gmax[c] = std::max(gmax[c], g.gain[c]);
-    Json fj = {{"frame", g.frame}, {"gain", ToJson(g.gain)}, {"sigma", ToJson(g.sigma)}, {"fitted", g.fitted}};
+    for (int c = 0; c < 3; ++c)
+      gmin[c] = std::min(gmin[c], gains[i].gain[c]), gmax[c] = std::max(gmax[c], gains[i].gain[c]);
+    Json fj = {{"frame", g.frame}, {"gain", ToJson(gains[i].gain)}, {"sigma", ToJson(g.sigma)}, {"fitted", g.fitted}};
     if (g.jump_before) fj["jump_before"] = true;
     if ((g.frame - begin) % o.stride == 0) {
       const Measured& m = measured[ki++];

@@ -29,6 +29,10 @@ struct PlateCheckOptions {
   // Per fitted frame, OUT/NNNNN-rerender.png: the plate | the room rendered
   // at the fitted gain | their signed difference | the pixels fitted.
   bool images = false;
+  // > 0: the errors are measured at this gain (every channel and frame: a
+  // hand-set exposure) instead of the fitted ones, to compare the two; the
+  // fitted gains are still written.
+  double at_gain = 0;
   std::string tool = "mr-eval", command_line;
 };
 

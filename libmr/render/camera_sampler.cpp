@@ -1,15 +1,36 @@
 #include "render/camera_sampler.h"
 
+#include <algorithm>
+#include <cmath>
+
 #include "core/parallel.h"
 #include "render/path_common.h"
 
 namespace mr {
 
-CameraSampler::CameraSampler(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
+Rigid3 InterpolatePose(const Rigid3& a, const Rigid3& b, double t) {
+  Eigen::Quaterniond qb = b.rotation;
+  if (a.rotation.dot(qb) < 0) qb.coeffs() = -qb.coeffs();  // the shorter way round
+  // Slerp written out (Eigen's clamps nothing but is defined on [0, 1]).
+  const double cos_angle = std::clamp(a.rotation.dot(qb), -1.0, 1.0);
+  const double angle = std::acos(cos_angle);
+  Eigen::Quaterniond q;
+  if (angle < 1e-9) {
+    q = a.rotation;
+  } else {
+    const double sa = std::sin(angle);
+    q.coeffs() = std::sin((1 - t) * angle) / sa * a.rotation.coeffs() + std::sin(t * angle) / sa * qb.coeffs();
+  }
+  return Rigid3(q.normalized(), (1 - t) * a.translation + t * b.translation);
+}
+
+CameraSampler::CameraSampler(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
+                             const CameraExposure& exposure)
     : width_(camera.width()),
       height_(camera.height()),
       world_from_cam_(world_from_cam),
-      R_(world_from_cam.rotation.toRotationMatrix()) {
+      R_(world_from_cam.rotation.toRotationMatrix()),
+      exposure_(exposure) {
   corner_dirs_.resize(static_cast<size_t>(width_ + 1) * (height_ + 1));
   corner_ok_.resize(corner_dirs_.size());
   ParallelFor(0, height_ + 1, [&](int64_t y) {
@@ -37,7 +58,28 @@ Pcg32 CameraSampler::Sample(int x, int y, int s, Ray* ray) const {
   const double fx = rng.NextDouble(), fy = rng.NextDouble();
   const Eigen::Vector3d d = (1 - fy) * ((1 - fx) * corner_dirs_[c00] + fx * corner_dirs_[c10]) +
                             fy * ((1 - fx) * corner_dirs_[c01] + fx * corner_dirs_[c11]);
-  *ray = MakeRay(world_from_cam_.translation, (R_ * d).normalized(), kMaskAll);
+  if (!exposure_.any()) {
+    *ray = MakeRay(world_from_cam_.translation, (R_ * d).normalized(), kMaskAll);
+    return rng;
+  }
+  Rigid3 pose = world_from_cam_;
+  if (exposure_.moves) {
+    const double t = rng.NextDouble();
+    pose = t < 0.5 ? InterpolatePose(exposure_.open, world_from_cam_, 2 * t)
+                   : InterpolatePose(world_from_cam_, exposure_.close, 2 * t - 1);
+  }
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero(), dir = d.normalized();
+  if (exposure_.aperture_radius > 0) {
+    // Thin lens: the ray through the lens point that meets the pinhole ray
+    // where it crosses the focal surface.
+    const double u1 = rng.NextDouble(), u2 = rng.NextDouble();
+    const double r = exposure_.aperture_radius * std::sqrt(u1), phi = 2 * 3.14159265358979323846 * u2;
+    const double along = dir.z() > 0.1 ? exposure_.focus_distance / dir.z() : exposure_.focus_distance;
+    const Eigen::Vector3d focus = along * dir;
+    origin = Eigen::Vector3d(r * std::cos(phi), r * std::sin(phi), 0);
+    dir = (focus - origin).normalized();
+  }
+  *ray = MakeRay(pose * origin, pose.rotation * dir, kMaskAll);
   return rng;
 }
 

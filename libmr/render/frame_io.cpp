@@ -187,6 +187,23 @@ std::optional<Image> FrameReader::Photo(int f, PhotoEncoding* enc) {
   return photo;
 }
 
+CameraExposure FrameExposure(const Scene& scene, const std::vector<Rigid3>& poses, int f) {
+  CameraExposure e;
+  e.aperture_radius = scene.camera.aperture_radius;
+  e.focus_distance = scene.camera.focus_distance;
+  const double s = scene.camera.shutter;
+  const size_t i = static_cast<size_t>(f);
+  if (s <= 0 || i >= poses.size()) return e;
+  const Rigid3& pose = poses[i];
+  e.open = i > 0 ? InterpolatePose(poses[i - 1], pose, 1 - s / 2) : pose;
+  e.close = i + 1 < poses.size() ? InterpolatePose(pose, poses[i + 1], s / 2) : pose;
+  auto moved = [](const Rigid3& a, const Rigid3& b) {
+    return (a.translation - b.translation).norm() > 1e-9 || a.rotation.angularDistance(b.rotation) > 1e-9;
+  };
+  e.moves = moved(e.open, pose) || moved(pose, e.close);
+  return e;
+}
+
 Image ReadReferenceFrame(const fs::path& path, int width, int height) {
   return ReadRgb(path, width, height, Transfer::kLinear);
 }

@@ -85,6 +85,12 @@ struct FrameDecoding {
   std::string CodesColorSpace(const PhotoEncoding& enc) const;
 };
 
+// Frame `f`'s shutter interval and lens (scene camera.shutter, camera.lens):
+// the camera's poses at shutter open and close, between its neighbours'
+// poses (the first and last frames blur over the half they have); `moves`
+// is false where the camera does not move over the interval.
+CameraExposure FrameExposure(const Scene& scene, const std::vector<Rigid3>& poses, int f);
+
 // The scene's photographs, frame by frame: an image sequence or a video.
 class FrameReader {
  public:

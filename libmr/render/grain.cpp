@@ -89,10 +89,11 @@ double NoiseProfile::At(int c, double code) const {
 Json NoiseProfile::ToJson() const {
   Json bins = Json::array();
   for (int b = 0; b < kBins; ++b)
-    bins.push_back({{"code", (b + 0.5) / kBins},
-                    {"sigma", {sigma[0][static_cast<size_t>(b)], sigma[1][static_cast<size_t>(b)],
-                               sigma[2][static_cast<size_t>(b)]}},
-                    {"patches", patches[static_cast<size_t>(b)]}});
+    bins.push_back(
+        {{"code", (b + 0.5) / kBins},
+         {"sigma",
+          {sigma[0][static_cast<size_t>(b)], sigma[1][static_cast<size_t>(b)], sigma[2][static_cast<size_t>(b)]}},
+         {"patches", patches[static_cast<size_t>(b)]}});
   return Json{{"bins", bins}, {"patches", patches_used}};
 }
 

@@ -102,8 +102,8 @@ void IrradianceCache::Describe(Report* report) const {
 }
 
 IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
-                                 const Rigid3& world_from_cam, uint64_t seed, int frame)
-    : PixelLoopMethod(camera, world_from_cam, seed, frame),
+                                 const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure)
+    : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure),
       scene_(scene),
       cache_(cache),
       camera_(camera),
@@ -119,7 +119,11 @@ void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
   const double dist = pc.norm();
   int x0 = 0, x1 = width() - 1, ya = static_cast<int>(y0), yb = static_cast<int>(y1) - 1;
   Eigen::Vector2d q;
-  if (dist > rho && camera_.Project(pc, &q) && q.allFinite()) {
+  // Only for a pinhole at one instant: with a shutter or a lens the samples'
+  // rays leave from other points than the frame's pose, and a record made
+  // for one of them can project elsewhere (bounding it by the frame's
+  // projection would leave that sample a miss for ever).
+  if (!sampler().exposure().any() && dist > rho && camera_.Project(pc, &q) && q.allFinite()) {
     const int cx = static_cast<int>(std::clamp(std::round(q.x()), 0.0, width() - 1.0));
     const int cy = static_cast<int>(std::clamp(std::round(q.y()), 0.0, height() - 1.0));
     Eigen::Vector3d c[4];
@@ -473,7 +477,8 @@ class IcMethod : public SettingsMethod<IcSettings> {
                       job.frame_begin));
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
-    return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame);
+    return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame,
+                                             f.exposure);
   }
   void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* fj) override {
     const auto& ic = static_cast<const IcFrameRenderer&>(fm);

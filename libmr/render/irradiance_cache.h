@@ -73,7 +73,7 @@ class IrradianceCache {
 class IcFrameRenderer : public PixelLoopMethod {
  public:
   IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
-                  const Rigid3& world_from_cam, uint64_t seed, int frame);
+                  const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {});
   // The G-buffer, misses and new records, then shading: one pass per frame.
   void RenderPass(int spp) override;
   // Indirect irradiance the frame interpolated (luminance, per pixel, first

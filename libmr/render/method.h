@@ -23,6 +23,7 @@
 #include "core/json.h"
 #include "core/json_node.h"
 #include "core/report.h"
+#include "render/camera_sampler.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -64,6 +65,9 @@ struct FrameContext {
   // The frame's photograph as linear radiance (prt's background); null when
   // the scene names no frames.
   const Image* photo_radiance = nullptr;
+  // The shutter interval and lens the frame's samples spread over (none by
+  // default); every method takes its camera rays from it (CameraSampler).
+  CameraExposure exposure = {};
 };
 
 class RenderMethod {

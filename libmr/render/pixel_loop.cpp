@@ -6,8 +6,9 @@
 
 namespace mr {
 
-PixelLoopMethod::PixelLoopMethod(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
-    : sampler_(camera, world_from_cam, seed, frame),
+PixelLoopMethod::PixelLoopMethod(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
+                                 const CameraExposure& exposure)
+    : sampler_(camera, world_from_cam, seed, frame, exposure),
       width_(camera.width()),
       height_(camera.height()),
       acc_(width_, height_) {}

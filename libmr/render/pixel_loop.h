@@ -30,7 +30,8 @@ class PixelLoopMethod : public FrameMethod {
   int64_t rays_traced() const { return rays_; }
 
  protected:
-  PixelLoopMethod(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame);
+  PixelLoopMethod(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
+                  const CameraExposure& exposure = {});
   // Sample `sample` of pixel `pixel` (in image row `row`) along camera ray
   // `ray` with its generator: fills mixed, real, primary_virtual and rays.
   // Called concurrently for different rows; a row's samples in order.

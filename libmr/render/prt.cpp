@@ -139,10 +139,10 @@ std::vector<char> VerticesSeenByCamera(const Scene& scene, const std::string& ob
 
 PrtFrameRenderer::PrtFrameRenderer(const RenderScene& scene, const std::map<uint32_t, PrtObject>& objects,
                                    const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
-                                   const Image* background)
+                                   const Image* background, const CameraExposure& exposure)
     : scene_(scene),
       objects_(objects),
-      sampler_(camera, world_from_cam, seed, frame),
+      sampler_(camera, world_from_cam, seed, frame, exposure),
       width_(camera.width()),
       height_(camera.height()),
       background_(background ? *background : Image::Rgb(camera.width(), camera.height())) {
@@ -220,7 +220,7 @@ class PrtMethod : public RenderMethod {
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<PrtFrameRenderer>(f.rs, objects_, f.camera, f.world_from_cam, f.seed, f.frame,
-                                              f.photo_radiance);
+                                              f.photo_radiance, f.exposure);
   }
 
  private:

@@ -44,7 +44,8 @@ class PrtFrameRenderer : public FrameMethod {
   // `background`: what the camera sees where no object is (the photograph
   // as radiance); null for black.
   PrtFrameRenderer(const RenderScene& scene, const std::map<uint32_t, PrtObject>& objects, const CameraModel& camera,
-                   const Rigid3& world_from_cam, uint64_t seed, int frame, const Image* background);
+                   const Rigid3& world_from_cam, uint64_t seed, int frame, const Image* background,
+                   const CameraExposure& exposure = {});
   void RenderPass(int spp) override;
   Image Mixed() const override;
   Image Real() const override;

@@ -48,8 +48,8 @@ bool PyramidMissesBox(const Eigen::Vector3d& o, const Eigen::Vector3d c[4], doub
 }  // namespace
 
 PtFrameRenderer::PtFrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
-                                 const PathTracerSettings& settings)
-    : PixelLoopMethod(camera, world_from_cam, settings.seed, settings.frame), tracer_(scene, settings) {
+                                 const PathTracerSettings& settings, const CameraExposure& exposure)
+    : PixelLoopMethod(camera, world_from_cam, settings.seed, settings.frame, exposure), tracer_(scene, settings) {
   const size_t n = static_cast<size_t>(width()) * height();
   const CameraSampler& cs = sampler();
   // Pixels whose camera rays provably meet no geometry see only the
@@ -58,7 +58,8 @@ PtFrameRenderer::PtFrameRenderer(const RenderScene& scene, const CameraModel& ca
   skip_.assign(n, 0);
   bool virtual_disc = false;  // a virtual sun seen directly differs between I_m and I_r
   for (const LightSource& l : scene.lights()) virtual_disc = virtual_disc || (l.is_virtual() && !l.light().IsDelta());
-  if (settings.skip_environment_pixels && scene.has_virtual() && !virtual_disc) {
+  // (One apex and fixed corners: not with a moving camera or a lens.)
+  if (settings.skip_environment_pixels && scene.has_virtual() && !virtual_disc && !exposure.any()) {
     const Eigen::Vector3d o = world_from_cam.translation;
     double far = 1;
     for (const auto& b : scene.geometry_bounds())
@@ -103,7 +104,7 @@ class PtMethod : public SettingsMethod<PathTracerSettings> {
     PathTracerSettings st = st_;
     st.seed = f.seed;
     st.frame = f.frame;
-    return std::make_unique<PtFrameRenderer>(f.rs, f.camera, f.world_from_cam, st);
+    return std::make_unique<PtFrameRenderer>(f.rs, f.camera, f.world_from_cam, st, f.exposure);
   }
 };
 

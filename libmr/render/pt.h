@@ -17,7 +17,7 @@ namespace mr {
 class PtFrameRenderer : public PixelLoopMethod {
  public:
   PtFrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
-                  const PathTracerSettings& settings);
+                  const PathTracerSettings& settings, const CameraExposure& exposure = {});
   // Pixels sampled in the first pass only, their difference provably zero.
   int64_t skipped_pixels() const override { return skipped_pixels_; }
 

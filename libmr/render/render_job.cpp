@@ -158,6 +158,9 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     }
   }
 
+  if (scene.camera.shutter <= 0) report->Skip("motion blur", "camera.shutter is 0 (or not given)");
+  if (scene.camera.aperture_radius <= 0) report->Skip("depth of field", "camera.lens is not given: a pinhole");
+  int still_frames = 0;  // with a shutter, over which the camera does not move
   Json frames_json = Json::array();
   fs::path review_sheet;  // the last one written
   ErrorCurve errors;
@@ -192,7 +195,10 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (reference) ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
     std::optional<Image> photo_radiance;  // prt's background
     if (photo && !frame_copy) photo_radiance = dec.ToRenderUnits(*photo);
-    const FrameContext fc{rs, camera, pose, scene.render.seed, f, photo_radiance ? &*photo_radiance : nullptr};
+    const CameraExposure exposure = FrameExposure(scene, poses, f);
+    if (scene.camera.shutter > 0 && !exposure.moves && !frame_copy) ++still_frames;
+    const FrameContext fc{rs,      camera, pose, scene.render.seed, f, photo_radiance ? &*photo_radiance : nullptr,
+                          exposure};
     std::unique_ptr<FrameMethod> fr;
     if (!frame_copy) fr = method->NewFrame(fc);
     std::optional<Image> region;
@@ -290,6 +296,9 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     spdlog::info("frame {}: {} spp in {:.2f} s{}", f, done, seconds,
                  ref ? fmt::format(", relMSE {:.3g}", fj["relmse"].get<double>()) : std::string());
   }
+  if (still_frames > 0)
+    report->Skip(fmt::format("motion blur in {} frames", still_frames),
+                 "the camera does not move over their shutter intervals: the blur is exactly none");
   method->Finish(report);
   if (video_out) {
     video_out->Close();

@@ -574,8 +574,9 @@ void VctVolumes::Describe(Report* report) const {
 }
 
 VctFrameRenderer::VctFrameRenderer(const RenderScene& scene, std::shared_ptr<const VctVolumes> volumes,
-                                   const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
-    : PixelLoopMethod(camera, world_from_cam, seed, frame), scene_(scene), vol_(std::move(volumes)) {}
+                                   const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
+                                   const CameraExposure& exposure)
+    : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure), scene_(scene), vol_(std::move(volumes)) {}
 
 void VctFrameRenderer::RenderPass(int spp) {
   rows_.assign(static_cast<size_t>(height()), Counters());
@@ -757,7 +758,7 @@ class VctMethod : public SettingsMethod<VctSettings> {
       job.report->Warn("vct: emissive surfaces are seen and lit but inject no light into the volumes");
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
-    return std::make_unique<VctFrameRenderer>(f.rs, volumes_, f.camera, f.world_from_cam, f.seed, f.frame);
+    return std::make_unique<VctFrameRenderer>(f.rs, volumes_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure);
   }
   void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json*) override {
     static_cast<const VctFrameRenderer&>(fm).Describe(report, f.frame);

@@ -98,7 +98,7 @@ class VctVolumes {
 class VctFrameRenderer : public PixelLoopMethod {
  public:
   VctFrameRenderer(const RenderScene& scene, std::shared_ptr<const VctVolumes> volumes, const CameraModel& camera,
-                   const Rigid3& world_from_cam, uint64_t seed, int frame);
+                   const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {});
   void RenderPass(int spp) override;
   void Describe(Report* report, int frame) const;
 

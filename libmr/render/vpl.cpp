@@ -492,8 +492,9 @@ class VplShader {
 }  // namespace
 
 VplFrameRenderer::VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls,
-                                   const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame)
-    : PixelLoopMethod(camera, world_from_cam, seed, frame), scene_(scene), set_(std::move(vpls)) {
+                                   const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
+                                   const CameraExposure& exposure)
+    : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure), scene_(scene), set_(std::move(vpls)) {
   const size_t n = static_cast<size_t>(width()) * height();
   for (auto* v : {&bias_m_, &bias_r_, &lum_m_, &lum_r_}) v->assign(n, 0);
 }
@@ -582,7 +583,7 @@ class VplMethod : public SettingsMethod<VplSettings> {
           "only)");
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
-    return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame);
+    return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure);
   }
   void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* fj) override {
     const auto& v = static_cast<const VplFrameRenderer&>(fm);

@@ -80,7 +80,7 @@ class VplSet {
 class VplFrameRenderer : public PixelLoopMethod {
  public:
   VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls, const CameraModel& camera,
-                   const Rigid3& world_from_cam, uint64_t seed, int frame);
+                   const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {});
   void RenderPass(int spp) override;
   // Energy the clamp removed, over the energy rendered (luminance, I_m and I_r).
   double clamp_bias_mixed() const;

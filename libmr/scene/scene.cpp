@@ -126,7 +126,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   if (root.Has("comment")) root.Child("comment").String();
 
   Node cam = root.Required("camera");
-  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "response", "gains", "poses"});
+  cam.RequireObject(
+      {"model", "frames", "frames_transfer", "exposure", "response", "gains", "poses", "shutter", "lens"});
   s.camera.model = ResolveFile(cam.Required("model"), base, check, "camera model");
   if (cam.Has("frames")) {
     Node f = cam.Child("frames");
@@ -145,6 +146,13 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     (cam.Has("response") ? cam.Child("response") : cam.Child("frames_transfer"))
         .Fail("frames_transfer \"response\" and a response file go together");
   if (cam.Has("exposure")) s.camera.exposure = cam.Child("exposure").Number(1e-12, 1e12);
+  if (cam.Has("shutter")) s.camera.shutter = cam.Child("shutter").Number(0, 1);
+  if (cam.Has("lens")) {
+    const Node lens = cam.Child("lens");
+    lens.RequireObject({"aperture_radius", "focus_distance"});
+    s.camera.aperture_radius = lens.Required("aperture_radius").Number(0, 10);
+    s.camera.focus_distance = lens.Required("focus_distance").Number(1e-3, 1e9);
+  }
   if (cam.Has("gains")) {
     // Not checked here: mr-pipeline's scene names the gains its radiometry
     // stage is yet to fit (mr-render's FrameDecoding reads and checks them).

@@ -55,6 +55,14 @@ struct SceneCamera {
   std::optional<fs::path> gains;
   std::optional<fs::path> poses;  // TUM file, 7-Scenes folder, or COLMAP text folder
   PoseFormat pose_format = PoseFormat::kTum;
+  // Motion blur: the time the shutter is open, as a fraction of the frame
+  // interval (0: none; 0.5 is a 180-degree shutter), centred on the frame;
+  // the camera moves between neighbouring frames' poses over it.
+  double shutter = 0;
+  // Depth of field: a thin lens of this aperture radius (metres: the focal
+  // length over twice the f-number; 0: a pinhole) focused at focus_distance
+  // (metres, along the optical axis).
+  double aperture_radius = 0, focus_distance = 1;
 };
 
 struct SceneLighting {

@@ -57,7 +57,7 @@ write_pipeline() {  # write_pipeline TRANSFORM_JSON
   },
   "room": {"rgbd": "$kitchen", "options": {"stride": 10, "voxel": 0.02, "albedo-rays": 32}},
   "video": {"frames": "video/%05d.jpg", "frames_transfer": "display",
-            "gains": {"options": {"spp": 16, "images": true}},
+            "gains": {"options": {"spp": 16, "stride": 3, "images": true}},
             "poses": {"register": {"matcher": "sequential", "overlap": 10}}},
   "virtual": [{"name": "bunny", "mesh": "$data/meshes/bun_zipper_res2.ply", "transform": $1,
                "material": {"albedo": [0.75, 0.72, 0.68]}}],

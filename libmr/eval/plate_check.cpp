@@ -195,7 +195,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     Image real, mask;
     {
       ScopedTimer t(report, "render room");
-      const FrameContext fc{rs, camera, pose, scene.render.seed, f, nullptr, FrameExposure(scene, poses, f)};
+      const FrameContext fc{rs, camera, pose, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
       std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
       fr->RenderPass(o.spp);
       real = fr->Real();

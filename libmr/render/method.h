@@ -65,6 +65,9 @@ struct FrameContext {
   // The frame's photograph as linear radiance (prt's background); null when
   // the scene names no frames.
   const Image* photo_radiance = nullptr;
+  // One channel, > 0 where the photograph clipped (a code at the top of its
+  // range); null: none, or float frames.
+  const Image* photo_clipped = nullptr;
   // The shutter interval and lens the frame's samples spread over (none by
   // default); every method takes its camera rays from it (CameraSampler).
   CameraExposure exposure = {};

@@ -11,11 +11,41 @@
 
 namespace mr {
 
+bool DifferentialPathTracer::PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset,
+                                           Eigen::Vector3d* L) const {
+  const PlateView& pv = settings_.plate;
+  const Eigen::Vector3d eye = pv.world_from_cam.translation;
+  const Eigen::Vector3d to_eye = eye - p;
+  const double dist = to_eye.norm();
+  if (!(dist > 0) || n.dot(to_eye) <= 0) return false;  // the plate sees the surface's other side
+  Eigen::Vector2d q;
+  if (!pv.camera->Project(pv.world_from_cam.Inverse() * p, &q) || !q.allFinite()) return false;
+  const Image& img = *pv.radiance;
+  if (q.x() < 0 || q.y() < 0 || q.x() > img.width() - 1 || q.y() > img.height() - 1) return false;
+  // Unoccluded: nothing real between the plate's camera and the point.
+  Ray r = MakeRay(p + n * offset, to_eye / dist, kMaskReal, dist * (1 - 1e-6));
+  if (Occluded(r)) return false;
+  const int x0 = static_cast<int>(q.x()), y0 = static_cast<int>(q.y());
+  const int x1 = std::min(x0 + 1, img.width() - 1), y1 = std::min(y0 + 1, img.height() - 1);
+  if (pv.clipped && (pv.clipped->at(x0, y0, 0) > 0 || pv.clipped->at(x1, y0, 0) > 0 || pv.clipped->at(x0, y1, 0) > 0 ||
+                     pv.clipped->at(x1, y1, 0) > 0)) {
+    ++plate_counters_->clipped;  // a clipped highlight: its true radiance is unknown, render it
+    return false;
+  }
+  const double fx = q.x() - x0, fy = q.y() - y0;
+  for (int c = 0; c < 3; ++c)
+    (*L)[c] = (1 - fy) * ((1 - fx) * img.at(x0, y0, c) + fx * img.at(x1, y0, c)) +
+              fy * ((1 - fx) * img.at(x0, y1, c) + fx * img.at(x1, y1, c));
+  return L->allFinite();
+}
+
 Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf,
                                                     int depth, Pcg32& rng, int* rays, int escape_from_depth) const {
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
   const unsigned lights = mask == kMaskReal ? kRealLights : kAllLights;  // a real path sees no virtual light
+  const bool use_plate = mask == kMaskAll && settings_.plate_reflections && settings_.plate.radiance;
+  bool from_virtual = false;  // the ray leaves a virtual surface
   for (;; ++depth) {
     Hit hit;
     ++*rays;
@@ -24,6 +54,37 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       break;
     }
     PathVertex v = MakeVertex(scene_, ray, hit);
+    if (use_plate && from_virtual && !hit.is_virtual) {
+      // The real room as the plate shows it (emitted and reflected light
+      // together), where the plate sees it and the surface is diffuse (a
+      // glossy one sends other light towards the object than towards the
+      // plate's camera: rendered).
+      Eigen::Vector3d plate;
+      ++*rays;
+      if (!v.material->IsGlossy() && PlateRadiance(v.p, v.frame.n, v.offset, &plate)) {
+        ++plate_counters_->from_plate;
+        L += beta.cwiseProduct(plate);
+        // What the plate cannot show: the virtual objects' shadows on the
+        // point and their lights, from its next-event estimate (the direct
+        // part of the difference the objects make there).
+        NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+          ++*rays;
+          if (virtual_light) {
+            shadow.mask = kMaskAll;
+            if (!Occluded(shadow)) L += beta.cwiseProduct(c);
+            return;
+          }
+          shadow.mask = kMaskReal;
+          if (Occluded(shadow)) return;
+          ++*rays;
+          shadow.mask = kMaskVirtual;
+          if (Occluded(shadow)) L -= beta.cwiseProduct(c);
+        });
+        break;
+      }
+      ++plate_counters_->rendered;
+    }
+    from_virtual = hit.is_virtual;
     L += beta.cwiseProduct(v.material->emission);
     if (depth >= settings_.max_depth || v.bsdf.IsBlack()) break;
     NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {

@@ -10,7 +10,9 @@
 // bit-identical, so their difference has no noise there.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "camera/camera_model.h"
@@ -27,6 +29,26 @@ struct RayLog {
   std::vector<Ray> closest, occlusion;
 };
 
+// The plate as the mixed paths see it (docs/methods.md, "The plate in
+// reflections"): where a ray leaving a virtual surface meets a real one
+// that the plate's camera sees unoccluded, the plate's radiance there (in
+// the render's units) is what arrives, instead of the rendered room's.
+struct PlateView {
+  const Image* radiance = nullptr;  // null: none
+  // One channel, > 0 where the plate clipped (its value is a lower bound:
+  // rendered instead); null: none clipped.
+  const Image* clipped = nullptr;
+  const CameraModel* camera = nullptr;
+  Rigid3 world_from_cam;
+};
+
+// How often the mixed paths took the plate's radiance, and how often a real
+// point met from a virtual surface was not seen by the plate (rendered).
+struct PlateCounters {
+  std::atomic<int64_t> from_plate{0}, rendered{0};
+  std::atomic<int64_t> clipped{0};  // of `rendered`: the plate clipped there
+};
+
 struct PathTracerSettings {
   int max_depth = 64;  // bounces; Russian roulette ends most paths long before
   int rr_depth = 3;    // Russian roulette from this bounce on
@@ -36,6 +58,10 @@ struct PathTracerSettings {
   // Pixels whose camera rays provably meet no geometry are sampled in the
   // first pass only (their I_m - I_r is exactly zero).
   bool skip_environment_pixels = true;
+  // Reflections of the real room in virtual objects from the plate
+  // (PlateView) where it sees the room; `plate` is set per frame.
+  bool plate_reflections = true;
+  PlateView plate;
 };
 
 struct PathSample {
@@ -49,7 +75,8 @@ struct PathSample {
 class DifferentialPathTracer {
  public:
   DifferentialPathTracer(const RenderScene& scene, const PathTracerSettings& settings)
-      : scene_(scene), settings_(settings) {}
+      : scene_(scene), settings_(settings), plate_counters_(std::make_shared<PlateCounters>()) {}
+  const PlateCounters& plate_counters() const { return *plate_counters_; }
   PathSample Trace(const Ray& primary, Pcg32& rng) const {
     return TraceFrom(primary, Eigen::Vector3d::Ones(), 0, 0, rng);
   }
@@ -86,8 +113,13 @@ class DifferentialPathTracer {
     if (settings_.ray_log) settings_.ray_log->occlusion.push_back(ray);
     return scene_.embree().Occluded(ray);
   }
+  // The plate's radiance at real point `p` met from a virtual surface
+  // (normal `n`, rays leaving it offset by `offset`), if the plate's camera
+  // sees it unoccluded.
+  bool PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset, Eigen::Vector3d* L) const;
   const RenderScene& scene_;
   PathTracerSettings settings_;
+  std::shared_ptr<PlateCounters> plate_counters_;
 };
 
 }  // namespace mr

@@ -91,9 +91,10 @@ void PtFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t, int, Pa
 namespace {
 
 PathTracerSettings ParsePtSettings(const JsonNode& block, const Scene& scene) {
-  block.RequireObject({"skip_environment_pixels"});
+  block.RequireObject({"skip_environment_pixels", "plate_reflections"});
   PathTracerSettings st;
   if (block.Has("skip_environment_pixels")) st.skip_environment_pixels = block.Child("skip_environment_pixels").Bool();
+  if (block.Has("plate_reflections")) st.plate_reflections = block.Child("plate_reflections").Bool();
   return WithSceneRender(st, scene);
 }
 
@@ -104,7 +105,25 @@ class PtMethod : public SettingsMethod<PathTracerSettings> {
     PathTracerSettings st = st_;
     st.seed = f.seed;
     st.frame = f.frame;
+    if (f.photo_radiance) st.plate = PlateView{f.photo_radiance, f.photo_clipped, &f.camera, f.world_from_cam};
     return std::make_unique<PtFrameRenderer>(f.rs, f.camera, f.world_from_cam, st, f.exposure);
+  }
+  void Prepare(const JobContext& job) override {
+    if (!st_.plate_reflections)
+      job.report->Skip("plate reflections",
+                       "render.pt.plate_reflections is false: virtual objects reflect the "
+                       "rendered room");
+    else if (!job.photograph)
+      job.report->Skip("plate reflections", "no plate: virtual objects reflect the rendered room");
+  }
+  void FrameDone(const FrameMethod& fm, const FrameContext&, Report*, Json* frame_json) override {
+    const PlateCounters& c = static_cast<const PtFrameRenderer&>(fm).plate_counters();
+    const int64_t total = c.from_plate + c.rendered;
+    if (total == 0) return;
+    (*frame_json)["plate_reflections"] = {{"from_plate", c.from_plate.load()},
+                                          {"rendered", c.rendered.load()},
+                                          {"rendered_clipped", c.clipped.load()},
+                                          {"share", static_cast<double>(c.from_plate) / static_cast<double>(total)}};
   }
 };
 

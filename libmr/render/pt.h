@@ -20,6 +20,8 @@ class PtFrameRenderer : public PixelLoopMethod {
                   const PathTracerSettings& settings, const CameraExposure& exposure = {});
   // Pixels sampled in the first pass only, their difference provably zero.
   int64_t skipped_pixels() const override { return skipped_pixels_; }
+  // Real points met from virtual surfaces: from the plate or rendered.
+  const PlateCounters& plate_counters() const { return tracer_.plate_counters(); }
 
  private:
   void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;

@@ -193,11 +193,27 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     const std::optional<Image> photo = frames.Photo(f, &encoding);
     std::optional<Image> ref;
     if (reference) ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
-    std::optional<Image> photo_radiance;  // prt's background
-    if (photo && !frame_copy) photo_radiance = dec.ToRenderUnits(*photo);
+    std::optional<Image> photo_radiance, photo_clipped;  // prt's background; pt's reflections
+    if (photo && !frame_copy) {
+      photo_radiance = dec.ToRenderUnits(*photo);
+      if (encoding.has_codes) {  // a code at the top of its range in any channel
+        const Image codes = dec.ToCodes(dec.ToRadiance(*photo), encoding);
+        photo_clipped = Image::Gray(codes.width(), codes.height());
+        for (int y = 0; y < codes.height(); ++y)
+          for (int x = 0; x < codes.width(); ++x)
+            for (int c = 0; c < 3; ++c)
+              if (codes.at(x, y, c) >= 254.5f / 255) photo_clipped->at(x, y, 0) = 1;
+      }
+    }
     const CameraExposure exposure = FrameExposure(scene, poses, f);
     if (scene.camera.shutter > 0 && !exposure.moves && !frame_copy) ++still_frames;
-    const FrameContext fc{rs,      camera, pose, scene.render.seed, f, photo_radiance ? &*photo_radiance : nullptr,
+    const FrameContext fc{rs,
+                          camera,
+                          pose,
+                          scene.render.seed,
+                          f,
+                          photo_radiance ? &*photo_radiance : nullptr,
+                          photo_clipped ? &*photo_clipped : nullptr,
                           exposure};
     std::unique_ptr<FrameMethod> fr;
     if (!frame_copy) fr = method->NewFrame(fc);

@@ -4,7 +4,7 @@
 # probe, an RGB-D recording of the room, a video with known poses and its
 # ground truth), then the whole chain in one command, mr-pipeline
 # (examples/synthetic/pipeline.json): calibrate -> sphere -> hdr -> probe ->
-# lights -> fuse -> scene -> render -> sweep (error against run time).
+# lights -> fuse -> scene -> radiometry -> render -> sweep (error against run time).
 # About 3 minutes on 2 cores after the build.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -52,6 +52,9 @@ print("calibration RMS %.3f px; room ATE %.1f mm, mesh accuracy %.1f mm mean"
       % (c["rms_px"], 1000 * t["ate"]["rmse_m"], 1000 * m["accuracy"]["mean_m"]))
 print("composite against the truth (whole chain, pt %s spp): relMSE %.4g, region relMSE %.4g"
       % (json.load(open(o + "/work/scene.json"))["render"]["spp"], r["relmse"], r["region_relmse"]))
+g = json.load(open(o + "/work/reports/radiometry.json"))["metrics"]
+print("capture chain re-rendering the plate (mr-eval plate, a check for these linear plates): relMSE %.4g, SSIM %.3f;"
+      " fitted gain %.3f..%.3f (G)" % (g["relmse"], g["ssim"], g["gain_min"][1], g["gain_max"][1]))
 print("error vs time (mr-eval sweep):")
 print(open(o + "/work/sweep/sweep.csv").read())
 PY

@@ -7,7 +7,7 @@
 # kitchen's own light was not captured), fits the plate's gains per frame
 # against the rendered room (mr-eval plate: no hand-set exposure) and
 # renders the Stanford bunny, set upright on a surface in front of the first
-# camera, into the colour frames with vct.  About 5 minutes on 2 cores after the build (COLMAP may run up
+# camera, into the colour frames with vct.  About 7 minutes on 2 cores after the build (COLMAP may run up
 # to 3 times: see docs/benchmarks.md).
 # Usage: examples/real/run.sh [OUT] [SHARED_DATA]
 set -euo pipefail

@@ -427,6 +427,11 @@ Pipeline PlanPipeline(const fs::path& file) {
   const fs::path gains_dir = w / "radiometry", fitted_gains = gains_dir / "gains.json";
   std::string gains_skip;
   std::vector<std::string> gains_options;
+  // Linear plates are radiance, taken to be in the captured light's units:
+  // their gains are fitted as a check of the chain, not applied, unless
+  // asked ({"apply": true}).
+  const bool linear = video.Has("frames_transfer") && video.Child("frames_transfer").String() == "linear";
+  bool apply_gains = !linear;
   const bool display = video.Has("frames_transfer") && video.Child("frames_transfer").String() == "display";
   if (!video.Has("frames")) {
     gains_skip = "the video names no frames (a synthetic composite): there is no plate to fit";
@@ -439,8 +444,10 @@ Pipeline PlanPipeline(const fs::path& file) {
       if (g.Bool()) g.Fail("expected false, a gains file, or {\"options\": {...}} (fitting is the default)");
       gains_skip = "video.gains is false";
     } else if (g.json().is_object()) {
-      g.RequireObject({"options"});
+      g.RequireObject({"options", "scale", "apply"});
       gains_options = pl.Options(g);
+      if (g.Has("apply")) apply_gains = g.Child("apply").Bool();
+      if (g.Has("scale")) camera["gains_scale"] = g.Child("scale").OneOf({"render", "room"});
     } else {
       g.Fail("expected false, a gains file, or {\"options\": {...}}");
     }
@@ -451,7 +458,8 @@ Pipeline PlanPipeline(const fs::path& file) {
   } else if (display && video.Has("exposure")) {
     gains_skip = "video.exposure is hand-set for the display-space plate";
   }
-  if (gains_skip.empty()) camera["gains"] = pl.Rel(fitted_gains);
+  const bool use_gains = gains_skip.empty() && apply_gains;
+  if (use_gains) camera["gains"] = pl.Rel(fitted_gains);
   fs::path poses;
   {
     PipelineStage& s = stage("register");
@@ -615,7 +623,10 @@ Pipeline PlanPipeline(const fs::path& file) {
       Append(&s.args, gains_options);
       s.inputs = {scene_file};
       s.outputs = {gains_dir};
-      s.does = "the plate's gains fitted against the rendered room, and the capture chain's re-rendering error";
+      s.does = use_gains
+                   ? "the plate's gains fitted against the rendered room, and the capture chain's re-rendering error"
+                   : "the capture chain's re-rendering error and the plate's gains, as a check (a linear plate "
+                     "is not rescaled: video.gains {\"apply\": true} applies them)";
     }
   }
   {
@@ -626,7 +637,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     } else {
       s.args = {scene_file.string(), "--out", (w / "render").string()};
       s.inputs = {scene_file};
-      if (gains_skip.empty()) s.inputs.push_back(fitted_gains);
+      if (use_gains) s.inputs.push_back(fitted_gains);
       s.outputs = {w / "render"};
       s.does = fmt::format("the virtual objects rendered into every frame ({}) and composited", method);
     }
@@ -649,7 +660,7 @@ Pipeline PlanPipeline(const fs::path& file) {
           Append(&s.args, pl.Options(sw));
         }
         s.inputs = {scene_file};
-        if (gains_skip.empty()) s.inputs.push_back(fitted_gains);
+        if (use_gains) s.inputs.push_back(fitted_gains);
         s.outputs = {w / "sweep"};
         s.does = "error against run time of the rendering methods against the reference";
       }

@@ -23,8 +23,9 @@
 namespace mr {
 
 struct PipelineStage {
-  std::string name;  // calibrate, sphere, hdr, probe, lights, fuse, register, formfactor, scene, render, sweep
-  std::string tool;  // mr-calibrate, ...; empty: done by mr-pipeline itself (scene)
+  std::string
+      name;  // calibrate, sphere, hdr, probe, lights, fuse, register, formfactor, scene, radiometry, render, sweep
+  std::string tool;               // mr-calibrate, ...; empty: done by mr-pipeline itself (scene)
   std::vector<std::string> args;  // after the tool's name
   std::vector<fs::path> inputs;   // files or folders whose content decides the outputs
   std::vector<fs::path> outputs;  // what the stage makes

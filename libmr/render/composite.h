@@ -15,5 +15,9 @@ struct CompositeResult {
 
 // photo, mixed, real: RGB of the same size; mask: one channel in [0,1].
 CompositeResult Composite(const Image& photo, const Image& mixed, const Image& real, const Image& mask);
+// The same with the objects' own pixels taken from `object` (I_m at another
+// scale: M * object + (1 - M) * (I_c + I_m - I_r)).
+CompositeResult Composite(const Image& photo, const Image& mixed, const Image& real, const Image& mask,
+                          const Image& object);
 
 }  // namespace mr

@@ -22,10 +22,14 @@ FrameDecoding FrameDecoding::FromScene(const Scene& scene, Report* report) {
     report->AddInput(scene.camera.response->string());
   }
   d.raw_codes = d.display_space || d.response.has_value();
+  d.gains_scale_room = scene.camera.gains_scale == "room";
   if (d.photograph && scene.camera.gains) {
     d.gains_file = scene.camera.gains->string();
     d.frame_gains = ReadPlateGains(*scene.camera.gains);
     report->AddInput(d.gains_file);
+    report->SetMetric("gains_scale", d.gains_scale_room ? "room (the plate in the light's units: the gains correct "
+                                                          "the room's albedo scale)"
+                                                        : "render (everything rendered into the plate's units)");
   }
   if (d.photograph)
     report->SetMetric("compositing", d.display_space ? "display space (camera response unknown)"
@@ -36,10 +40,9 @@ FrameDecoding FrameDecoding::FromScene(const Scene& scene, Report* report) {
 
 FrameDecoding FrameDecoding::ForFrame(int f) const {
   FrameDecoding d = *this;
-  if (frame_gains.empty()) {
-    d.gain = display_space ? Rgb{exposure, exposure, exposure} : Rgb{1, 1, 1};
-    return d;
-  }
+  const Rgb nominal = display_space ? Rgb{exposure, exposure, exposure} : Rgb{1, 1, 1};
+  d.gain = d.object_gain = nominal;
+  if (frame_gains.empty()) return d;
   const auto it = std::lower_bound(frame_gains.begin(), frame_gains.end(), f,
                                    [](const FrameGain& g, int frame) { return g.frame < frame; });
   if (it == frame_gains.end() || it->frame != f)
@@ -48,6 +51,7 @@ FrameDecoding FrameDecoding::ForFrame(int f) const {
                  "over every frame to render",
                  f, frame_gains.front().frame, frame_gains.back().frame);
   d.gain = it->gain;
+  if (!gains_scale_room) d.object_gain = it->gain;
   return d;
 }
 
@@ -78,23 +82,23 @@ Image FrameDecoding::ToPlateLinear(const Image& photo) const {
 }
 
 Image FrameDecoding::ToRenderUnits(const Image& photo) const {
-  return Scaled(ToPlateLinear(photo), {1 / gain[0], 1 / gain[1], 1 / gain[2]});
+  return Scaled(ToPlateLinear(photo), {1 / object_gain[0], 1 / object_gain[1], 1 / object_gain[2]});
 }
 
 CompositeResult FrameDecoding::Compose(const FrameMethod& frame, const Image* photo) const {
   Image real = frame.Real(), mixed = frame.Mixed();
   if (!photo) return Composite(real, mixed, real, frame.Mask());  // synthetic: the render's own units
-  if (!display_space) return Composite(*photo, Scaled(mixed, gain), Scaled(real, gain), frame.Mask());
+  if (!display_space)
+    return Composite(*photo, Scaled(mixed, gain), Scaled(real, gain), frame.Mask(), Scaled(mixed, object_gain));
   const float e = static_cast<float>(exposure);
-  const Rgb g = gain;
-  auto tm = [&g](Image img) {
+  auto tm = [](Image img, const Rgb& g) {
     const int n = img.channels();
     std::vector<float>& v = img.values();
     for (size_t i = 0; i < v.size(); ++i)
       v[i] = LinearToSrgb(Clamp(v[i] * static_cast<float>(g[i % static_cast<size_t>(n) % 3]), 0.0f, 1.0f));
     return img;
   };
-  CompositeResult r = Composite(*photo, tm(mixed), tm(real), frame.Mask());
+  CompositeResult r = Composite(*photo, tm(mixed, gain), tm(real, gain), frame.Mask(), tm(mixed, object_gain));
   for (float& v : r.composite.values()) v = SrgbToLinear(Clamp(v, 0.0f, 1.0f)) / e;
   return r;
 }

@@ -50,6 +50,12 @@ struct FrameDecoding {
   // render.  camera.gains' value for the frame, else exposure (display) or 1.
   // The outputs' radiance is P / exposure (display) or P: the plate's units.
   Rgb gain{1, 1, 1};
+  // The gain of the objects' own pixels (M I_m) and of the plate seen in
+  // reflections: `gain` when camera.gains_scale is "render"; with "room"
+  // (the plate in the light's units, the gains correcting the room's albedo
+  // scale) exposure (display) or 1.
+  Rgb object_gain{1, 1, 1};
+  bool gains_scale_room = false;
   std::vector<FrameGain> frame_gains;  // camera.gains (mr-eval plate); empty: none
   std::string gains_file;
 

@@ -126,8 +126,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   if (root.Has("comment")) root.Child("comment").String();
 
   Node cam = root.Required("camera");
-  cam.RequireObject(
-      {"model", "frames", "frames_transfer", "exposure", "response", "gains", "poses", "shutter", "lens"});
+  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "response", "gains", "gains_scale", "poses",
+                     "shutter", "lens"});
   s.camera.model = ResolveFile(cam.Required("model"), base, check, "camera model");
   if (cam.Has("frames")) {
     Node f = cam.Child("frames");
@@ -146,6 +146,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     (cam.Has("response") ? cam.Child("response") : cam.Child("frames_transfer"))
         .Fail("frames_transfer \"response\" and a response file go together");
   if (cam.Has("exposure")) s.camera.exposure = cam.Child("exposure").Number(1e-12, 1e12);
+  s.camera.gains_scale = "render";
+  if (cam.Has("gains_scale")) s.camera.gains_scale = cam.Child("gains_scale").OneOf({"render", "room"});
   if (cam.Has("shutter")) s.camera.shutter = cam.Child("shutter").Number(0, 1);
   if (cam.Has("lens")) {
     const Node lens = cam.Child("lens");

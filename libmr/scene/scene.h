@@ -53,6 +53,14 @@ struct SceneCamera {
   // units; replaces `exposure` as the render's scale in "display" (the two
   // together are refused).  Absent: exposure ("display") or 1.
   std::optional<fs::path> gains;
+  // What the gains scale (docs/radiometry.md, "What the gain scales"):
+  // "render" (the room's albedo is trusted and the plate's units unknown:
+  // everything rendered is brought to the plate's units) or "room" (the
+  // plate is in the captured light's units and the gains correct the
+  // room's albedo scale: the room's part of the difference is scaled, the
+  // objects' own pixels are not, Debevec's calibration of the local scene).
+  // Default "render".
+  std::string gains_scale = "render";
   std::optional<fs::path> poses;  // TUM file, 7-Scenes folder, or COLMAP text folder
   PoseFormat pose_format = PoseFormat::kTum;
   // Motion blur: the time the shutter is open, as a fraction of the frame

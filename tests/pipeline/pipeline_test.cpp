@@ -99,6 +99,13 @@ TEST(PlanPipeline, FitsThePlatesGainsUnlessToldOtherwise) {
   EXPECT_NE(Stage(p, "radiometry").skip.find("hand-set"), std::string::npos);
   EXPECT_THROW(plan(R"(, "frames_transfer": "display", "exposure": 0.5, "gains": {"options": {}})"), Error);
   EXPECT_THROW(plan(R"(, "gains": true)"), Error);
+  // A linear plate: fitted as a check, not applied unless asked.
+  p = plan(R"(, "frames_transfer": "linear")");
+  EXPECT_TRUE(Stage(p, "radiometry").skip.empty());
+  EXPECT_FALSE(p.scene["camera"].contains("gains"));
+  p = plan(R"(, "frames_transfer": "linear", "gains": {"apply": true, "scale": "room"})");
+  EXPECT_EQ(p.scene["camera"]["gains"], "radiometry/gains.json");
+  EXPECT_EQ(p.scene["camera"]["gains_scale"], "room");
 }
 
 TEST(PlanPipeline, ErrorsNameTheFileAndKey) {

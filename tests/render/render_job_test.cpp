@@ -449,6 +449,38 @@ TEST_F(Capture, PlateFitRecoversTheExposureAndReplacesIt) {
   EXPECT_GT(kept, 100);
   EXPECT_EQ(moved, 0);
 
+  // gains_scale "room": the gains correct the room's part (its albedo's
+  // scale), and the object's own pixels are the render's, unscaled: where
+  // the mask is 1 the composite equals the gain-less render's bit for bit.
+  {
+    Json k = j;
+    k["camera"]["gains_scale"] = "room";
+    WriteTextFile(Cap() / "scene-room.json", k.dump(2));
+    k["camera"].erase("gains");
+    k["camera"].erase("gains_scale");
+    WriteTextFile(Cap() / "scene-nogain.json", k.dump(2));
+    Image comp_room, comp_none, m;
+    for (const char* name : {"room", "nogain"}) {
+      RenderOptions ro = o;
+      ro.out_dir = dir_->path() / (std::string("scale-") + name);
+      Report rr("mr-render", "test");
+      RunRenderJob(ReadScene(Cap() / (std::string("scene-") + name + ".json")), ro, &rr);
+      const Image e = ReadImage(ro.out_dir / "00000.exr");
+      (name[0] == 'r' ? comp_room : comp_none) = e.Layer("composite");
+      m = e.Layer("mask");
+    }
+    int64_t full = 0, differ = 0;
+    for (int y = 0; y < m.height(); ++y)
+      for (int x = 0; x < m.width(); ++x)
+        if (m.at(x, y, 0) == 1.0f) {
+          ++full;
+          for (int c = 0; c < 3; ++c) differ += comp_room.at(x, y, c) != comp_none.at(x, y, c);
+        }
+    EXPECT_GT(full, 10);
+    EXPECT_EQ(differ, 0);
+    EXPECT_NE(comp_room.values(), comp_none.values());  // the room's part is scaled
+  }
+
   // A gains file without the frame, or with a bad gain: refused before the
   // first frame, naming the file, nothing written.
   WriteTextFile(dir_->path() / "plate" / "short.json",

@@ -565,6 +565,39 @@ TEST_F(Capture, GrainMatchesThePlateWhereTheObjectShows) {
   EXPECT_NE(r.ToJson().dump().find("no sensor noise to match"), std::string::npos);
 }
 
+// A plate whose exposure jumps between its two frames (frame 1 made at 1.6x
+// frame 0's exposure, 8-bit): mr-eval plate finds the jump, keeps the
+// smoothing from blending across it, and recovers both exposures (2%, as
+// above).
+TEST_F(Capture, PlateFitKeepsAnExposureJump) {
+  Json j = ReadJsonFile(Cap() / "scene-ldr.json");
+  const double e = j["camera"]["exposure"].get<double>();
+  fs::create_directories(Cap() / "photos-jump");
+  for (int f = 0; f < 2; ++f) {
+    Image photo = ReadImage(Cap() / "photos" / fmt::format("{:05d}.exr", f));
+    const double scale = f == 0 ? e : 1.6 * e;
+    for (float& v : photo.values()) v = Clamp(static_cast<float>(v * scale), 0.0f, 1.0f);
+    WriteImage(Cap() / "photos-jump" / fmt::format("{:05d}.png", f), photo);  // sRGB-encoded 8-bit
+  }
+  j["camera"].erase("exposure");
+  j["camera"]["frames"] = "photos-jump/%05d.png";
+  WriteTextFile(Cap() / "scene-jump.json", j.dump(2));
+  PlateCheckOptions po;
+  po.out = dir_->path() / "plate-jump";
+  po.spp = 32;
+  Report r("mr-eval", "test");
+  RunPlateCheck(ReadScene(Cap() / "scene-jump.json"), po, &r);
+  const std::vector<FrameGain> g = ReadPlateGains(po.out / "gains.json");
+  ASSERT_EQ(g.size(), 2u);
+  EXPECT_FALSE(g[0].jump_before);
+  EXPECT_TRUE(g[1].jump_before);
+  EXPECT_EQ(r.metrics()["exposure_jumps"], 1);
+  for (int c = 0; c < 3; ++c) {
+    EXPECT_NEAR(g[0].gain[c] / e, 1, 0.02) << c;
+    EXPECT_NEAR(g[1].gain[c] / (1.6 * e), 1, 0.02) << c;
+  }
+}
+
 // The plate in reflections through mr-render: the capture's object made a
 // mirror on its glossy table.  A glossy real surface sends other light
 // towards the object than towards the plate's camera, so the table is

@@ -23,8 +23,10 @@ PathTracerSettings TracerSettings(const IcSettings& s) {
 }
 
 // The glossy lobe's path: glossy_depth bounces, at most max_depth.
-PathTracerSettings GlossyTracerSettings(const IcSettings& s) {
+PathTracerSettings GlossyTracerSettings(const IcSettings& s, const PlateView& plate) {
   PathTracerSettings p = TracerSettings(s);
+  p.plate_reflections = s.plate_reflections;
+  p.plate = plate;
   if (s.glossy_depth >= 0) p.max_depth = std::min(p.max_depth, s.glossy_depth);
   return p;
 }
@@ -102,12 +104,13 @@ void IrradianceCache::Describe(Report* report) const {
 }
 
 IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
-                                 const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure)
+                                 const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure,
+                                 const PlateView& plate)
     : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure),
       scene_(scene),
       cache_(cache),
       camera_(camera),
-      glossy_tracer_(scene, GlossyTracerSettings(cache->settings())),
+      glossy_tracer_(scene, GlossyTracerSettings(cache->settings(), plate)),
       frame_(frame) {}
 
 void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
@@ -362,6 +365,10 @@ void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int 
       int nr = 0;
       real += glossy_tracer_.RealRadiance(next, beta, bs.pdf, 1, g, &nr);
       row_rays += nr;
+    } else if (xv && !want_r) {  // the mixed path from a virtual surface: the plate where it sees
+      int nr = 0;
+      mixed += glossy_tracer_.MixedRadianceFromVirtual(next, beta, bs.pdf, 1, g, &nr);
+      row_rays += nr;
     } else {
       PathSample ps = glossy_tracer_.TraceFrom(next, beta, bs.pdf, 1, g);
       row_rays += ps.rays;
@@ -449,8 +456,8 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
 namespace {
 
 IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject(
-      {"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold", "glossy_depth"});
+  v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold",
+                   "glossy_depth", "plate_reflections"});
   IcSettings o;
   if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
   if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
@@ -460,6 +467,7 @@ IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("tile")) o.tile = static_cast<int>(v.Child("tile").Integer(1, 1024));
   if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
   if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
+  if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
   if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
   return WithSceneRender(o, scene);
 }
@@ -477,12 +485,20 @@ class IcMethod : public SettingsMethod<IcSettings> {
                       job.frame_begin));
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
+    PlateView plate;
+    if (f.photo_radiance) plate = PlateView{f.photo_radiance, f.photo_clipped, &f.camera, f.world_from_cam};
     return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame,
-                                             f.exposure);
+                                             f.exposure, plate);
   }
   void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* fj) override {
     const auto& ic = static_cast<const IcFrameRenderer&>(fm);
     ic.Describe(report, f.frame);
+    const PlateCounters& c = ic.plate_counters();
+    if (const int64_t total = c.from_plate + c.rendered; total > 0)
+      (*fj)["plate_reflections"] = {{"from_plate", c.from_plate.load()},
+                                    {"rendered", c.rendered.load()},
+                                    {"rendered_clipped", c.clipped.load()},
+                                    {"share", static_cast<double>(c.from_plate) / static_cast<double>(total)}};
     if (!prev_irradiance_.empty()) {
       const double change =
           TemporalChange(f.camera, prev_pose_, prev_irradiance_, prev_positions_, ic.positions(), ic.interpolated());

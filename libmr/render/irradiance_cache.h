@@ -31,6 +31,9 @@ struct IcSettings {
   // differential path, as pt's), at most max_depth; 0: the glossy lobe takes
   // next-event light only; -1: max_depth.
   int glossy_depth = -1;
+  // Glossy paths from virtual surfaces take the plate's radiance where it
+  // sees the real point they meet (render/path_tracer.h, PlateView).
+  bool plate_reflections = true;
   bool photograph = true;  // I_c is given: real pixels need only I_m - I_r
   int max_depth = 5;
   uint64_t seed = 0;
@@ -73,7 +76,10 @@ class IrradianceCache {
 class IcFrameRenderer : public PixelLoopMethod {
  public:
   IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
-                  const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {});
+                  const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {},
+                  const PlateView& plate = {});
+  // Real points met by glossy paths from virtual surfaces: from the plate or rendered.
+  const PlateCounters& plate_counters() const { return glossy_tracer_.plate_counters(); }
   // The G-buffer, misses and new records, then shading: one pass per frame.
   void RenderPass(int spp) override;
   // Indirect irradiance the frame interpolated (luminance, per pixel, first

@@ -40,12 +40,13 @@ bool DifferentialPathTracer::PlateRadiance(const Eigen::Vector3d& p, const Eigen
 }
 
 Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf,
-                                                    int depth, Pcg32& rng, int* rays, int escape_from_depth) const {
+                                                    int depth, Pcg32& rng, int* rays, int escape_from_depth,
+                                                    bool from_virtual) const {
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
   const unsigned lights = mask == kMaskReal ? kRealLights : kAllLights;  // a real path sees no virtual light
   const bool use_plate = mask == kMaskAll && settings_.plate_reflections && settings_.plate.radiance;
-  bool from_virtual = false;  // the ray leaves a virtual surface
+  // from_virtual: the ray leaves a virtual surface
   for (;; ++depth) {
     Hit hit;
     ++*rays;

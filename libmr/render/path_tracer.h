@@ -100,11 +100,18 @@ class DifferentialPathTracer {
                                int* rays) const {
     return TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, rng, rays, 0);
   }
+  // Radiance arriving along `ray`, which leaves a virtual surface, in the
+  // scene with everything in it, times beta: the plate where it sees the
+  // real point met (PlateView), else rendered.
+  Eigen::Vector3d MixedRadianceFromVirtual(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, int depth,
+                                           Pcg32& rng, int* rays) const {
+    return TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, rays, 0, true);
+  }
 
  private:
   // One path seeing geometry through `mask`, from `ray` on.
   Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth, Pcg32& rng,
-                              int* rays, int escape_from_depth) const;
+                              int* rays, int escape_from_depth, bool from_virtual = false) const;
   bool Intersect(const Ray& ray, Hit* hit) const {
     if (settings_.ray_log) settings_.ray_log->closest.push_back(ray);
     return scene_.embree().Intersect(ray, hit);

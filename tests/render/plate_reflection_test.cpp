@@ -7,6 +7,7 @@
 
 #include "core/image_metrics.h"
 #include "gi_scenes.h"
+#include "render/irradiance_cache.h"
 
 namespace mr {
 namespace {
@@ -83,6 +84,26 @@ TEST(PlateReflections, MirrorShowsTheTexturedRoomAsPtDoes) {
   EXPECT_EQ(rendered.plate_counters().from_plate.load() + rendered.plate_counters().rendered.load(), 0);
   // The real layer never looks at the plate: bit for bit the same paths.
   EXPECT_EQ(from_plate.Real().values(), rendered.Real().values());
+
+  // ic's glossy paths from the mirror take the plate the same way (its
+  // camera-ray part is its own; the bound is the same as pt's).
+  IcSettings is;
+  is.max_depth = 8;
+  is.seed = 1;
+  auto ic_render = [&](const PlateView& pv, PlateCounters* counts) {
+    IrradianceCache cache(s, is);
+    IcFrameRenderer r(s, &cache, cam, pose, 1, 0, CameraExposure{}, pv);
+    r.RenderPass(64);
+    counts->from_plate = r.plate_counters().from_plate.load();
+    counts->rendered = r.plate_counters().rendered.load();
+    return r.Mixed();
+  };
+  PlateCounters ic_plate, ic_none;
+  const double ic_err_plate = CompareImages(ic_render(sp.plate, &ic_plate), ref.Mixed(), &mask).relmse;
+  const double ic_err_render = CompareImages(ic_render(PlateView{}, &ic_none), ref.Mixed(), &mask).relmse;
+  EXPECT_LT(ic_err_plate, 1.5 * ic_err_render + 0.002) << ic_err_plate << " from the plate, " << ic_err_render;
+  EXPECT_GT(ic_plate.from_plate.load(), 2 * ic_plate.rendered.load());
+  EXPECT_EQ(ic_none.from_plate.load(), 0);
 
   // A plate clipped everywhere (an 8-bit plate's highlights: their value is
   // only a lower bound) gives nothing: every point is rendered, and counted.

@@ -79,6 +79,7 @@ double QuartileBias() {
 }  // namespace
 
 double NoiseProfile::At(int c, double code) const {
+  if (!std::isfinite(code)) code = 0;  // never an index from NaN
   const double t = std::clamp(code * kBins - 0.5, 0.0, kBins - 1.0);
   const int i = std::min(static_cast<int>(t), kBins - 2);
   const double f = t - i;

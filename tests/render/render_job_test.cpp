@@ -641,11 +641,11 @@ TEST_F(Capture, MirrorOnAGlossyTableReflectsItRendered) {
 // Motion blur: the capture's camera moves 0.8 m and turns between its two
 // frames.  With a full shutter (1: the whole frame interval) frame 0 is
 // the mean of the renders over its interval (the first frame blurs over
-// the half interval it has, towards frame 1): the blurred pt render at 1024
+// the half interval it has, towards frame 1): the blurred pt render at 512
 // spp is compared with the mean of 16 sharp renders at poses spread over
-// the interval (64 spp each); its error (the two estimates' noise, ~0.0014
-// at these counts) is a small fraction (< 0.3) of the sharp frame's against
-// the same mean (the noise and what the blur changes, ~0.009).  Then every
+// the interval (32 spp each); its error (the two estimates' noise) is a
+// small fraction (< 0.35) of the sharp frame's against the same mean (the
+// noise and what the blur changes).  Then every
 // method with the blur against pt with it: no worse than 1.5x its error
 // without blur (+0.005 for noise).
 TEST_F(Capture, MotionBlurIsTheMeanOverTheShutterInterval) {
@@ -662,8 +662,8 @@ TEST_F(Capture, MotionBlurIsTheMeanOverTheShutterInterval) {
   PathTracerSettings st;
   st.max_depth = s.render.max_depth;
   PtFrameRenderer blurred(rs, camera, poses[0], st, e), sharp(rs, camera, poses[0], st);
-  blurred.RenderPass(1024);
-  sharp.RenderPass(1024);
+  blurred.RenderPass(512);
+  sharp.RenderPass(512);
   Image mean = Image::Rgb(camera.width(), camera.height());
   constexpr int kPoses = 16;
   for (int k = 0; k < kPoses; ++k) {
@@ -673,13 +673,15 @@ TEST_F(Capture, MotionBlurIsTheMeanOverTheShutterInterval) {
     PathTracerSettings sk = st;
     sk.seed = 100 + k;
     PtFrameRenderer r(rs, camera, pose, sk);
-    r.RenderPass(64);
+    r.RenderPass(32);
     const Image m = r.Mixed();
     for (size_t i = 0; i < mean.values().size(); ++i) mean.values()[i] += m.values()[i] / kPoses;
   }
   const double err_blur = CompareImages(blurred.Mixed(), mean).relmse;
   const double err_sharp = CompareImages(sharp.Mixed(), mean).relmse;
-  EXPECT_LT(err_blur, 0.3 * err_sharp) << err_blur << " against " << err_sharp;
+  EXPECT_LT(err_blur, 0.35 * err_sharp) << err_blur << " against " << err_sharp;
+  std::printf("motion blur: relMSE %.5f blurred, %.5f sharp, against the mean over the interval\n", err_blur,
+              err_sharp);
 
   // Every method, blurred and not, against pt the same way.
   auto render = [&](const std::string& method, bool blur, int spp) {
@@ -695,10 +697,10 @@ TEST_F(Capture, MotionBlurIsTheMeanOverTheShutterInterval) {
     RunRenderJob(ReadScene(Cap() / "scene-blur.json"), o, &r);
     return ReadImage(o.out_dir / "00000.exr").Layer("composite");
   };
-  const Image pt_on = render("pt", true, 128), pt_off = render("pt", false, 128);
+  const Image pt_on = render("pt", true, 64), pt_off = render("pt", false, 64);
   for (const std::string m : {"ic", "vpl", "vct"}) {
-    const double on = CompareImages(render(m, true, 16), pt_on).relmse;
-    const double off = CompareImages(render(m, false, 16), pt_off).relmse;
+    const double on = CompareImages(render(m, true, 8), pt_on).relmse;
+    const double off = CompareImages(render(m, false, 8), pt_off).relmse;
     EXPECT_LT(on, 1.5 * off + 0.005) << m << ": " << on << " blurred, " << off << " sharp";
   }
 }
@@ -724,12 +726,12 @@ TEST_F(Capture, DepthOfFieldAgainstPt) {
     RunRenderJob(ReadScene(Cap() / "scene-lens.json"), o, &r);
     return ReadImage(o.out_dir / "00000.exr").Layer("composite");
   };
-  const Image pt_on = render("pt", true, 256), pt_off = render("pt", false, 256);
-  const double noise = CompareImages(render("pt", false, 256, 2), pt_off).relmse;
+  const Image pt_on = render("pt", true, 128), pt_off = render("pt", false, 128);
+  const double noise = CompareImages(render("pt", false, 128, 2), pt_off).relmse;
   EXPECT_GT(CompareImages(pt_on, pt_off).relmse, 2 * noise);
   for (const std::string m : {"ic", "vpl", "vct"}) {
-    const double on = CompareImages(render(m, true, 16), pt_on).relmse;
-    const double off = CompareImages(render(m, false, 16), pt_off).relmse;
+    const double on = CompareImages(render(m, true, 8), pt_on).relmse;
+    const double off = CompareImages(render(m, false, 8), pt_off).relmse;
     EXPECT_LT(on, 1.5 * off + 0.005) << m << ": " << on << " with the lens, " << off << " without";
   }
 }

@@ -15,6 +15,7 @@
 #include "render/camera_sampler.h"
 #include "render/frame_io.h"
 #include "render/method.h"
+#include "render/render_job.h"
 #include "render/render_scene.h"
 #include "scene/frames.h"
 
@@ -99,28 +100,10 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
   const MethodInfo& info = FindRenderMethod(o.method);
   std::unique_ptr<RenderMethod> method = CreateRenderMethod(scene, o.method);
   RenderScene rs;
-  CameraModel camera;
-  std::vector<Rigid3> poses;
-  {
-    ScopedTimer t(report, "load");
-    camera = CameraModel::Read(scene.camera.model);
-    poses = LoadScenePoses(scene);
-    LoadRenderScene(scene, &rs);
-  }
-  report->AddInput(scene.file.string());
-  const int n_frames = static_cast<int>(poses.size());
-  const int begin = o.frame_begin >= 0 ? o.frame_begin : scene.render.frame_begin;
-  int end = o.frame_end >= 0 ? o.frame_end : scene.render.frame_end;
-  if (end < 0 || end > n_frames) end = n_frames;
-  if (begin >= end)
-    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
-  {
-    ScopedTimer t(report, "check inputs");
-    for (const std::string& w : CheckSceneInputs(scene, camera.width(), camera.height(), begin, end).warnings) {
-      spdlog::warn("{}", w);
-      report->Warn(w);
-    }
-  }
+  const JobInputs in = LoadJobInputs(scene, o.frame_begin, o.frame_end, &rs, report);
+  const CameraModel& camera = in.camera;
+  const std::vector<Rigid3>& poses = in.poses;
+  const int begin = in.begin, end = in.end;
   std::error_code ec;
   fs::create_directories(o.out, ec);
   if (!fs::is_directory(o.out))

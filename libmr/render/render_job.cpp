@@ -17,6 +17,36 @@
 
 namespace mr {
 
+JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, RenderScene* rs, Report* report) {
+  JobInputs in;
+  {
+    ScopedTimer t(report, "load");
+    in.camera = CameraModel::Read(scene.camera.model);
+    in.poses = LoadScenePoses(scene);
+    LoadRenderScene(scene, rs);
+  }
+  report->AddInput(scene.file.string());
+  const int n_frames = static_cast<int>(in.poses.size());
+  int begin = frame_begin >= 0 ? frame_begin : scene.render.frame_begin;
+  int end = frame_end >= 0 ? frame_end : scene.render.frame_end;
+  if (begin >= n_frames)
+    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  {
+    // Every input of every frame to render, checked before the first frame.
+    ScopedTimer t(report, "check inputs");
+    for (const std::string& w : CheckSceneInputs(scene, in.camera.width(), in.camera.height(), begin, end).warnings) {
+      spdlog::warn("{}", w);
+      report->Warn(w);
+    }
+  }
+  if (end < 0 || end > n_frames) end = n_frames;
+  if (begin >= end)
+    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  in.begin = begin;
+  in.end = end;
+  return in;
+}
+
 void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const std::string method_name = o.method.empty() ? scene.render.method : o.method;
   const MethodInfo& info = FindRenderMethod(method_name);
@@ -26,31 +56,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
 
   RenderScene rs;
-  CameraModel camera;
-  std::vector<Rigid3> poses;
-  {
-    ScopedTimer t(report, "load");
-    camera = CameraModel::Read(scene.camera.model);
-    poses = LoadScenePoses(scene);
-    LoadRenderScene(scene, &rs);
-  }
-  report->AddInput(scene.file.string());
+  const JobInputs in = LoadJobInputs(scene, o.frame_begin, o.frame_end, &rs, report);
+  const CameraModel& camera = in.camera;
+  const std::vector<Rigid3>& poses = in.poses;
   const int n_frames = static_cast<int>(poses.size());
-  int begin = o.frame_begin >= 0 ? o.frame_begin : scene.render.frame_begin;
-  int end = o.frame_end >= 0 ? o.frame_end : scene.render.frame_end;
-  if (begin >= n_frames)
-    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
-  {
-    // Every input of every frame to render, checked before the first frame.
-    ScopedTimer t(report, "check inputs");
-    for (const std::string& w : CheckSceneInputs(scene, camera.width(), camera.height(), begin, end).warnings) {
-      spdlog::warn("{}", w);
-      report->Warn(w);
-    }
-  }
-  if (end < 0 || end > n_frames) end = n_frames;
-  if (begin >= end)
-    throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  const int begin = in.begin, end = in.end;
   const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
   for (int f = begin; f < end; ++f) (void)decoding.ForFrame(f);  // a gain for every frame, before the first
   // The output folder only once every input is known to be sound: a refused

@@ -7,12 +7,15 @@
 #include <optional>
 #include <string>
 
+#include "camera/camera_model.h"
 #include "camera/pose.h"
 #include "core/report.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
 
 namespace mr {
+
+class RenderScene;
 
 struct RenderOptions {
   std::string method;                    // empty: the scene's
@@ -32,5 +35,17 @@ struct RenderOptions {
 
 // Renders; fills `report`.  Throws mr::Error / mr::UsageError.
 void RunRenderJob(const Scene& scene, const RenderOptions& options, Report* report);
+
+// What a job over a scene's frames loads first, shared by mr-render and
+// mr-eval plate: the camera, the poses and the render scene (timed as
+// "load"), the frame range [begin, end) (-1: the scene's; an empty range is
+// a UsageError) and every input of every frame in it, checked before the
+// first frame ("check inputs"; warnings into the report and the log).
+struct JobInputs {
+  CameraModel camera;
+  std::vector<Rigid3> poses;
+  int begin = 0, end = 0;
+};
+JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, RenderScene* rs, Report* report);
 
 }  // namespace mr

@@ -55,6 +55,23 @@ std::vector<int> VideoCodes(const fs::path& p, int f) {
   return Codes(img);
 }
 
+// Of the channel values the object leaves untouched (difference 0, mask 0),
+// how many there are and how many of them differ between the input and
+// output code values.
+std::pair<int64_t, int64_t> UntouchedCodes(const Image& diff, const Image& mask, const std::vector<int>& in,
+                                           const std::vector<int>& out) {
+  int64_t kept = 0, moved = 0;
+  for (int y = 0; y < diff.height(); ++y)
+    for (int x = 0; x < diff.width(); ++x)
+      for (int c = 0; c < 3; ++c)
+        if (diff.at(x, y, c) == 0.0f && mask.at(x, y, 0) == 0.0f) {
+          const size_t i = static_cast<size_t>((y * diff.width() + x) * 3 + c);
+          ++kept;
+          moved += in[i] != out[i];
+        }
+  return {kept, moved};
+}
+
 // One small synthetic capture shared by the tests of this file.
 class Capture : public ::testing::Test {
  protected:
@@ -370,15 +387,7 @@ TEST_F(Capture, DisplaySpaceCompositingOfEightBitPhotographs) {
   // mask 0) keeps the photograph's code value in the PNG, at exposure != 1.
   const std::vector<int> in = PngCodes(Cap() / "photos" / "00000.png"), png = PngCodes(o.out_dir / "00000.png");
   const Image mask = out.Layer("mask");
-  int64_t kept = 0, moved = 0;
-  for (int y = 0; y < comp.height(); ++y)
-    for (int x = 0; x < comp.width(); ++x)
-      for (int c = 0; c < 3; ++c)
-        if (diff.at(x, y, c) == 0.0f && mask.at(x, y, 0) == 0.0f) {
-          const size_t i = static_cast<size_t>((y * comp.width() + x) * 3 + c);
-          ++kept;
-          moved += in[i] != png[i];
-        }
+  const auto [kept, moved] = UntouchedCodes(diff, mask, in, png);
   EXPECT_GT(kept, 100);
   EXPECT_EQ(moved, 0);
 }
@@ -437,15 +446,7 @@ TEST_F(Capture, PlateFitRecoversTheExposureAndReplacesIt) {
   EXPECT_LT(CompareImages(comp, truth).relmse, 0.1);
   const std::vector<int> in = PngCodes(Cap() / "photos" / "00000.png"), png = PngCodes(o.out_dir / "00000.png");
   const Image diff = out.Layer("difference"), mask = out.Layer("mask");
-  int64_t kept = 0, moved = 0;
-  for (int y = 0; y < comp.height(); ++y)
-    for (int x = 0; x < comp.width(); ++x)
-      for (int c = 0; c < 3; ++c)
-        if (diff.at(x, y, c) == 0.0f && mask.at(x, y, 0) == 0.0f) {
-          ++kept;
-          moved += in[static_cast<size_t>((y * comp.width() + x) * 3 + c)] !=
-                   png[static_cast<size_t>((y * comp.width() + x) * 3 + c)];
-        }
+  const auto [kept, moved] = UntouchedCodes(diff, mask, in, png);
   EXPECT_GT(kept, 100);
   EXPECT_EQ(moved, 0);
 

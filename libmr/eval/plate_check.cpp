@@ -203,7 +203,11 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     const Image fitted = Scaled(real, fit.ok ? fit.gain : Rgb{1, 1, 1});
     m.ssim = CompareImages(fitted, plate, &room).ssim;
     if (o.images) {
-      auto srgb = [](Image img) {
+      // Shown as the plate's own code values: through the response (or the
+      // linear transfer) the frames were decoded with; display-space plates
+      // and float ones through sRGB.
+      auto srgb = [&](Image img) {
+        if (enc.has_codes && !decoding.display_space) return decoding.ToCodes(img, enc);
         for (float& v : img.values()) v = LinearToSrgb(std::clamp(v, 0.0f, 1.0f));
         return img;
       };
@@ -215,7 +219,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       const Image sheet =
           ContactSheet({{&plate_srgb, fmt::format("plate, frame {}", f)},
                         {&fitted_srgb, fmt::format("room rendered, x ({:.3g}, {:.3g}, {:.3g})", g[0], g[1], g[2])},
-                        {&diff_panel, "rendered - plate (sRGB), +-0.25"},
+                        {&diff_panel, "rendered - plate (codes), +-0.25"},
                         {&room, "pixels compared (the room)"}},
                        2);
       ImageWriteOptions wo;

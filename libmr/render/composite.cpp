@@ -1,5 +1,8 @@
 #include "render/composite.h"
 
+#include <cmath>
+
+#include "core/check.h"
 #include "core/error.h"
 
 namespace mr {
@@ -35,6 +38,31 @@ CompositeResult Composite(const Image& photo, const Image& mixed, const Image& r
       }
     }
   return r;
+}
+
+ClippedChannels KeepClippedChannels(const Image& photo, const Image& clipped, const Image& mask, Image* composite,
+                                    double hidden) {
+  MR_CHECK(photo.width() == composite->width() && photo.height() == composite->height() &&
+           clipped.width() == photo.width() && clipped.height() == photo.height() && mask.width() == photo.width() &&
+           mask.height() == photo.height() && clipped.channels() == 3 && photo.channels() == 3);
+  ClippedChannels n;
+  for (int y = 0; y < photo.height(); ++y)
+    for (int x = 0; x < photo.width(); ++x) {
+      if (mask.at(x, y, 0) > 0) continue;
+      for (int c = 0; c < 3; ++c) {
+        if (!(clipped.at(x, y, c) > 0)) continue;
+        const float p = photo.at(x, y, c);
+        float& v = composite->at(x, y, c);
+        if (v == p) continue;
+        if (std::abs(v - p) < hidden * std::abs(p)) {
+          v = p;
+          ++n.kept;
+        } else {
+          ++n.changed;
+        }
+      }
+    }
+  return n;
 }
 
 }  // namespace mr

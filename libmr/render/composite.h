@@ -20,4 +20,17 @@ CompositeResult Composite(const Image& photo, const Image& mixed, const Image& r
 CompositeResult Composite(const Image& photo, const Image& mixed, const Image& real, const Image& mask,
                           const Image& object);
 
+// A plate channel at the top of its code range holds only a lower bound of
+// its radiance: the true value is above it by an unknown amount, which
+// hides a small change.  Where the object does not cover the pixel (mask
+// 0), `clipped` (RGB, > 0 per clipped channel) is set and the composite
+// differs from `photo` (both radiance) by less than `hidden` of it, the
+// composite takes the photo's value (the plate's code is kept); a larger
+// change (a shadow across a blown-out wall) is kept and counted.
+struct ClippedChannels {
+  int64_t kept = 0, changed = 0;
+};
+ClippedChannels KeepClippedChannels(const Image& photo, const Image& clipped, const Image& mask, Image* composite,
+                                    double hidden = 0.1);
+
 }  // namespace mr

@@ -38,6 +38,13 @@ FrameDecoding FrameDecoding::FromScene(const Scene& scene, Report* report) {
   return d;
 }
 
+bool FrameDecoding::HasGain(int f) const {
+  if (frame_gains.empty()) return true;
+  const auto it = std::lower_bound(frame_gains.begin(), frame_gains.end(), f,
+                                   [](const FrameGain& g, int frame) { return g.frame < frame; });
+  return it != frame_gains.end() && it->frame == f;
+}
+
 FrameDecoding FrameDecoding::ForFrame(int f) const {
   FrameDecoding d = *this;
   const Rgb nominal = display_space ? Rgb{exposure, exposure, exposure} : Rgb{1, 1, 1};

@@ -62,6 +62,8 @@ struct FrameDecoding {
   // A copy for frame `f`, its gain set; throws mr::Error naming the gains
   // file when it has no entry for `f`.
   FrameDecoding ForFrame(int f) const;
+  // Whether ForFrame(f) has a gain (always, without a gains file).
+  bool HasGain(int f) const;
 
   // From the scene; reads the response file (added to the report's inputs)
   // and states the compositing space in the report.

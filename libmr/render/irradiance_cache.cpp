@@ -23,10 +23,10 @@ PathTracerSettings TracerSettings(const IcSettings& s) {
 }
 
 // The glossy lobe's path: glossy_depth bounces, at most max_depth.
-PathTracerSettings GlossyTracerSettings(const IcSettings& s, const PlateView& plate) {
+PathTracerSettings GlossyTracerSettings(const IcSettings& s, const PlateViews& plates) {
   PathTracerSettings p = TracerSettings(s);
   p.plate_reflections = s.plate_reflections;
-  p.plate = plate;
+  p.plates = plates;
   if (s.glossy_depth >= 0) p.max_depth = std::min(p.max_depth, s.glossy_depth);
   return p;
 }
@@ -105,12 +105,12 @@ void IrradianceCache::Describe(Report* report) const {
 
 IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
                                  const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure,
-                                 const PlateView& plate)
+                                 const PlateViews& plates)
     : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure),
       scene_(scene),
       cache_(cache),
       camera_(camera),
-      glossy_tracer_(scene, GlossyTracerSettings(cache->settings(), plate)),
+      glossy_tracer_(scene, GlossyTracerSettings(cache->settings(), plates)),
       frame_(frame) {}
 
 void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
@@ -485,20 +485,13 @@ class IcMethod : public SettingsMethod<IcSettings> {
                       job.frame_begin));
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
-    PlateView plate;
-    if (f.photo_radiance) plate = PlateView{f.photo_radiance, f.photo_clipped, &f.camera, f.world_from_cam};
     return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame,
-                                             f.exposure, plate);
+                                             f.exposure, f.plates);
   }
   void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* fj) override {
     const auto& ic = static_cast<const IcFrameRenderer&>(fm);
     ic.Describe(report, f.frame);
-    const PlateCounters& c = ic.plate_counters();
-    if (const int64_t total = c.from_plate + c.rendered; total > 0)
-      (*fj)["plate_reflections"] = {{"from_plate", c.from_plate.load()},
-                                    {"rendered", c.rendered.load()},
-                                    {"rendered_clipped", c.clipped.load()},
-                                    {"share", static_cast<double>(c.from_plate) / static_cast<double>(total)}};
+    if (Json c = PlateCountersJson(ic.plate_counters()); !c.is_null()) (*fj)["plate_reflections"] = std::move(c);
     if (!prev_irradiance_.empty()) {
       const double change =
           TemporalChange(f.camera, prev_pose_, prev_irradiance_, prev_positions_, ic.positions(), ic.interpolated());
@@ -512,6 +505,7 @@ class IcMethod : public SettingsMethod<IcSettings> {
   void Finish(Report* report) override {
     if (cache_) cache_->Describe(report);
   }
+  bool TakesPlateReflections() const override { return st_.plate_reflections; }
 
  private:
   std::unique_ptr<IrradianceCache> cache_;

@@ -77,7 +77,7 @@ class IcFrameRenderer : public PixelLoopMethod {
  public:
   IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
                   const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {},
-                  const PlateView& plate = {});
+                  const PlateViews& plates = {});
   // Real points met by glossy paths from virtual surfaces: from the plate or rendered.
   const PlateCounters& plate_counters() const { return glossy_tracer_.plate_counters(); }
   // The G-buffer, misses and new records, then shading: one pass per frame.

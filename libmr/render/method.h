@@ -24,6 +24,7 @@
 #include "core/json_node.h"
 #include "core/report.h"
 #include "render/camera_sampler.h"
+#include "render/plate_view.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -71,6 +72,11 @@ struct FrameContext {
   // The shutter interval and lens the frame's samples spread over (none by
   // default); every method takes its camera rays from it (CameraSampler).
   CameraExposure exposure = {};
+  // The plates reflections may take the room from: this frame's (from
+  // photo_radiance and photo_clipped), then its neighbours' nearest first
+  // (render.plate_neighbours), each in the render's units at its own gain;
+  // empty when the scene names no frames or the method takes no plate.
+  PlateViews plates = {};
 };
 
 class RenderMethod {
@@ -87,6 +93,9 @@ class RenderMethod {
   }
   // After the last frame.
   virtual void Finish(Report* report) { (void)report; }
+  // Whether FrameContext::plates is looked at (the job then reads the
+  // neighbouring frames' plates too).
+  virtual bool TakesPlateReflections() const { return false; }
 };
 
 // A method's settings struct with the scene's generic render settings

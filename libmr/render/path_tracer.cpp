@@ -12,8 +12,22 @@
 namespace mr {
 
 bool DifferentialPathTracer::PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset,
-                                           Eigen::Vector3d* L) const {
-  const PlateView& pv = settings_.plate;
+                                           Eigen::Vector3d* L, int* rays) const {
+  bool clipped = false;
+  for (size_t i = 0; i < settings_.plates.size(); ++i)
+    if (ViewRadiance(settings_.plates[i], p, n, offset, L, &clipped, rays)) {
+      ++plate_counters_->from_plate;
+      if (i > 0) ++plate_counters_->from_other_frames;
+      return true;
+    }
+  ++plate_counters_->rendered;
+  if (clipped) ++plate_counters_->clipped;  // a clipped highlight: its true radiance is unknown, render it
+  return false;
+}
+
+bool DifferentialPathTracer::ViewRadiance(const PlateView& pv, const Eigen::Vector3d& p, const Eigen::Vector3d& n,
+                                          double offset, Eigen::Vector3d* L, bool* clipped, int* rays) const {
+  if (!pv.radiance) return false;
   const Eigen::Vector3d eye = pv.world_from_cam.translation;
   const Eigen::Vector3d to_eye = eye - p;
   const double dist = to_eye.norm();
@@ -24,12 +38,13 @@ bool DifferentialPathTracer::PlateRadiance(const Eigen::Vector3d& p, const Eigen
   if (q.x() < 0 || q.y() < 0 || q.x() > img.width() - 1 || q.y() > img.height() - 1) return false;
   // Unoccluded: nothing real between the plate's camera and the point.
   Ray r = MakeRay(p + n * offset, to_eye / dist, kMaskReal, dist * (1 - 1e-6));
+  ++*rays;
   if (Occluded(r)) return false;
   const int x0 = static_cast<int>(q.x()), y0 = static_cast<int>(q.y());
   const int x1 = std::min(x0 + 1, img.width() - 1), y1 = std::min(y0 + 1, img.height() - 1);
   if (pv.clipped && (pv.clipped->at(x0, y0, 0) > 0 || pv.clipped->at(x1, y0, 0) > 0 || pv.clipped->at(x0, y1, 0) > 0 ||
                      pv.clipped->at(x1, y1, 0) > 0)) {
-    ++plate_counters_->clipped;  // a clipped highlight: its true radiance is unknown, render it
+    *clipped = true;
     return false;
   }
   const double fx = q.x() - x0, fy = q.y() - y0;
@@ -45,7 +60,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
   const unsigned lights = mask == kMaskReal ? kRealLights : kAllLights;  // a real path sees no virtual light
-  const bool use_plate = mask == kMaskAll && settings_.plate_reflections && settings_.plate.radiance;
+  const bool use_plate = mask == kMaskAll && settings_.plate_reflections && !settings_.plates.empty();
   // from_virtual: the ray leaves a virtual surface
   for (;; ++depth) {
     Hit hit;
@@ -61,9 +76,9 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       // glossy one sends other light towards the object than towards the
       // plate's camera: rendered).
       Eigen::Vector3d plate;
-      ++*rays;
-      if (!v.material->IsGlossy() && PlateRadiance(v.p, v.frame.n, v.offset, &plate)) {
-        ++plate_counters_->from_plate;
+      const bool glossy = v.material->IsGlossy();
+      if (glossy) ++plate_counters_->rendered;
+      if (!glossy && PlateRadiance(v.p, v.frame.n, v.offset, &plate, rays)) {
         L += beta.cwiseProduct(plate);
         // What the plate cannot show: the virtual objects' shadows on the
         // point and their lights, from its next-event estimate (the direct
@@ -83,7 +98,6 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
         });
         break;
       }
-      ++plate_counters_->rendered;
     }
     from_virtual = hit.is_virtual;
     L += beta.cwiseProduct(v.material->emission);

@@ -19,6 +19,7 @@
 #include "camera/pose.h"
 #include "core/image.h"
 #include "core/sampling.h"
+#include "render/plate_view.h"
 #include "render/render_scene.h"
 
 namespace mr {
@@ -27,26 +28,6 @@ namespace mr {
 // Embree loop (single-threaded renders only: the log is not synchronised).
 struct RayLog {
   std::vector<Ray> closest, occlusion;
-};
-
-// The plate as the mixed paths see it (docs/methods.md, "The plate in
-// reflections"): where a ray leaving a virtual surface meets a real one
-// that the plate's camera sees unoccluded, the plate's radiance there (in
-// the render's units) is what arrives, instead of the rendered room's.
-struct PlateView {
-  const Image* radiance = nullptr;  // null: none
-  // One channel, > 0 where the plate clipped (its value is a lower bound:
-  // rendered instead); null: none clipped.
-  const Image* clipped = nullptr;
-  const CameraModel* camera = nullptr;
-  Rigid3 world_from_cam;
-};
-
-// How often the mixed paths took the plate's radiance, and how often a real
-// point met from a virtual surface was not seen by the plate (rendered).
-struct PlateCounters {
-  std::atomic<int64_t> from_plate{0}, rendered{0};
-  std::atomic<int64_t> clipped{0};  // of `rendered`: the plate clipped there
 };
 
 struct PathTracerSettings {
@@ -59,9 +40,9 @@ struct PathTracerSettings {
   // first pass only (their I_m - I_r is exactly zero).
   bool skip_environment_pixels = true;
   // Reflections of the real room in virtual objects from the plate
-  // (PlateView) where it sees the room; `plate` is set per frame.
+  // (PlateView) where it sees the room; `plates` is set per frame.
   bool plate_reflections = true;
-  PlateView plate;
+  PlateViews plates;
 };
 
 struct PathSample {
@@ -121,9 +102,13 @@ class DifferentialPathTracer {
     return scene_.embree().Occluded(ray);
   }
   // The plate's radiance at real point `p` met from a virtual surface
-  // (normal `n`, rays leaving it offset by `offset`), if the plate's camera
-  // sees it unoccluded.
-  bool PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset, Eigen::Vector3d* L) const;
+  // (normal `n`, rays leaving it offset by `offset`) from the first plate
+  // whose camera sees it unoccluded and unclipped (counted).
+  bool PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset, Eigen::Vector3d* L,
+                     int* rays) const;
+  // The same from one plate; *clipped set where the plate sees it clipped.
+  bool ViewRadiance(const PlateView& pv, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset,
+                    Eigen::Vector3d* L, bool* clipped, int* rays) const;
   const RenderScene& scene_;
   PathTracerSettings settings_;
   std::shared_ptr<PlateCounters> plate_counters_;

@@ -105,7 +105,7 @@ class PtMethod : public SettingsMethod<PathTracerSettings> {
     PathTracerSettings st = st_;
     st.seed = f.seed;
     st.frame = f.frame;
-    if (f.photo_radiance) st.plate = PlateView{f.photo_radiance, f.photo_clipped, &f.camera, f.world_from_cam};
+    st.plates = f.plates;
     return std::make_unique<PtFrameRenderer>(f.rs, f.camera, f.world_from_cam, st, f.exposure);
   }
   void Prepare(const JobContext& job) override {
@@ -117,14 +117,10 @@ class PtMethod : public SettingsMethod<PathTracerSettings> {
       job.report->Skip("plate reflections", "no plate: virtual objects reflect the rendered room");
   }
   void FrameDone(const FrameMethod& fm, const FrameContext&, Report*, Json* frame_json) override {
-    const PlateCounters& c = static_cast<const PtFrameRenderer&>(fm).plate_counters();
-    const int64_t total = c.from_plate + c.rendered;
-    if (total == 0) return;
-    (*frame_json)["plate_reflections"] = {{"from_plate", c.from_plate.load()},
-                                          {"rendered", c.rendered.load()},
-                                          {"rendered_clipped", c.clipped.load()},
-                                          {"share", static_cast<double>(c.from_plate) / static_cast<double>(total)}};
+    Json c = PlateCountersJson(static_cast<const PtFrameRenderer&>(fm).plate_counters());
+    if (!c.is_null()) (*frame_json)["plate_reflections"] = std::move(c);
   }
+  bool TakesPlateReflections() const override { return st_.plate_reflections; }
 };
 
 }  // namespace

@@ -2,12 +2,15 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
+#include <map>
 
 #include "core/error.h"
 #include "core/image.h"
 #include "core/progress.h"
 #include "core/video.h"
+#include "render/composite.h"
 #include "render/error_curve.h"
 #include "render/frame_io.h"
 #include "render/grain.h"
@@ -16,6 +19,40 @@
 #include "scene/frames.h"
 
 namespace mr {
+
+namespace {
+
+// A frame's plate as reflections look it up: radiance in the render's units
+// at the frame's gain, and where it clipped (codes only).
+struct DecodedPlate {
+  Image radiance;
+  std::optional<Image> clipped;      // one channel: any channel clipped
+  std::optional<Image> clipped_rgb;  // per channel
+};
+
+DecodedPlate DecodePlate(const FrameDecoding& dec, const Image& photo, const PhotoEncoding& encoding) {
+  DecodedPlate d{dec.ToRenderUnits(photo), std::nullopt, std::nullopt};
+  if (encoding.has_codes) {  // a code at the top of its range
+    const Image codes = dec.ToCodes(dec.ToRadiance(photo), encoding);
+    d.clipped = Image::Gray(codes.width(), codes.height());
+    d.clipped_rgb = Image::Rgb(codes.width(), codes.height());
+    for (int y = 0; y < codes.height(); ++y)
+      for (int x = 0; x < codes.width(); ++x)
+        for (int c = 0; c < 3; ++c)
+          if (codes.at(x, y, c) >= 254.5f / 255) d.clipped->at(x, y, 0) = d.clipped_rgb->at(x, y, c) = 1;
+  }
+  return d;
+}
+
+PlateView ViewOf(const DecodedPlate& d, const CameraModel& camera, const Rigid3& pose) {
+  return PlateView{&d.radiance, d.clipped ? &*d.clipped : nullptr, &camera, pose};
+}
+
+bool SamePose(const Rigid3& a, const Rigid3& b) {
+  return (a.translation - b.translation).norm() <= 1e-9 && a.rotation.angularDistance(b.rotation) <= 1e-9;
+}
+
+}  // namespace
 
 JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, RenderScene* rs, Report* report) {
   JobInputs in;
@@ -168,6 +205,20 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     }
   }
 
+  // Neighbouring frames' plates for reflections the frame's own does not
+  // see (the frames f +- k step), read in increasing order by their own
+  // reader and kept while in reach.
+  const int neighbours = scene.render.plate_neighbours, step = scene.render.plate_neighbour_step;
+  const bool use_neighbours =
+      !copy_through && decoding.photograph && method->TakesPlateReflections() && neighbours > 0 && n_frames > 1;
+  if (!copy_through && decoding.photograph && method->TakesPlateReflections() && !use_neighbours)
+    report->Skip("plate neighbours", neighbours == 0 ? "render.plate_neighbours is 0: reflections take the frame's "
+                                                       "own plate only"
+                                                     : "the scene has one frame");
+  std::optional<FrameReader> neighbour_frames;
+  if (use_neighbours) neighbour_frames.emplace(scene, camera, decoding);
+  std::map<int, DecodedPlate> neighbour_plates;
+  int64_t neighbours_still = 0, neighbours_without_gain = 0;
   if (scene.camera.shutter <= 0) report->Skip("motion blur", "camera.shutter is 0 (or not given)");
   if (scene.camera.aperture_radius <= 0) report->Skip("depth of field", "camera.lens is not given: a pinhole");
   int still_frames = 0;  // with a shutter, over which the camera does not move
@@ -203,17 +254,36 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     const std::optional<Image> photo = frames.Photo(f, &encoding);
     std::optional<Image> ref;
     if (reference) ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
-    std::optional<Image> photo_radiance, photo_clipped;  // prt's background; pt's reflections
-    if (photo && !frame_copy) {
-      photo_radiance = dec.ToRenderUnits(*photo);
-      if (encoding.has_codes) {  // a code at the top of its range in any channel
-        const Image codes = dec.ToCodes(dec.ToRadiance(*photo), encoding);
-        photo_clipped = Image::Gray(codes.width(), codes.height());
-        for (int y = 0; y < codes.height(); ++y)
-          for (int x = 0; x < codes.width(); ++x)
-            for (int c = 0; c < 3; ++c)
-              if (codes.at(x, y, c) >= 254.5f / 255) photo_clipped->at(x, y, 0) = 1;
+    std::optional<DecodedPlate> plate;  // prt's background; pt's and ic's reflections
+    if (photo && !frame_copy) plate = DecodePlate(dec, *photo, encoding);
+    PlateViews plates;
+    if (plate && method->TakesPlateReflections()) plates.push_back(ViewOf(*plate, camera, pose));
+    if (plate && use_neighbours) {
+      std::vector<int> wanted;  // nearest first; a camera that did not move sees nothing new
+      for (int k = 1; k <= neighbours; ++k)
+        for (const int g : {f + k * step, f - k * step}) {
+          if (g < 0 || g >= n_frames) continue;
+          if (SamePose(poses[static_cast<size_t>(g)], pose)) {
+            ++neighbours_still;
+            continue;
+          }
+          if (!decoding.HasGain(g)) {
+            ++neighbours_without_gain;  // its units are unknown
+            continue;
+          }
+          wanted.push_back(g);
+        }
+      std::erase_if(neighbour_plates, [&](const auto& kv) { return kv.first < f - neighbours * step; });
+      std::vector<int> missing;
+      for (int g : wanted)
+        if (!neighbour_plates.count(g)) missing.push_back(g);
+      std::sort(missing.begin(), missing.end());  // a video reads forwards
+      for (int g : missing) {
+        PhotoEncoding e;
+        const std::optional<Image> p = neighbour_frames->Photo(g, &e);
+        neighbour_plates.emplace(g, DecodePlate(decoding.ForFrame(g), *p, e));
       }
+      for (int g : wanted) plates.push_back(ViewOf(neighbour_plates.at(g), camera, poses[static_cast<size_t>(g)]));
     }
     const CameraExposure exposure = FrameExposure(scene, poses, f);
     if (scene.camera.shutter > 0 && !exposure.moves && !frame_copy) ++still_frames;
@@ -222,9 +292,10 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                           pose,
                           scene.render.seed,
                           f,
-                          photo_radiance ? &*photo_radiance : nullptr,
-                          photo_clipped ? &*photo_clipped : nullptr,
-                          exposure};
+                          plate ? &plate->radiance : nullptr,
+                          plate && plate->clipped ? &*plate->clipped : nullptr,
+                          exposure,
+                          plates};
     std::unique_ptr<FrameMethod> fr;
     if (!frame_copy) fr = method->NewFrame(fc);
     std::optional<Image> region;
@@ -253,12 +324,20 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     progress.Done();
     CompositeResult cr;
     Image mixed, real, mask, variance, samples;
+    int64_t clipped_kept = 0, clipped_changed = 0;
     if (fr) {
       ScopedTimer t(report, "composite");
       cr = dec.Compose(*fr, photo_ptr);
       mixed = fr->Mixed();
       real = fr->Real();
       mask = fr->Mask();
+      if (plate && plate->clipped_rgb) {
+        // Clipped plate channels keep their codes under a change their
+        // unknown excess hides (composite.h).
+        const ClippedChannels k = KeepClippedChannels(dec.ToRadiance(*photo), *plate->clipped_rgb, mask, &cr.composite);
+        clipped_kept = k.kept;
+        clipped_changed = k.changed;
+      }
       variance = fr->DifferenceVariance();
       samples = fr->SampleCount();
       if (grain) {
@@ -290,6 +369,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                {"spp", done},
                {"seconds", seconds},
                {"clamped_negative", cr.clamped_negative},
+               {"clipped_kept", clipped_kept},
+               {"clipped_changed", clipped_changed},
                {"nonfinite_samples", frame_nonfinite},
                {"copied_through", !fr},
                {"environment_pixels_sampled_once", env_pixels}};
@@ -325,6 +406,15 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (still_frames > 0)
     report->Skip(fmt::format("motion blur in {} frames", still_frames),
                  "the camera does not move over their shutter intervals: the blur is exactly none");
+  if (use_neighbours) {
+    report->SetMetric("plate_neighbours", Json{{"count", neighbours}, {"step", step}});
+    if (neighbours_still > 0)
+      report->Skip(fmt::format("{} neighbouring plates", neighbours_still),
+                   "taken from the frame's own pose: they see nothing the frame's plate does not");
+    if (neighbours_without_gain > 0)
+      report->Skip(fmt::format("{} neighbouring plates without a gain", neighbours_without_gain),
+                   "camera.gains has no entry for them: their units are unknown");
+  }
   method->Finish(report);
   if (video_out) {
     video_out->Close();

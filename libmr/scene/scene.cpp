@@ -236,8 +236,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     // The generic settings; any other key holding an object is a method's
     // block (render.vpl, ...), kept as written for the method to parse.
     Node r = root.Child("render");
-    static const std::initializer_list<const char*> generic = {"method", "spp",    "max_depth",
-                                                               "seed",   "frames", "time_budget_s"};
+    static const std::initializer_list<const char*> generic = {
+        "method", "spp", "max_depth", "seed", "frames", "time_budget_s", "plate_neighbours", "plate_neighbour_step"};
     if (!r.json().is_object()) r.Fail(fmt::format("expected an object, got {}", r.TypeName()));
     for (auto& [k, v] : r.json().items()) {
       bool known = false;
@@ -261,6 +261,10 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
       if (!ParseFrameRange(v, &s.render.frame_begin, &s.render.frame_end, &why)) f.Fail(why);
     }
     if (r.Has("time_budget_s")) s.render.time_budget_s = r.Child("time_budget_s").Number(0, 1e9);
+    if (r.Has("plate_neighbours"))
+      s.render.plate_neighbours = static_cast<int>(r.Child("plate_neighbours").Integer(0, 16));
+    if (r.Has("plate_neighbour_step"))
+      s.render.plate_neighbour_step = static_cast<int>(r.Child("plate_neighbour_step").Integer(1, 100000));
   }
 
   if (root.Has("output")) {

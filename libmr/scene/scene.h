@@ -104,6 +104,11 @@ struct SceneRender {
   uint64_t seed = 0;
   int frame_begin = 0, frame_end = -1;  // [begin, end); end -1 = all
   double time_budget_s = 0;             // 0 = none
+  // Reflections take the room from the frame's own plate, then from these
+  // neighbours' (frames f +- k step, k = 1..plate_neighbours, nearest first)
+  // where the frame's own does not see the point (docs/methods.md).
+  int plate_neighbours = 2;
+  int plate_neighbour_step = 3;
 };
 
 // The layers a frame's EXR can hold, in the order they are written.

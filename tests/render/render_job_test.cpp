@@ -615,6 +615,7 @@ TEST_F(Capture, MirrorOnAGlossyTableReflectsItRendered) {
     Json k = j;
     k["render"]["seed"] = seed;
     k["render"]["pt"] = {{"plate_reflections", plate}};
+    k["render"]["plate_neighbour_step"] = 1;  // frame 1's plate for what frame 0's does not see
     WriteTextFile(Cap() / "scene-mirror.json", k.dump(2));
     RenderOptions o;
     o.method = "pt";
@@ -635,7 +636,11 @@ TEST_F(Capture, MirrorOnAGlossyTableReflectsItRendered) {
   const Json& pr = r_plate.metrics()["frames"][0];
   ASSERT_TRUE(pr.contains("plate_reflections"));
   EXPECT_GT(pr["plate_reflections"]["rendered"].get<int64_t>(), pr["plate_reflections"]["from_plate"].get<int64_t>());
+  EXPECT_LE(pr["plate_reflections"]["from_other_frames"].get<int64_t>(),
+            pr["plate_reflections"]["from_plate"].get<int64_t>());
+  EXPECT_EQ(r_plate.metrics()["plate_neighbours"]["step"], 1);
   EXPECT_FALSE(r_render.metrics()["frames"][0].contains("plate_reflections"));
+  EXPECT_FALSE(r_render.metrics().contains("plate_neighbours"));  // nothing reflects the plate: none read
   EXPECT_NE(r_render.ToJson().dump().find("plate_reflections is false"), std::string::npos);
 }
 
@@ -953,6 +958,29 @@ TEST(Composite, DifferentialFormulaAndNegativeClamp) {
   EXPECT_EQ(c.composite.at(1, 0, 0), 0.0f);
   EXPECT_EQ(c.clamped_negative, 1);
   EXPECT_FLOAT_EQ(c.difference.at(1, 0, 0), -1.0f);
+}
+
+// A clipped plate channel holds a lower bound: a change smaller than a
+// tenth of it is hidden by the unknown excess and the plate's value kept; a
+// larger one (a deep shadow across a blown-out wall) is composited and
+// counted; pixels the object covers and channels that did not clip are
+// never touched.
+TEST(Composite, ClippedChannelsKeepTheirCodeUnderSmallChanges) {
+  const Image photo = Image::Rgb(4, 1, 2.0f);
+  Image clipped = Image::Rgb(4, 1, 0.0f), mask = Image::Gray(4, 1, 0.0f), comp = Image::Rgb(4, 1, 2.0f);
+  for (int x = 0; x < 4; ++x) clipped.at(x, 0, 0) = 1;  // red clipped everywhere
+  comp.at(0, 0, 0) = 1.9f;                              // a 5% shadow: hidden
+  comp.at(1, 0, 0) = 1.0f;                              // a 50% shadow: shown
+  comp.at(2, 0, 0) = 1.9f;                              // under the object
+  mask.at(2, 0, 0) = 0.5f;
+  comp.at(3, 0, 1) = 1.9f;  // green did not clip: composited as it is
+  const ClippedChannels k = KeepClippedChannels(photo, clipped, mask, &comp);
+  EXPECT_EQ(comp.at(0, 0, 0), 2.0f);
+  EXPECT_EQ(comp.at(1, 0, 0), 1.0f);
+  EXPECT_EQ(comp.at(2, 0, 0), 1.9f);
+  EXPECT_EQ(comp.at(3, 0, 1), 1.9f);
+  EXPECT_EQ(k.kept, 1);
+  EXPECT_EQ(k.changed, 1);
 }
 
 TEST(Metrics, KnownValues) {

@@ -54,6 +54,39 @@ bool DifferentialPathTracer::ViewRadiance(const PlateView& pv, const Eigen::Vect
   return L->allFinite();
 }
 
+bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, Pcg32& rng, int* rays,
+                                              Eigen::Vector3d* L) const {
+  if (!settings_.plate_reflections || settings_.plates.empty()) return false;
+  // The real room as the plate shows it (emitted and reflected light
+  // together), where the plate sees it and the surface is diffuse (a glossy
+  // one sends other light towards the object than towards the plate's
+  // camera: rendered).
+  if (v.material->IsGlossy()) {
+    ++plate_counters_->rendered;
+    return false;
+  }
+  Eigen::Vector3d plate;
+  if (!PlateRadiance(v.p, v.frame.n, v.offset, &plate, rays)) return false;
+  *L += beta.cwiseProduct(plate);
+  // What the plate cannot show: the virtual objects' shadows on the point
+  // and their lights, from its next-event estimate (the direct part of the
+  // difference the objects make there).
+  NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+    ++*rays;
+    if (virtual_light) {
+      shadow.mask = kMaskAll;
+      if (!Occluded(shadow)) *L += beta.cwiseProduct(c);
+      return;
+    }
+    shadow.mask = kMaskReal;
+    if (Occluded(shadow)) return;
+    ++*rays;
+    shadow.mask = kMaskVirtual;
+    if (Occluded(shadow)) *L -= beta.cwiseProduct(c);
+  });
+  return true;
+}
+
 Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf,
                                                     int depth, Pcg32& rng, int* rays, int escape_from_depth,
                                                     bool from_virtual) const {
@@ -70,35 +103,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       break;
     }
     PathVertex v = MakeVertex(scene_, ray, hit);
-    if (use_plate && from_virtual && !hit.is_virtual) {
-      // The real room as the plate shows it (emitted and reflected light
-      // together), where the plate sees it and the surface is diffuse (a
-      // glossy one sends other light towards the object than towards the
-      // plate's camera: rendered).
-      Eigen::Vector3d plate;
-      const bool glossy = v.material->IsGlossy();
-      if (glossy) ++plate_counters_->rendered;
-      if (!glossy && PlateRadiance(v.p, v.frame.n, v.offset, &plate, rays)) {
-        L += beta.cwiseProduct(plate);
-        // What the plate cannot show: the virtual objects' shadows on the
-        // point and their lights, from its next-event estimate (the direct
-        // part of the difference the objects make there).
-        NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
-          ++*rays;
-          if (virtual_light) {
-            shadow.mask = kMaskAll;
-            if (!Occluded(shadow)) L += beta.cwiseProduct(c);
-            return;
-          }
-          shadow.mask = kMaskReal;
-          if (Occluded(shadow)) return;
-          ++*rays;
-          shadow.mask = kMaskVirtual;
-          if (Occluded(shadow)) L -= beta.cwiseProduct(c);
-        });
-        break;
-      }
-    }
+    if (use_plate && from_virtual && !hit.is_virtual && PlateAtRealPoint(v, beta, rng, rays, &L)) break;
     from_virtual = hit.is_virtual;
     L += beta.cwiseProduct(v.material->emission);
     if (depth >= settings_.max_depth || v.bsdf.IsBlack()) break;

@@ -24,6 +24,8 @@
 
 namespace mr {
 
+struct PathVertex;  // render/path_common.h
+
 // Every ray a render traces, for benchmarks that replay them through a bare
 // Embree loop (single-threaded renders only: the log is not synchronised).
 struct RayLog {
@@ -88,6 +90,14 @@ class DifferentialPathTracer {
                                            Pcg32& rng, int* rays) const {
     return TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, rays, 0, true);
   }
+  // At real vertex `v`, met by a mixed ray leaving a virtual surface: adds
+  // beta times the plate's radiance there and the objects' shadows on it
+  // (their next-event estimate) to *L and returns true where a plate sees
+  // it (PlateView; the path ends there); false, adding nothing, where the
+  // room must be rendered (no plate, a glossy surface, unseen or clipped).
+  // Counted either way.
+  bool PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, Pcg32& rng, int* rays,
+                        Eigen::Vector3d* L) const;
 
  private:
   // One path seeing geometry through `mask`, from `ray` on.

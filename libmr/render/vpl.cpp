@@ -281,13 +281,16 @@ struct Contribution {
 
 class VplShader {
  public:
-  VplShader(const RenderScene& scene, const VplSet& set) : scene_(scene), set_(set), st_(set.settings()) {
+  // `plate`: the plate at real points met from virtual surfaces (null: none).
+  VplShader(const RenderScene& scene, const VplSet& set, const DifferentialPathTracer* plate = nullptr)
+      : scene_(scene), set_(set), st_(set.settings()), plate_(plate) {
     clamp2_ = set.clamp_distance() * set.clamp_distance();
   }
 
-  // Radiance along `ray` (times beta) for the wanted solutions.
+  // Radiance along `ray` (times beta) for the wanted solutions; `from_virtual`:
+  // the ray leaves a virtual surface.
   void ShadeRay(Ray ray, bool want_m, bool want_r, int depth, double prev_pdf, const Eigen::Vector3d& beta, Pcg32& rng,
-                Accum* acc) const {
+                Accum* acc, bool from_virtual = false) const {
     ray.mask = want_m ? kMaskAll : kMaskReal;
     Hit hit;
     ++acc->c.rays;
@@ -296,6 +299,12 @@ class VplShader {
       if (want_m) acc->mixed += e + beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kVirtualLights));
       if (want_r) acc->real += e;
       return;
+    }
+    if (plate_ && from_virtual && want_m && !want_r && !hit.is_virtual) {
+      int rays = 0;
+      const bool taken = plate_->PlateAtRealPoint(MakeVertex(scene_, ray, hit), beta, rng, &rays, &acc->mixed);
+      acc->c.shadow_rays += rays;
+      if (taken) return;
     }
     if (hit.is_virtual) {
       if (depth == 0) acc->primary_virtual = true;
@@ -339,7 +348,7 @@ class VplShader {
       if (glossy.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
         const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
         ShadeRay(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
-                 b, rng, acc);
+                 b, rng, acc, x_virtual);
       }
     }
     if (st_.compensate && depth == 0) Compensate(v, x_virtual, want_m, want_r, beta, rng, acc);
@@ -486,15 +495,26 @@ class VplShader {
   const RenderScene& scene_;
   const VplSet& set_;
   const VplSettings& st_;
+  const DifferentialPathTracer* plate_;
   double clamp2_ = 0;
 };
+
+PathTracerSettings PlateTracerSettings(const VplSettings& s, const PlateViews& plates) {
+  PathTracerSettings p;
+  p.plate_reflections = s.plate_reflections;
+  p.plates = plates;
+  return p;
+}
 
 }  // namespace
 
 VplFrameRenderer::VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls,
                                    const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
-                                   const CameraExposure& exposure)
-    : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure), scene_(scene), set_(std::move(vpls)) {
+                                   const CameraExposure& exposure, const PlateViews& plates)
+    : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure),
+      scene_(scene),
+      set_(std::move(vpls)),
+      plate_tracer_(scene, PlateTracerSettings(set_->settings(), plates)) {
   const size_t n = static_cast<size_t>(width()) * height();
   for (auto* v : {&bias_m_, &bias_r_, &lum_m_, &lum_r_}) v->assign(n, 0);
 }
@@ -508,7 +528,7 @@ void VplFrameRenderer::RenderPass(int spp) {
 void VplFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t i, int, PathSample* out) {
   Counters& rc = rows_[static_cast<size_t>(row)];
   Accum acc;
-  VplShader(scene_, *set_).ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
+  VplShader(scene_, *set_, &plate_tracer_).ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
   Counters c = acc.c;
   c.rays += acc.c.shadow_rays + acc.c.compensation_rays;  // every ray the sample traced
   rc += c;
@@ -560,7 +580,8 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
 namespace {
 
 VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject({"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate"});
+  v.RequireObject(
+      {"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate", "plate_reflections"});
   VplSettings o;
   if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
   if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
@@ -568,6 +589,7 @@ VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("clamp_distance")) o.clamp_distance = v.Child("clamp_distance").Number(0, 1e9);
   if (v.Has("drop_threshold")) o.drop_threshold = v.Child("drop_threshold").Number(0, 1);
   if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
+  if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
   return WithSceneRender(o, scene);
 }
 
@@ -583,14 +605,17 @@ class VplMethod : public SettingsMethod<VplSettings> {
           "only)");
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
-    return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure);
+    return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure,
+                                              f.plates);
   }
   void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* fj) override {
     const auto& v = static_cast<const VplFrameRenderer&>(fm);
     v.Describe(report, f.frame);
     (*fj)["clamp_bias_mixed"] = v.clamp_bias_mixed();
     (*fj)["clamp_bias_real"] = v.clamp_bias_real();
+    if (Json c = PlateCountersJson(v.plate_counters()); !c.is_null()) (*fj)["plate_reflections"] = std::move(c);
   }
+  bool TakesPlateReflections() const override { return st_.plate_reflections; }
 
  private:
   std::shared_ptr<const VplSet> vpls_;

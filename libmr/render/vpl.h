@@ -28,6 +28,9 @@ struct VplSettings {
   // this fraction of the mean one are not traced (the VPL is dropped there).
   double drop_threshold = 1e-3;
   uint64_t seed = 0;
+  // The glossy rays from virtual surfaces take the plate where it sees the
+  // real point they meet, as pt's paths do (PlateView).
+  bool plate_reflections = true;
 };
 
 enum VplSets : uint8_t { kLightsReal = 1, kLightsMixed = 2, kLightsBoth = 3 };
@@ -80,7 +83,10 @@ class VplSet {
 class VplFrameRenderer : public PixelLoopMethod {
  public:
   VplFrameRenderer(const RenderScene& scene, std::shared_ptr<const VplSet> vpls, const CameraModel& camera,
-                   const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {});
+                   const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {},
+                   const PlateViews& plates = {});
+  // Real points met by glossy rays from virtual surfaces: from the plate or rendered.
+  const PlateCounters& plate_counters() const { return plate_tracer_.plate_counters(); }
   void RenderPass(int spp) override;
   // Energy the clamp removed, over the energy rendered (luminance, I_m and I_r).
   double clamp_bias_mixed() const;
@@ -103,6 +109,7 @@ class VplFrameRenderer : public PixelLoopMethod {
   void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   const RenderScene& scene_;
   std::shared_ptr<const VplSet> set_;
+  DifferentialPathTracer plate_tracer_;  // the plate at real points (PlateAtRealPoint) only
   std::vector<double> bias_m_, bias_r_, lum_m_, lum_r_;
   std::vector<Counters> rows_;  // this pass's, per image row
   Counters counters_;

@@ -8,6 +8,7 @@
 #include "core/image_metrics.h"
 #include "gi_scenes.h"
 #include "render/irradiance_cache.h"
+#include "render/vpl.h"
 
 namespace mr {
 namespace {
@@ -108,6 +109,27 @@ TEST(PlateReflections, MirrorShowsTheTexturedRoomAsPtDoes) {
   EXPECT_LT(ic_err_plate, 1.5 * ic_err_render + 0.002) << ic_err_plate << " from the plate, " << ic_err_render;
   EXPECT_GT(ic_plate.from_plate.load(), 2 * ic_plate.rendered.load());
   EXPECT_EQ(ic_none.from_plate.load(), 0);
+
+  // vpl's glossy rays from the mirror likewise (its diffuse light is the
+  // VPLs'; the mirror has none).
+  VplSettings vs;
+  vs.max_depth = 8;
+  vs.glossy_depth = 8;
+  const auto vpls = VplSet::Build(s, vs);
+  auto vpl_render = [&](const PlateViews& pv, PlateCounters* counts) {
+    VplFrameRenderer r(s, vpls, cam, pose, 1, 0, CameraExposure{}, pv);
+    r.RenderPass(64);
+    counts->from_plate = r.plate_counters().from_plate.load();
+    counts->rendered = r.plate_counters().rendered.load();
+    return r.Mixed();
+  };
+  PlateCounters vpl_plate, vpl_none;
+  const double vpl_err_plate = CompareImages(vpl_render(sp.plates, &vpl_plate), ref.Mixed(), &mask).relmse;
+  const double vpl_err_render = CompareImages(vpl_render(PlateViews{}, &vpl_none), ref.Mixed(), &mask).relmse;
+  std::printf("vpl: relMSE over the mirror %.5f from the plate, %.5f rendered\n", vpl_err_plate, vpl_err_render);
+  EXPECT_LT(vpl_err_plate, 1.5 * vpl_err_render + 0.002) << vpl_err_plate << " from the plate, " << vpl_err_render;
+  EXPECT_GT(vpl_plate.from_plate.load(), 2 * vpl_plate.rendered.load());
+  EXPECT_EQ(vpl_none.from_plate.load(), 0);
 
   // A plate clipped everywhere (an 8-bit plate's highlights: their value is
   // only a lower bound) gives nothing: every point is rendered, and counted.

@@ -17,6 +17,7 @@
 #include "render/method.h"
 #include "render/render_job.h"
 #include "render/render_scene.h"
+#include "render/world.h"
 #include "scene/frames.h"
 
 namespace mr {
@@ -112,8 +113,9 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
   FrameReader frames(scene, camera, decoding);
   {
     ScopedTimer t(report, info.prepare_timing.empty() ? "prepare" : info.prepare_timing);
-    method->Prepare(JobContext{scene, rs, camera, o.spp, begin, true, report});
+    method->Prepare(JobContext{scene, rs, camera, o.spp, begin, true, report, begin});
   }
+  WorldTracker world(scene, rs, begin);  // a light that changes per frame lights each frame's room
   if (o.stride > 1)
     report->Skip(fmt::format("fits of frames between every {}th", o.stride),
                  "--stride: they take the gains of the fitted frames around them");
@@ -170,6 +172,8 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       continue;
     }
     const Rigid3& pose = poses[static_cast<size_t>(f)];
+    if (const WorldChange wc = world.Advance(f, &rs); wc.any())
+      method->WorldChanged(JobContext{scene, rs, camera, o.spp, begin, true, report, f}, wc);
     PhotoEncoding enc;
     const Image photo = *frames.Photo(f, &enc);
     const Image plate = decoding.ToPlateLinear(photo);

@@ -144,6 +144,22 @@ uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& wor
   return id;
 }
 
+void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object) {
+  MR_CHECK_LT(id, impl_->is_virtual.size());
+  if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
+  RTCGeometry g = rtcGetGeometry(impl_->scene, id);
+  if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
+    rtcDisableGeometry(g);
+  } else {
+    rtcEnableGeometry(g);
+    Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
+    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
+  }
+  rtcCommitGeometry(g);
+  impl_->Check("moving an instance");
+  impl_->committed = false;
+}
+
 void EmbreeScene::Commit() {
   rtcCommitScene(impl_->scene);
   impl_->Check("building the scene");

@@ -55,7 +55,12 @@ class EmbreeScene {
   uint32_t AddPrototype(const Mesh& mesh);
   // Places prototype `prototype` with world_from_object; returns the geometry id.
   uint32_t AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object, bool is_virtual);
-  // Builds the acceleration structures; call after the last Add and before any query.
+  // Moves instance `id` (AddInstance's); a singular transform (an object
+  // scaled to nothing) disables it: no ray meets it until it is moved back.
+  // Commit() again before the next query.
+  void SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object);
+  // Builds the acceleration structures; call after the last Add (or move)
+  // and before any query.
   void Commit();
 
   size_t geometry_count() const;

@@ -484,6 +484,10 @@ class IcMethod : public SettingsMethod<IcSettings> {
                       "frames of this shard differ from an unsharded run within ic's accuracy",
                       job.frame_begin));
   }
+  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange&) override {
+    Prepare(job);
+    return {"irradiance cache (emptied)"};
+  }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame,
                                              f.exposure, f.plates);

@@ -54,7 +54,10 @@ struct JobContext {
   int frame_begin = 0;
   bool photograph = false;  // the scene names camera frames (I_c is given)
   Report* report = nullptr;
+  int frame = 0;  // the frame whose world `rs` holds (render/world.h)
 };
+
+struct WorldChange;  // render/world.h
 
 // One frame to render.
 struct FrameContext {
@@ -93,6 +96,15 @@ class RenderMethod {
   }
   // After the last frame.
   virtual void Finish(Report* report) { (void)report; }
+  // The world changed before frame job.frame (the light, or objects
+  // moved; `rs` already holds the new one): brings the view-independent
+  // work up to date and returns what was rebuilt, for the report.  By
+  // default Prepare again.
+  virtual std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange& change) {
+    (void)change;
+    Prepare(job);
+    return {"everything Prepare builds"};
+  }
   // Whether FrameContext::plates is looked at (the job then reads the
   // neighbouring frames' plates too).
   virtual bool TakesPlateReflections() const { return false; }

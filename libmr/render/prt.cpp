@@ -13,14 +13,16 @@
 
 namespace mr {
 
-std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report) {
+std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report,
+                                         int frame) {
   if (!scene.lighting.environment)
     throw UsageError(
         "method prt shades objects by the environment map, and the scene names none (lighting.environment)");
   ImageReadOptions ro;
-  ro.nonfinite = NonFinite::kAllow;  // ProjectEnvironment names a bad pixel itself
-  const std::string env_name = scene.lighting.environment->string();
-  const Image env = ReadImage(*scene.lighting.environment, ro);
+  ro.nonfinite = NonFinite::kAllow;                        // ProjectEnvironment names a bad pixel itself
+  const fs::path env_path = *EnvironmentAt(scene, frame);  // this frame's map
+  const std::string env_name = env_path.string();
+  const Image env = ReadImage(env_path, ro);
   std::map<uint32_t, PrtObject> out;
   for (size_t i = 0; i < scene.virtuals.size(); ++i) {
     const SceneVirtual& v = scene.virtuals[i];
@@ -39,7 +41,8 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
                    t.header.valid_spp, spp, spp);
     // The environment in the object's frame: the rotation of the object's
     // transform (its polar factor), so that a scaled object sees the same sky.
-    Eigen::JacobiSVD<Eigen::Matrix3d> svd(v.world_from_object.linear(), Eigen::ComputeFullU | Eigen::ComputeFullV);
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(v.WorldFromObjectAt(frame).linear(),
+                                          Eigen::ComputeFullU | Eigen::ComputeFullV);
     Eigen::Matrix3d world_from_object_rot = svd.matrixU() * svd.matrixV().transpose();
     if (world_from_object_rot.determinant() < 0) world_from_object_rot = -world_from_object_rot;
     const Eigen::Vector3d sv = svd.singularValues();
@@ -214,9 +217,13 @@ namespace {
 class PrtMethod : public RenderMethod {
  public:
   void Prepare(const JobContext& job) override {
-    objects_ = PreparePrt(job.scene, job.rs, job.spp, job.report);
+    objects_ = PreparePrt(job.scene, job.rs, job.spp, job.report, job.frame);
     if (!job.photograph)
       job.report->Skip("background", "the scene names no camera frames: prt composites the objects over black");
+  }
+  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange&) override {
+    Prepare(job);  // the environment's projection into each object's frame, and its vertex shading
+    return {"vertex shading"};
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<PrtFrameRenderer>(f.rs, objects_, f.camera, f.world_from_cam, f.seed, f.frame,

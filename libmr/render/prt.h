@@ -31,7 +31,8 @@ struct PrtObject {
 // Keyed by the objects' geometry ids in `rs`.
 // `spp`: the samples per pixel the render will take (an .ffc computed for
 // fewer, with unseen vertices left out, is refused).
-std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report);
+std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report,
+                                         int frame = 0);
 
 // The vertices of virtual object `object` that mr-render's camera samples
 // (the scene's frames, seed and `spp`) can see: the corners of every

@@ -108,6 +108,8 @@ class PtMethod : public SettingsMethod<PathTracerSettings> {
     st.plates = f.plates;
     return std::make_unique<PtFrameRenderer>(f.rs, f.camera, f.world_from_cam, st, f.exposure);
   }
+  // Nothing of pt's outlives a frame: a changed world costs nothing.
+  std::vector<std::string> WorldChanged(const JobContext&, const WorldChange&) override { return {}; }
   void Prepare(const JobContext& job) override {
     if (!st_.plate_reflections)
       job.report->Skip("plate reflections",

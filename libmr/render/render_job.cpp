@@ -1,5 +1,6 @@
 #include "render/render_job.h"
 
+#include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -16,6 +17,7 @@
 #include "render/grain.h"
 #include "render/method.h"
 #include "render/render_scene.h"
+#include "render/world.h"
 #include "scene/frames.h"
 
 namespace mr {
@@ -60,11 +62,14 @@ JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, Rend
     ScopedTimer t(report, "load");
     in.camera = CameraModel::Read(scene.camera.model);
     in.poses = LoadScenePoses(scene);
-    LoadRenderScene(scene, rs);
   }
   report->AddInput(scene.file.string());
   const int n_frames = static_cast<int>(in.poses.size());
   int begin = frame_begin >= 0 ? frame_begin : scene.render.frame_begin;
+  {
+    ScopedTimer t(report, "load");
+    LoadRenderScene(scene, rs, std::min(begin, std::max(0, n_frames - 1)));  // the world of the first frame
+  }
   int end = frame_end >= 0 ? frame_end : scene.render.frame_end;
   if (begin >= n_frames)
     throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
@@ -191,12 +196,18 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                  "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
   // With no virtual object nothing can differ from the photograph: frames are
   // copied through without rendering (I_m - I_r = 0 exactly; tested).
-  const bool copy_through = !rs.has_virtual() && decoding.photograph;
-  if (!rs.has_virtual()) report->Skip("virtual objects", "the scene has none: the composite is the photograph");
+  // The world where it changes during the video (render/world.h): brought
+  // to the first frame rendered.
+  WorldTracker world(scene, rs, begin);
+  if (resumed_end > begin && resumed_end < end) world.Advance(resumed_end, &rs);
+  const bool copy_through = !world.dynamic() && !rs.has_virtual() && decoding.photograph;
+  if (!world.dynamic() && !rs.has_virtual())
+    report->Skip("virtual objects", "the scene has none: the composite is the photograph");
   if (copy_through)
     report->Skip("rendering", "no virtual object can change any frame: frames are copied through from the photographs");
+  auto job_at = [&](int f) { return JobContext{scene, rs, camera, spp, resumed_end, decoding.photograph, report, f}; };
   if (!copy_through) {
-    const JobContext job{scene, rs, camera, spp, resumed_end, decoding.photograph, report};
+    const JobContext job = job_at(resumed_end);
     if (info.prepare_timing.empty()) {
       method->Prepare(job);
     } else {
@@ -204,6 +215,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       method->Prepare(job);
     }
   }
+  int world_kept = 0, world_changed = 0;
 
   // Neighbouring frames' plates for reflections the frame's own does not
   // see (the frames f +- k step), read in increasing order by their own
@@ -243,12 +255,29 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   for (int f = resumed_end; f < end; ++f) {
     const Rigid3& pose = poses[static_cast<size_t>(f)];
     const auto t0 = std::chrono::steady_clock::now();
+    Json world_json;
+    if (world.dynamic()) {
+      const WorldChange wc = world.Advance(f, &rs);
+      std::vector<std::string> rebuilt;
+      if (wc.any() && f > resumed_end) {
+        ScopedTimer t(report, "world update");
+        rebuilt = method->WorldChanged(job_at(f), wc);
+        spdlog::info("frame {}: {} changed: {}", f, wc.Describe(),
+                     rebuilt.empty() ? std::string("nothing to rebuild") : fmt::format("{}", fmt::join(rebuilt, ", ")));
+      }
+      (wc.any() ? world_changed : world_kept) += f > resumed_end;
+      world_json = wc.ToJson();
+      world_json["rebuilt"] = rebuilt;
+      for (const std::string& n : wc.notes) report->Warn(n);
+    }
     std::string enclosed;
-    const bool frame_copy =
-        copy_through || (decoding.photograph && rs.VirtualEnclosedAwayFrom(pose.translation, &enclosed));
+    const bool no_virtual = !rs.has_virtual();
+    const bool frame_copy = copy_through || (decoding.photograph &&
+                                             (no_virtual || rs.VirtualEnclosedAwayFrom(pose.translation, &enclosed)));
     if (frame_copy && !copy_through)
       report->Skip(fmt::format("rendering frame {}", f),
-                   enclosed + ": I_m - I_r = 0 exactly, the photograph is copied through");
+                   (no_virtual ? std::string("no virtual object or light in this frame's world") : enclosed) +
+                       ": I_m - I_r = 0 exactly, the photograph is copied through");
     const FrameDecoding dec = decoding.ForFrame(f);
     PhotoEncoding encoding;
     const std::optional<Image> photo = frames.Photo(f, &encoding);
@@ -374,6 +403,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                {"nonfinite_samples", frame_nonfinite},
                {"copied_through", !fr},
                {"environment_pixels_sampled_once", env_pixels}};
+    if (!world_json.is_null()) fj["world"] = world_json;
     if (env_pixels > 0 && done > 1)
       report->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
                    "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");
@@ -406,6 +436,13 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   if (still_frames > 0)
     report->Skip(fmt::format("motion blur in {} frames", still_frames),
                  "the camera does not move over their shutter intervals: the blur is exactly none");
+  if (world.dynamic()) {
+    report->SetMetric("world", Json{{"frames_changed", world_changed}, {"frames_kept", world_kept}});
+    if (world_kept > 0)
+      report->Skip(fmt::format("rebuilding in {} frames", world_kept),
+                   "their light (by content) and objects are the previous frame's: every cache, volume and VPL set "
+                   "kept");
+  }
   if (use_neighbours) {
     report->SetMetric("plate_neighbours", Json{{"count", neighbours}, {"step", step}});
     if (neighbours_still > 0)

@@ -5,6 +5,7 @@
 #include <type_traits>
 
 #include "core/error.h"
+#include "scene/frames.h"
 
 namespace mr {
 
@@ -18,18 +19,43 @@ uint32_t RenderScene::AddReal(const Mesh& mesh, const Material& material) {
   return id;
 }
 
+namespace {
+
+bool Collapses(const Eigen::Affine3d& t) { return !(std::abs(t.linear().determinant()) >= 1e-18); }
+
+}  // namespace
+
 uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material) {
   uint32_t proto = embree_->AddPrototype(mesh);
-  uint32_t id = embree_->AddInstance(proto, world_from_object.cast<float>(), /*is_virtual=*/true);
-  const Eigen::AlignedBox3d ob = mesh.Bounds().cast<double>();
-  Eigen::AlignedBox3d wb;
-  for (int k = 0; k < 8; ++k) wb.extend(world_from_object * ob.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
-  geometry_bounds_.push_back(wb);
-  virtual_bounds_.push_back(wb);
+  uint32_t id = embree_->AddInstance(proto, Eigen::Affine3f::Identity(), /*is_virtual=*/true);
+  geometry_bounds_.emplace_back();
+  virtual_bounds_.emplace_back();
   virtual_ids_.push_back(id);
-  SetSurface(id, material, world_from_object.linear().inverse().transpose(), mesh);
-  has_virtual_ = has_virtual_geometry_ = true;
+  virtual_object_bounds_.push_back(mesh.Bounds().cast<double>());
+  virtual_hidden_.push_back(0);
+  SetSurface(id, material, Eigen::Matrix3d::Identity(), mesh);
+  SetVirtualTransform(virtual_ids_.size() - 1, world_from_object);
   return id;
+}
+
+void RenderScene::SetVirtualTransform(size_t i, const Eigen::Affine3d& world_from_object) {
+  const uint32_t id = virtual_ids_.at(i);
+  if (!world_from_object.matrix().allFinite()) ThrowError("virtual object transform has NaN or Inf");
+  const bool hidden = Collapses(world_from_object);
+  embree_->SetInstanceTransform(id, world_from_object.cast<float>());
+  virtual_hidden_[i] = hidden;
+  Eigen::AlignedBox3d wb;  // empty while hidden
+  if (!hidden) {
+    const Eigen::AlignedBox3d& ob = virtual_object_bounds_[i];
+    for (int k = 0; k < 8; ++k)
+      wb.extend(world_from_object * ob.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
+    surfaces_[id].normal_to_world = world_from_object.linear().inverse().transpose();
+  }
+  geometry_bounds_[id] = wb;
+  virtual_bounds_[i] = wb;
+  has_virtual_geometry_ = std::count(virtual_hidden_.begin(), virtual_hidden_.end(), 0) > 0;
+  has_virtual_ = has_virtual_geometry_ ||
+                 std::any_of(lights_.begin(), lights_.end(), [](const LightSource& l) { return l.is_virtual(); });
 }
 
 void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world,
@@ -130,9 +156,16 @@ void RenderScene::AddLight(const Light& light) {
   has_distant_area_light_ = has_distant_area_light_ || !light.IsDelta();
 }
 
+void RenderScene::ClearLights() {
+  lights_.clear();
+  has_virtual_ = has_virtual_geometry_;
+  has_distant_area_light_ = false;
+}
+
 void RenderScene::Commit() {
   embree_->Commit();
-  closed_.Build();
+  if (!closed_built_) closed_.Build();  // the real geometry does not move
+  closed_built_ = true;
   auto b = embree_->Bounds();
   const double extent = b.isEmpty() ? 1.0 : static_cast<double>((b.max() - b.min()).norm());
   epsilon_ = std::max(1e-6, 1e-5 * extent);
@@ -171,7 +204,7 @@ Eigen::Vector3d RenderScene::WorldNormal(const Hit& hit) const {
   return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::UnitZ();
 }
 
-void LoadRenderScene(const Scene& scene, RenderScene* out) {
+void LoadRenderScene(const Scene& scene, RenderScene* out, int frame) {
   auto with_name = [](const fs::path& mesh, auto&& add) {
     try {
       add();
@@ -185,23 +218,45 @@ void LoadRenderScene(const Scene& scene, RenderScene* out) {
   }
   for (const auto& v : scene.virtuals) {
     const Mesh mesh = ReadMesh(v.mesh);
-    with_name(v.mesh, [&] { out->AddVirtual(mesh, v.world_from_object, v.material); });
+    with_name(v.mesh, [&] { out->AddVirtual(mesh, v.WorldFromObjectAt(frame), v.material); });
   }
-  if (scene.lighting.environment) {
-    const std::string name = scene.lighting.environment->string();
-    ImageReadOptions opt;
-    opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
-    out->SetEnvironment(EnvironmentMap(ReadImage(*scene.lighting.environment, opt), name,
-                                       scene.lighting.environment_scale, scene.lighting.world_from_env));
-  }
+  if (const std::optional<fs::path> env = EnvironmentAt(scene, frame)) LoadEnvironment(scene, *env, out);
+  if (const std::optional<fs::path> lights = LightsAt(scene, frame)) LoadLights(scene, *lights, out);
+  out->Commit();
+}
+
+std::optional<fs::path> EnvironmentAt(const Scene& scene, int frame, int* from) {
+  if (!scene.lighting.environment) return std::nullopt;
+  const std::optional<fs::path> p = PerFrameFile(*scene.lighting.environment, frame, from);
+  if (!p)
+    ThrowErrorAt(FileLoc{scene.lighting.environment->string()},
+                 "no environment map for frame {} or any frame before it", frame);
+  return p;
+}
+
+std::optional<fs::path> LightsAt(const Scene& scene, int frame, int* from) {
+  if (!scene.lighting.lights) return std::nullopt;
+  const std::optional<fs::path> p = PerFrameFile(*scene.lighting.lights, frame, from);
+  if (!p)
+    ThrowErrorAt(FileLoc{scene.lighting.lights->string()}, "no lights file for frame {} or any frame before it", frame);
+  return p;
+}
+
+void LoadEnvironment(const Scene& scene, const fs::path& path, RenderScene* out) {
+  ImageReadOptions opt;
+  opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
+  out->SetEnvironment(EnvironmentMap(ReadImage(path, opt), path.string(), scene.lighting.environment_scale,
+                                     scene.lighting.world_from_env));
+}
+
+void LoadLights(const Scene& scene, const fs::path& path, RenderScene* out) {
   // Distant lights are directions of the map they came from (mr-lights):
   // they turn with it.  Point and spot lights stand in the world.
-  if (scene.lighting.lights)
-    for (Light l : ReadLights(*scene.lighting.lights)) {
-      if (l.type == LightType::kDistant) l.direction = scene.lighting.world_from_env * l.direction;
-      out->AddLight(l);
-    }
-  out->Commit();
+  out->ClearLights();
+  for (Light l : ReadLights(path)) {
+    if (l.type == LightType::kDistant) l.direction = scene.lighting.world_from_env * l.direction;
+    out->AddLight(l);
+  }
 }
 
 }  // namespace mr

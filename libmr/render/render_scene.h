@@ -3,6 +3,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <Eigen/Core>
@@ -31,6 +32,13 @@ class RenderScene {
   void SetEnvironment(EnvironmentMap env) { env_ = std::move(env); }
   // A light of lights.json; a virtual light makes the scene differ from the real one.
   void AddLight(const Light& light);
+  void ClearLights();
+  // Moves virtual object `i` (AddVirtual's order) to world_from_object: the
+  // world at another frame.  A transform that collapses it (|det| < 1e-18:
+  // a scale of 0) hides it until it is moved back.  Commit() again before
+  // the next query.
+  void SetVirtualTransform(size_t i, const Eigen::Affine3d& world_from_object);
+  bool virtual_hidden(size_t i) const { return virtual_hidden_.at(i); }
   void Commit();
 
   const EmbreeScene& embree() const { return *embree_; }
@@ -66,7 +74,8 @@ class RenderScene {
   // Unit world-space geometric normal of a hit (Embree reports instance
   // normals in object space).
   Eigen::Vector3d WorldNormal(const Hit& hit) const;
-  // Whether anything virtual (geometry or light) exists: without it I_m = I_r.
+  // Whether anything virtual (geometry not hidden, or a light) exists:
+  // without it I_m = I_r.
   bool has_virtual() const { return has_virtual_; }
   bool has_virtual_geometry() const { return has_virtual_geometry_; }
   // Geometry ids of the virtual objects, in the order they were added.
@@ -102,6 +111,9 @@ class RenderScene {
   ClosedSurfaces closed_;
   std::vector<Eigen::AlignedBox3d> geometry_bounds_, virtual_bounds_;
   std::vector<uint32_t> virtual_ids_;
+  std::vector<Eigen::AlignedBox3d> virtual_object_bounds_;  // in object coordinates
+  std::vector<char> virtual_hidden_;
+  bool closed_built_ = false;
   bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false;
   double epsilon_ = 1e-5;
 };
@@ -114,6 +126,17 @@ Image ReadAlbedoTexture(const fs::path& path);
 // Builds a RenderScene from a validated scene description: reads the meshes
 // and the environment map (NaN/Inf pixels are an error naming the file and
 // pixel; albedo_from_vertex_colors on a mesh without colours names the mesh).
-void LoadRenderScene(const Scene& scene, RenderScene* out);
+// `frame`: the world at that frame (its environment map and lights when
+// they are per frame, the objects where their trajectories put them).
+void LoadRenderScene(const Scene& scene, RenderScene* out, int frame = 0);
+
+// The environment map and lights file of `frame` (per-frame patterns: the
+// frame's own or the last earlier one's, *from its frame; mr::Error naming
+// the pattern when none exists up to it); nullopt when the scene names none.
+std::optional<fs::path> EnvironmentAt(const Scene& scene, int frame, int* from = nullptr);
+std::optional<fs::path> LightsAt(const Scene& scene, int frame, int* from = nullptr);
+// Loads them into `out` (the lights replacing its lights); Commit() after.
+void LoadEnvironment(const Scene& scene, const fs::path& path, RenderScene* out);
+void LoadLights(const Scene& scene, const fs::path& path, RenderScene* out);
 
 }  // namespace mr

@@ -757,6 +757,10 @@ class VctMethod : public SettingsMethod<VctSettings> {
     if (AnyEmissive(job.scene))
       job.report->Warn("vct: emissive surfaces are seen and lit but inject no light into the volumes");
   }
+  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange&) override {
+    Prepare(job);
+    return {"voxel volumes (voxelised and injected)"};
+  }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<VctFrameRenderer>(f.rs, volumes_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure);
   }

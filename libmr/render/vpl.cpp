@@ -604,6 +604,10 @@ class VplMethod : public SettingsMethod<VplSettings> {
           "vpl: emissive surfaces are seen but light nothing (VPLs leave the environment and lights.json's lights "
           "only)");
   }
+  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange&) override {
+    Prepare(job);
+    return {"VPL set"};
+  }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure,
                                               f.plates);

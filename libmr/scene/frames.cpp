@@ -25,6 +25,22 @@ fs::path FramePath(const fs::path& pattern, int i) {
   return fs::path(buf.data());
 }
 
+std::optional<fs::path> PerFrameFile(const fs::path& pattern, int f, int* from) {
+  std::error_code ec;
+  if (pattern.string().find('%') == std::string::npos) {
+    if (from) *from = f;
+    return pattern;
+  }
+  for (int g = f; g >= 0; --g) {
+    const fs::path p = FramePath(pattern, g);
+    if (fs::is_regular_file(p, ec)) {
+      if (from) *from = g;
+      return p;
+    }
+  }
+  return std::nullopt;
+}
+
 std::vector<fs::path> ListFrameFiles(const std::string& frames, const fs::path& workspace) {
   std::vector<fs::path> out;
   std::error_code ec;

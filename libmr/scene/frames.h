@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,12 @@ namespace mr {
 // Frame `i` of a printf-style pattern ("frames/%05d.exr"), or the path itself
 // when it has no conversion.
 fs::path FramePath(const fs::path& pattern, int i);
+
+// The file of per-frame pattern `pattern` for frame `f`: frame f's own, or
+// else the latest earlier frame's that exists (a frame without its own light
+// reuses the last one); *from receives the frame it belongs to.  nullopt
+// when no frame from 0 to f has one.  A path without a conversion is itself.
+std::optional<fs::path> PerFrameFile(const fs::path& pattern, int f, int* from);
 
 // The 8/16-bit image files of a video's frames (for tools that read images,
 // as COLMAP does): a folder's images (PNG, JPEG, TIFF) in name order, a printf

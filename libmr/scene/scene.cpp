@@ -90,6 +90,39 @@ bool IsFramePattern(const std::string& s) { return s.find('%') != std::string::n
 
 // A printf pattern with exactly one %d-style conversion ("frames/%05d.png");
 // checks only that its folder exists.
+// A trajectory: keyframes {frame, translation, rotation_deg, scale}, frames
+// strictly increasing.  A matrix cannot be interpolated (refused).
+std::vector<ObjectKeyframe> ParseTrajectory(const Node& n) {
+  if (!n.json().is_array() || n.json().empty())
+    n.Fail(fmt::format("expected an array of keyframes {{frame, translation, rotation_deg, scale}}, got {}",
+                       n.TypeName()));
+  std::vector<ObjectKeyframe> out;
+  for (size_t i = 0; i < n.json().size(); ++i) {
+    const Node k = n.Index(i);
+    if (k.json().is_object() && k.json().contains("matrix"))
+      k.Child("matrix").Fail("a keyframe takes translation, rotation_deg and scale: a matrix cannot be interpolated");
+    k.RequireObject({"frame", "translation", "rotation_deg", "scale"});
+    ObjectKeyframe f;
+    f.frame = k.Required("frame").Number(0, 1e9);
+    if (!out.empty() && !(f.frame > out.back().frame))
+      k.Child("frame").Fail(
+          fmt::format("keyframes must be in increasing frame order: {} after {}", f.frame, out.back().frame));
+    if (k.Has("translation")) f.translation = k.Child("translation").Vec3(-kHuge, kHuge);
+    if (k.Has("rotation_deg")) {
+      const Eigen::Vector3d r = k.Child("rotation_deg").Vec3(-360, 360) * kDegToRad;
+      f.rotation = Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
+                   Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
+                   Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX());
+    }
+    if (k.Has("scale")) {
+      const Node sc = k.Child("scale");
+      f.scale = sc.json().is_number() ? Eigen::Vector3d::Constant(sc.Number(0, kHuge)) : sc.Vec3(0, kHuge);
+    }
+    out.push_back(f);
+  }
+  return out;
+}
+
 fs::path ResolvePattern(const Node& n, const fs::path& base, bool check) {
   const std::string v = n.String();
   int conversions = 0;
@@ -177,8 +210,14 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   if (root.Has("lighting")) {
     Node l = root.Child("lighting");
     l.RequireObject({"environment", "environment_scale", "environment_rotation_deg", "environment_up", "lights"});
-    if (l.Has("environment"))
-      s.lighting.environment = ResolveFile(l.Child("environment"), base, check, "environment map");
+    if (l.Has("environment")) {
+      if (IsFramePattern(l.Child("environment").String())) {
+        s.lighting.environment = ResolvePattern(l.Child("environment"), base, check);
+        s.lighting.environment_per_frame = true;
+      } else {
+        s.lighting.environment = ResolveFile(l.Child("environment"), base, check, "environment map");
+      }
+    }
     if (l.Has("environment_scale")) s.lighting.environment_scale = l.Child("environment_scale").Number(0, kHuge);
     if (l.Has("environment_rotation_deg")) {
       double yaw = l.Child("environment_rotation_deg").Number(-360, 360) * kDegToRad;
@@ -193,7 +232,14 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
           Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), up.normalized()).toRotationMatrix() *
           s.lighting.world_from_env;
     }
-    if (l.Has("lights")) s.lighting.lights = ResolveFile(l.Child("lights"), base, check, "lights file");
+    if (l.Has("lights")) {
+      if (IsFramePattern(l.Child("lights").String())) {
+        s.lighting.lights = ResolvePattern(l.Child("lights"), base, check);
+        s.lighting.lights_per_frame = true;
+      } else {
+        s.lighting.lights = ResolveFile(l.Child("lights"), base, check, "lights file");
+      }
+    }
   }
 
   if (root.Has("real")) {
@@ -220,12 +266,18 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     std::set<std::string> names;
     for (size_t i = 0; i < v.json().size(); ++i) {
       Node o = v.Index(i);
-      o.RequireObject({"name", "mesh", "transform", "material", "formfactors"});
+      o.RequireObject({"name", "mesh", "transform", "trajectory", "material", "formfactors"});
       SceneVirtual sv;
       sv.name = o.Has("name") ? o.Child("name").String() : fmt::format("object{}", i);
       if (!names.insert(sv.name).second) o.Child("name").Fail(fmt::format("name \"{}\" is used twice", sv.name));
       sv.mesh = ResolveFile(o.Required("mesh"), base, check, "mesh");
+      if (o.Has("transform") && o.Has("trajectory"))
+        o.Child("trajectory").Fail("give either transform or trajectory, not both");
       if (o.Has("transform")) sv.world_from_object = ParseTransform(o.Child("transform"));
+      if (o.Has("trajectory")) {
+        sv.keyframes = ParseTrajectory(o.Child("trajectory"));
+        sv.world_from_object = sv.WorldFromObjectAt(sv.keyframes.front().frame);
+      }
       if (o.Has("material")) sv.material = ParseMaterial(o.Child("material"), base, check);
       if (o.Has("formfactors")) sv.formfactors = ResolveFile(o.Child("formfactors"), base, check, "form factors");
       s.virtuals.push_back(sv);
@@ -307,6 +359,29 @@ Scene ReadScene(const fs::path& path, bool check_files) {
   fs::path base = path.parent_path();
   if (base.empty()) base = ".";
   return ParseScene(j, base, path.string(), check_files);
+}
+
+Eigen::Affine3d SceneVirtual::WorldFromObjectAt(double frame) const {
+  if (keyframes.empty()) return world_from_object;
+  auto make = [](const Eigen::Vector3d& t, const Eigen::Quaterniond& r, const Eigen::Vector3d& s) {
+    Eigen::Affine3d a = Eigen::Affine3d::Identity();
+    a.translate(t);
+    a.rotate(r.normalized());
+    a.scale(s);
+    return a;
+  };
+  const ObjectKeyframe* a = &keyframes.front();
+  if (frame <= a->frame) return make(a->translation, a->rotation, a->scale);
+  for (size_t i = 1; i < keyframes.size(); ++i) {
+    const ObjectKeyframe& b = keyframes[i];
+    if (frame < b.frame) {
+      const double t = (frame - a->frame) / (b.frame - a->frame);
+      return make((1 - t) * a->translation + t * b.translation, a->rotation.slerp(t, b.rotation),
+                  (1 - t) * a->scale + t * b.scale);
+    }
+    a = &b;
+  }
+  return make(a->translation, a->rotation, a->scale);
 }
 
 }  // namespace mr

@@ -74,10 +74,15 @@ struct SceneCamera {
 };
 
 struct SceneLighting {
-  std::optional<fs::path> environment;  // lat-long EXR/HDR, OpenEXR envmap convention
+  // Lat-long EXR/HDR, OpenEXR envmap convention; with environment_per_frame
+  // a printf pattern of one map per frame ("env/%05d.exr"), a frame without
+  // its own taking the last earlier frame's (EnvironmentAt, frames.h).
+  std::optional<fs::path> environment;
+  bool environment_per_frame = false;
   double environment_scale = 1.0;
   Eigen::Matrix3d world_from_env = Eigen::Matrix3d::Identity();
-  std::optional<fs::path> lights;  // lights.json from mr-lights
+  std::optional<fs::path> lights;  // lights.json from mr-lights; a pattern with lights_per_frame
+  bool lights_per_frame = false;
 };
 
 struct SceneReal {
@@ -85,12 +90,28 @@ struct SceneReal {
   Material material;
 };
 
+// A virtual object's pose at a frame of the video (docs/conventions.md,
+// "Object trajectories"): world_from_object = T * R * S.
+struct ObjectKeyframe {
+  double frame = 0;
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d scale = Eigen::Vector3d::Ones();  // >= 0; 0 in any axis collapses the object
+};
+
 struct SceneVirtual {
   std::string name;
   fs::path mesh;
-  Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();
+  Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();  // without keyframes
+  // The trajectory, frames strictly increasing; empty: world_from_object at
+  // every frame.
+  std::vector<ObjectKeyframe> keyframes;
   Material material;
   std::optional<fs::path> formfactors;  // .ffc from mr-formfactor
+  // world_from_object at `frame`: between two keyframes translation and
+  // scale linear, rotation slerp (the shorter way); before the first and
+  // after the last, held.
+  Eigen::Affine3d WorldFromObjectAt(double frame) const;
 };
 
 struct SceneRender {

@@ -947,6 +947,149 @@ TEST_F(Capture, OutputVideoKeepsThePlatesRateCountAndSize) {
   EXPECT_EQ(r.metrics()["review_sheet"], (o.out_dir / "00001-review.png").string());
 }
 
+// A world that changes during the video (render/world.h).  The capture's
+// object given a trajectory that moves and turns it between its two
+// frames: frame 1 of the dynamic job is, byte for byte, frame 1 of the
+// static scene with the object where the trajectory puts it, for pt (nothing
+// to rebuild) and vpl (its VPL set rebuilt, as the report says).  A
+// trajectory that holds the object still, with a per-frame environment whose
+// frame 1 is a copy of frame 0's, changes nothing and rebuilds nothing
+// (kept by content, reported), and its frames are the static scene's.
+TEST_F(Capture, ChangingWorldRendersEachFrameAsItsStaticScene) {
+  const Json base = ReadJsonFile(Cap() / "scene.json");
+  auto run = [&](const Json& j, const std::string& name, const std::string& method, int b, int e, Report* r) {
+    WriteTextFile(Cap() / (name + ".json"), j.dump(2));
+    RenderOptions o;
+    o.method = method;
+    o.spp = 2;
+    o.frame_begin = b;
+    o.frame_end = e;
+    o.out_dir = dir_->path() / (name + "-" + method);
+    RunRenderJob(ReadScene(Cap() / (name + ".json")), o, r);
+    return o.out_dir;
+  };
+  Json moving = base;
+  moving["virtual"][0].erase("transform");
+  moving["virtual"][0]["trajectory"] = Json::parse(R"([
+    {"frame": 0, "translation": [0.1, 0.9, 0], "rotation_deg": [0, 28.6479, 0]},
+    {"frame": 1, "translation": [0.3, 0.9, 0.1], "rotation_deg": [0, 70, 0], "scale": 1.2}])");
+  WriteTextFile(Cap() / "moving.json", moving.dump(2));
+  const Eigen::Affine3d at1 = ReadScene(Cap() / "moving.json").virtuals[0].WorldFromObjectAt(1);
+  Json still = base;
+  std::vector<double> m(16);
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m[static_cast<size_t>(4 * r + c)] = at1.matrix()(r, c);
+  still["virtual"][0]["transform"] = {{"matrix", m}};
+  for (const std::string method : {"pt", "vpl"}) {
+    SCOPED_TRACE(method);
+    Report rd("mr-render", "test"), rs("mr-render", "test");
+    const fs::path dyn = run(moving, "moving", method, 0, 2, &rd);
+    const fs::path stat = run(still, "still", method, 1, 2, &rs);
+    EXPECT_EQ(ReadImage(dyn / "00001.exr").Layer("composite").values(),
+              ReadImage(stat / "00001.exr").Layer("composite").values());
+    const Json& w = rd.metrics()["frames"][1]["world"];
+    EXPECT_EQ(w["moved"], Json::array({"object"}));
+    EXPECT_EQ(w["rebuilt"].size(), method == "pt" ? 0u : 1u) << w.dump();
+    EXPECT_EQ(rd.metrics()["world"]["frames_changed"], 1);
+  }
+
+  // Held still, the light per frame with frame 1 a copy of frame 0's.
+  fs::create_directories(Cap() / "envs");
+  fs::copy_file(Cap() / "env.exr", Cap() / "envs" / "00000.exr", fs::copy_options::overwrite_existing);
+  fs::copy_file(Cap() / "env.exr", Cap() / "envs" / "00001.exr", fs::copy_options::overwrite_existing);
+  Json held = base;
+  held["lighting"]["environment"] = "envs/%05d.exr";
+  held["virtual"][0].erase("transform");
+  held["virtual"][0]["trajectory"] =
+      Json::array({moving["virtual"][0]["trajectory"][0], moving["virtual"][0]["trajectory"][0]});
+  held["virtual"][0]["trajectory"][1]["frame"] = 1;
+  WriteTextFile(Cap() / "held.json", held.dump(2));
+  const Eigen::Affine3d at0 = ReadScene(Cap() / "held.json").virtuals[0].WorldFromObjectAt(0);
+  Json fixed = base;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m[static_cast<size_t>(4 * r + c)] = at0.matrix()(r, c);
+  fixed["virtual"][0]["transform"] = {{"matrix", m}};
+  Report rh("mr-render", "test"), rb("mr-render", "test");
+  const fs::path h = run(held, "held", "vpl", 0, 2, &rh);
+  const fs::path b = run(fixed, "fixed", "vpl", 0, 2, &rb);
+  EXPECT_EQ(rh.metrics()["world"]["frames_kept"], 1);
+  EXPECT_EQ(rh.metrics()["frames"][1]["world"]["rebuilt"].size(), 0u);
+  EXPECT_NE(rh.ToJson().dump().find("every cache, volume and VPL set kept"), std::string::npos);
+  EXPECT_FALSE(rb.metrics().contains("world"));  // a static scene has nothing to track
+  for (int f = 0; f < 2; ++f)
+    EXPECT_EQ(ReadImage(h / fmt::format("{:05d}.exr", f)).Layer("composite").values(),
+              ReadImage(b / fmt::format("{:05d}.exr", f)).Layer("composite").values())
+        << f;
+}
+
+// The light per frame: a frame without a map of its own takes the last
+// earlier one's (said in the report, nothing rebuilt), a changed map is
+// loaded and the frame renders as the static scene under it; an object
+// scaled to nothing leaves the frame's plate exactly, copied through; a
+// first frame with no map at or before it is an error naming the pattern.
+TEST_F(Capture, PerFrameLightAndAnObjectScaledToNothing) {
+  const Json base = ReadJsonFile(Cap() / "scene.json");
+  fs::create_directories(Cap() / "envs2");
+  fs::copy_file(Cap() / "env.exr", Cap() / "envs2" / "00000.exr", fs::copy_options::overwrite_existing);
+  Json j = base;
+  j["lighting"]["environment"] = "envs2/%05d.exr";
+  WriteTextFile(Cap() / "envs2.json", j.dump(2));
+  RenderOptions o;
+  o.spp = 2;
+  o.frame_end = 2;
+  o.out_dir = dir_->path() / "envs2-a";
+  Report ra("mr-render", "test");
+  RunRenderJob(ReadScene(Cap() / "envs2.json"), o, &ra);
+  EXPECT_NE(ra.ToJson().dump().find("frame 1 has no environment map of its own: frame 0's"), std::string::npos);
+  EXPECT_EQ(ra.metrics()["world"]["frames_kept"], 1);
+
+  // Frame 1's map four times brighter: loaded, and frame 1 is the static scene under it.
+  Image env = ReadImage(Cap() / "env.exr");
+  for (float& v : env.values()) v *= 4;
+  WriteImage(Cap() / "envs2" / "00001.exr", env);
+  o.out_dir = dir_->path() / "envs2-b";
+  Report rb("mr-render", "test");
+  RunRenderJob(ReadScene(Cap() / "envs2.json"), o, &rb);
+  EXPECT_TRUE(rb.metrics()["frames"][1]["world"]["environment"].get<bool>());
+  Json k = base;
+  k["lighting"]["environment"] = "envs2/00001.exr";
+  WriteTextFile(Cap() / "envs2-static.json", k.dump(2));
+  RenderOptions os = o;
+  os.frame_begin = 1;
+  os.out_dir = dir_->path() / "envs2-static";
+  Report rs("mr-render", "test");
+  RunRenderJob(ReadScene(Cap() / "envs2-static.json"), os, &rs);
+  EXPECT_EQ(ReadImage(o.out_dir / "00001.exr").Layer("composite").values(),
+            ReadImage(os.out_dir / "00001.exr").Layer("composite").values());
+
+  // The object shrinks to nothing at frame 1: that frame is the plate.
+  Json z = base;
+  z["virtual"][0].erase("transform");
+  z["virtual"][0]["trajectory"] = Json::parse(R"([{"frame": 0, "translation": [0.1, 0.9, 0]},
+                                                   {"frame": 1, "translation": [0.1, 0.9, 0], "scale": 0}])");
+  WriteTextFile(Cap() / "vanish.json", z.dump(2));
+  o.out_dir = dir_->path() / "vanish";
+  Report rz("mr-render", "test");
+  RunRenderJob(ReadScene(Cap() / "vanish.json"), o, &rz);
+  EXPECT_TRUE(rz.metrics()["frames"][1]["copied_through"].get<bool>());
+  const Image out1 = ReadImage(o.out_dir / "00001.exr");
+  EXPECT_EQ(out1.Layer("composite").values(), ReadImage(Cap() / "photos" / "00001.exr").values());
+  EXPECT_FALSE(rz.metrics()["frames"][0]["copied_through"].get<bool>());
+
+  // No map at or before the first frame.
+  Json none = base;
+  none["lighting"]["environment"] = "envs2/missing%05d.exr";
+  WriteTextFile(Cap() / "envs-none.json", none.dump(2));
+  o.out_dir = dir_->path() / "envs-none";
+  Report rn("mr-render", "test");
+  try {
+    RunRenderJob(ReadScene(Cap() / "envs-none.json"), o, &rn);
+    ADD_FAILURE() << "rendered";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no environment map for frame 0"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Composite, DifferentialFormulaAndNegativeClamp) {
   Image photo = Image::Rgb(2, 1, 0.5f), mixed = Image::Rgb(2, 1, 0.2f), real = Image::Rgb(2, 1, 0.4f);
   Image mask = Image::Gray(2, 1, 0.0f);

@@ -2,6 +2,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "core/error.h"
 #include "test_util.h"
 
@@ -91,7 +93,7 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   j = Valid();
   j["virtual"][0]["colour"] = "red";
   EXPECT_EQ(ErrorOf(j).rfind("scene.json: virtual[0].colour: unknown key (allowed here: name, mesh, transform, "
-                             "material, formfactors)",
+                             "trajectory, material, formfactors)",
                              0),
             0u)
       << ErrorOf(j);
@@ -134,6 +136,61 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   j = Valid();
   j["virtual"][0]["transform"] = {{"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 2}}};
   EXPECT_NE(ErrorOf(j).find("last row"), std::string::npos);
+}
+
+// A trajectory (docs/conventions.md, "Object trajectories"): keyframes by
+// frame, translation and scale linear between them, rotation slerp the
+// shorter way (350 degrees after 0 is 10 degrees back), held before the first
+// and after the last; a scale of 0 is allowed (the object collapses).  The
+// ambiguous is refused: a transform and a trajectory together, frames out of
+// order or repeated, a matrix (which cannot be interpolated).
+TEST_F(SceneFiles, TrajectoriesInterpolateAndRefuseTheAmbiguous) {
+  Json j = Valid();
+  j["virtual"][0].erase("transform");
+  j["virtual"][0]["trajectory"] = Json::parse(R"([
+    {"frame": 2, "translation": [0, 0, 1]},
+    {"frame": 6, "translation": [4, 0, 1], "rotation_deg": [0, 350, 0], "scale": 2},
+    {"frame": 8, "scale": 0}])");
+  const Scene s = ParseScene(j, dir_.path(), "scene.json", true);
+  const SceneVirtual& v = s.virtuals[0];
+  ASSERT_EQ(v.keyframes.size(), 3u);
+  auto at = [&](double f, const Eigen::Vector3d& p) { return v.WorldFromObjectAt(f) * p; };
+  EXPECT_LT((at(0, {0, 0, 0}) - Eigen::Vector3d(0, 0, 1)).norm(), 1e-12);  // held before the first
+  EXPECT_LT((at(4, {0, 0, 0}) - Eigen::Vector3d(2, 0, 1)).norm(), 1e-12);  // half way
+  // Half way the rotation is 5 degrees back about y (the shorter way), the scale 1.5.
+  const Eigen::Vector3d x = at(4, {1, 0, 0}) - at(4, {0, 0, 0});
+  const double a = -5 * M_PI / 180;
+  EXPECT_LT((x - 1.5 * Eigen::Vector3d(std::cos(a), 0, -std::sin(a))).norm(), 1e-12) << x.transpose();
+  EXPECT_LT(std::abs(v.WorldFromObjectAt(7).linear().norm() - std::sqrt(3.0)), 1e-12);  // scale 1 half way to 0
+  EXPECT_EQ(v.WorldFromObjectAt(9).linear().norm(), 0.0);                               // collapsed
+  EXPECT_EQ(v.world_from_object.matrix(), v.WorldFromObjectAt(2).matrix());             // the first keyframe's
+
+  Json k = j;
+  k["virtual"][0]["transform"] = {{"translation", {0, 0, 1}}};
+  EXPECT_NE(ErrorOf(k).find("virtual[0].trajectory: give either transform or trajectory"), std::string::npos)
+      << ErrorOf(k);
+  k = j;
+  k["virtual"][0]["trajectory"][2]["frame"] = 6;
+  EXPECT_NE(ErrorOf(k).find("virtual[0].trajectory[2].frame: keyframes must be in increasing frame order"),
+            std::string::npos)
+      << ErrorOf(k);
+  k = j;
+  k["virtual"][0]["trajectory"][1]["matrix"] = Json::array();
+  EXPECT_NE(ErrorOf(k).find("a matrix cannot be interpolated"), std::string::npos) << ErrorOf(k);
+  k = j;
+  k["virtual"][0]["trajectory"][1]["scale"] = -1;
+  EXPECT_NE(ErrorOf(k).find("virtual[0].trajectory[1].scale"), std::string::npos) << ErrorOf(k);
+  k = j;
+  k["virtual"][0]["trajectory"] = Json::array();
+  EXPECT_NE(ErrorOf(k).find("expected an array of keyframes"), std::string::npos) << ErrorOf(k);
+  // Light per frame: a pattern, like camera.frames.
+  k = j;
+  k["lighting"]["environment"] = "frames/env%05d.exr";
+  k["lighting"]["lights"] = "frames/lights%05d.json";
+  const Scene d = ParseScene(k, dir_.path(), "scene.json", true);
+  EXPECT_TRUE(d.lighting.environment_per_frame);
+  EXPECT_TRUE(d.lighting.lights_per_frame);
+  EXPECT_FALSE(s.lighting.environment_per_frame);
 }
 
 TEST_F(SceneFiles, ReadSceneReportsSyntaxErrorsWithLine) {

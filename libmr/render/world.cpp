@@ -1,0 +1,81 @@
+#include "render/world.h"
+
+#include <fstream>
+
+#include <fmt/format.h>
+
+#include "core/hash.h"
+
+namespace mr {
+
+std::string WorldChange::Describe() const {
+  std::string s;
+  auto add = [&](const std::string& t) { s += (s.empty() ? "" : ", ") + t; };
+  if (environment) add("environment map");
+  if (lights) add("lights");
+  for (const std::string& m : moved) add(m + " moved");
+  return s;
+}
+
+Json WorldChange::ToJson() const {
+  Json j = {{"environment", environment}, {"lights", lights}, {"moved", moved}};
+  if (!notes.empty()) j["notes"] = notes;
+  return j;
+}
+
+WorldTracker::FileState WorldTracker::Stat(const std::optional<fs::path>& path) {
+  FileState s{path, 0};
+  if (!path) return s;
+  std::ifstream in(*path, std::ios::binary);
+  Fnv1a h;
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) h.Bytes(buf, static_cast<size_t>(in.gcount()));
+  s.hash = h.value();
+  return s;
+}
+
+WorldTracker::WorldTracker(const Scene& scene, const RenderScene& rs, int frame) : scene_(scene) {
+  (void)rs;
+  dynamic_ = scene.lighting.environment_per_frame || scene.lighting.lights_per_frame;
+  for (const SceneVirtual& v : scene.virtuals) {
+    dynamic_ = dynamic_ || !v.keyframes.empty();
+    poses_.push_back(v.WorldFromObjectAt(frame));
+  }
+  if (scene.lighting.environment_per_frame) env_ = Stat(EnvironmentAt(scene, frame));
+  if (scene.lighting.lights_per_frame) lights_ = Stat(LightsAt(scene, frame));
+}
+
+WorldChange WorldTracker::Advance(int f, RenderScene* rs) {
+  WorldChange c;
+  if (!dynamic_) return c;
+  auto file = [&](bool per_frame, const char* what, auto at, FileState* state, auto load) {
+    if (!per_frame) return false;
+    int from = f;
+    const FileState now = Stat(at(scene_, f, &from));
+    if (from != f) c.notes.push_back(fmt::format("frame {} has no {} of its own: frame {}'s", f, what, from));
+    if (now.path == state->path && now.hash == state->hash) return false;
+    if (now.hash != state->hash) load(scene_, *now.path, rs);
+    const bool changed = now.hash != state->hash;
+    *state = now;
+    return changed;  // another file with the same bytes is no change
+  };
+  c.environment = file(
+      scene_.lighting.environment_per_frame, "environment map",
+      [](const Scene& s, int g, int* from) { return EnvironmentAt(s, g, from); }, &env_, LoadEnvironment);
+  c.lights = file(
+      scene_.lighting.lights_per_frame, "lights file",
+      [](const Scene& s, int g, int* from) { return LightsAt(s, g, from); }, &lights_, LoadLights);
+  for (size_t i = 0; i < scene_.virtuals.size(); ++i) {
+    const SceneVirtual& v = scene_.virtuals[i];
+    if (v.keyframes.empty()) continue;
+    const Eigen::Affine3d t = v.WorldFromObjectAt(f);
+    if (t.matrix() == poses_[i].matrix()) continue;
+    rs->SetVirtualTransform(i, t);
+    poses_[i] = t;
+    c.moved.push_back(v.name);
+  }
+  if (c.any()) rs->Commit();
+  return c;
+}
+
+}  // namespace mr

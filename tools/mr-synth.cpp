@@ -23,6 +23,9 @@ int main(int argc, char** argv) {
   app.add_option("--object", o.object, "Virtual object: sphere, box, or a mesh file")->default_val("sphere");
   app.add_flag("--spot-light", o.spot_light, "Add a real spot light above the table (written to lights.json)");
   app.add_option("--frames", o.frames, "Frames of the capture (default: the preset's)")->check(mr::kPositive);
+  app.add_flag("--dynamic", o.dynamic,
+               "A world that changes during the video: the sun moving (env/NNNNN.exr), the spot lamp switched on "
+               "halfway (lights/NNNNN.json), the object sliding and turning (a trajectory); the truth per frame");
   app.add_option("--object-material", o.object_material, "The object's material: diffuse, glossy or mirror")
       ->default_val("diffuse")
       ->check(CLI::IsMember({"diffuse", "glossy", "mirror"}));

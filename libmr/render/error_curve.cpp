@@ -1,5 +1,7 @@
 #include "render/error_curve.h"
 
+#include <cmath>
+
 #include "core/image_metrics.h"
 
 namespace mr {
@@ -20,6 +22,25 @@ FrameError MeasureFrame(const Image& composite, const Image& reference, const Im
   e.relmse = m.relmse;
   e.region_relmse = region ? CompareImages(composite, reference, region).relmse : m.relmse;
   return e;
+}
+
+double MeasureFlicker(const Image& composite, const Image& previous_composite, const Image& reference,
+                      const Image& previous_reference, const Image* region) {
+  double sum = 0;
+  int64_t n = 0;
+  for (int y = 0; y < reference.height(); ++y)
+    for (int x = 0; x < reference.width(); ++x) {
+      if (region && !(region->at(x, y, 0) > 0)) continue;
+      for (int c = 0; c < 3; ++c) {
+        const double t = reference.at(x, y, c);
+        const double d = (static_cast<double>(composite.at(x, y, c)) - previous_composite.at(x, y, c)) -
+                         (t - previous_reference.at(x, y, c));
+        if (!std::isfinite(d)) continue;
+        sum += d * d / (t * t + kRelMseEpsilon);
+        ++n;
+      }
+    }
+  return n > 0 ? sum / static_cast<double>(n) : 0.0;
 }
 
 void ErrorCurve::Checkpoint(double seconds, int spp, const FrameError& e) {

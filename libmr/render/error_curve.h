@@ -20,6 +20,15 @@ struct FrameError {
 };
 FrameError MeasureFrame(const Image& composite, const Image& reference, const Image* region);
 
+// Flicker: the error of the composite's frame-to-frame change against the
+// reference's, relMSE-normalised by the reference, over `region` (the
+// union of the two frames' changed regions; null: the whole image):
+// mean ((C_f - C_f-1) - (T_f - T_f-1))^2 / (T_f^2 + 0.01).  A method whose
+// frames each carry independent error e flickers by about 2e; one whose
+// error repeats from frame to frame (a cache kept) by less.
+double MeasureFlicker(const Image& composite, const Image& previous_composite, const Image& reference,
+                      const Image& previous_reference, const Image* region);
+
 class ErrorCurve {
  public:
   // A checkpoint of the current frame.

@@ -237,6 +237,14 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   Json frames_json = Json::array();
   fs::path review_sheet;  // the last one written
   ErrorCurve errors;
+  struct PreviousFrame {
+    int frame;
+    Image composite, reference;
+    std::optional<Image> region;
+  };
+  std::optional<PreviousFrame> previous;  // for the flicker
+  double flicker_sum = 0;
+  int flicker_frames = 0;
   int64_t clamped = 0, nonfinite = 0;
   for (int f = begin; f < resumed_end; ++f) {  // kept by --resume
     Json fj = {{"frame", f}, {"resumed", true}};
@@ -413,6 +421,21 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       fj["relmse"] = e.relmse;
       fj["region_relmse"] = e.region_relmse;
       fj["curve"] = errors.EndFrame(e);
+      // The flicker against the previous frame rendered in this run.
+      if (previous && previous->frame == f - 1) {
+        std::optional<Image> both;
+        if (region && previous->region) {
+          both = *region;
+          for (size_t i = 0; i < both->values().size(); ++i)
+            both->values()[i] = std::max(both->values()[i], previous->region->values()[i]);
+        }
+        const double flicker =
+            MeasureFlicker(cr.composite, previous->composite, *ref, previous->reference, both ? &*both : nullptr);
+        fj["flicker"] = flicker;
+        flicker_sum += flicker;
+        ++flicker_frames;
+      }
+      previous = PreviousFrame{f, cr.composite, *ref, region};
     }
     if (fr) method->FrameDone(*fr, fc, report, &fj);
     frames_json.push_back(fj);
@@ -471,6 +494,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     report->SetMetric("relmse", errors.mean_relmse());
     report->SetMetric("region_relmse", errors.mean_region_relmse());
     report->SetMetric("curve", errors.MeanCurve());
+    if (flicker_frames > 0) report->SetMetric("flicker", flicker_sum / flicker_frames);
   }
 }
 

@@ -21,6 +21,8 @@
 #include "render/path_tracer.h"
 #include "render/pt.h"
 #include "render/render_scene.h"
+#include "render/world.h"
+#include "scene/scene.h"
 
 namespace mr {
 
@@ -54,7 +56,7 @@ Mesh Sphere(float r, int n) {
 
 // The sky: a vertical gradient, a dim ground below the horizon and a sun of
 // one pixel `sun_to_sky` times brighter than the sky at the zenith.
-Image SkyMap(int w, int h, double sun_to_sky, int* sun_x, int* sun_y) {
+Image SkyMap(int w, int h, double sun_to_sky, int* sun_x, int* sun_y, int sun_shift = 0) {
   Image img = Image::Rgb(w, h);
   for (int y = 0; y < h; ++y) {
     const double lat = kPi / 2 - y * kPi / (h - 1);
@@ -67,7 +69,7 @@ Image SkyMap(int w, int h, double sun_to_sky, int* sun_x, int* sun_y) {
       for (int k = 0; k < 3; ++k) img.at(x, y, k) = static_cast<float>(c[k]);
     }
   }
-  *sun_x = w / 3;
+  *sun_x = w / 3 + sun_shift;
   *sun_y = h / 5;  // ~54 degrees up
   const double zenith_sky = 0.9;
   for (int k = 0; k < 3; ++k)
@@ -236,11 +238,14 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   const double scale = 0.3 / std::max(size, 1e-9);  // about 30 cm across
   Eigen::Affine3d& world_from_object = c.world_from_object;
   world_from_object = Eigen::Affine3d::Identity();
-  world_from_object.translate(Eigen::Vector3d(0.1, 0.75 - scale * ob.min().y(), 0.0));
+  const Eigen::Vector3d object_at(0.1, 0.75 - scale * ob.min().y(), 0.0);
+  world_from_object.translate(object_at);
   world_from_object.rotate(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()));
   world_from_object.scale(scale);
   Eigen::Vector3d oc = 0.5 * (ob.min() + ob.max()).cast<double>();
-  world_from_object.translate(Eigen::Vector3d(-oc.x(), 0, -oc.z()));
+  const Eigen::Vector3d object_centre(oc.x(), 0, oc.z());
+  const double object_scale = scale;
+  world_from_object.translate(-object_centre);
   Material& object_material = c.object_material;
   object_material = Diffuse(0.8, 0.75, 0.7);
   if (o.object_material == "glossy") {
@@ -259,7 +264,7 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   int sun_x, sun_y;
   c.sky = SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y);
   std::vector<Light>& lights = c.lights;
-  if (o.spot_light) {  // a warm lamp up and to the right, aimed at the table
+  if (o.spot_light || o.dynamic) {  // a warm lamp up and to the right, aimed at the table
     Light spot;
     spot.name = "spot";
     spot.type = LightType::kSpot;
@@ -286,6 +291,26 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
     R.col(1) = y;
     R.col(2) = z;
     traj.poses.push_back({i / 30.0, Rigid3(Eigen::Quaterniond(R), eye)});
+  }
+  if (o.dynamic) {
+    // The sun 2 map pixels (2.8 degrees) west per frame; the lamp on from
+    // the middle frame; the object 0.4 m across the table and a quarter turn.
+    for (int i = 0; i < p.frames; ++i) {
+      c.skies.push_back(SkyMap(256, 129, p.sun_to_sky, &sun_x, &sun_y, 2 * i));
+      c.lamp_on.push_back(i >= p.frames / 2);
+    }
+    // world_from_object = T R S T(-centre): the centring folded into each
+    // keyframe's translation (T - R S centre).
+    auto key = [&](double frame, const Eigen::Vector3d& t, double yaw) {
+      ObjectKeyframe k;
+      k.frame = frame;
+      k.rotation = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY());
+      k.scale = Eigen::Vector3d::Constant(object_scale);
+      k.translation = t - k.rotation * (object_scale * object_centre);
+      return k;
+    };
+    c.keyframes = {key(0, object_at - Eigen::Vector3d(0.2, 0, 0), 0.5),
+                   key(std::max(1, p.frames - 1), object_at + Eigen::Vector3d(0.2, 0, 0.1), 0.5 + kPi / 2)};
   }
 
   return c;
@@ -331,6 +356,29 @@ void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::s
   Json& mat = scene["virtual"][0]["transform"]["matrix"];
   for (int r = 0; r < 4; ++r)
     for (int k = 0; k < 4; ++k) mat.push_back(c.world_from_object.matrix()(r, k));
+  if (!c.skies.empty()) {
+    // The world per frame: a map and a lights file for every frame, the
+    // object's trajectory.
+    std::error_code ec;
+    fs::create_directories(o.out / "env", ec);
+    fs::create_directories(o.out / "lights", ec);
+    for (size_t i = 0; i < c.skies.size(); ++i) {
+      WriteImage(o.out / "env" / fmt::format("{:05d}.exr", i), c.skies[i], wo);
+      const std::vector<Light> on = c.lamp_on[i] ? c.lights : std::vector<Light>{};
+      WriteTextFile(o.out / "lights" / fmt::format("{:05d}.json", i), LightsToJson(on, note).dump(2) + "\n");
+    }
+    scene["lighting"] = {{"environment", "env/%05d.exr"}, {"lights", "lights/%05d.json"}};
+    Json keys = Json::array();
+    for (const ObjectKeyframe& k : c.keyframes) {
+      const Eigen::Vector3d r = k.rotation.toRotationMatrix().eulerAngles(2, 1, 0);  // z, y, x
+      keys.push_back({{"frame", k.frame},
+                      {"translation", {k.translation.x(), k.translation.y(), k.translation.z()}},
+                      {"rotation_deg", {r[2] / kDegToRad, r[1] / kDegToRad, r[0] / kDegToRad}},
+                      {"scale", k.scale.x()}});
+    }
+    scene["virtual"][0].erase("transform");
+    scene["virtual"][0]["trajectory"] = keys;
+  }
   WriteTextFile(o.out / "scene.json", scene.dump(2) + "\n");
   for (const char* f2 : {"scene.json", "camera.cameramodel", "trajectory.txt", "env.exr", "meshes/object.ply"})
     report->AddOutput((o.out / f2).string());
@@ -357,13 +405,22 @@ void RunSynth(const SynthOptions& o, Report* report) {
       fmt::format("written by {} ({}); preset {}, seed {}", o.tool, o.command_line, o.preset, o.seed);
   WriteSynthInputs(o, c, note, report);
 
-  // Render the truth; its real-only paths are the photographs.
+  // Render the truth; its real-only paths are the photographs.  A dynamic
+  // capture's world per frame is the scene's as mr-render reads it.
   RenderScene rs;
-  for (const auto& part : c.parts) rs.AddReal(part.mesh, part.material);
-  rs.AddVirtual(c.object, c.world_from_object, c.object_material);
-  rs.SetEnvironment(EnvironmentMap(c.sky, (o.out / "env.exr").string()));
-  for (const Light& l : c.lights) rs.AddLight(l);
-  rs.Commit();
+  std::optional<Scene> dynamic_scene;
+  std::optional<WorldTracker> world;
+  if (o.dynamic) {
+    dynamic_scene = ReadScene(o.out / "scene.json");
+    LoadRenderScene(*dynamic_scene, &rs, 0);
+    world.emplace(*dynamic_scene, rs, 0);
+  } else {
+    for (const auto& part : c.parts) rs.AddReal(part.mesh, part.material);
+    rs.AddVirtual(c.object, c.world_from_object, c.object_material);
+    rs.SetEnvironment(EnvironmentMap(c.sky, (o.out / "env.exr").string()));
+    for (const Light& l : c.lights) rs.AddLight(l);
+    rs.Commit();
+  }
   PathTracerSettings st;
   st.max_depth = 8;
   st.seed = HashCombine(o.seed, 0x7275746875ULL);  // independent of mr-render's seed
@@ -372,6 +429,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
   VideoWriter video(o.out / "photos.mp4", p.width, p.height, 30.0);
   for (int i = 0; i < p.frames; ++i) {
     st.frame = i;
+    if (world) world->Advance(i, &rs);
     PtFrameRenderer fr(rs, c.camera, c.trajectory.poses[static_cast<size_t>(i)].world_from_cam, st);
     {
       ScopedTimer t(report, "render truth");
@@ -431,6 +489,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
   report->SetMetric("size", {p.width, p.height});
   report->SetMetric("sun_to_sky", p.sun_to_sky);
   report->SetMetric("changed_values", changed);
+  report->SetMetric("dynamic", o.dynamic);
 }
 
 }  // namespace mr

@@ -35,6 +35,11 @@ struct SynthOptions {
   // roughness 0.05).
   std::string object_material = "diffuse";
   bool spot_light = false;  // a real spot light above the table (lights.json)
+  // A world that changes during the video: the sun moving across the sky
+  // (env/NNNNN.exr), the spot lamp switched on halfway (lights/NNNNN.json),
+  // the object sliding across the table and turning (a trajectory); the
+  // truth rendered per frame in that frame's world.
+  bool dynamic = false;
   std::string tool = "mr-synth", command_line;
 };
 
@@ -64,6 +69,11 @@ std::vector<SynthPart> SynthRoom();
 // on the table, the sky and lights, the camera and its path.
 struct SynthCapture {
   SynthPreset preset{};
+  // With SynthOptions::dynamic: the sky of each frame, whether the lamp is
+  // on, the object's keyframes (first and last frame).
+  std::vector<Image> skies;
+  std::vector<char> lamp_on;
+  std::vector<ObjectKeyframe> keyframes;
   int truth_spp = 0;
   std::vector<SynthPart> parts;
   Mesh object;

@@ -216,6 +216,21 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     }
   }
   int world_kept = 0, world_changed = 0;
+  // An object passing through a real surface renders, but is rarely meant.
+  auto check_crossings = [&](int f, const std::vector<std::string>* moved) {
+    for (size_t i = 0; i < scene.virtuals.size(); ++i) {
+      const std::string& name = scene.virtuals[i].name;
+      if (moved && std::find(moved->begin(), moved->end(), name) == moved->end()) continue;
+      if (const int64_t n = rs.RealCrossings(i); n > 0) {
+        const std::string w = fmt::format(
+            "frame {}: virtual object \"{}\" passes through real geometry ({} of its edges cross a real surface)", f,
+            name, n);
+        spdlog::warn("{}", w);
+        report->Warn(w);
+      }
+    }
+  };
+  if (!copy_through) check_crossings(resumed_end, nullptr);
 
   // Neighbouring frames' plates for reflections the frame's own does not
   // see (the frames f +- k step), read in increasing order by their own
@@ -274,6 +289,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                      rebuilt.empty() ? std::string("nothing to rebuild") : fmt::format("{}", fmt::join(rebuilt, ", ")));
       }
       (wc.any() ? world_changed : world_kept) += f > resumed_end;
+      if (!wc.moved.empty() && f > resumed_end) check_crossings(f, &wc.moved);
       world_json = wc.ToJson();
       world_json["rebuilt"] = rebuilt;
       for (const std::string& n : wc.notes) report->Warn(n);

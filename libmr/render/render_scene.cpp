@@ -33,6 +33,14 @@ uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_
   virtual_ids_.push_back(id);
   virtual_object_bounds_.push_back(mesh.Bounds().cast<double>());
   virtual_hidden_.push_back(0);
+  virtual_poses_.push_back(world_from_object);
+  virtual_positions_.push_back(mesh.positions);
+  std::vector<std::pair<int, int>> edges;
+  for (const Eigen::Vector3i& t : mesh.triangles)
+    for (int k = 0; k < 3; ++k) edges.emplace_back(std::minmax(t[k], t[(k + 1) % 3]));
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  virtual_edges_.push_back(std::move(edges));
   SetSurface(id, material, Eigen::Matrix3d::Identity(), mesh);
   SetVirtualTransform(virtual_ids_.size() - 1, world_from_object);
   return id;
@@ -44,6 +52,7 @@ void RenderScene::SetVirtualTransform(size_t i, const Eigen::Affine3d& world_fro
   const bool hidden = Collapses(world_from_object);
   embree_->SetInstanceTransform(id, world_from_object.cast<float>());
   virtual_hidden_[i] = hidden;
+  virtual_poses_[i] = world_from_object;
   Eigen::AlignedBox3d wb;  // empty while hidden
   if (!hidden) {
     const Eigen::AlignedBox3d& ob = virtual_object_bounds_[i];
@@ -154,6 +163,28 @@ void RenderScene::AddLight(const Light& light) {
   lights_.emplace_back(light);
   has_virtual_ = has_virtual_ || light.is_virtual;
   has_distant_area_light_ = has_distant_area_light_ || !light.IsDelta();
+}
+
+int64_t RenderScene::RealCrossings(size_t i) const {
+  if (virtual_hidden_.at(i)) return 0;
+  const Eigen::Affine3d& t = virtual_poses_[i];
+  const auto& p = virtual_positions_[i];
+  int64_t n = 0;
+  for (const auto& [a, b] : virtual_edges_[i]) {
+    const Eigen::Vector3d pa = t * p[static_cast<size_t>(a)].cast<double>();
+    const Eigen::Vector3d d = t * p[static_cast<size_t>(b)].cast<double>() - pa;
+    const double len = d.norm();
+    if (!(len > 0)) continue;
+    // The ends left out (1e-3 of the edge): an object resting on a surface
+    // touches it without crossing it.
+    Ray r;
+    r.origin = (pa + 1e-3 * d).cast<float>();
+    r.direction = (d / len).cast<float>();
+    r.tfar = static_cast<float>(0.998 * len);
+    r.mask = kMaskReal;
+    n += embree_->Occluded(r);
+  }
+  return n;
 }
 
 void RenderScene::ClearLights() {

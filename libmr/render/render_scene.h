@@ -39,6 +39,11 @@ class RenderScene {
   // the next query.
   void SetVirtualTransform(size_t i, const Eigen::Affine3d& world_from_object);
   bool virtual_hidden(size_t i) const { return virtual_hidden_.at(i); }
+  // How many edges of virtual object `i`, where it stands now, cross a real
+  // surface (a ray along the edge, its ends left out, meets real
+  // geometry): > 0 for an object passing through the table or a wall.  0
+  // while hidden.  After Commit().
+  int64_t RealCrossings(size_t i) const;
   void Commit();
 
   const EmbreeScene& embree() const { return *embree_; }
@@ -111,7 +116,10 @@ class RenderScene {
   ClosedSurfaces closed_;
   std::vector<Eigen::AlignedBox3d> geometry_bounds_, virtual_bounds_;
   std::vector<uint32_t> virtual_ids_;
-  std::vector<Eigen::AlignedBox3d> virtual_object_bounds_;  // in object coordinates
+  std::vector<Eigen::AlignedBox3d> virtual_object_bounds_;       // in object coordinates
+  std::vector<Eigen::Affine3d> virtual_poses_;                   // world_from_object now
+  std::vector<std::vector<Eigen::Vector3f>> virtual_positions_;  // object coordinates
+  std::vector<std::vector<std::pair<int, int>>> virtual_edges_;  // each once
   std::vector<char> virtual_hidden_;
   bool closed_built_ = false;
   bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false;

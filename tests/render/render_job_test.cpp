@@ -15,6 +15,7 @@
 #include "eval/plate_check.h"
 #include "geometry/mesh.h"
 #include "hdr/response.h"
+#include "light/lights_file.h"
 #include "render/composite.h"
 #include "render/frame_io.h"
 #include "render/grain.h"
@@ -91,6 +92,15 @@ class Capture : public ::testing::Test {
   static void TearDownTestSuite() { delete dir_; }
   static fs::path Cap() { return dir_->path() / "cap"; }
   static test::TempDir* dir_;
+
+  // Scene variant `j` written as Cap()/NAME.json and rendered with `o` into
+  // the temporary folder's NAME-METHOD (o.out_dir set); `r` receives the report.
+  static fs::path RenderVariant(const Json& j, const std::string& name, RenderOptions o, Report* r) {
+    WriteTextFile(Cap() / (name + ".json"), j.dump(2));
+    o.out_dir = dir_->path() / (name + "-" + (o.method.empty() ? std::string("scene") : o.method));
+    RunRenderJob(ReadScene(Cap() / (name + ".json")), o, r);
+    return o.out_dir;
+  }
 
   Report Render(int spp, const fs::path& out, int threads = 0) {
     Scene s = ReadScene(Cap() / "scene.json");
@@ -958,15 +968,12 @@ TEST_F(Capture, OutputVideoKeepsThePlatesRateCountAndSize) {
 TEST_F(Capture, ChangingWorldRendersEachFrameAsItsStaticScene) {
   const Json base = ReadJsonFile(Cap() / "scene.json");
   auto run = [&](const Json& j, const std::string& name, const std::string& method, int b, int e, Report* r) {
-    WriteTextFile(Cap() / (name + ".json"), j.dump(2));
     RenderOptions o;
     o.method = method;
     o.spp = 2;
     o.frame_begin = b;
     o.frame_end = e;
-    o.out_dir = dir_->path() / (name + "-" + method);
-    RunRenderJob(ReadScene(Cap() / (name + ".json")), o, r);
-    return o.out_dir;
+    return RenderVariant(j, name, o, r);
   };
   Json moving = base;
   moving["virtual"][0].erase("transform");
@@ -1033,13 +1040,11 @@ TEST_F(Capture, PerFrameLightAndAnObjectScaledToNothing) {
   fs::copy_file(Cap() / "env.exr", Cap() / "envs2" / "00000.exr", fs::copy_options::overwrite_existing);
   Json j = base;
   j["lighting"]["environment"] = "envs2/%05d.exr";
-  WriteTextFile(Cap() / "envs2.json", j.dump(2));
   RenderOptions o;
   o.spp = 2;
   o.frame_end = 2;
-  o.out_dir = dir_->path() / "envs2-a";
   Report ra("mr-render", "test");
-  RunRenderJob(ReadScene(Cap() / "envs2.json"), o, &ra);
+  RenderVariant(j, "envs2-a", o, &ra);
   EXPECT_NE(ra.ToJson().dump().find("frame 1 has no environment map of its own: frame 0's"), std::string::npos);
   EXPECT_EQ(ra.metrics()["world"]["frames_kept"], 1);
 
@@ -1047,47 +1052,89 @@ TEST_F(Capture, PerFrameLightAndAnObjectScaledToNothing) {
   Image env = ReadImage(Cap() / "env.exr");
   for (float& v : env.values()) v *= 4;
   WriteImage(Cap() / "envs2" / "00001.exr", env);
-  o.out_dir = dir_->path() / "envs2-b";
   Report rb("mr-render", "test");
-  RunRenderJob(ReadScene(Cap() / "envs2.json"), o, &rb);
+  const fs::path dyn = RenderVariant(j, "envs2-b", o, &rb);
   EXPECT_TRUE(rb.metrics()["frames"][1]["world"]["environment"].get<bool>());
   Json k = base;
   k["lighting"]["environment"] = "envs2/00001.exr";
-  WriteTextFile(Cap() / "envs2-static.json", k.dump(2));
   RenderOptions os = o;
   os.frame_begin = 1;
-  os.out_dir = dir_->path() / "envs2-static";
   Report rs("mr-render", "test");
-  RunRenderJob(ReadScene(Cap() / "envs2-static.json"), os, &rs);
-  EXPECT_EQ(ReadImage(o.out_dir / "00001.exr").Layer("composite").values(),
-            ReadImage(os.out_dir / "00001.exr").Layer("composite").values());
+  const fs::path stat = RenderVariant(k, "envs2-static", os, &rs);
+  EXPECT_EQ(ReadImage(dyn / "00001.exr").Layer("composite").values(),
+            ReadImage(stat / "00001.exr").Layer("composite").values());
 
   // The object shrinks to nothing at frame 1: that frame is the plate.
   Json z = base;
   z["virtual"][0].erase("transform");
   z["virtual"][0]["trajectory"] = Json::parse(R"([{"frame": 0, "translation": [0.1, 0.9, 0]},
                                                    {"frame": 1, "translation": [0.1, 0.9, 0], "scale": 0}])");
-  WriteTextFile(Cap() / "vanish.json", z.dump(2));
-  o.out_dir = dir_->path() / "vanish";
   Report rz("mr-render", "test");
-  RunRenderJob(ReadScene(Cap() / "vanish.json"), o, &rz);
+  const fs::path vanish = RenderVariant(z, "vanish", o, &rz);
   EXPECT_TRUE(rz.metrics()["frames"][1]["copied_through"].get<bool>());
-  const Image out1 = ReadImage(o.out_dir / "00001.exr");
+  const Image out1 = ReadImage(vanish / "00001.exr");
   EXPECT_EQ(out1.Layer("composite").values(), ReadImage(Cap() / "photos" / "00001.exr").values());
   EXPECT_FALSE(rz.metrics()["frames"][0]["copied_through"].get<bool>());
+
+  // Sunk into the table at frame 1: rendered, and reported (resting on it at
+  // frame 0 is not).
+  Json sunk = base;
+  sunk["virtual"][0].erase("transform");
+  sunk["virtual"][0]["trajectory"] = Json::parse(R"([{"frame": 0, "translation": [0.1, 0.9, 0]},
+                                                      {"frame": 1, "translation": [0.1, 0.8, 0]}])");
+  Report rk("mr-render", "test");
+  RenderVariant(sunk, "sunk", o, &rk);
+  const std::string warnings = rk.ToJson()["warnings"].dump();
+  EXPECT_NE(warnings.find("frame 1: virtual object"), std::string::npos) << warnings;
+  EXPECT_NE(warnings.find("passes through real geometry"), std::string::npos) << warnings;
+  EXPECT_EQ(warnings.find("frame 0: virtual object"), std::string::npos) << warnings;
 
   // No map at or before the first frame.
   Json none = base;
   none["lighting"]["environment"] = "envs2/missing%05d.exr";
-  WriteTextFile(Cap() / "envs-none.json", none.dump(2));
-  o.out_dir = dir_->path() / "envs-none";
   Report rn("mr-render", "test");
   try {
-    RunRenderJob(ReadScene(Cap() / "envs-none.json"), o, &rn);
+    RenderVariant(none, "envs-none", o, &rn);
     ADD_FAILURE() << "rendered";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("no environment map for frame 0"), std::string::npos) << e.what();
   }
+}
+
+// A lamp switched from nothing to 1e4 W/sr between two frames (lights per
+// frame): ic's cache, filled under the dark frame, is emptied, not kept
+// until its records age out (the paper's t_max is no answer to a lamp
+// switched on), so frame 1 of the dynamic job is, byte for byte, ic's
+// render of frame 1 alone under the lamp; every value is finite.
+TEST_F(Capture, LampSwitchedOnEmptiesTheCache) {
+  const Json base = ReadJsonFile(Cap() / "scene.json");
+  fs::create_directories(Cap() / "lamps");
+  Light lamp;
+  lamp.name = "lamp";
+  lamp.type = LightType::kPoint;
+  lamp.position = Eigen::Vector3d(0.6, 1.6, -0.4);
+  lamp.intensity = Eigen::Vector3d::Constant(1e4);
+  WriteTextFile(Cap() / "lamps" / "00000.json", LightsToJson({}).dump(2));
+  WriteTextFile(Cap() / "lamps" / "00001.json", LightsToJson({lamp}).dump(2));
+  Json j = base;
+  j["lighting"]["lights"] = "lamps/%05d.json";
+  Json k = base;
+  k["lighting"]["lights"] = "lamps/00001.json";
+  RenderOptions o;
+  o.method = "ic";
+  o.spp = 2;
+  o.frame_end = 2;
+  Report rd("mr-render", "test");
+  const fs::path dir = RenderVariant(j, "lamps", o, &rd);
+  EXPECT_TRUE(rd.metrics()["frames"][1]["world"]["lights"].get<bool>());
+  EXPECT_EQ(rd.metrics()["frames"][1]["world"]["rebuilt"], Json::array({"irradiance cache (emptied)"}));
+  o.frame_begin = 1;
+  Report rs("mr-render", "test");
+  const fs::path alone = RenderVariant(k, "lamp-on", o, &rs);
+  const Image dyn = ReadImage(dir / "00001.exr").Layer("composite");
+  EXPECT_EQ(dyn.values(), ReadImage(alone / "00001.exr").Layer("composite").values());
+  for (float v : dyn.values()) ASSERT_TRUE(std::isfinite(v));
+  EXPECT_GT(MeanOfValues(dyn), 2 * MeanOfValues(ReadImage(dir / "00000.exr").Layer("composite")));
 }
 
 // mr-synth --dynamic: the sun moves, the spot lamp switches on at the

@@ -465,8 +465,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                       provenance(f), report);
       if (video_out) video_out->WriteCodes(codes);
       if (scene.output.review) {
-        const Image plate = decoding.ToCodes(photo ? decoding.ToRadiance(*photo) : real, encoding);
-        review_sheet = WriteReviewSheet(out_dir, f, plate, codes, mask, photo.has_value(), o.tool, report);
+        const Image plate_codes = decoding.ToCodes(photo ? decoding.ToRadiance(*photo) : real, encoding);
+        review_sheet = WriteReviewSheet(out_dir, f, plate_codes, codes, mask, photo.has_value(), o.tool, report);
       }
     }
     spdlog::info("frame {}: {} spp in {:.2f} s{}", f, done, seconds,

@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 #include <string>
+#include <tuple>
 #include <utility>
 
 #include "camera/colmap_text.h"
@@ -149,6 +150,13 @@ SceneInputCheck CheckSceneInputs(const Scene& s, int width, int height, int begi
   if (pixels > kMaxCameraPixels)
     ThrowErrorAt(FileLoc{camera_name}, "camera is {}x{} = {:.3g} pixels, more than mr renders ({:.0e}; corrupt model?)",
                  width, height, static_cast<double>(pixels), static_cast<double>(kMaxCameraPixels));
+  // Light per frame: the first frame needs a file at or before it (later
+  // frames without their own reuse the last one).
+  for (const auto& [pattern, per_frame, what] :
+       {std::tuple{s.lighting.environment, s.lighting.environment_per_frame, "environment map"},
+        std::tuple{s.lighting.lights, s.lighting.lights_per_frame, "lights file"}})
+    if (per_frame && pattern && !PerFrameFile(*pattern, std::max(0, begin), nullptr))
+      ThrowErrorAt(FileLoc{pattern->string()}, "no {} for frame {} or any frame before it", what, std::max(0, begin));
   out.poses = static_cast<int>(LoadScenePoses(s).size());
   const std::string poses_name = s.camera.poses ? s.camera.poses->string() : std::string("the scene");
   if (end < 0) end = out.poses;

@@ -16,7 +16,7 @@ check "missing argument" 2 "usage error" -- "$bin/mr-info"
 
 # A corrupt EXR: exit 1, the message names the file.
 printf 'v/1\001\002\000\000garbage' > "$tmp/corrupt.exr"
-check "corrupt EXR" 1 "mr-info: error: $tmp/corrupt.exr: cannot read image" -- "$bin/mr-info" "$tmp/corrupt.exr"
+check "corrupt EXR" 1 "mr-info: error: $tmp/corrupt.exr: OpenEXR header runs past the end of the file" -- "$bin/mr-info" "$tmp/corrupt.exr"
 
 # A PLY with a NaN vertex.
 cat > "$tmp/nan.ply" <<'PLY'

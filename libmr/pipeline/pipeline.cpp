@@ -19,6 +19,7 @@
 #include "core/version.h"
 #include "geometry/mesh.h"
 #include "render/method.h"
+#include "scene/frames.h"
 #include "scene/scene.h"
 
 namespace mr {
@@ -324,7 +325,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     PipelineStage& s = stage("probe");
     s.tool = "mr-probe";
     if (!probe) {
-      env = pl.Path(light.Child("environment"), "environment map");
+      env = pl.Pattern(light.Child("environment"), "environment map");  // a map, or one per frame
       s.skip = "lighting.environment is given: " + env.string();
     } else {
       env = w / "env.exr";
@@ -351,12 +352,16 @@ Pipeline PlanPipeline(const fs::path& file) {
     if (!light.Has("lights")) {
       s.skip = "lighting.lights is not asked for: the scene is lit by the environment map alone";
     } else if (light.Child("lights").json().is_string()) {
-      const fs::path l = pl.Path(light.Child("lights"), "lights.json");
+      const fs::path l = pl.Pattern(light.Child("lights"), "lights.json");  // a file, or one per frame
       lighting["lights"] = pl.Rel(l);
       s.skip = "lighting.lights is given: " + l.string();
     } else {
       const Node l = light.Child("lights");
       l.RequireObject({"options"});
+      if (env.string().find('%') != std::string::npos)
+        l.Fail(
+            "lights are not extracted from a map per frame yet: give lighting.lights as a file or a per-frame "
+            "pattern");
       const fs::path out = w / "lights.json", residual = w / "env-residual.exr";
       s.args = {env.string(), "--out", out.string(), "--residual", residual.string()};
       Append(&s.args, pl.Options(l));
@@ -404,8 +409,14 @@ Pipeline PlanPipeline(const fs::path& file) {
       const auto opts = pl.Options(room);
       if (std::find(opts.begin(), opts.end(), "--no-albedo") == opts.end() &&
           std::find(opts.begin(), opts.end(), "--env") == opts.end()) {
-        Append(&s.args, {"--env", env.string()});  // albedo de-lit by the captured light
-        s.inputs.push_back(env);
+        // Albedo de-lit by the captured light (a map per frame: the first frame's).
+        const fs::path delight = env.string().find('%') != std::string::npos ? FramePath(env, 0) : env;
+        std::error_code ec;
+        if (!fs::is_regular_file(delight, ec))
+          light.Child("environment")
+              .Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
+        Append(&s.args, {"--env", delight.string()});
+        s.inputs.push_back(delight);
       }
       Append(&s.args, opts);
       s.outputs = {fused_mesh, fused_trajectory};

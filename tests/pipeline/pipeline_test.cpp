@@ -63,6 +63,39 @@ TEST(PlanPipeline, LeavesOutWhatTheInputsDoNotNeed) {
   EXPECT_EQ(p.scene["real"][0]["mesh"], "../room.ply");  // relative to work/
 }
 
+// A world that changes: the light per frame (patterns) and an object's
+// trajectory pass through to scene.json; extracting lights from a map per
+// frame is refused (not built yet), naming the key.
+TEST(PlanPipeline, PassesThePerFrameWorldThrough) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "room.ply", "poses.txt", "ball.ply"}) WriteTextFile(dir / f, "x");
+  fs::create_directories(dir / "env");
+  fs::create_directories(dir / "lights");
+  WriteTextFile(dir / "p.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"},
+    "lighting": {"environment": "env/%05d.exr", "lights": "lights/%05d.json"},
+    "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply", "trajectory": [{"frame": 0}, {"frame": 4, "translation": [1, 0, 0]}]}],
+    "render": {"method": "pt"}})");
+  const Pipeline p = PlanPipeline(dir / "p.json");
+  EXPECT_EQ(p.scene["lighting"]["environment"], "../env/%05d.exr");
+  EXPECT_EQ(p.scene["lighting"]["lights"], "../lights/%05d.json");
+  EXPECT_EQ(p.scene["virtual"][0]["trajectory"].size(), 2u);
+  WriteTextFile(dir / "q.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"},
+    "lighting": {"environment": "env/%05d.exr", "lights": {"options": {"count": 2}}},
+    "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}], "render": {"method": "pt"}})");
+  try {
+    PlanPipeline(dir / "q.json");
+    ADD_FAILURE() << "planned";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("lighting.lights: lights are not extracted from a map per frame"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 // A plate's gains are fitted unless given, turned off or hand-set; the
 // render (and the sweep) then depend on the fitted file.
 TEST(PlanPipeline, FitsThePlatesGainsUnlessToldOtherwise) {

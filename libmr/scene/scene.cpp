@@ -210,14 +210,14 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
   if (root.Has("lighting")) {
     Node l = root.Child("lighting");
     l.RequireObject({"environment", "environment_scale", "environment_rotation_deg", "environment_up", "lights"});
-    if (l.Has("environment")) {
-      if (IsFramePattern(l.Child("environment").String())) {
-        s.lighting.environment = ResolvePattern(l.Child("environment"), base, check);
-        s.lighting.environment_per_frame = true;
-      } else {
-        s.lighting.environment = ResolveFile(l.Child("environment"), base, check, "environment map");
-      }
-    }
+    // A file, or a printf pattern of one per frame.
+    auto file_or_pattern = [&](const char* key, const char* what, std::optional<fs::path>* path, bool* per_frame) {
+      if (!l.Has(key)) return;
+      const Node n = l.Child(key);
+      *per_frame = IsFramePattern(n.String());
+      *path = *per_frame ? ResolvePattern(n, base, check) : ResolveFile(n, base, check, what);
+    };
+    file_or_pattern("environment", "environment map", &s.lighting.environment, &s.lighting.environment_per_frame);
     if (l.Has("environment_scale")) s.lighting.environment_scale = l.Child("environment_scale").Number(0, kHuge);
     if (l.Has("environment_rotation_deg")) {
       double yaw = l.Child("environment_rotation_deg").Number(-360, 360) * kDegToRad;
@@ -232,14 +232,7 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
           Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), up.normalized()).toRotationMatrix() *
           s.lighting.world_from_env;
     }
-    if (l.Has("lights")) {
-      if (IsFramePattern(l.Child("lights").String())) {
-        s.lighting.lights = ResolvePattern(l.Child("lights"), base, check);
-        s.lighting.lights_per_frame = true;
-      } else {
-        s.lighting.lights = ResolveFile(l.Child("lights"), base, check, "lights file");
-      }
-    }
+    file_or_pattern("lights", "lights file", &s.lighting.lights, &s.lighting.lights_per_frame);
   }
 
   if (root.Has("real")) {

@@ -46,6 +46,16 @@ void TexturedRoomWithMirror(RenderScene* s, bool grey = false) {
   s->Commit();
 }
 
+// A frame renderer's mixed image at 64 spp, its plate counters copied out.
+template <class Renderer>
+Image RenderCounting(Renderer* r, PlateCounters* counts) {
+  r->RenderPass(64);
+  counts->from_plate = r->plate_counters().from_plate.load();
+  counts->from_other_frames = r->plate_counters().from_other_frames.load();
+  counts->rendered = r->plate_counters().rendered.load();
+  return r->Mixed();
+}
+
 // Over the sphere's pixels, pt reflecting the plate at 64 spp is as close
 // to pt reflecting the rendered room at 2048 spp as pt reflecting the
 // rendered room at 64 spp is (within 1.5x + 0.002; measured 0.0043 against
@@ -98,10 +108,7 @@ TEST(PlateReflections, MirrorShowsTheTexturedRoomAsPtDoes) {
   auto ic_render = [&](const PlateViews& pv, PlateCounters* counts) {
     IrradianceCache cache(s, is);
     IcFrameRenderer r(s, &cache, cam, pose, 1, 0, CameraExposure{}, pv);
-    r.RenderPass(64);
-    counts->from_plate = r.plate_counters().from_plate.load();
-    counts->rendered = r.plate_counters().rendered.load();
-    return r.Mixed();
+    return RenderCounting(&r, counts);
   };
   PlateCounters ic_plate, ic_none;
   const double ic_err_plate = CompareImages(ic_render(sp.plates, &ic_plate), ref.Mixed(), &mask).relmse;
@@ -118,10 +125,7 @@ TEST(PlateReflections, MirrorShowsTheTexturedRoomAsPtDoes) {
   const auto vpls = VplSet::Build(s, vs);
   auto vpl_render = [&](const PlateViews& pv, PlateCounters* counts) {
     VplFrameRenderer r(s, vpls, cam, pose, 1, 0, CameraExposure{}, pv);
-    r.RenderPass(64);
-    counts->from_plate = r.plate_counters().from_plate.load();
-    counts->rendered = r.plate_counters().rendered.load();
-    return r.Mixed();
+    return RenderCounting(&r, counts);
   };
   PlateCounters vpl_plate, vpl_none;
   const double vpl_err_plate = CompareImages(vpl_render(sp.plates, &vpl_plate), ref.Mixed(), &mask).relmse;
@@ -177,11 +181,7 @@ TEST(PlateReflections, NeighbouringFramesSeeWhatTheFrameDoesNot) {
     PathTracerSettings sp = st;
     sp.plates = views;
     PtFrameRenderer r(grey, cam, pose, sp);
-    r.RenderPass(64);
-    counts->from_plate = r.plate_counters().from_plate.load();
-    counts->from_other_frames = r.plate_counters().from_other_frames.load();
-    counts->rendered = r.plate_counters().rendered.load();
-    return CompareImages(r.Mixed(), ref.Mixed(), &mask).relmse;
+    return CompareImages(RenderCounting(&r, counts), ref.Mixed(), &mask).relmse;
   };
   PlateCounters own, both, wrong;
   const PlateView own_view{&plate, nullptr, &cam, pose};

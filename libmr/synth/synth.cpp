@@ -390,7 +390,7 @@ void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::s
   // with lens blur, noise and the camera's own body reflected, the sun
   // saturating every exposure (mr-hdr, then mr-probe: the result should
   // be env.exr); and a bracket of the fish-eye pointed at the zenith.
-  WriteProbe(o, c.sky, report);
+  if (o.probe) WriteProbe(o, c.sky, report);
 }
 
 void RunSynth(const SynthOptions& o, Report* report) {

@@ -40,6 +40,7 @@ struct SynthOptions {
   // the object sliding across the table and turning (a trajectory); the
   // truth rendered per frame in that frame's world.
   bool dynamic = false;
+  bool probe = true;  // write probe/ (the light probe's photographs); tests that need none leave it out
   std::string tool = "mr-synth", command_line;
 };
 

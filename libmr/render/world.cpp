@@ -53,11 +53,10 @@ WorldChange WorldTracker::Advance(int f, RenderScene* rs) {
     int from = f;
     const FileState now = Stat(at(scene_, f, &from));
     if (from != f) c.notes.push_back(fmt::format("frame {} has no {} of its own: frame {}'s", f, what, from));
-    if (now.path == state->path && now.hash == state->hash) return false;
-    if (now.hash != state->hash) load(scene_, *now.path, rs);
-    const bool changed = now.hash != state->hash;
+    const bool changed = now.hash != state->hash;  // another file with the same bytes is no change
+    if (changed) load(scene_, *now.path, rs);
     *state = now;
-    return changed;  // another file with the same bytes is no change
+    return changed;
   };
   c.environment = file(
       scene_.lighting.environment_per_frame, "environment map",

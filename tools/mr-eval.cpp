@@ -17,6 +17,7 @@
 #include "eval/sweep.h"
 #include "eval/trajectory_error.h"
 #include "geometry/mesh.h"
+#include "probe/light_sequence.h"
 #include "render/method.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
@@ -55,6 +56,20 @@ int main(int argc, char** argv) {
   plot->add_option("--out", plot_out, "SVG to write")->required();
   plot->add_flag("--linear-x", linear_x, "Linear x axis");
   plot->add_flag("--linear-y", linear_y, "Linear y axis");
+  std::string light_est, light_ref;
+  int light_frames = 0;
+  CLI::App* light = app.add_subcommand(
+      "light",
+      "Captured light maps against the true ones, per frame (printf patterns): the relative RMS error of the\n"
+      "diffuse irradiance they give at 256 normals (the reference over the directions the capture saw), the\n"
+      "energy ratio, the share of the reference's energy the capture did not see, and the flicker: the error\n"
+      "of the frame-to-frame change of the irradiance against the reference's change.");
+  light->fallthrough();
+  light->add_option("ESTIMATE", light_est, "Captured maps (env/%05d.exr)")->required();
+  light->add_option("REFERENCE", light_ref, "True maps (a pattern, or one map for every frame)")->required();
+  light->add_option("--frames", light_frames, "Frames 0 to N-1 (0: while the estimate's exist)")
+      ->default_val(0)
+      ->check(mr::kNonNegative);
   std::string est, ref;
   double max_dt = 0.02, delta = 1.0;
   CLI::App* traj = app.add_subcommand(
@@ -238,6 +253,39 @@ int main(int argc, char** argv) {
       for (const auto& r : rows)
         std::printf("%-5s %-36s %10.3f %12.4g %14.4g\n", r.method.c_str(), r.setting.c_str(), r.seconds, r.relmse,
                     r.region_relmse);
+      return mr::kExitOk;
+    }
+    if (light->parsed()) {
+      auto& rep = mr::ToolReport();
+      mr::Json frames = mr::Json::array();
+      std::optional<mr::LightMapError> prev;
+      double sum_err = 0, sum_flicker = 0;
+      int n = 0;
+      std::printf("frame  irradiance_relrms  energy_ratio  unseen_energy  flicker\n");
+      for (int f = 0; light_frames == 0 || f < light_frames; ++f) {
+        const mr::fs::path pe = mr::FramePath(light_est, f), pr = mr::FramePath(light_ref, f);
+        if (light_frames == 0 && !mr::fs::exists(pe)) break;
+        const mr::LightMapError e = mr::CompareLightMaps(mr::ReadImage(pe), mr::ReadImage(pr));
+        rep.AddInput(pe.string());
+        rep.AddInput(pr.string());
+        const double flicker = prev ? mr::LightFlicker(*prev, e) : 0;
+        frames.push_back({{"frame", f},
+                          {"irradiance_relrms", e.irradiance_rel_rms},
+                          {"energy_ratio", e.energy_ratio},
+                          {"unseen_energy_fraction", e.unseen_energy_fraction},
+                          {"flicker", flicker}});
+        std::printf("%5d  %17.4g  %12.4f  %13.4f  %7.4g\n", f, e.irradiance_rel_rms, e.energy_ratio,
+                    e.unseen_energy_fraction, flicker);
+        sum_err += e.irradiance_rel_rms;
+        sum_flicker += flicker;
+        ++n;
+        prev = e;
+      }
+      if (n == 0) mr::ThrowErrorAt(mr::FileLoc{mr::FramePath(light_est, 0).string()}, "no such file");
+      rep.SetMetric("frames", frames);
+      rep.SetMetric("mean_irradiance_relrms", sum_err / n);
+      rep.SetMetric("mean_flicker", n > 1 ? sum_flicker / (n - 1) : 0.0);
+      std::printf("mean   %17.4g  flicker %.4g over %d frames\n", sum_err / n, n > 1 ? sum_flicker / (n - 1) : 0.0, n);
       return mr::kExitOk;
     }
     if (traj->parsed()) {

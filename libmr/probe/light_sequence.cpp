@@ -6,6 +6,7 @@
 #include "core/color.h"
 #include "core/error.h"
 #include "core/spherical.h"
+#include "probe/light_extraction.h"
 
 namespace mr {
 
@@ -17,8 +18,7 @@ TimeMatch MatchLightToPlate(const std::vector<double>& light_times, const std::v
     for (size_t i = 0; i < t.size(); ++i) {
       if (!std::isfinite(t[i])) ThrowErrorAt(FileLoc{name}, "frame {}'s timestamp is not finite", i);
       if (i > 0 && t[i] < t[i - 1])
-        ThrowErrorAt(FileLoc{name},
-                     "timestamps go backwards at frame {} ({:.6f} after {:.6f})", i, t[i], t[i - 1]);
+        ThrowErrorAt(FileLoc{name}, "timestamps go backwards at frame {} ({:.6f} after {:.6f})", i, t[i], t[i - 1]);
     }
   };
   check(light_times, light_name);
@@ -49,9 +49,8 @@ TimeMatch MatchLightToPlate(const std::vector<double>& light_times, const std::v
   if (m.unmatched == static_cast<int>(plate_times.size()))
     ThrowErrorAt(FileLoc{light_name},
                  "no light frame lies within {:.4f} s of any frame of {}: the light spans {:.4f} to "
-                             "{:.4f} s, the plate {:.4f} to {:.4f} s (do the two clocks share an origin?)",
-                             max_dt, plate_name, light_times.front(), light_times.back(), plate_times.front(),
-                             plate_times.back());
+                 "{:.4f} s, the plate {:.4f} to {:.4f} s (do the two clocks share an origin?)",
+                 max_dt, plate_name, light_times.front(), light_times.back(), plate_times.front(), plate_times.back());
   return m;
 }
 
@@ -79,8 +78,7 @@ bool Finite4(const float* p) {
 Image LightFilter::Add(const Image& map, double t, double exposure, LightFrameReport* report) {
   LightFrameReport r;
   if (map.channels() != 4) ThrowError("a light map needs R G B and confidence");
-  if (!(exposure > 0) || !std::isfinite(exposure))
-    ThrowError("exposure {} must be finite and positive", exposure);
+  if (!(exposure > 0) || !std::isfinite(exposure)) ThrowError("exposure {} must be finite and positive", exposure);
   const int w = map.width(), h = map.height();
   std::vector<double> sa(static_cast<size_t>(h));
   double total_sa = 0;
@@ -150,7 +148,8 @@ Image LightFilter::Add(const Image& map, double t, double exposure, LightFrameRe
     for (int y = 0; y < h; ++y)
       for (int x = 0; x < w; ++x) {
         if (!usable(x, y) || state_.at(x, y, 3) <= 0) continue;
-        const double ls = Lum(state_.data() + (static_cast<size_t>(y) * w + x) * 4), ln = Lum(map.data() + (static_cast<size_t>(y) * w + x) * 4) / exposure;
+        const double ls = Lum(state_.data() + (static_cast<size_t>(y) * w + x) * 4),
+                     ln = Lum(map.data() + (static_cast<size_t>(y) * w + x) * 4) / exposure;
         if (ls > floor && ln > 0) ratios.push_back(ln / ls);
       }
     if (ratios.size() >= 16) {
@@ -166,7 +165,8 @@ Image LightFilter::Add(const Image& map, double t, double exposure, LightFrameRe
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       if (!usable(x, y) || state_.at(x, y, 3) <= 0) continue;
-      const double ls = Lum(state_.data() + (static_cast<size_t>(y) * w + x) * 4), ln = Lum(map.data() + (static_cast<size_t>(y) * w + x) * 4) / k;
+      const double ls = Lum(state_.data() + (static_cast<size_t>(y) * w + x) * 4),
+                   ln = Lum(map.data() + (static_cast<size_t>(y) * w + x) * 4) / k;
       const double hi = std::max(ls, ln), lo = std::min(ls, ln);
       cand[static_cast<size_t>(y) * w + x] = hi > o_.jump_ratio * lo && hi - lo > floor;
     }
@@ -207,6 +207,63 @@ Image LightFilter::Add(const Image& map, double t, double exposure, LightFrameRe
   t_ = t;
   if (report) *report = r;
   return out;
+}
+
+}  // namespace mr
+
+namespace mr {
+
+LightMapError CompareLightMaps(const Image& estimate, const Image& reference) {
+  if (estimate.channels() < 3 || reference.channels() < 3) ThrowError("light maps need R G B");
+  const bool has_conf = estimate.channels() >= 4;
+  Image ref = Image::Rgb(reference.width(), reference.height());
+  Image est = Image::Rgb(estimate.width(), estimate.height());
+  for (int y = 0; y < estimate.height(); ++y)
+    for (int x = 0; x < estimate.width(); ++x)
+      for (int c = 0; c < 3; ++c) est.at(x, y, c) = estimate.at(x, y, c);
+  double seen_e = 0, all_e = 0, est_e = 0;
+  for (int y = 0; y < reference.height(); ++y)
+    for (int x = 0; x < reference.width(); ++x) {
+      const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), reference.width(), reference.height());
+      const Eigen::Vector2d q = DirectionToLatLongPixel(d, estimate.width(), estimate.height());
+      const int ex = std::clamp(static_cast<int>(std::lround(q.x())), 0, estimate.width() - 1);
+      const int ey = std::clamp(static_cast<int>(std::lround(q.y())), 0, estimate.height() - 1);
+      const bool seen = !has_conf || estimate.at(ex, ey, 3) > 0;
+      const double sa = LatLongPixelSolidAngle(x, y, reference.width(), reference.height());
+      const double l = LuminanceF(reference.at(x, y, 0), reference.at(x, y, 1), reference.at(x, y, 2));
+      all_e += l * sa;
+      if (!seen) continue;
+      seen_e += l * sa;
+      for (int c = 0; c < 3; ++c) ref.at(x, y, c) = reference.at(x, y, c);
+    }
+  for (int y = 0; y < estimate.height(); ++y)
+    for (int x = 0; x < estimate.width(); ++x)
+      est_e += LuminanceF(est.at(x, y, 0), est.at(x, y, 1), est.at(x, y, 2)) *
+               LatLongPixelSolidAngle(x, y, estimate.width(), estimate.height());
+  LightMapError e;
+  const std::vector<Eigen::Vector3d> normals = SphereNormals(256);
+  e.e_est = MapIrradiance(est, normals);
+  e.e_ref = MapIrradiance(ref, normals);
+  double d2 = 0, r2 = 0;
+  for (size_t i = 0; i < normals.size(); ++i) {
+    d2 += (e.e_est[i] - e.e_ref[i]) * (e.e_est[i] - e.e_ref[i]);
+    r2 += e.e_ref[i] * e.e_ref[i];
+  }
+  e.irradiance_rel_rms = r2 > 0 ? std::sqrt(d2 / r2) : 0;
+  e.energy_ratio = seen_e > 0 ? est_e / seen_e : 0;
+  e.unseen_energy_fraction = all_e > 0 ? 1 - seen_e / all_e : 0;
+  return e;
+}
+
+double LightFlicker(const LightMapError& a, const LightMapError& b) {
+  if (a.e_est.size() != b.e_est.size() || a.e_ref.size() != b.e_ref.size()) ThrowError("irradiances differ in size");
+  double d2 = 0, r2 = 0;
+  for (size_t i = 0; i < b.e_ref.size(); ++i) {
+    const double d = (b.e_est[i] - a.e_est[i]) - (b.e_ref[i] - a.e_ref[i]);
+    d2 += d * d;
+    r2 += b.e_ref[i] * b.e_ref[i];
+  }
+  return r2 > 0 ? std::sqrt(d2 / r2) : 0;
 }
 
 }  // namespace mr

@@ -21,7 +21,7 @@ namespace mr {
 // (the two do not overlap in time).
 struct TimeMatch {
   std::vector<int> light_of_plate;
-  int unmatched = 0;  // plate frames with no light frame within max_dt
+  int unmatched = 0;       // plate frames with no light frame within max_dt
   double max_dt_seen = 0;  // the largest |t_plate - t_light| among matched frames
 };
 TimeMatch MatchLightToPlate(const std::vector<double>& light_times, const std::vector<double>& plate_times,
@@ -53,12 +53,12 @@ struct LightFilterOptions {
 };
 
 struct LightFrameReport {
-  double exposure = 1;        // the factor the frame was divided by (relative to the first frame)
-  double alpha = 1;           // the filter's step this frame (1: no filtering)
-  double seen_fraction = 0;   // of the sphere's solid angle, seen by this frame
+  double exposure = 1;         // the factor the frame was divided by (relative to the first frame)
+  double alpha = 1;            // the filter's step this frame (1: no filtering)
+  double seen_fraction = 0;    // of the sphere's solid angle, seen by this frame
   double filled_fraction = 0;  // not seen now, taken from an earlier frame
-  double jump_fraction = 0;   // of the map's luminance energy in jumping directions
-  bool jump = false;          // jump_fraction > jump_report_fraction
+  double jump_fraction = 0;    // of the map's luminance energy in jumping directions
+  bool jump = false;           // jump_fraction > jump_report_fraction
 };
 
 // Feeds unwrapped maps (R G B confidence, probe/unwrap.h) in time order.
@@ -78,5 +78,26 @@ class LightFilter {
   double t_ = 0;
   bool started_ = false;
 };
+
+}  // namespace mr
+
+namespace mr {
+
+// A captured map against the true one, by what it lights: the diffuse
+// irradiance (luminance) at 256 normals spread over the sphere, from each
+// map, the reference taken only over the directions the estimate saw
+// (confidence > 0; a 3-channel estimate saw everything).  What the capture
+// does not see is reported apart, as the share of the reference's energy.
+struct LightMapError {
+  double irradiance_rel_rms = 0;      // RMS(E_est - E_ref) / RMS(E_ref)
+  double energy_ratio = 0;            // the estimate's energy over the (seen) reference's
+  double unseen_energy_fraction = 0;  // of the reference's energy where the estimate saw nothing
+  std::vector<double> e_est, e_ref;   // the irradiances, for LightFlicker
+};
+LightMapError CompareLightMaps(const Image& estimate, const Image& reference);
+
+// The error of the frame-to-frame change: RMS over the normals of
+// (E_est(b) - E_est(a)) - (E_ref(b) - E_ref(a)), over RMS(E_ref(b)).
+double LightFlicker(const LightMapError& a, const LightMapError& b);
 
 }  // namespace mr

@@ -316,6 +316,45 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   return c;
 }
 
+// The light camera's video of a dynamic capture (docs/formats.md,
+// "Synthetic captures"): a 200-degree stereographic fish-eye at the zenith
+// (probe/fisheye.cameramodel's orientation), 160x160, seeing each frame's
+// sky; 30 fps, 4 ms after the plate; auto-exposure stepping through 1, 0.7
+// and 1.4 (exposures.txt; frame 0's is 1, so the maps are in radiance);
+// 2% noise; frame 2 dropped by the capture (frames.txt lists the rest).
+void WriteLightVideo(const SynthOptions& o, const SynthCapture& c, const std::string& note, Report* report) {
+  const fs::path dir = o.out / "lightcam";
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  CameraModel up("LENSMODEL_STEREOGRAPHIC", {33.5, 33.5, 79.5, 79.5}, 160, 160);
+  Eigen::Matrix3d world_from_up;
+  world_from_up << 1, 0, 0, 0, 0, 1, 0, -1, 0;
+  up.set_cam_from_ref(Rigid3(Eigen::Quaterniond(world_from_up.transpose()), Eigen::Vector3d::Zero()));
+  up.Write(dir / "fisheye.cameramodel", note);
+  ImageWriteOptions wo;
+  wo.tool = o.tool;
+  wo.command_line = o.command_line;
+  SphereViewOptions so;
+  so.world_from_cam = world_from_up;
+  so.supersample = 16;  // a pixel integrates the one-pixel sun: 256 samples keep its energy to about 3%
+  std::string list = "# timestamp path: the light camera's frames (" + note + ")\n";
+  std::vector<std::pair<std::string, double>> times;
+  const double steps[] = {1.0, 0.7, 1.4};
+  for (size_t i = 0; i < c.skies.size(); ++i) {
+    if (i == 2 && c.skies.size() > 3) continue;  // dropped
+    so.exposure = steps[i % 3];
+    Image view = RenderEnvironmentView(EnvironmentMap(c.skies[i], "sky"), up, so);
+    AddRelativeNoise(&view, 0.02, HashCombine(o.seed, 0x6c69676874ULL + i));
+    const std::string name = fmt::format("{:05d}.exr", i);
+    WriteImage(dir / name, view, wo);
+    list += fmt::format("{:.6f} {}\n", static_cast<double>(i) / 30.0 + 0.004, name);
+    times.emplace_back(name, so.exposure);
+  }
+  WriteTextFile(dir / "frames.txt", list);
+  WriteExposures(dir / "exposures.txt", times, "the light camera's auto-exposure, relative to frame 0");
+  for (const char* f : {"fisheye.cameramodel", "frames.txt", "exposures.txt"}) report->AddOutput((dir / f).string());
+}
+
 void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::string& note, Report* report) {
   ScopedTimer t(report, "write inputs");
   Json reals = Json::array();
@@ -368,6 +407,7 @@ void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::s
       WriteTextFile(o.out / "lights" / fmt::format("{:05d}.json", i), LightsToJson(on, note).dump(2) + "\n");
     }
     scene["lighting"] = {{"environment", "env/%05d.exr"}, {"lights", "lights/%05d.json"}};
+    WriteLightVideo(o, c, note, report);
     Json keys = Json::array();
     for (const ObjectKeyframe& k : c.keyframes) {
       const Eigen::Vector3d r = k.rotation.toRotationMatrix().eulerAngles(2, 1, 0);  // z, y, x

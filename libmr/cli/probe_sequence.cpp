@@ -3,17 +3,20 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <sstream>
 
 #include "camera/camera_model.h"
 #include "camera/trajectory.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/image.h"
 #include "core/progress.h"
 #include "core/video.h"
 #include "hdr/exposure_merge.h"
 #include "hdr/exposures_file.h"
+#include "pipeline/pipeline.h"
 #include "render/frame_io.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
@@ -101,8 +104,29 @@ struct FrameOut {
   double dt = 0;
 };
 
-void WriteMap(const ProbeSequenceOptions& o, int f, const Image& map, Report* report) {
+// The key an earlier run wrote into a map ("" when none, or no map).
+std::string MapKey(const fs::path& path) {
+  if (!fs::exists(path)) return "";
+  try {
+    int w = 0, h = 0;
+    std::vector<std::string> ch;
+    const ImageFileInfo info = ReadImageHeader(path, &w, &h, &ch);
+    const auto it = info.attributes.find("mr:light_key");
+    return it == info.attributes.end() || ch.size() != 4 ? "" : it->second;
+  } catch (const Error&) {
+    return "";  // unreadable: made again
+  }
+}
+
+uint64_t Fnv1aString(const std::string& s) {
+  Fnv1a h;
+  h.Bytes(s.data(), s.size());
+  return h.value();
+}
+
+void WriteMap(const ProbeSequenceOptions& o, int f, const Image& map, Report* report, const std::string& key = "") {
   ImageWriteOptions wo;
+  if (!key.empty()) wo.attributes["mr:light_key"] = key;
   wo.tool = o.tool;
   wo.command_line = o.command_line;
   wo.attributes["textureformat"] = "LatLong Environment";
@@ -167,9 +191,9 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
     for (const auto& p : traj.poses) plate.push_back(p.timestamp);
     const TimeMatch m = MatchLightToPlate(light_times, plate, o.max_dt, o.light, o.plate_times->string());
     light_of = m.light_of_plate;
-    report->SetMetric("time_match", {{"max_dt_s", o.max_dt},
-                                     {"largest_dt_s", m.max_dt_seen},
-                                     {"unmatched_plate_frames", m.unmatched}});
+    report->SetMetric(
+        "time_match",
+        {{"max_dt_s", o.max_dt}, {"largest_dt_s", m.max_dt_seen}, {"unmatched_plate_frames", m.unmatched}});
   } else {
     for (size_t i = 0; i < lf.size(); ++i) light_of.push_back(static_cast<int>(i));
     report->Skip("matching by timestamp", "no plate times given: one map per light frame");
@@ -183,16 +207,17 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
       if (first < 0) first = light_of[static_cast<size_t>(p)];
       last = light_of[static_cast<size_t>(p)];
     }
-  if (first < 0)
-    ThrowErrorAt(FileLoc{o.light}, "no light frame matches the plate frames {} to {}", begin, end - 1);
+  if (first < 0) ThrowErrorAt(FileLoc{o.light}, "no light frame matches the plate frames {} to {}", begin, end - 1);
 
   // Exposure times: a file, else metadata, else 1.
   std::vector<double> times(lf.size(), 0);
   if (o.exposures) {
     std::vector<std::string> names;
     for (const auto& f : lf) names.push_back(f.path.string());
-    if (lf[0].path.empty()) ThrowErrorAt(FileLoc{o.exposures->string()}, "exposure times of a video's frames: give "
-                                                                         "its frames as files");
+    if (lf[0].path.empty())
+      ThrowErrorAt(FileLoc{o.exposures->string()},
+                   "exposure times of a video's frames: give "
+                   "its frames as files");
     times = ReadExposures(o.exposures->string(), names);
     report->AddInput(o.exposures->string());
   }
@@ -201,71 +226,114 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
   if (lf[0].path.empty()) video = std::make_unique<VideoReader>(o.light);
   LightFilter filter(o.filter);
   StateSkips(o, report);
-  std::vector<FrameOut> outs(static_cast<size_t>(last + 1));
+
+  // The map each output frame shows: its light frame's, else the last
+  // matched one's (a dropped light frame), else the first's.
+  std::vector<int> source(static_cast<size_t>(n_out), -1);
+  std::vector<std::vector<int>> emit(static_cast<size_t>(last + 1));
+  for (int p = begin, prev = first; p < end; ++p) {
+    const int j = light_of[static_cast<size_t>(p)];
+    if (j >= 0) prev = j;
+    source[static_cast<size_t>(p)] = prev;
+    emit[static_cast<size_t>(prev)].push_back(p);
+  }
+
+  // Each map's key: a chain over the options and every light frame up to
+  // it (content, time, exposure), so that a re-run keeps the maps whose
+  // inputs did not change and redoes the rest (docs/methods.md).
+  const uint64_t options_key =
+      HashCombine(ContentHash(o.fisheye),
+                  Fnv1aString(fmt::format(
+                      "mr-probe light 1 {} {} {} {} {} {} {} {} {} {} {}", o.unwrap.width, o.unwrap.reflectance,
+                      o.unwrap.camera_cone_deg, fmt::join(o.unwrap.rotate.data(), o.unwrap.rotate.data() + 9, ","),
+                      o.filter.time_constant_s, o.filter.jump_ratio, o.filter.jump_floor, o.filter.jump_report_fraction,
+                      o.filter.recover_exposure, o.filter.confidence_keep, first)));
+  const uint64_t video_key = video ? ContentHash(o.light) : 0;
+  uint64_t key = options_key;
   double t0 = 0;
   Progress progress("light frames", last - first + 1);
-  int clipped_frames = 0;
+  int clipped_frames = 0, kept = 0;
+  std::vector<Json> frames;
   for (int j = first; j <= last; ++j) {
     const LightFrameFile& f = lf[static_cast<size_t>(j)];
-    Image photo;
-    ImageFileInfo info;
     const std::string name = f.path.empty() ? fmt::format("{} frame {}", o.light, j) : f.path.string();
-    {
-      ScopedTimer t(report, "read");
-      photo = f.path.empty() ? video->Frame(f.video_index) : ReadImage(f.path, {}, &info);
-    }
     double time = times[static_cast<size_t>(j)];
-    if (!(time > 0)) {
+    if (!(time > 0) && !f.path.empty()) {
+      int w = 0, h = 0;
+      std::vector<std::string> ch;
       std::string how;
-      time = ExposureFromMetadata(info.attributes, &how);
+      time = ExposureFromMetadata(ReadImageHeader(f.path, &w, &h, &ch).attributes, &how);
     }
     if (!(time > 0)) time = 1;
     if (j == first) t0 = time;
-    // 8-bit frames: a clipped pixel is a lower bound; count them.
-    if (f.path.empty() || info.decoded_from_ldr) {
-      int64_t clipped = 0;
-      for (int64_t i = 0; i < photo.pixel_count(); ++i)
-        clipped += photo.values()[static_cast<size_t>(i * photo.channels())] >= 0.99f ||
-                   photo.values()[static_cast<size_t>(i * photo.channels() + 1)] >= 0.99f ||
-                   photo.values()[static_cast<size_t>(i * photo.channels() + 2)] >= 0.99f;
-      if (clipped > 0) ++clipped_frames;
-    }
-    Image map;
-    {
-      ScopedTimer t(report, "unwrap");
-      map = UnwrapFisheye(photo, cam, world_from_cam, o.unwrap, name);
-    }
-    FrameOut& fo = outs[static_cast<size_t>(j)];
-    {
+    key = HashCombine(key, f.path.empty() ? HashCombine(video_key, static_cast<uint64_t>(j)) : ContentHash(f.path));
+    key = HashCombine(key, HashCombine(std::bit_cast<uint64_t>(f.time), std::bit_cast<uint64_t>(time / t0)));
+    const std::string key_hex = fmt::format("{:016x}", key);
+    const std::vector<int>& shows = emit[static_cast<size_t>(j)];
+
+    FrameOut fo;
+    fo.light_frame = j;
+    fo.light_file = f.path.empty() ? fmt::format("{}#{}", o.light, f.video_index) : f.path.filename().string();
+    bool restored = !shows.empty();
+    for (int p : shows) restored = restored && MapKey(FramePath(o.out, p)) == key_hex;
+    if (restored) {  // an earlier run made these maps from the same inputs
+      ScopedTimer t(report, "read");
+      fo.map = ReadImage(FramePath(o.out, shows.front()));
+      filter.Restore(fo.map, f.time);
+      ++kept;
+    } else {
+      Image photo;
+      ImageFileInfo info;
+      {
+        ScopedTimer t(report, "read");
+        photo = f.path.empty() ? video->Frame(f.video_index) : ReadImage(f.path, {}, &info);
+      }
+      // 8-bit frames: a clipped pixel is a lower bound; count them.
+      if (f.path.empty() || info.decoded_from_ldr) {
+        int64_t clipped = 0;
+        for (int64_t i = 0; i < photo.pixel_count(); ++i)
+          for (int c = 0; c < 3; ++c) clipped += photo.values()[static_cast<size_t>(i * photo.channels() + c)] >= 0.99f;
+        if (clipped > 0) ++clipped_frames;
+      }
+      Image map;
+      {
+        ScopedTimer t(report, "unwrap");
+        map = UnwrapFisheye(photo, cam, world_from_cam, o.unwrap, name);
+      }
       ScopedTimer t(report, "filter");
       fo.map = filter.Add(map, f.time, time / t0, &fo.filter);
     }
-    fo.light_frame = j;
-    fo.light_file = f.path.empty() ? fmt::format("{}#{}", o.light, f.video_index) : f.path.filename().string();
+    for (int p : shows) {
+      FrameOut shown = fo;
+      shown.dt = plate.empty() ? 0 : f.time - plate[static_cast<size_t>(p)];
+      if (!restored) {
+        ScopedTimer t(report, "write");
+        WriteMap(o, p, fo.map, report, key_hex);
+      } else {
+        report->AddOutput(FramePath(o.out, p).string());
+      }
+      Json jf = FrameJson(p, shown, light_of[static_cast<size_t>(p)] < 0);
+      jf["kept"] = restored;
+      frames.push_back(jf);
+    }
     progress.Update(j - first + 1);
   }
   progress.Done();
+  std::sort(frames.begin(), frames.end(),
+            [](const Json& a, const Json& b) { return a["frame"].get<int>() < b["frame"].get<int>(); });
   if (clipped_frames > 0)
-    report->Warn(fmt::format("{} light frame(s) are 8-bit with clipped pixels: those directions are lower bounds "
-                             "(an HDR light camera, or a shorter exposure, keeps the sun)",
-                             clipped_frames));
+    report->Warn(
+        fmt::format("{} light frame(s) are 8-bit with clipped pixels: those directions are lower bounds "
+                    "(an HDR light camera, or a shorter exposure, keeps the sun)",
+                    clipped_frames));
   if (first > 0) report->Skip("light frames before the plate", fmt::format("{} frame(s)", first));
-  report->SetMetric("light_frames_read", last - first + 1);
-
-  // One map per plate frame; a frame without a light frame reuses the last.
-  std::vector<Json> frames;
-  const FrameOut* prev = nullptr;
-  for (int p = begin; p < end; ++p) {
-    const int j = light_of[static_cast<size_t>(p)];
-    const FrameOut* fo = j >= 0 ? &outs[static_cast<size_t>(j)] : prev;
-    if (!fo) fo = &outs[static_cast<size_t>(first)];  // before the first match: the first matched map
-    FrameOut shown = *fo;
-    shown.dt = plate.empty() ? 0 : light_times[static_cast<size_t>(fo->light_frame)] - plate[static_cast<size_t>(p)];
-    ScopedTimer t(report, "write");
-    WriteMap(o, p, fo->map, report);
-    frames.push_back(FrameJson(p, shown, j < 0));
-    if (j >= 0) prev = fo;
-  }
+  if (kept > 0)
+    report->Skip("unwrapping and filtering",
+                 fmt::format("{} light frame(s): their maps are up to date (same inputs and options as the maps' "
+                             "keys say)",
+                             kept));
+  report->SetMetric("light_frames_read", last - first + 1 - kept);
+  report->SetMetric("light_frames_kept", kept);
   Summarise(frames, report);
 }
 
@@ -280,7 +348,8 @@ void RunPlateSphere(const ProbeSequenceOptions& o, Report* report) {
   FrameReader reader(scene, cam, decoding);
   const int n = static_cast<int>(poses.size());
   const int begin = std::min(o.begin, n), end = o.end < 0 ? n : std::min(o.end, n);
-  if (begin >= end) ThrowErrorAt(FileLoc{o.scene.string()}, "no frame in the range {}:{} ({} poses)", o.begin, o.end, n);
+  if (begin >= end)
+    ThrowErrorAt(FileLoc{o.scene.string()}, "no frame in the range {}:{} ({} poses)", o.begin, o.end, n);
   LightFilter filter(o.filter);
   StateSkips(o, report);
   report->Skip("matching by timestamp", "the sphere is in the plate: every frame has its own");

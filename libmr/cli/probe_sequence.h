@@ -25,8 +25,8 @@ struct ProbeSequenceOptions {
   // (frames 0, 1, ... while they exist) or a video; `fisheye` its camera model.
   std::string light;
   fs::path fisheye;
-  double fps = 30;          // pattern and video frames: time = index / fps + time_offset
-  double time_offset = 0;   // seconds added to the light frames' times
+  double fps = 30;         // pattern and video frames: time = index / fps + time_offset
+  double time_offset = 0;  // seconds added to the light frames' times
   // The plate's times (a TUM trajectory: its timestamps); the light frame
   // nearest each within max_dt is that plate frame's.  Absent: one map per
   // light frame, numbered as the light frames are.
@@ -45,7 +45,7 @@ struct ProbeSequenceOptions {
 
   UnwrapOptions unwrap;
   LightFilterOptions filter;
-  fs::path out;  // printf pattern of the maps ("env/%05d.exr")
+  fs::path out;             // printf pattern of the maps ("env/%05d.exr")
   int begin = 0, end = -1;  // plate frames [begin, end); -1: all
   std::string tool = "mr-probe", command_line;
   void Check() const;

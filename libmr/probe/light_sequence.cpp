@@ -65,6 +65,13 @@ void LightFilterOptions::Check() const {
 
 LightFilter::LightFilter(const LightFilterOptions& options) : o_(options) { o_.Check(); }
 
+void LightFilter::Restore(const Image& state, double t) {
+  if (state.channels() != 4) ThrowError("a light map needs R G B and confidence");
+  state_ = state;
+  t_ = t;
+  started_ = true;
+}
+
 namespace {
 
 float Lum(const float* p) { return LuminanceF(p[0], p[1], p[2]); }

@@ -71,6 +71,9 @@ class LightFilter {
   // the history's where it was filled, 0 where no frame yet saw it.
   Image Add(const Image& map, double t, double exposure, LightFrameReport* report);
   bool started() const { return started_; }
+  // Continues from a map this filter returned at time `t` (an earlier run's
+  // output: the output is the whole state).
+  void Restore(const Image& state, double t);
 
  private:
   LightFilterOptions o_;

@@ -39,7 +39,7 @@ TEST(ProbeSequence, LightCameraVideoGivesEachFramesSky) {
   so.out = dir.path() / "cap";
   Report synth_report;
   RunSynth(so, &synth_report);
-  for (const bool recover : {false, true}) {
+  for (const bool recover : {false, true}) {  // read first: the recovered run sees the changed frame
     ProbeSequenceOptions o;
     o.light = (so.out / "lightcam" / "frames.txt").string();
     o.fisheye = so.out / "lightcam" / "fisheye.cameramodel";
@@ -57,13 +57,30 @@ TEST(ProbeSequence, LightCameraVideoGivesEachFramesSky) {
     EXPECT_NEAR(frames[1]["exposure"].get<double>(), 0.7, recover ? 0.005 : 1e-12);
     EXPECT_EQ(report.metrics()["reused_maps"], 1);
     for (int f = 0; f < 4; ++f) {
-      const LightMapError e = CompareLightMaps(ReadImage(FramePath(o.out, f)),
-                                               ReadImage(so.out / "env" / fmt::format("{:05d}.exr", f)));
+      const LightMapError e =
+          CompareLightMaps(ReadImage(FramePath(o.out, f)), ReadImage(so.out / "env" / fmt::format("{:05d}.exr", f)));
       // The dropped frame's map is frame 1's: the sun one frame behind (3.1%).
       EXPECT_LT(e.irradiance_rel_rms, f == 2 ? 0.05 : 0.03) << "frame " << f << (recover ? " (recovered)" : " (read)");
       EXPECT_NEAR(e.energy_ratio, 1.0, 0.03) << f;
       EXPECT_NEAR(e.unseen_energy_fraction, 0.14, 0.02) << f;
     }
+    if (recover) continue;
+    // A re-run keeps every map (their keys match); a changed light frame
+    // redoes its map and those after it (the filter carries it forward),
+    // and the maps before it keep their bytes.
+    const std::string before = ReadTextFile(FramePath(o.out, 1));
+    Report again;
+    RunProbeSequence(o, &again);
+    EXPECT_EQ(again.metrics()["light_frames_kept"], 3);
+    EXPECT_EQ(again.metrics()["light_frames_read"], 0);
+    Image changed = ReadImage(so.out / "lightcam" / "00003.exr");
+    for (float& v : changed.values()) v *= 1.01f;
+    WriteImage(so.out / "lightcam" / "00003.exr", changed);
+    Report third;
+    RunProbeSequence(o, &third);
+    EXPECT_EQ(third.metrics()["light_frames_kept"], 2);
+    EXPECT_FALSE(third.metrics()["frames"][3]["kept"].get<bool>());
+    EXPECT_EQ(ReadTextFile(FramePath(o.out, 1)), before);
   }
   // The plate's clock 100 s off: no overlap, a clear error and no map.
   ProbeSequenceOptions o;

@@ -63,21 +63,26 @@ PY
 
 # A world that changes during the video: the sun moving, a lamp switched on
 # halfway, the object sliding across the table and turning (mr-synth
-# --dynamic, truth per frame).  The chain from a pipeline file (the light per
-# frame and the trajectory pass through to scene.json; the plate check runs
-# each frame's room under its own light), then every method against the
-# truth of each frame, with its flicker.
+# --dynamic, truth per frame).  The chain from a pipeline file: the light
+# captured per frame from the light camera's video (matched to the plate by
+# timestamp, with a dropped frame), the lamp's lights and the trajectory
+# passed through to scene.json, the plate check running each frame's room
+# under its own light; then every method against the truth of each frame,
+# with its flicker.
 d=$out/dynamic
 "$bin/mr-synth" --preset medium --dynamic --frames 4 --truth-spp 256 --out "$d/capture" --report "$d/synth-report.json" -q
 /usr/bin/python3 examples/synthetic/dynamic_pipeline.py "$d/capture/scene.json" > "$d/pipeline.json"
 "$bin/mr-pipeline" "$d/pipeline.json" --report "$d/pipeline-report.json"
+echo "the light captured from the light camera's video, against each frame's true sky:"
+"$bin/mr-eval" light "$d/work/env/%05d.exr" "$d/capture/env/%05d.exr" --report "$d/light-eval.json"
 for ms in ic:4 vpl:1 vct:4; do
   m=${ms%:*}
   "$bin/mr-render" "$d/work/scene.json" --method "$m" --spp "${ms#*:}" --out "$d/work/render-$m" \
     --report "$d/render-$m.json" -q
 done
 echo
-echo "dynamic capture: $d/capture (env/, lights/, the trajectory in scene.json); composites $d/work/render/*.png"
+echo "dynamic capture: $d/capture (lightcam/, env/ the true skies, lights/, the trajectory in scene.json);"
+echo "captured maps $d/work/env/; composites $d/work/render/*.png"
 /usr/bin/python3 - "$d" <<'PYD' || true
 import json, sys
 d = sys.argv[1]

@@ -257,7 +257,7 @@ int main(int argc, char** argv) {
     }
     if (light->parsed()) {
       auto& rep = mr::ToolReport();
-      mr::Json frames = mr::Json::array();
+      mr::Json per_frame = mr::Json::array();
       std::optional<mr::LightMapError> prev;
       double sum_err = 0, sum_flicker = 0;
       int n = 0;
@@ -269,11 +269,11 @@ int main(int argc, char** argv) {
         rep.AddInput(pe.string());
         rep.AddInput(pr.string());
         const double flicker = prev ? mr::LightFlicker(*prev, e) : 0;
-        frames.push_back({{"frame", f},
-                          {"irradiance_relrms", e.irradiance_rel_rms},
-                          {"energy_ratio", e.energy_ratio},
-                          {"unseen_energy_fraction", e.unseen_energy_fraction},
-                          {"flicker", flicker}});
+        per_frame.push_back({{"frame", f},
+                             {"irradiance_relrms", e.irradiance_rel_rms},
+                             {"energy_ratio", e.energy_ratio},
+                             {"unseen_energy_fraction", e.unseen_energy_fraction},
+                             {"flicker", flicker}});
         std::printf("%5d  %17.4g  %12.4f  %13.4f  %7.4g\n", f, e.irradiance_rel_rms, e.energy_ratio,
                     e.unseen_energy_fraction, flicker);
         sum_err += e.irradiance_rel_rms;
@@ -282,7 +282,7 @@ int main(int argc, char** argv) {
         prev = e;
       }
       if (n == 0) mr::ThrowErrorAt(mr::FileLoc{mr::FramePath(light_est, 0).string()}, "no such file");
-      rep.SetMetric("frames", frames);
+      rep.SetMetric("frames", per_frame);
       rep.SetMetric("mean_irradiance_relrms", sum_err / n);
       rep.SetMetric("mean_flicker", n > 1 ? sum_flicker / (n - 1) : 0.0);
       std::printf("mean   %17.4g  flicker %.4g over %d frames\n", sum_err / n, n > 1 ? sum_flicker / (n - 1) : 0.0, n);

@@ -1,6 +1,8 @@
 """The pipeline file of mr-synth --dynamic's capture (examples/run.sh): the
-capture's room, light per frame, video and trajectory, as a user would write
-it beside the capture.  Usage: dynamic_pipeline.py CAPTURE/scene.json > pipeline.json"""
+capture's room, video and trajectory, and its light captured per frame from
+the light camera's video (a zenith fish-eye at its own clock, matched to the
+plate's timestamps, each frame's exposure read), as a user would write it
+beside the capture.  Usage: dynamic_pipeline.py CAPTURE/scene.json > pipeline.json"""
 import json
 import sys
 
@@ -13,10 +15,14 @@ def rebase(p):
 
 json.dump({
     "version": 1,
-    "comment": "examples/run.sh: the dynamic capture's chain (light per frame, a trajectory)",
+    "comment": "examples/run.sh: the dynamic capture's chain (light captured per frame, a trajectory)",
     "work": "work",
     "camera": {"model": "capture/camera.cameramodel"},
-    "lighting": {"environment": rebase(s["lighting"]["environment"]), "lights": rebase(s["lighting"]["lights"])},
+    "lighting": {"light_video": {"frames": "capture/lightcam/frames.txt",
+                                 "fisheye": "capture/lightcam/fisheye.cameramodel",
+                                 "exposures": "capture/lightcam/exposures.txt",
+                                 "options": {"width": 256, "time-constant": 0.1}},
+                 "lights": rebase(s["lighting"]["lights"])},
     "room": {"real": [{"mesh": rebase(r["mesh"]), "material": r["material"]} for r in s["real"]]},
     "video": {"frames": rebase(s["camera"]["frames"]), "frames_transfer": "linear",
               "poses": {"tum": rebase(s["camera"]["poses"]["path"])}},

@@ -256,11 +256,19 @@ Pipeline PlanPipeline(const fs::path& file) {
   // The lighting: a map, or a probe (photographs -> HDR -> unwrapped map),
   // and optionally lights extracted from it.
   const Node light = root.Required("lighting");
-  light.RequireObject(
-      {"environment", "probe", "lights", "environment_up", "environment_rotation_deg", "environment_scale"});
-  if (light.Has("environment") == light.Has("probe")) light.Fail("give either lighting.environment or lighting.probe");
+  light.RequireObject({"environment", "probe", "light_video", "lights", "environment_up", "environment_rotation_deg",
+                       "environment_scale"});
+  if (light.Has("environment") + light.Has("probe") + light.Has("light_video") != 1)
+    light.Fail("give one of lighting.environment, lighting.probe and lighting.light_video");
   fs::path env, probe_json, probe_raw;
-  std::optional<Node> probe;
+  std::optional<Node> probe, light_video;
+  if (light.Has("light_video")) {
+    light_video.emplace(light.Child("light_video"));
+    light_video->RequireObject({"frames", "fisheye", "exposures", "plate_times", "options"});
+  }
+  // Why the photograph stages have nothing to do without a probe.
+  const std::string no_probe =
+      light_video ? "the light is a light camera's video (lighting.light_video)" : "lighting.environment is given";
   if (light.Has("probe")) {
     probe.emplace(light.Child("probe"));
     probe->RequireObject({"photos", "exposures", "probe", "sphere", "fisheye", "hdr", "unwrap"});
@@ -269,7 +277,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     PipelineStage& s = stage("sphere");
     s.tool = "mr-calibrate";
     if (!probe) {
-      s.skip = "lighting.environment is given: no probe to locate";
+      s.skip = no_probe + ": no probe to locate";
     } else if (probe->Has("fisheye")) {
       s.skip = "the probe is a fish-eye view: no mirror sphere to locate";
     } else if (probe->Has("probe")) {
@@ -298,7 +306,7 @@ Pipeline PlanPipeline(const fs::path& file) {
     PipelineStage& s = stage("hdr");
     s.tool = "mr-hdr";
     if (!probe) {
-      s.skip = "lighting.environment is given: no photographs to merge";
+      s.skip = no_probe + ": no photographs to merge";
     } else {
       const auto photos = pl.Files(probe->Required("photos"), "probe photographs");
       const std::string ext = LowerExtension(photos.front());
@@ -324,7 +332,40 @@ Pipeline PlanPipeline(const fs::path& file) {
   {
     PipelineStage& s = stage("probe");
     s.tool = "mr-probe";
-    if (!probe) {
+    if (light_video) {
+      // One map per plate frame from the light camera's frames, matched by
+      // timestamp to the plate's poses; mr-probe keeps the maps whose light
+      // frames did not change.
+      const Node& lv = *light_video;
+      const fs::path frames = pl.Pattern(lv.Required("frames"), "light video frames");
+      const fs::path fe = pl.Path(lv.Required("fisheye"), "light camera model");
+      env = w / "env" / "%05d.exr";
+      s.args = {"--light", frames.string(), "--fisheye", fe.string(), "--out", env.string()};
+      s.inputs = {frames.string().find('%') != std::string::npos || LowerExtension(frames) == ".txt"
+                      ? frames.parent_path()
+                      : frames,
+                  fe};
+      std::optional<fs::path> times;
+      if (lv.Has("plate_times")) {
+        times = pl.Path(lv.Child("plate_times"), "plate trajectory");
+      } else if (root.Has("video") && root.Child("video").Has("poses") &&
+                 root.Child("video").Child("poses").Has("tum")) {
+        times = pl.Path(root.Child("video").Child("poses").Child("tum"), "trajectory");
+      }
+      if (times) {
+        Append(&s.args, {"--plate-times", times->string()});
+        s.inputs.push_back(*times);
+      }
+      if (lv.Has("exposures")) {
+        const fs::path e = pl.Path(lv.Child("exposures"), "light frames' exposure times");
+        Append(&s.args, {"--exposures", e.string()});
+        s.inputs.push_back(e);
+      }
+      Append(&s.args, pl.Options(lv));
+      s.outputs = {w / "env"};
+      s.does = times ? "the light camera's frames unwrapped, one map per plate frame matched by timestamp"
+                     : "the light camera's frames unwrapped, one map per frame (no plate times: frame i is i)";
+    } else if (!probe) {
       env = pl.Pattern(light.Child("environment"), "environment map");  // a map, or one per frame
       s.skip = "lighting.environment is given: " + env.string();
     } else {
@@ -412,7 +453,7 @@ Pipeline PlanPipeline(const fs::path& file) {
         // Albedo de-lit by the captured light (a map per frame: the first frame's).
         const fs::path delight = env.string().find('%') != std::string::npos ? FramePath(env, 0) : env;
         std::error_code ec;
-        if (!fs::is_regular_file(delight, ec))
+        if (!light_video && !fs::is_regular_file(delight, ec))  // a light video's maps are the probe stage's
           light.Child("environment")
               .Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
         Append(&s.args, {"--env", delight.string()});

@@ -96,6 +96,40 @@ TEST(PlanPipeline, PassesThePerFrameWorldThrough) {
   }
 }
 
+// A light camera's video: mr-probe makes a map per plate frame, matched to
+// the video's poses by timestamp; the photograph stages say why they have
+// nothing to do; the scene takes the maps' pattern.
+TEST(PlanPipeline, CapturesTheLightFromALightVideo) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "room.ply", "poses.txt", "ball.ply", "fe.cameramodel"})
+    WriteTextFile(dir / f, "x");
+  fs::create_directories(dir / "lightcam");
+  WriteTextFile(dir / "lightcam" / "frames.txt", "0.0 00000.exr\n");
+  WriteTextFile(dir / "p.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"},
+    "lighting": {"light_video": {"frames": "lightcam/frames.txt", "fisheye": "fe.cameramodel",
+                                 "options": {"time-constant": 0.2}}},
+    "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}], "render": {"method": "pt"}})");
+  const Pipeline p = PlanPipeline(dir / "p.json");
+  const PipelineStage& s = Stage(p, "probe");
+  EXPECT_TRUE(s.skip.empty());
+  const std::vector<std::string> want = {"--light",         (dir.path() / "lightcam" / "frames.txt").string(),
+                                         "--fisheye",       (dir.path() / "fe.cameramodel").string(),
+                                         "--out",           (dir.path() / "work" / "env" / "%05d.exr").string(),
+                                         "--plate-times",   (dir.path() / "poses.txt").string(),
+                                         "--time-constant", "0.2"};
+  EXPECT_EQ(s.args, want);
+  EXPECT_EQ(s.inputs.front(), dir.path() / "lightcam");  // the list's folder: every frame's content
+  EXPECT_EQ(p.scene["lighting"]["environment"], "env/%05d.exr");
+  EXPECT_NE(Stage(p, "hdr").skip.find("light camera's video"), std::string::npos) << Stage(p, "hdr").skip;
+  WriteTextFile(dir / "q.json", R"({"version": 1, "camera": {"model": "cam.cameramodel"},
+    "lighting": {"environment": "x.exr", "light_video": {"frames": "lightcam/frames.txt", "fisheye": "fe.cameramodel"}},
+    "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}]})");
+  EXPECT_THROW(PlanPipeline(dir / "q.json"), Error);
+}
+
 // A plate's gains are fitted unless given, turned off or hand-set; the
 // render (and the sweep) then depend on the fitted file.
 TEST(PlanPipeline, FitsThePlatesGainsUnlessToldOtherwise) {

@@ -91,7 +91,9 @@ TEST(LightFilter, SensorNoiseIsReducedAsTheTimeConstantSays) {
       }
     LightFrameReport r;
     out = f.Add(m, i / 30.0, 1.0, &r);
-    if (i > 0) EXPECT_FALSE(r.jump) << "frame " << i << " jump fraction " << r.jump_fraction;
+    if (i > 0) {
+      EXPECT_FALSE(r.jump) << "frame " << i << " jump fraction " << r.jump_fraction;
+    }
   }
   double s2 = 0;
   int n = 0;
@@ -160,7 +162,9 @@ TEST(LightFilter, RecoversAutoExposureDespiteALamp) {
     const Image out = f.Add(m, (i + 1) / 30.0, 1, &r);
     EXPECT_NEAR(r.exposure, k[i], 1e-6 * k[i]) << i;
     EXPECT_NEAR(out.at(5, 5, 1), 1.0, 1e-6);
-    if (i >= 1) EXPECT_NEAR(out.at(30, 20, 1), 50.0, 1e-4);
+    if (i >= 1) {
+      EXPECT_NEAR(out.at(30, 20, 1), 50.0, 1e-4);
+    }
   }
   // An exposure read from the file divides directly.
   LightFilterOptions plain;

@@ -11,6 +11,7 @@
 #include "light/environment.h"
 #include "light/lights_file.h"
 #include "probe/light_extraction.h"
+#include "scene/frames.h"
 
 namespace {
 
@@ -39,19 +40,31 @@ int main(int argc, char** argv) {
   mr::ExtractOptions eo;
   int residual_width = 64, normals = 1024;
   bool sweep = false;
-  mr::ConfigureApp(app, "mr-lights",
-                   "Extracts light sources from a lat-long environment map (mr-probe's env.exr, or any lat-long\n"
-                   "EXR/HDR): median cut on a double-precision, solid-angle-weighted summed-area table; variance-\n"
-                   "minimising cut; hierarchical importance warping (N VPLs); or thresholded connected blobs as area\n"
-                   "lights. Writes lights.json (distant lights, real, with their solid angle and the residual's\n"
-                   "spherical harmonics) and with --residual the map minus what the lights took, downsampled keeping\n"
-                   "energy: lights + residual integrate to the map. The report gives the extraction time and the\n"
-                   "error of diffuse irradiance over all normal directions against the full map.\n"
-                   "--sweep runs every method at every count and writes the error-vs-count table (CSV) and plot (SVG).",
-                   "  mr-lights env.exr --method median-cut --count 64 --out lights.json --residual residual.exr\n"
-                   "  mr-lights env.exr --method blobs --count 4 --threshold 20 --out sun.json --residual rest.exr\n"
-                   "  mr-lights pisa.hdr --sweep --table pisa.csv --plot pisa.svg");
-  app.add_option("env", env_file, "Lat-long environment map (R G B first)")->required()->check(CLI::ExistingFile);
+  mr::ConfigureApp(
+      app, "mr-lights",
+      "Extracts light sources from a lat-long environment map (mr-probe's env.exr, or any lat-long\n"
+      "EXR/HDR): median cut on a double-precision, solid-angle-weighted summed-area table; variance-\n"
+      "minimising cut; hierarchical importance warping (N VPLs); or thresholded connected blobs as area\n"
+      "lights. Writes lights.json (distant lights, real, with their solid angle and the residual's\n"
+      "spherical harmonics) and with --residual the map minus what the lights took, downsampled keeping\n"
+      "energy: lights + residual integrate to the map. The report gives the extraction time and the\n"
+      "error of diffuse irradiance over all normal directions against the full map.\n"
+      "--sweep runs every method at every count and writes the error-vs-count table (CSV) and plot (SVG).\n"
+      "Over time: with printf patterns (env/%05d.exr, --out lights/%05d.json), one lights file per map,\n"
+      "each light keeping its name (lightN) across frames while it stays within --match-deg of where it\n"
+      "was, so that a renderer can tell a light that moved from one that appeared.",
+      "  mr-lights env.exr --method median-cut --count 64 --out lights.json --residual residual.exr\n"
+      "  mr-lights env.exr --method blobs --count 4 --threshold 20 --out sun.json --residual rest.exr\n"
+      "  mr-lights pisa.hdr --sweep --table pisa.csv --plot pisa.svg\n"
+      "  mr-lights 'env/%05d.exr' --method blobs --count 4 --out 'lights/%05d.json' --residual "
+      "'residual/%05d.exr'");
+  double match_deg = 10;
+  app.add_option("env", env_file, "Lat-long environment map (R G B first), or a printf pattern of one per frame")
+      ->required();
+  app.add_option("--match-deg", match_deg,
+                 "Over time: a light within this angle of one of the last frame keeps its name")
+      ->default_val(10)
+      ->check(mr::kNonNegative);
   app.add_option("--out", out, "lights.json to write");
   app.add_option("--method", eo.method, "median-cut, variance-cut, importance or blobs")
       ->check(CLI::IsMember({"median-cut", "variance-cut", "importance", "blobs"}))
@@ -75,6 +88,101 @@ int main(int argc, char** argv) {
     if (sweep && table.empty() && plot.empty()) throw mr::UsageError("--sweep needs --table or --plot");
     if (residual_width < 8 || residual_width % 2) throw mr::UsageError("--residual-width must be even and at least 8");
     eo.Check();
+    const bool over_time = env_file.find('%') != std::string::npos;
+    if (over_time) {
+      if (sweep) throw mr::UsageError("--sweep takes one map, not a pattern");
+      if (out.find('%') == std::string::npos ||
+          (!residual_file.empty() && residual_file.find('%') == std::string::npos))
+        throw mr::UsageError("a pattern of maps needs patterns for --out and --residual (lights/%05d.json)");
+    } else if (!mr::fs::exists(env_file)) {
+      mr::ThrowErrorAt(mr::FileLoc{env_file}, "no such file");
+    }
+    const std::vector<Eigen::Vector3d> dirs = mr::SphereNormals(normals);
+    const std::string command_line = mr::JoinCommandLine(argc, argv);
+    // One map: its lights (named by `ids` when given), residual and error.
+    auto extract_one = [&](const std::string& map_file, const std::string& out_file, const std::string& res_file,
+                           const mr::Extraction& ex, const std::vector<double>& ref, const std::vector<int>* ids) {
+      const bool make_dirs = ids != nullptr;  // over time the patterns' folders are made
+      const mr::IrradianceError e = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, false), ref);
+      const mr::IrradianceError er = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, true), ref);
+      std::vector<mr::Light> lights = mr::ToLights(ex, "light", ids);
+      mr::Json j = mr::LightsToJson(lights, "mr-lights: " + command_line);
+      j["source"] = {{"method", eo.method}, {"count", eo.count}, {"map", map_file}};
+      mr::Json sh = mr::Json::array();
+      for (const auto& c : ex.residual_sh) sh.push_back({c.x(), c.y(), c.z()});
+      j["residual"] = {
+          {"taken_fraction", std::clamp(ex.taken_fraction, 0.0, 1.0)}, {"sh_order", eo.sh_order}, {"sh", sh}};
+      if (!res_file.empty())
+        j["residual"]["map"] =
+            mr::fs::relative(mr::fs::absolute(res_file), mr::fs::absolute(out_file).parent_path()).generic_string();
+      mr::ParseLights(j, out_file);  // what mr-render will read; checked before anything is written
+      if (!res_file.empty()) {
+        mr::ImageWriteOptions wo;
+        wo.tool = "mr-lights";
+        wo.command_line = command_line;
+        wo.attributes["textureformat"] = "LatLong Environment";
+        std::error_code ec;
+        if (make_dirs && !mr::fs::path(res_file).parent_path().empty())
+          mr::fs::create_directories(mr::fs::path(res_file).parent_path(), ec);
+        mr::WriteImage(res_file, mr::DownsampleEnergy(ex.residual, residual_width), wo);
+        report.AddOutput(res_file);
+      }
+      std::error_code ec;
+      if (make_dirs && !mr::fs::path(out_file).parent_path().empty())
+        mr::fs::create_directories(mr::fs::path(out_file).parent_path(), ec);
+      mr::WriteTextFile(out_file, j.dump(2) + "\n");
+      report.AddOutput(out_file);
+      return std::make_pair(e, er);
+    };
+    if (over_time) {
+      mr::Json frames = mr::Json::array();
+      std::vector<mr::ExtractedLight> prev;
+      std::vector<int> prev_ids;
+      int next_id = 0, f = 0;
+      for (;; ++f) {
+        const std::string map_file = mr::FramePath(env_file, f).string();
+        if (!mr::fs::exists(map_file)) break;
+        mr::Image env;
+        {
+          mr::ScopedTimer t(&report, "read");
+          env = mr::ReadImage(map_file);
+          mr::CheckEnvironmentImage(env, map_file);
+        }
+        report.AddInput(map_file);
+        mr::Extraction ex;
+        {
+          mr::ScopedTimer t(&report, "extract");
+          ex = mr::ExtractLights(env, eo);
+        }
+        int matched = 0;
+        const std::vector<int> ids = mr::MatchLights(prev, prev_ids, ex.lights, match_deg, &next_id, &matched);
+        std::vector<double> ref;
+        {
+          mr::ScopedTimer t(&report, "reference irradiance");
+          ref = mr::MapIrradiance(env, dirs);
+        }
+        const auto [e, er] =
+            extract_one(map_file, mr::FramePath(out, f).string(),
+                        residual_file.empty() ? "" : mr::FramePath(residual_file, f).string(), ex, ref, &ids);
+        frames.push_back({{"frame", f},
+                          {"lights", ex.lights.size()},
+                          {"kept_identity", matched},
+                          {"new", static_cast<int>(ex.lights.size()) - matched},
+                          {"gone", static_cast<int>(prev.size()) - matched},
+                          {"ids", ids},
+                          {"taken_fraction", ex.taken_fraction},
+                          {"irradiance_rms_relative", e.rms_relative},
+                          {"irradiance_rms_relative_with_residual_sh", er.rms_relative}});
+        prev = ex.lights;
+        prev_ids = ids;
+      }
+      if (f == 0) mr::ThrowErrorAt(mr::FileLoc{mr::FramePath(env_file, 0).string()}, "no such file");
+      report.SetMetric("method", eo.method);
+      report.SetMetric("frames", frames);
+      report.SetMetric("identities", next_id);
+      spdlog::info("{} maps: {} light identities", f, next_id);
+      return mr::kExitOk;
+    }
     mr::Image env;
     {
       mr::ScopedTimer t(&report, "read");
@@ -82,7 +190,6 @@ int main(int argc, char** argv) {
       mr::CheckEnvironmentImage(env, env_file);
     }
     report.AddInput(env_file);
-    const std::vector<Eigen::Vector3d> dirs = mr::SphereNormals(normals);
     std::vector<double> ref;
     {
       mr::ScopedTimer t(&report, "reference irradiance");
@@ -140,51 +247,30 @@ int main(int argc, char** argv) {
       mr::ScopedTimer t(&report, "extract");
       ex = mr::ExtractLights(env, eo);
     }
-    const mr::IrradianceError e = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, false), ref);
-    const mr::IrradianceError er = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, true), ref);
-    std::vector<mr::Light> lights = mr::ToLights(ex);
-    mr::Json j = mr::LightsToJson(lights, "mr-lights: " + mr::JoinCommandLine(argc, argv));
-    j["source"] = {{"method", eo.method}, {"count", eo.count}, {"map", env_file}};
-    mr::Json sh = mr::Json::array();
-    for (const auto& c : ex.residual_sh) sh.push_back({c.x(), c.y(), c.z()});
-    j["residual"] = {
-        {"taken_fraction", std::clamp(ex.taken_fraction, 0.0, 1.0)}, {"sh_order", eo.sh_order}, {"sh", sh}};
-    if (!residual_file.empty())
-      j["residual"]["map"] =
-          mr::fs::relative(mr::fs::absolute(residual_file), mr::fs::absolute(out).parent_path()).generic_string();
-    mr::ParseLights(j, out);  // what mr-render will read; checked before anything is written
-    if (!residual_file.empty()) {
-      mr::ImageWriteOptions wo;
-      wo.tool = "mr-lights";
-      wo.command_line = mr::JoinCommandLine(argc, argv);
-      wo.attributes["textureformat"] = "LatLong Environment";
-      mr::WriteImage(residual_file, mr::DownsampleEnergy(ex.residual, residual_width), wo);
-      report.AddOutput(residual_file);
-      if (ex.taken_fraction > 1 - 1e-12)
-        report.Skip("residual energy", "the lights took all of the map's energy (" + eo.method +
-                                           "): the residual map is black and its SH zero");
-    } else if (ex.taken_fraction < 1 - 1e-9) {
+    const auto [e, er] = extract_one(env_file, out, residual_file, ex, ref, nullptr);
+    if (!residual_file.empty() && ex.taken_fraction > 1 - 1e-12)
+      report.Skip("residual energy", "the lights took all of the map's energy (" + eo.method +
+                                         "): the residual map is black and its SH zero");
+    if (residual_file.empty() && ex.taken_fraction < 1 - 1e-9)
       report.Warn(
           fmt::format("the lights leave {:.1f}% of the map's energy out and no --residual keeps it (lights.json "
                       "holds its spherical harmonics)",
                       100 * (1 - ex.taken_fraction)));
-    }
-    mr::WriteTextFile(out, j.dump(2) + "\n");
-    report.AddOutput(out);
+    const size_t n_lights = ex.lights.size();
     report.SetMetric("method", eo.method);
-    report.SetMetric("lights", lights.size());
+    report.SetMetric("lights", n_lights);
     report.SetMetric("extraction_seconds", ex.seconds);
     report.SetMetric("taken_fraction", ex.taken_fraction);
     report.SetMetric("irradiance_error", {{"rms_relative", e.rms_relative},
                                           {"max_relative", e.max_relative},
                                           {"rms_relative_with_residual_sh", er.rms_relative},
                                           {"normals", normals}});
-    if (static_cast<int>(lights.size()) < eo.count)
-      report.Warn(fmt::format("{} lights asked for, {} found", eo.count, lights.size()));
+    if (static_cast<int>(n_lights) < eo.count)
+      report.Warn(fmt::format("{} lights asked for, {} found", eo.count, n_lights));
     spdlog::info(
         "{}: {} lights ({}) in {:.3f} s take {:.1f}% of the energy; irradiance error {:.3g} (RMS), {:.3g} "
         "with the residual's SH",
-        env_file, lights.size(), eo.method, ex.seconds, 100 * ex.taken_fraction, e.rms_relative, er.rms_relative);
+        env_file, n_lights, eo.method, ex.seconds, 100 * ex.taken_fraction, e.rms_relative, er.rms_relative);
     return mr::kExitOk;
   });
 }

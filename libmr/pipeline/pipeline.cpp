@@ -399,16 +399,18 @@ Pipeline PlanPipeline(const fs::path& file) {
     } else {
       const Node l = light.Child("lights");
       l.RequireObject({"options"});
-      if (env.string().find('%') != std::string::npos)
-        l.Fail(
-            "lights are not extracted from a map per frame yet: give lighting.lights as a file or a per-frame "
-            "pattern");
-      const fs::path out = w / "lights.json", residual = w / "env-residual.exr";
+      const bool per_frame = env.string().find('%') != std::string::npos;
+      // A map per frame: lights per frame, each keeping its name while it moves.
+      const fs::path out = per_frame ? w / "lights" / "%05d.json" : w / "lights.json";
+      const fs::path residual = per_frame ? w / "env-residual" / "%05d.exr" : w / "env-residual.exr";
       s.args = {env.string(), "--out", out.string(), "--residual", residual.string()};
       Append(&s.args, pl.Options(l));
-      s.inputs = {env};
-      s.outputs = {out, residual};
-      s.does = "lights extracted from the map; the scene is lit by them and the residual map";
+      s.inputs = {per_frame ? env.parent_path() : env};
+      s.outputs =
+          per_frame ? std::vector<fs::path>{w / "lights", w / "env-residual"} : std::vector<fs::path>{out, residual};
+      s.does = per_frame ? "lights extracted from each frame's map (a light keeps its name across frames); the scene "
+                           "is lit by them and each frame's residual map"
+                         : "lights extracted from the map; the scene is lit by them and the residual map";
       lighting = {{"environment", pl.Rel(residual)}, {"lights", pl.Rel(out)}};
     }
   }

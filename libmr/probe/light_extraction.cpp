@@ -448,12 +448,46 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& o) {
   return ex;
 }
 
-std::vector<Light> ToLights(const Extraction& e, const std::string& prefix) {
+std::vector<int> MatchLights(const std::vector<ExtractedLight>& previous, const std::vector<int>& previous_ids,
+                             const std::vector<ExtractedLight>& current, double max_angle_deg, int* next_id,
+                             int* matched) {
+  if (previous.size() != previous_ids.size()) ThrowError("{} ids for {} lights", previous_ids.size(), previous.size());
+  struct Pair {
+    double angle;
+    size_t cur, prev;
+  };
+  std::vector<Pair> pairs;
+  const double max_angle = max_angle_deg * kDegToRad;
+  for (size_t c = 0; c < current.size(); ++c)
+    for (size_t p = 0; p < previous.size(); ++p) {
+      const double a = std::acos(std::clamp(current[c].direction.dot(previous[p].direction), -1.0, 1.0));
+      if (a <= max_angle) pairs.push_back({a, c, p});
+    }
+  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+    return a.angle != b.angle ? a.angle < b.angle : (a.cur != b.cur ? a.cur < b.cur : a.prev < b.prev);
+  });
+  std::vector<int> ids(current.size(), -1);
+  std::vector<char> used(previous.size(), 0);
+  int kept = 0;
+  for (const Pair& pr : pairs) {
+    if (ids[pr.cur] >= 0 || used[pr.prev]) continue;
+    ids[pr.cur] = previous_ids[pr.prev];
+    used[pr.prev] = 1;
+    ++kept;
+  }
+  for (int& id : ids)
+    if (id < 0) id = (*next_id)++;
+  if (matched) *matched = kept;
+  return ids;
+}
+
+std::vector<Light> ToLights(const Extraction& e, const std::string& prefix, const std::vector<int>* ids) {
+  if (ids && ids->size() != e.lights.size()) ThrowError("{} ids for {} lights", ids->size(), e.lights.size());
   std::vector<Light> out;
   for (size_t i = 0; i < e.lights.size(); ++i) {
     const ExtractedLight& x = e.lights[i];
     Light l;
-    l.name = fmt::format("{}{}", prefix, i);
+    l.name = fmt::format("{}{}", prefix, ids ? (*ids)[i] : static_cast<int>(i));
     l.type = LightType::kDistant;
     l.is_virtual = false;  // from the probe: part of the real scene
     l.direction = x.direction;

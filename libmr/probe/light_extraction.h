@@ -42,8 +42,18 @@ struct Extraction {
 // `env`: R G B first (other layers ignored), finite and non-negative.
 Extraction ExtractLights(const Image& env, const ExtractOptions& options);
 
-// lights.json entries (distant lights, real): `name_prefix` + index.
-std::vector<Light> ToLights(const Extraction& e, const std::string& name_prefix = "light");
+// lights.json entries (distant lights, real): `name_prefix` + index, or
+// + ids[index] when `ids` is given (one per light).
+std::vector<Light> ToLights(const Extraction& e, const std::string& name_prefix = "light",
+                            const std::vector<int>* ids = nullptr);
+
+// A light keeps its identity across frames: each light of `current` takes
+// the id of a light of `previous` less than max_angle_deg away, pairs taken
+// nearest first, each id once; the rest take fresh ids from *next_id.
+// Returns the ids, one per light of `current`; *matched counts the kept ones.
+std::vector<int> MatchLights(const std::vector<ExtractedLight>& previous, const std::vector<int>& previous_ids,
+                             const std::vector<ExtractedLight>& current, double max_angle_deg, int* next_id,
+                             int* matched = nullptr);
 
 // Diffuse irradiance (luminance) at `normals`: exact from the map, and from
 // the lights (deltas at their directions; area lights as uniform discs of

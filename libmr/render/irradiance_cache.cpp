@@ -8,6 +8,7 @@
 
 #include "core/parallel.h"
 #include "render/path_common.h"
+#include "render/world.h"
 
 namespace mr {
 
@@ -42,20 +43,82 @@ double Weight(const IcRecord& r, const Eigen::Vector3d& p, const Eigen::Vector3d
 
 IrradianceCache::IrradianceCache(const RenderScene& scene, const IcSettings& settings)
     : scene_(scene), settings_(settings), tracer_(scene, TracerSettings(settings)) {
-  for (const auto& b : scene.virtual_bounds()) {
+  UpdateSpheres();
+}
+
+void IrradianceCache::UpdateSpheres() {
+  spheres_.clear();
+  for (const auto& b : scene_.virtual_bounds()) {
+    if (b.isEmpty()) continue;  // an object scaled to nothing
     const Eigen::Vector3d c = b.center();
     spheres_.emplace_back(c.x(), c.y(), c.z(), 0.5 * b.diagonal().norm());
   }
-  for (const LightSource& l : scene.lights()) virtual_light_ = virtual_light_ || l.is_virtual();
+  virtual_light_ = false;
+  for (const LightSource& l : scene_.lights()) virtual_light_ = virtual_light_ || l.is_virtual();
 }
+
+namespace {
+
+// Whether p is within the form factor bound `threshold` of any sphere.
+bool NearSpheres(const std::vector<Eigen::Vector4d>& spheres, const Eigen::Vector3d& p, double threshold) {
+  for (const auto& s : spheres) {
+    const double d2 = (p - s.head<3>()).squaredNorm(), r2 = s[3] * s[3];
+    if (d2 <= r2 || r2 / d2 >= threshold) return true;  // the sphere's form factor bound
+  }
+  return false;
+}
+
+}  // namespace
 
 bool IrradianceCache::InInfluence(const Eigen::Vector3d& p) const {
   if (!settings_.photograph || virtual_light_ || settings_.influence_threshold <= 0) return true;
-  for (const auto& s : spheres_) {
-    const double d2 = (p - s.head<3>()).squaredNorm(), r2 = s[3] * s[3];
-    if (d2 <= r2 || r2 / d2 >= settings_.influence_threshold) return true;  // the sphere's form factor bound
+  return NearSpheres(spheres_, p, settings_.influence_threshold);
+}
+
+std::string IrradianceCache::WorldChanged(const WorldChange& c) {
+  const std::vector<Eigen::Vector4d> old = spheres_;
+  const bool old_virtual_light = virtual_light_;
+  UpdateSpheres();
+  // Records on virtual surfaces moved with them: dropped (made again where
+  // needed).
+  size_t dropped = 0;
+  if (!c.moved.empty()) {
+    const size_t before = records_.size();
+    std::erase_if(records_, [](const IcRecord& r) { return r.on_virtual; });
+    dropped = before - records_.size();
   }
-  return false;
+  if (c.environment || c.lights) {
+    for (IcRecord& r : records_) r.stale = true;
+    invalidated_ += static_cast<int64_t>(records_.size() + dropped);
+    return fmt::format("irradiance cache: {}the {} records re-evaluated in place (new light)",
+                       dropped > 0 ? fmt::format("{} records on moved objects dropped, ", dropped) : "",
+                       records_.size());
+  }
+  if (c.moved.empty()) return "";
+  // Real records that can see an object where it was or where it is now are
+  // re-evaluated; the others cannot have changed.
+  // The objects that moved: those whose bounding sphere changed (all of
+  // them when their number did: one scaled to nothing).
+  std::vector<Eigen::Vector4d> reach;
+  if (old.size() != spheres_.size()) {
+    reach = old;
+    reach.insert(reach.end(), spheres_.begin(), spheres_.end());
+  } else {
+    for (size_t i = 0; i < old.size(); ++i)
+      if (old[i] != spheres_[i]) reach.insert(reach.end(), {old[i], spheres_[i]});
+  }
+  const bool all = !settings_.photograph || virtual_light_ || old_virtual_light || settings_.influence_threshold <= 0;
+  int64_t stale = 0;
+  for (IcRecord& r : records_)
+    if (all || NearSpheres(reach, r.p, settings_.influence_threshold)) {
+      r.stale = true;
+      ++stale;
+    }
+  invalidated_ += stale + static_cast<int64_t>(dropped);
+  return fmt::format(
+      "irradiance cache: {} records on virtual surfaces dropped, {} within the objects' reach "
+      "re-evaluated, {} kept",
+      dropped, stale, static_cast<int64_t>(records_.size()) - stale);
 }
 
 void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
@@ -101,6 +164,8 @@ void IrradianceCache::Describe(Report* report) const {
   report->SetMetric("ic.rays_per_record", settings_.rays);
   report->SetMetric("ic.accuracy", settings_.accuracy);
   report->SetMetric("ic.t_max", settings_.t_max);
+  report->SetMetric("ic.records_evicted", evicted_);
+  report->SetMetric("ic.records_invalidated", invalidated_);
 }
 
 IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cache, const CameraModel& camera,
@@ -113,7 +178,9 @@ IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cach
       glossy_tracer_(scene, GlossyTracerSettings(cache->settings(), plates)),
       frame_(frame) {}
 
-void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
+void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
+  const IcRecord& r = cache_->records_[index];
+  bool used = false;
   // The record's influence sphere (weight > 0 within accuracy x R_i) projected
   // into the image; a sphere around or behind the camera covers every pixel.
   const double rho = cache_->settings_.accuracy * r.r;
@@ -153,6 +220,7 @@ void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
             m.w += w;
             m.sum_m += w * r.e_mixed;
             m.sum_r += w * r.e_real;
+            used = true;
           }
         }
         Entry& e = real_[k];
@@ -161,9 +229,11 @@ void IcFrameRenderer::Splat(const IcRecord& r, int64_t y0, int64_t y1) {
           if (w > 0) {
             e.w += w;
             e.sum_r += w * r.e_real;
+            used = true;
           }
         }
       }
+  if (used) std::atomic_ref<uint8_t>(used_[index]).store(1, std::memory_order_relaxed);
 }
 
 void IcFrameRenderer::SplatAll(const std::vector<size_t>& which) {
@@ -171,7 +241,7 @@ void IcFrameRenderer::SplatAll(const std::vector<size_t>& which) {
   const int64_t band = 8, bands = (height() + band - 1) / band;
   ParallelFor(0, bands, [&](int64_t b) {
     const int64_t y0 = b * band, y1 = std::min<int64_t>(height(), y0 + band);
-    for (size_t i : which) Splat(cache_->records_[i], y0, y1);
+    for (size_t i : which) Splat(i, y0, y1);
   });
   splatted_ += static_cast<int64_t>(which.size());
 }
@@ -217,11 +287,20 @@ void IcFrameRenderer::RenderPass(int spp) {
   });
   outside_influence_ = outside.load();
 
-  // Records due for re-evaluation (t_max frames old), then every record splatted.
+  // Records no frame has used for evict_after frames go.
+  if (st.evict_after > 0) {
+    const size_t before = cache_->records_.size();
+    std::erase_if(cache_->records_, [&](const IcRecord& r) { return frame_ - r.used_frame > st.evict_after; });
+    evicted_ = static_cast<int64_t>(before - cache_->records_.size());
+    cache_->evicted_ += evicted_;
+  }
+  used_.assign(cache_->records_.size(), 0);
+  // Records due for re-evaluation (t_max frames old, or the world changed),
+  // then every record splatted.
   {
     std::vector<size_t> due;
     for (size_t i = 0; i < cache_->records_.size(); ++i)
-      if (frame_ - cache_->records_[i].evaluated_frame >= st.t_max) due.push_back(i);
+      if (frame_ - cache_->records_[i].evaluated_frame >= st.t_max || cache_->records_[i].stale) due.push_back(i);
     ParallelFor(0, static_cast<int64_t>(due.size()),
                 [&](int64_t j) { cache_->Evaluate(&cache_->records_[due[static_cast<size_t>(j)]], frame_); });
     reevaluated_ = static_cast<int64_t>(due.size());
@@ -280,9 +359,11 @@ void IcFrameRenderer::RenderPass(int spp) {
     std::vector<size_t> added;
     for (size_t t = 0; t < fresh.size(); ++t)
       if (made[t]) {
-        fresh[t].index = cache_->records_.size();
+        fresh[t].index = cache_->next_index_++;
+        fresh[t].used_frame = frame_;
         added.push_back(cache_->records_.size());
         cache_->records_.push_back(fresh[t]);
+        used_.push_back(0);
       }
     if (added.empty()) break;
     ++miss_passes_;
@@ -314,6 +395,8 @@ void IcFrameRenderer::RenderPass(int spp) {
     new_records_ += static_cast<int64_t>(added.size());
     SplatAll(added);
   }
+  for (size_t i = 0; i < used_.size(); ++i)
+    if (used_[i]) cache_->records_[i].used_frame = frame_;
   cache_->created_ += new_records_;
   cache_->passes_ += miss_passes_;
   cache_->record_rays_ += (new_records_ + reevaluated_) * st.rays;
@@ -418,6 +501,8 @@ void IcFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "records_created", new_records_);
   report->SetMetric(k + "records_reevaluated", reevaluated_);
   report->SetMetric(k + "records_splatted", splatted_);
+  report->SetMetric(k + "records_evicted", evicted_);
+  report->SetMetric(k + "records", static_cast<int64_t>(cache_->records_.size()));
   report->SetMetric(k + "miss_passes", miss_passes_);
   report->SetMetric(k + "pixel_rays", rays_traced());
   if (reevaluated_ == 0 && frame > 0)
@@ -456,14 +541,15 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
 namespace {
 
 IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "tile", "influence_threshold",
-                   "glossy_depth", "plate_reflections"});
+  v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "evict_after", "tile",
+                   "influence_threshold", "glossy_depth", "plate_reflections"});
   IcSettings o;
   if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
   if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
   if (v.Has("min_spacing_px")) o.min_spacing_px = v.Child("min_spacing_px").Number(0.1, 1e4);
   if (v.Has("max_spacing_px")) o.max_spacing_px = v.Child("max_spacing_px").Number(0.1, 1e5);
   if (v.Has("t_max")) o.t_max = static_cast<int>(v.Child("t_max").Integer(1, 1 << 20));
+  if (v.Has("evict_after")) o.evict_after = static_cast<int>(v.Child("evict_after").Integer(0, 1 << 20));
   if (v.Has("tile")) o.tile = static_cast<int>(v.Child("tile").Integer(1, 1024));
   if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
   if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
@@ -484,9 +570,13 @@ class IcMethod : public SettingsMethod<IcSettings> {
                       "frames of this shard differ from an unsharded run within ic's accuracy",
                       job.frame_begin));
   }
-  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange&) override {
-    Prepare(job);
-    return {"irradiance cache (emptied)"};
+  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange& change) override {
+    if (!cache_) {
+      Prepare(job);
+      return {"irradiance cache (made)"};
+    }
+    const std::string what = cache_->WorldChanged(change);
+    return what.empty() ? std::vector<std::string>{} : std::vector<std::string>{what};
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<IcFrameRenderer>(f.rs, cache_.get(), f.camera, f.world_from_cam, f.seed, f.frame,

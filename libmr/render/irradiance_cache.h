@@ -6,7 +6,9 @@
 // splatted and re-evaluated: docs/methods.md, "ic".
 #pragma once
 
+#include <atomic>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "camera/camera_model.h"
@@ -34,10 +36,16 @@ struct IcSettings {
   // Glossy paths from virtual surfaces take the plate's radiance where it
   // sees the real point they meet (render/path_tracer.h, PlateView).
   bool plate_reflections = true;
+  // Records no frame has used (splatted with weight > 0) for this many
+  // frames are evicted, so that a camera moving on does not grow the cache
+  // without bound; 0: never.
+  int evict_after = 30;
   bool photograph = true;  // I_c is given: real pixels need only I_m - I_r
   int max_depth = 5;
   uint64_t seed = 0;
 };
+
+struct WorldChange;
 
 struct IcRecord {
   Eigen::Vector3d p, n;
@@ -47,6 +55,8 @@ struct IcRecord {
   double r_min = 0, r_max = 0;  // the pixel clamps, world units
   bool on_virtual = false;
   int evaluated_frame = 0;
+  int used_frame = 0;  // the last frame that splatted it with weight > 0
+  bool stale = false;  // the world changed: re-evaluate at the next frame
   uint64_t index = 0;  // its random stream
 };
 
@@ -60,6 +70,13 @@ class IrradianceCache {
   void Evaluate(IcRecord* record, int frame) const;
   // Whether a real point can see a change of indirect light (form factor bound).
   bool InInfluence(const Eigen::Vector3d& p) const;
+  // The world changed between frames (render/world.h): with new light
+  // every record is re-evaluated at the next frame (they keep their places,
+  // so the interpolation does not jump); when objects move, the records on
+  // virtual surfaces go, and the real records within the old or the new
+  // reach of the virtual objects are re-evaluated; the rest are kept.  Says
+  // what it did.
+  std::string WorldChanged(const WorldChange& change);
   void Describe(Report* report) const;
 
  private:
@@ -70,7 +87,9 @@ class IrradianceCache {
   std::vector<IcRecord> records_;
   std::vector<Eigen::Vector4d> spheres_;  // virtual bounding spheres (centre, radius)
   bool virtual_light_ = false;
-  int64_t created_ = 0, reevaluated_ = 0, record_rays_ = 0, passes_ = 0;
+  uint64_t next_index_ = 0;  // the next record's random stream
+  int64_t created_ = 0, reevaluated_ = 0, record_rays_ = 0, passes_ = 0, evicted_ = 0, invalidated_ = 0;
+  void UpdateSpheres();
 };
 
 class IcFrameRenderer : public PixelLoopMethod {
@@ -97,7 +116,7 @@ class IcFrameRenderer : public PixelLoopMethod {
     Eigen::Vector3d sum_m = Eigen::Vector3d::Zero(), sum_r = Eigen::Vector3d::Zero();  // sums of w E_m, w E_r
   };
   void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
-  void Splat(const IcRecord& r, int64_t first_row, int64_t last_row);
+  void Splat(size_t record, int64_t first_row, int64_t last_row);
   void SplatAll(const std::vector<size_t>& records);
 
   const RenderScene& scene_;
@@ -105,7 +124,8 @@ class IcFrameRenderer : public PixelLoopMethod {
   CameraModel camera_;  // a copy: renderers may outlive the caller's model
   DifferentialPathTracer glossy_tracer_;
   int frame_;
-  int64_t new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0, outside_influence_ = 0;
+  int64_t new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0, outside_influence_ = 0, evicted_ = 0;
+  std::vector<uint8_t> used_;        // per record: splatted with weight > 0 this frame (set through atomic_ref)
   int samples_ = 0, first_ = 0;      // G-buffer samples per pixel, and the first one's index
   std::vector<Entry> mixed_, real_;  // [pixel * samples_ + s]
   std::vector<float> interpolated_;

@@ -9,6 +9,7 @@
 #include "core/parallel.h"
 #include "render/path_common.h"
 #include "render/vpl.h"
+#include "render/world.h"
 
 namespace mr {
 
@@ -85,7 +86,8 @@ struct Deposit {
 
 }  // namespace
 
-std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, const VctSettings& st) {
+std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, const VctSettings& st,
+                                                    const VctVolumes* previous, bool objects_moved) {
   const auto start = std::chrono::steady_clock::now();
   auto out = std::make_shared<VctVolumes>();
   out->settings_ = st;
@@ -108,16 +110,31 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     out->box_reason_ = "twice the virtual objects' bounding box";
   }
   if (box.isEmpty()) box = Eigen::AlignedBox3d(Eigen::Vector3d::Constant(-1), Eigen::Vector3d::Constant(1));
+  // The last frame's grid is kept while every virtual object is inside it
+  // (and the reason for its bounds is the same): then the real surfaces'
+  // voxelisation is still valid.
+  bool keep_grid = false;
+  if (previous && previous->settings_.resolution == st.resolution && previous->box_reason_ == out->box_reason_) {
+    Eigen::AlignedBox3d objects;
+    for (const auto& b : scene.virtual_bounds()) objects.extend(b);
+    keep_grid = out->box_reason_ != "twice the virtual objects' bounding box" || objects.isEmpty() ||
+                previous->box_.contains(objects);
+  }
   const int res = std::max(2, st.resolution);
-  const double voxel = std::max(box.diagonal().maxCoeff(), 1e-6) / res;
+  const double voxel = keep_grid ? previous->levels_[0].size : std::max(box.diagonal().maxCoeff(), 1e-6) / res;
   Level l0;
   l0.size = voxel;
   int dims[3];
-  for (int k = 0; k < 3; ++k) dims[k] = std::max(1, static_cast<int>(std::ceil(box.diagonal()[k] / voxel - 1e-9)));
+  for (int k = 0; k < 3; ++k)
+    dims[k] =
+        keep_grid ? previous->dims_[k] : std::max(1, static_cast<int>(std::ceil(box.diagonal()[k] / voxel - 1e-9)));
   l0.nx = dims[0];
   l0.ny = dims[1];
   l0.nz = dims[2];
-  {
+  for (int k = 0; k < 3; ++k) out->dims_[k] = dims[k];
+  if (keep_grid) {
+    out->box_ = previous->box_;
+  } else {
     const Eigen::Vector3d c = box.center(), half = 0.5 * voxel * Eigen::Vector3d(dims[0], dims[1], dims[2]);
     out->box_ = Eigen::AlignedBox3d(c - half, c + half);
   }
@@ -139,9 +156,32 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
   // Voxelisation: rays along each axis on a grid of a quarter voxel; every
   // crossing adds its area, h^2 |n_k|, so that over the three axes a patch
   // of area A adds sum_k n_k^2 A = A (per axis weighted by n_k^2).
-  std::vector<double> area_r(nvox, 0), area_v(nvox, 0);
-  std::vector<Eigen::Vector3d> nsum_r(nvox, Eigen::Vector3d::Zero()), nsum_v(nvox, Eigen::Vector3d::Zero());
-  {
+  std::vector<double>& area_r = out->area_r_;
+  std::vector<double>& area_v = out->area_v_;
+  std::vector<Eigen::Vector3d>& nsum_r = out->nsum_r_;
+  std::vector<Eigen::Vector3d>& nsum_v = out->nsum_v_;
+  uint32_t voxelise_mask = kMaskAll;
+  if (keep_grid) {
+    area_r = previous->area_r_;
+    nsum_r = previous->nsum_r_;
+    if (objects_moved) {
+      area_v.assign(nvox, 0);
+      nsum_v.assign(nvox, Eigen::Vector3d::Zero());
+      voxelise_mask = kMaskVirtual;
+      out->voxelised_ = "virtual surfaces only";
+    } else {
+      area_v = previous->area_v_;
+      nsum_v = previous->nsum_v_;
+      voxelise_mask = 0;
+      out->voxelised_ = "kept";
+    }
+  } else {
+    area_r.assign(nvox, 0);
+    area_v.assign(nvox, 0);
+    nsum_r.assign(nvox, Eigen::Vector3d::Zero());
+    nsum_v.assign(nvox, Eigen::Vector3d::Zero());
+  }
+  if (voxelise_mask != 0) {
     constexpr int kSub = 4;
     const double h = voxel / kSub;
     for (int k = 0; k < 3; ++k) {
@@ -161,7 +201,7 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
         o[k] = vbox.min()[k] - voxel;
         Eigen::Vector3d d = Eigen::Vector3d::Zero();
         d[k] = 1;
-        Ray ray = MakeRay(o, d, kMaskAll, vbox.diagonal()[k] + 2 * voxel);
+        Ray ray = MakeRay(o, d, voxelise_mask, vbox.diagonal()[k] + 2 * voxel);
         Hit hit;
         for (int guard = 0; guard < 4096 && embree.Intersect(ray, &hit); ++guard) {
           const Eigen::Vector3d p = o + static_cast<double>(hit.t) * d;
@@ -565,6 +605,7 @@ void VctVolumes::Describe(Report* report) const {
   report->SetMetric("vct.mip_levels", static_cast<int64_t>(levels_.size()));
   report->SetMetric("vct.occupied_voxels", occupied_);
   report->SetMetric("vct.voxelisation_rays", voxelisation_rays_);
+  report->SetMetric("vct.voxelised", voxelised_);
   report->SetMetric("vct.injection_rays", injection_rays_);
   report->SetMetric("vct.far_field_paths", far_field_paths_);
   report->SetMetric("vct.build_seconds", build_seconds_);
@@ -757,9 +798,15 @@ class VctMethod : public SettingsMethod<VctSettings> {
     if (AnyEmissive(job.scene))
       job.report->Warn("vct: emissive surfaces are seen and lit but inject no light into the volumes");
   }
-  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange&) override {
-    Prepare(job);
-    return {"voxel volumes (voxelised and injected)"};
+  std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange& change) override {
+    if (!volumes_) {
+      Prepare(job);
+      return {"voxel volumes (voxelised and injected)"};
+    }
+    volumes_ = VctVolumes::Build(job.rs, st_, volumes_.get(), !change.moved.empty());
+    volumes_->Describe(job.report);
+    job.report->SetMetric(fmt::format("vct.frames.{}.voxelised", job.frame), volumes_->voxelised());
+    return {fmt::format("voxel volumes: light injected, voxelisation {}", volumes_->voxelised())};
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<VctFrameRenderer>(f.rs, volumes_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure);

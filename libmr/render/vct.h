@@ -8,6 +8,7 @@
 #include <array>
 #include <cstdint>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "camera/camera_model.h"
@@ -59,7 +60,15 @@ class VctVolumes {
     size_t Index(int x, int y, int z) const { return (static_cast<size_t>(z) * ny + y) * nx + x; }
   };
 
-  static std::shared_ptr<const VctVolumes> Build(const RenderScene& scene, const VctSettings& settings);
+  // With `previous` (the last frame's volumes, the world having changed):
+  // the voxel grid is kept while the virtual objects stay inside it, the
+  // real surfaces' voxelisation is kept, and the virtual surfaces' is kept
+  // too unless `objects_moved`; light is always injected again.
+  static std::shared_ptr<const VctVolumes> Build(const RenderScene& scene, const VctSettings& settings,
+                                                 const VctVolumes* previous = nullptr, bool objects_moved = true);
+  // What the last Build did with the voxelisation: "full", "virtual
+  // surfaces only" or "kept".
+  const std::string& voxelised() const { return voxelised_; }
   const VctSettings& settings() const { return settings_; }
   const Eigen::AlignedBox3d& box() const { return box_; }
   double voxel() const { return levels_.empty() ? 0 : levels_[0].size; }
@@ -91,7 +100,12 @@ class VctVolumes {
   std::vector<double> far_half_angles_;
   std::vector<std::vector<std::array<Eigen::Vector3f, 4>>> far_;
   double build_seconds_ = 0;
-  std::string box_reason_;
+  std::string box_reason_, voxelised_ = "full";
+  // The voxelisation (area and area-weighted normal sums per level-0 voxel,
+  // real and virtual), kept for the next frame's Build.
+  std::vector<double> area_r_, area_v_;
+  std::vector<Eigen::Vector3d> nsum_r_, nsum_v_;
+  int dims_[3] = {0, 0, 0};
   int64_t injection_rays_ = 0, voxelisation_rays_ = 0, far_field_paths_ = 0, occupied_ = 0;
 };
 

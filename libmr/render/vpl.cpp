@@ -3,8 +3,11 @@
 #include <spdlog/spdlog.h>
 
 #include <atomic>
+#include <bit>
 #include <chrono>
+#include <unordered_set>
 
+#include "core/hash.h"
 #include "core/parallel.h"
 
 namespace mr {
@@ -13,9 +16,17 @@ namespace {
 
 uint32_t MaskOf(uint8_t sets) { return sets == kLightsReal ? kMaskReal : kMaskAll; }
 
+uint64_t Fnv1aHash(const std::string& name) {
+  Fnv1a h;
+  h.Bytes(name.data(), name.size());
+  return h.value();
+}
+
 struct Emitter {
   int light = -1;  // -1: the environment
   double power = 0;
+  int first = 0, paths = 0;  // its share of the light paths: [first, first + paths)
+  uint64_t stream = 0;       // its random streams' key: the light's name, so that a light keeps its paths
 };
 
 }  // namespace
@@ -106,7 +117,31 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
   double power = 0;
   for (const auto& e : emitters) power += e.power;
   for (auto& e : emitters) e.power = 0.5 * e.power / power + 0.5 / static_cast<double>(emitters.size());
-  const double total = 1;
+  // Each emitter's share of the paths is fixed (largest remainder, at least
+  // one each while paths last), and its paths draw from its own streams,
+  // keyed by the light's name: when the world changes between frames, a
+  // path whose emitter and surfaces did not change is the same path (the
+  // VPL stays where it was; only its flux scales with the share), which
+  // keeps the frames coherent (docs/methods.md, "vpl").
+  {
+    int given = 0;
+    std::vector<std::pair<double, size_t>> rest;
+    for (size_t i = 0; i < emitters.size(); ++i) {
+      const double want = st.paths * emitters[i].power;
+      emitters[i].paths = std::min(st.paths - given, std::max(1, static_cast<int>(std::floor(want))));
+      given += emitters[i].paths;
+      rest.emplace_back(-(want - std::floor(want)), i);
+    }
+    std::sort(rest.begin(), rest.end());
+    for (size_t r = 0; given < st.paths && !rest.empty(); r = (r + 1) % rest.size(), ++given)
+      ++emitters[rest[r].second].paths;
+    int first = 0;
+    for (auto& e : emitters) {
+      e.first = first;
+      first += e.paths;
+      e.stream = e.light < 0 ? 0x656e76ULL : Fnv1aHash(scene.lights()[static_cast<size_t>(e.light)].light().name);
+    }
+  }
   const int max_vpl_depth = st.max_depth - 2;  // a VPL at depth k ends a path of k + 2 surfaces
   // The virtual objects' bounding sphere (radius 0: none).
   Eigen::AlignedBox3d objects;
@@ -119,13 +154,12 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     std::atomic<int64_t> below{0};
     const EmbreeScene& embree = scene.embree();
     ParallelFor(0, st.paths, [&](int64_t j) {
-      Pcg32 rng(HashCombine(st.seed, 0x76706c), static_cast<uint64_t>(j));
-      // Pick an emitter in proportion to its power.
-      double u = rng.NextDouble() * total;
       size_t ei = 0;
-      while (ei + 1 < emitters.size() && u >= emitters[ei].power) u -= emitters[ei++].power;
+      while (ei + 1 < emitters.size() && j >= emitters[ei].first + emitters[ei].paths) ++ei;
       const Emitter& em = emitters[ei];
-      const double p_select = em.power / total;
+      if (em.paths == 0) return;
+      Pcg32 rng(HashCombine(HashCombine(st.seed, 0x76706c), em.stream), static_cast<uint64_t>(j - em.first));
+      const double p_select = static_cast<double>(em.paths) / st.paths;  // flux / (p_select paths) = / em.paths
       const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble(), u3 = rng.NextDouble(),
                    u4 = rng.NextDouble();
       Eigen::Vector3d origin, dir, flux;
@@ -605,8 +639,20 @@ class VplMethod : public SettingsMethod<VplSettings> {
           "only)");
   }
   std::vector<std::string> WorldChanged(const JobContext& job, const WorldChange&) override {
+    const std::shared_ptr<const VplSet> old = vpls_;
     Prepare(job);
-    return {"VPL set"};
+    if (!old) return {"VPL set"};
+    // How many VPLs are where they were: their paths did not change.
+    auto key = [](const Eigen::Vector3d& p) {
+      return HashCombine(HashCombine(std::bit_cast<uint64_t>(p.x()), std::bit_cast<uint64_t>(p.y())),
+                         std::bit_cast<uint64_t>(p.z()));
+    };
+    std::unordered_set<uint64_t> before;
+    for (const Vpl& v : old->vpls()) before.insert(key(v.p));
+    int64_t kept = 0;
+    for (const Vpl& v : vpls_->vpls()) kept += before.count(key(v.p)) > 0;
+    job.report->SetMetric(fmt::format("vpl.frames.{}.vpls_in_place", job.frame), kept);
+    return {fmt::format("VPL set re-traced: {} of {} VPLs where they were (same paths)", kept, vpls_->vpls().size())};
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
     return std::make_unique<VplFrameRenderer>(f.rs, vpls_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure,

@@ -86,14 +86,13 @@ TEST(PlanPipeline, PassesThePerFrameWorldThrough) {
     "lighting": {"environment": "env/%05d.exr", "lights": {"options": {"count": 2}}},
     "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
     "virtual": [{"mesh": "ball.ply"}], "render": {"method": "pt"}})");
-  try {
-    PlanPipeline(dir / "q.json");
-    ADD_FAILURE() << "planned";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("lighting.lights: lights are not extracted from a map per frame"),
-              std::string::npos)
-        << e.what();
-  }
+  // Lights extracted per frame: patterns in, patterns out.
+  const Pipeline q = PlanPipeline(dir / "q.json");
+  const PipelineStage& l = Stage(q, "lights");
+  EXPECT_TRUE(l.skip.empty());
+  EXPECT_EQ(l.args[2], (dir.path() / "work" / "lights" / "%05d.json").string());
+  EXPECT_EQ(q.scene["lighting"]["lights"], "lights/%05d.json");
+  EXPECT_EQ(q.scene["lighting"]["environment"], "env-residual/%05d.exr");
 }
 
 // A light camera's video: mr-probe makes a map per plate frame, matched to

@@ -190,5 +190,43 @@ TEST(Lights, FileAndBadInput) {
   EXPECT_THROW(ExtractLights(bad, o), Error);
 }
 
+// Identity across frames: a sun moving 3 degrees a frame keeps its id; a
+// lamp switched on takes a new one; a light that goes out frees its id
+// (never reused); two lights near each other pair nearest first.
+TEST(Lights, IdentityFollowsAMovingLight) {
+  auto at = [](double az_deg, double el_deg) {
+    ExtractedLight l;
+    const double a = az_deg * kDegToRad, e = el_deg * kDegToRad;
+    l.direction = Eigen::Vector3d(std::cos(e) * std::sin(a), std::sin(e), std::cos(e) * std::cos(a));
+    return l;
+  };
+  int next = 0, matched = 0;
+  std::vector<ExtractedLight> prev = {at(0, 50)};
+  std::vector<int> ids = MatchLights({}, {}, prev, 10, &next, &matched);
+  EXPECT_EQ(ids, std::vector<int>({0}));
+  EXPECT_EQ(matched, 0);
+  std::vector<ExtractedLight> cur = {at(-60, 30), at(3, 50)};  // a lamp on, the sun moved
+  ids = MatchLights(prev, ids, cur, 10, &next, &matched);
+  EXPECT_EQ(ids, std::vector<int>({1, 0}));
+  EXPECT_EQ(matched, 1);
+  prev = cur;
+  cur = {at(6, 50)};  // the lamp off
+  ids = MatchLights(prev, ids, cur, 10, &next, &matched);
+  EXPECT_EQ(ids, std::vector<int>({0}));
+  prev = cur;
+  cur = {at(9, 50), at(-60, 30)};  // the lamp on again: a new id
+  ids = MatchLights(prev, ids, cur, 10, &next, &matched);
+  EXPECT_EQ(ids, std::vector<int>({0, 2}));
+  // Two lights 4 degrees apart, each moved 1 degree: nearest first.
+  int n2 = 2;
+  const std::vector<int> two = MatchLights({at(0, 0), at(4, 0)}, {0, 1}, {at(5, 0), at(1, 0)}, 10, &n2);
+  EXPECT_EQ(two, std::vector<int>({1, 0}));
+  Extraction ex;
+  ex.lights = {at(0, 0)};
+  const std::vector<int> seven = {7};
+  EXPECT_EQ(ToLights(ex, "light", &seven).at(0).name, "light7");
+  EXPECT_THROW(ToLights(ex, "light", &two), Error);
+}
+
 }  // namespace
 }  // namespace mr

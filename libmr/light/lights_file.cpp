@@ -19,6 +19,43 @@ Eigen::Vector3d UnitDirection(const JsonNode& n) {
 std::vector<double> ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 }  // namespace
 
+Light ParseLight(const JsonNode& n, const std::string& default_name) {
+  if (!n.json().is_object()) n.Fail(fmt::format("expected an object, got {}", n.TypeName()));
+  Light l;
+  const std::string type = n.Required("type").OneOf({"point", "spot", "distant"});
+  l.name = n.Has("name") ? n.Child("name").String() : default_name;
+  if (n.Has("virtual")) l.is_virtual = n.Child("virtual").Bool();
+  if (type == "point" || type == "spot") {
+    if (type == "point")
+      n.RequireObject({"type", "name", "virtual", "position", "intensity"});
+    else
+      n.RequireObject(
+          {"type", "name", "virtual", "position", "intensity", "direction", "cone_deg", "falloff_start_deg"});
+    l.type = type == "point" ? LightType::kPoint : LightType::kSpot;
+    l.position = n.Required("position").Vec3(-kHuge, kHuge);
+    l.intensity = n.Required("intensity").Vec3(0, kHuge);
+    if (l.type == LightType::kSpot) {
+      l.direction = UnitDirection(n.Required("direction"));
+      l.cone_deg = n.Required("cone_deg").Number(1e-3, 90);
+      l.falloff_start_deg = n.Has("falloff_start_deg") ? n.Child("falloff_start_deg").Number(0, 90) : l.cone_deg;
+      if (l.falloff_start_deg > l.cone_deg)
+        n.Child("falloff_start_deg").Fail(fmt::format("must not exceed cone_deg ({})", l.cone_deg));
+    }
+  } else {
+    n.RequireObject(
+        {"type", "name", "virtual", "direction", "irradiance", "angular_radius_deg", "solid_angle_sr", "radiance"});
+    l.type = LightType::kDistant;
+    l.direction = UnitDirection(n.Required("direction"));
+    l.irradiance = n.Required("irradiance").Vec3(0, kHuge);
+    if (n.Has("angular_radius_deg")) l.angular_radius_deg = n.Child("angular_radius_deg").Number(0, 90);
+    if (n.Has("solid_angle_sr"))
+      l.solid_angle_sr =
+          n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324 * (1 + 1e-9));  // sums of pixels round
+    if (n.Has("radiance")) n.Child("radiance").Vec3(0, kHuge);  // informational: irradiance / solid_angle_sr
+  }
+  return l;
+}
+
 std::vector<Light> ParseLights(const Json& j, const std::string& name) {
   JsonNode root(j, "", &name);
   root.RequireObject({"version", "lights", "comment", "source", "residual"});
@@ -52,40 +89,8 @@ std::vector<Light> ParseLights(const Json& j, const std::string& name) {
   std::set<std::string> names;
   for (size_t i = 0; i < list.json().size(); ++i) {
     JsonNode n = list.Index(i);
-    if (!n.json().is_object()) n.Fail(fmt::format("expected an object, got {}", n.TypeName()));
-    Light l;
-    const std::string type = n.Required("type").OneOf({"point", "spot", "distant"});
-    l.name = n.Has("name") ? n.Child("name").String() : fmt::format("light{}", i);
+    Light l = ParseLight(n, fmt::format("light{}", i));
     if (!names.insert(l.name).second) n.Child("name").Fail(fmt::format("name \"{}\" is used twice", l.name));
-    if (n.Has("virtual")) l.is_virtual = n.Child("virtual").Bool();
-    if (type == "point" || type == "spot") {
-      if (type == "point")
-        n.RequireObject({"type", "name", "virtual", "position", "intensity"});
-      else
-        n.RequireObject(
-            {"type", "name", "virtual", "position", "intensity", "direction", "cone_deg", "falloff_start_deg"});
-      l.type = type == "point" ? LightType::kPoint : LightType::kSpot;
-      l.position = n.Required("position").Vec3(-kHuge, kHuge);
-      l.intensity = n.Required("intensity").Vec3(0, kHuge);
-      if (l.type == LightType::kSpot) {
-        l.direction = UnitDirection(n.Required("direction"));
-        l.cone_deg = n.Required("cone_deg").Number(1e-3, 90);
-        l.falloff_start_deg = n.Has("falloff_start_deg") ? n.Child("falloff_start_deg").Number(0, 90) : l.cone_deg;
-        if (l.falloff_start_deg > l.cone_deg)
-          n.Child("falloff_start_deg").Fail(fmt::format("must not exceed cone_deg ({})", l.cone_deg));
-      }
-    } else {
-      n.RequireObject(
-          {"type", "name", "virtual", "direction", "irradiance", "angular_radius_deg", "solid_angle_sr", "radiance"});
-      l.type = LightType::kDistant;
-      l.direction = UnitDirection(n.Required("direction"));
-      l.irradiance = n.Required("irradiance").Vec3(0, kHuge);
-      if (n.Has("angular_radius_deg")) l.angular_radius_deg = n.Child("angular_radius_deg").Number(0, 90);
-      if (n.Has("solid_angle_sr"))
-        l.solid_angle_sr =
-            n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324 * (1 + 1e-9));  // sums of pixels round
-      if (n.Has("radiance")) n.Child("radiance").Vec3(0, kHuge);  // informational: irradiance / solid_angle_sr
-    }
     lights.push_back(l);
   }
   return lights;

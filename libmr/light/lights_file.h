@@ -20,6 +20,7 @@
 
 #include "core/file.h"
 #include "core/json.h"
+#include "core/json_node.h"
 
 namespace mr {
 
@@ -43,6 +44,8 @@ struct Light {
 // Parses and validates (unknown keys, ranges, zero-length directions are
 // errors naming `name` and the key path).
 std::vector<Light> ParseLights(const Json& j, const std::string& name);
+// One light entry (lights.json's "lights" items); `default_name` when it has none.
+Light ParseLight(const JsonNode& node, const std::string& default_name);
 std::vector<Light> ReadLights(const fs::path& path);
 Json LightsToJson(const std::vector<Light>& lights, const std::string& comment = "");
 

@@ -608,6 +608,10 @@ Pipeline PlanPipeline(const fs::path& file) {
     const auto opts = root.Has("formfactor") ? pl.Options(root, "formfactor") : std::vector<std::string>();
     for (size_t i = 0; i < v.json().size(); ++i) {
       const Node o = v.Index(i);
+      if (o.Has("light")) {  // a virtual light: passed through
+        virtuals.push_back(o.json());
+        continue;
+      }
       Json e = Rebase(pl, o, {"mesh", "formfactors"});
       if (o.Has("material"))  // its texture, like the mesh, relative to the work folder
         e["material"] = Rebase(pl, o.Child("material"), {"albedo_texture"});

@@ -252,7 +252,7 @@ void LoadRenderScene(const Scene& scene, RenderScene* out, int frame) {
     with_name(v.mesh, [&] { out->AddVirtual(mesh, v.WorldFromObjectAt(frame), v.material); });
   }
   if (const std::optional<fs::path> env = EnvironmentAt(scene, frame)) LoadEnvironment(scene, *env, out);
-  if (const std::optional<fs::path> lights = LightsAt(scene, frame)) LoadLights(scene, *lights, out);
+  LoadLights(scene, LightsAt(scene, frame), frame, out);
   out->Commit();
 }
 
@@ -280,14 +280,16 @@ void LoadEnvironment(const Scene& scene, const fs::path& path, RenderScene* out)
                                      scene.lighting.world_from_env));
 }
 
-void LoadLights(const Scene& scene, const fs::path& path, RenderScene* out) {
+void LoadLights(const Scene& scene, const std::optional<fs::path>& path, int frame, RenderScene* out) {
   // Distant lights are directions of the map they came from (mr-lights):
   // they turn with it.  Point and spot lights stand in the world.
   out->ClearLights();
-  for (Light l : ReadLights(path)) {
-    if (l.type == LightType::kDistant) l.direction = scene.lighting.world_from_env * l.direction;
-    out->AddLight(l);
-  }
+  if (path)
+    for (Light l : ReadLights(*path)) {
+      if (l.type == LightType::kDistant) l.direction = scene.lighting.world_from_env * l.direction;
+      out->AddLight(l);
+    }
+  for (const SceneVirtualLight& v : scene.virtual_lights) out->AddLight(v.At(frame));
 }
 
 }  // namespace mr

@@ -145,6 +145,8 @@ std::optional<fs::path> EnvironmentAt(const Scene& scene, int frame, int* from =
 std::optional<fs::path> LightsAt(const Scene& scene, int frame, int* from = nullptr);
 // Loads them into `out` (the lights replacing its lights); Commit() after.
 void LoadEnvironment(const Scene& scene, const fs::path& path, RenderScene* out);
-void LoadLights(const Scene& scene, const fs::path& path, RenderScene* out);
+// The lights of `frame`: the lights file's (none without one) and the
+// scene's virtual lights posed for the frame; replaces the scene's lights.
+void LoadLights(const Scene& scene, const std::optional<fs::path>& path, int frame, RenderScene* out);
 
 }  // namespace mr

@@ -14,11 +14,13 @@ std::string WorldChange::Describe() const {
   if (environment) add("environment map");
   if (lights) add("lights");
   for (const std::string& m : moved) add(m + " moved");
+  for (const std::string& m : moved_lights) add(m + " moved");
   return s;
 }
 
 Json WorldChange::ToJson() const {
   Json j = {{"environment", environment}, {"lights", lights}, {"moved", moved}};
+  if (!moved_lights.empty()) j["moved_lights"] = moved_lights;
   if (!notes.empty()) j["notes"] = notes;
   return j;
 }
@@ -37,6 +39,10 @@ WorldTracker::FileState WorldTracker::Stat(const std::optional<fs::path>& path) 
 WorldTracker::WorldTracker(const Scene& scene, const RenderScene& rs, int frame) : scene_(scene) {
   (void)rs;
   dynamic_ = scene.lighting.environment_per_frame || scene.lighting.lights_per_frame;
+  for (const SceneVirtualLight& l : scene.virtual_lights) {
+    dynamic_ = dynamic_ || !l.keyframes.empty();
+    light_poses_.push_back(PoseAt(l.keyframes, l.world_from_object, frame));
+  }
   for (const SceneVirtual& v : scene.virtuals) {
     dynamic_ = dynamic_ || !v.keyframes.empty();
     poses_.push_back(v.WorldFromObjectAt(frame));
@@ -61,9 +67,22 @@ WorldChange WorldTracker::Advance(int f, RenderScene* rs) {
   c.environment = file(
       scene_.lighting.environment_per_frame, "environment map",
       [](const Scene& s, int g, int* from) { return EnvironmentAt(s, g, from); }, &env_, LoadEnvironment);
+  // The lights: the file's when it changed, the virtual lights' when one moved.
+  bool lights_moved = false;
+  for (size_t i = 0; i < scene_.virtual_lights.size(); ++i) {
+    const SceneVirtualLight& l = scene_.virtual_lights[i];
+    const Eigen::Affine3d t = PoseAt(l.keyframes, l.world_from_object, f);
+    if (t.matrix() == light_poses_[i].matrix()) continue;
+    light_poses_[i] = t;
+    lights_moved = true;
+    c.moved_lights.push_back(l.name);
+  }
   c.lights = file(
       scene_.lighting.lights_per_frame, "lights file",
-      [](const Scene& s, int g, int* from) { return LightsAt(s, g, from); }, &lights_, LoadLights);
+      [](const Scene& s, int g, int* from) { return LightsAt(s, g, from); }, &lights_,
+      [&](const Scene& s, const fs::path& p, RenderScene* r) { LoadLights(s, p, f, r); });
+  if (lights_moved && !c.lights) LoadLights(scene_, LightsAt(scene_, f), f, rs);
+  c.lights = c.lights || lights_moved;
   for (size_t i = 0; i < scene_.virtuals.size(); ++i) {
     const SceneVirtual& v = scene_.virtuals[i];
     if (v.keyframes.empty()) continue;

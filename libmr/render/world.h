@@ -18,8 +18,9 @@ namespace mr {
 // by content (a per-frame file with the same bytes as the last is no change).
 struct WorldChange {
   bool environment = false, lights = false;
-  std::vector<std::string> moved;  // virtual objects whose world_from_object changed
-  std::vector<std::string> notes;  // e.g. a frame without its own map reusing an earlier one's
+  std::vector<std::string> moved;         // virtual objects whose world_from_object changed
+  std::vector<std::string> moved_lights;  // virtual lights that moved (`lights` is set too)
+  std::vector<std::string> notes;         // e.g. a frame without its own map reusing an earlier one's
   bool any() const { return environment || lights || !moved.empty(); }
   std::string Describe() const;  // "environment, lights, bunny moved"
   Json ToJson() const;
@@ -44,7 +45,8 @@ class WorldTracker {
   const Scene& scene_;
   bool dynamic_ = false;
   FileState env_, lights_;
-  std::vector<Eigen::Affine3d> poses_;  // of the virtual objects
+  std::vector<Eigen::Affine3d> poses_;        // of the virtual objects
+  std::vector<Eigen::Affine3d> light_poses_;  // of the virtual lights
 };
 
 }  // namespace mr

@@ -259,6 +259,24 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     std::set<std::string> names;
     for (size_t i = 0; i < v.json().size(); ++i) {
       Node o = v.Index(i);
+      if (o.json().is_object() && o.json().contains("light")) {
+        // A virtual light: a lights.json light in its own frame, posed.
+        o.RequireObject({"name", "light", "transform", "trajectory"});
+        SceneVirtualLight vl;
+        vl.light = ParseLight(o.Child("light"), fmt::format("light{}", i));
+        vl.light.is_virtual = true;
+        vl.name = o.Has("name") ? o.Child("name").String() : vl.light.name;
+        vl.light.name = vl.name;
+        if (!names.insert(vl.name).second) o.Fail(fmt::format("name \"{}\" is used twice", vl.name));
+        if (o.Has("transform") && o.Has("trajectory"))
+          o.Child("trajectory").Fail("give either transform or trajectory, not both");
+        if (o.Has("transform")) vl.world_from_object = ParseTransform(o.Child("transform"));
+        if (o.Has("trajectory")) vl.keyframes = ParseTrajectory(o.Child("trajectory"));
+        vl.world_from_object =
+            PoseAt(vl.keyframes, vl.world_from_object, vl.keyframes.empty() ? 0 : vl.keyframes.front().frame);
+        s.virtual_lights.push_back(vl);
+        continue;
+      }
       o.RequireObject({"name", "mesh", "transform", "trajectory", "material", "formfactors"});
       SceneVirtual sv;
       sv.name = o.Has("name") ? o.Child("name").String() : fmt::format("object{}", i);
@@ -355,7 +373,20 @@ Scene ReadScene(const fs::path& path, bool check_files) {
 }
 
 Eigen::Affine3d SceneVirtual::WorldFromObjectAt(double frame) const {
-  if (keyframes.empty()) return world_from_object;
+  return PoseAt(keyframes, world_from_object, frame);
+}
+
+Light SceneVirtualLight::At(double frame) const {
+  const Eigen::Affine3d t = PoseAt(keyframes, world_from_object, frame);
+  Light l = light;
+  l.position = t * light.position;
+  const Eigen::Vector3d d = t.rotation() * light.direction;
+  if (d.norm() > 0) l.direction = d.normalized();
+  return l;
+}
+
+Eigen::Affine3d PoseAt(const std::vector<ObjectKeyframe>& keyframes, const Eigen::Affine3d& fixed, double frame) {
+  if (keyframes.empty()) return fixed;
   auto make = [](const Eigen::Vector3d& t, const Eigen::Quaterniond& r, const Eigen::Vector3d& s) {
     Eigen::Affine3d a = Eigen::Affine3d::Identity();
     a.translate(t);

@@ -16,6 +16,7 @@
 
 #include "core/file.h"
 #include "core/json.h"
+#include "light/lights_file.h"
 
 namespace mr {
 
@@ -114,6 +115,24 @@ struct SceneVirtual {
   Eigen::Affine3d WorldFromObjectAt(double frame) const;
 };
 
+// A trajectory's pose at `frame` (docs/conventions.md, "Object
+// trajectories"): between two keyframes translation and scale linear,
+// rotation slerp (the shorter way); before the first and after the last,
+// held; `fixed` when there are no keyframes.
+Eigen::Affine3d PoseAt(const std::vector<ObjectKeyframe>& keyframes, const Eigen::Affine3d& fixed, double frame);
+
+// A virtual light that moves: scene.json's `virtual` entries with "light"
+// (a lights.json light, in its own frame) instead of "mesh".  Its world
+// position is world_from_object x position, its direction the rotation's
+// image (scale moves the position only).  Always virtual: it lights I_m.
+struct SceneVirtualLight {
+  std::string name;
+  Light light;
+  Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();
+  std::vector<ObjectKeyframe> keyframes;
+  Light At(double frame) const;
+};
+
 struct SceneRender {
   // The method's name (render/method.h's registry checks it) and each
   // method's settings block, render.<name>, as written: the method parses
@@ -157,6 +176,7 @@ struct Scene {
   SceneLighting lighting;
   std::vector<SceneReal> reals;  // "real": one {mesh, material} or a list
   std::vector<SceneVirtual> virtuals;
+  std::vector<SceneVirtualLight> virtual_lights;  // `virtual` entries that are lights
   SceneRender render;
   SceneOutput output;
   std::optional<fs::path> reference;  // ground truth (mr-synth)

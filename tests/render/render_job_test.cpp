@@ -1101,6 +1101,45 @@ TEST_F(Capture, PerFrameLightAndAnObjectScaledToNothing) {
   }
 }
 
+// A virtual torch (a spot light in the `virtual` list) that moves between
+// the two frames: frame 1 of the dynamic job is, byte for byte (pt), the
+// static scene with the torch where its trajectory puts it; the report
+// says the torch moved and the lights changed; vct, with nothing but a
+// light moved, injects again and keeps its whole voxelisation.
+TEST_F(Capture, AVirtualLightFollowsItsTrajectory) {
+  const Json base = ReadJsonFile(Cap() / "scene.json");
+  const Json torch = Json::parse(R"({"type": "spot", "position": [0, 0, 0], "direction": [0, -1, 0],
+                                     "intensity": [3, 3, 2], "cone_deg": 30})");
+  Json moving = base;
+  moving["virtual"].push_back(
+      {{"name", "torch"}, {"light", torch}, {"trajectory", Json::parse(R"([{"frame": 0, "translation": [-0.4, 1.6, 0]},
+                                  {"frame": 1, "translation": [0.4, 1.5, 0.2], "rotation_deg": [20, 0, 0]}])")}});
+  Json still = base;
+  still["virtual"].push_back(
+      {{"name", "torch"},
+       {"light", torch},
+       {"transform", Json::parse(R"({"translation": [0.4, 1.5, 0.2], "rotation_deg": [20, 0, 0]})")}});
+  RenderOptions o;
+  o.method = "pt";
+  o.spp = 2;
+  o.frame_end = 2;
+  Report rd("mr-render", "test"), rs("mr-render", "test");
+  const fs::path dyn = RenderVariant(moving, "torch-moving", o, &rd);
+  o.frame_begin = 1;
+  const fs::path stat = RenderVariant(still, "torch-still", o, &rs);
+  EXPECT_EQ(ReadImage(dyn / "00001.exr").Layer("composite").values(),
+            ReadImage(stat / "00001.exr").Layer("composite").values());
+  const Json& w = rd.metrics()["frames"][1]["world"];
+  EXPECT_EQ(w["moved_lights"], Json::array({"torch"}));
+  EXPECT_TRUE(w["lights"].get<bool>());
+  EXPECT_EQ(w["moved"].size(), 0u);
+  o.method = "vct";
+  o.frame_begin = 0;
+  Report rv("mr-render", "test");
+  RenderVariant(moving, "torch-moving", o, &rv);
+  EXPECT_EQ(rv.metrics()["vct"]["frames"]["1"]["voxelised"], "kept") << rv.metrics()["frames"][1]["world"].dump();
+}
+
 // A lamp switched from nothing to 1e4 W/sr between two frames (lights per
 // frame): ic's records, made under the dark frame, are all re-evaluated at
 // once, not kept until they age out (the paper's t_max is no answer to a

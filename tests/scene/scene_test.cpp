@@ -144,6 +144,31 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
 // and after the last; a scale of 0 is allowed (the object collapses).  The
 // ambiguous is refused: a transform and a trajectory together, frames out of
 // order or repeated, a matrix (which cannot be interpolated).
+// A virtual light in the `virtual` list: a lights.json light in its own
+// frame, posed by a transform or a trajectory; always virtual; its
+// position follows the pose (scale included), its direction the rotation.
+// A mesh beside the light is refused.
+TEST_F(SceneFiles, VirtualLightsTakeTrajectories) {
+  Json j = Valid();
+  j["virtual"].push_back(Json::parse(R"({"name": "torch",
+    "light": {"type": "spot", "position": [0, 0, 0], "direction": [0, 0, 1], "intensity": [5, 5, 5],
+              "cone_deg": 20},
+    "trajectory": [{"frame": 0, "translation": [1, 1, 0]},
+                   {"frame": 4, "translation": [1, 1, 4], "rotation_deg": [0, 90, 0], "scale": 3}]})"));
+  const Scene s = ParseScene(j, dir_.path(), "scene.json", true);
+  ASSERT_EQ(s.virtual_lights.size(), 1u);
+  EXPECT_EQ(s.virtuals.size(), 2u);
+  const Light l0 = s.virtual_lights[0].At(0), l4 = s.virtual_lights[0].At(4);
+  EXPECT_TRUE(l0.is_virtual);
+  EXPECT_EQ(l0.name, "torch");
+  EXPECT_LT((l0.position - Eigen::Vector3d(1, 1, 0)).norm(), 1e-12);
+  EXPECT_LT((l4.position - Eigen::Vector3d(1, 1, 4)).norm(), 1e-12);
+  EXPECT_LT((l4.direction - Eigen::Vector3d(1, 0, 0)).norm(), 1e-9);  // +z turned 90 degrees about +y
+  EXPECT_LT((s.virtual_lights[0].At(2).position - Eigen::Vector3d(1, 1, 2)).norm(), 1e-12);
+  j["virtual"][2]["mesh"] = "bunny.ply";
+  EXPECT_NE(ErrorOf(j).find("virtual[2].mesh: unknown key"), std::string::npos) << ErrorOf(j);
+}
+
 TEST_F(SceneFiles, TrajectoriesInterpolateAndRefuseTheAmbiguous) {
   Json j = Valid();
   j["virtual"][0].erase("transform");

@@ -167,6 +167,12 @@ check "blobs name their residual" 0 '"map": "rest.exr"' -- cat "$tmp/blobs.json"
 sed 's|"environment": "env.exr"|"environment": "../rest.exr", "lights": "../blobs.json"|' "$tmp/cap/scene.json" > "$tmp/cap/scene-blobs.json"
 check "scene lit by the blobs and their residual" 0 "valid" -- "$bin/mr-info" "$tmp/cap/scene-blobs.json"
 check "render with extracted lights" 0 "" -- "$bin/mr-render" "$tmp/cap/scene-blobs.json" --out "$tmp/r-lights" --spp 1 -q
+# Over time: a map per frame, lights per frame keeping their names.
+mkdir -p "$tmp/envs" && cp "$tmp/cap/env.exr" "$tmp/envs/00000.exr" && cp "$tmp/cap/env.exr" "$tmp/envs/00001.exr"
+check "mr-lights over time" 0 "" -- "$bin/mr-lights" "$tmp/envs/%05d.exr" --method blobs --count 2 --out "$tmp/lt/%05d.json" --residual "$tmp/lt/res-%05d.exr" --report "$tmp/lt.json" -q
+check "a light keeps its name" 0 '"name": "light0"' -- cat "$tmp/lt/00001.json"
+check "identities reported" 0 '"kept_identity"' -- cat "$tmp/lt.json"
+check "over time needs patterns out" 2 "needs patterns" -- "$bin/mr-lights" "$tmp/envs/%05d.exr" --out "$tmp/one.json"
 check "mr-lights sweep" 0 "variance-cut,1024" -- "$bin/mr-lights" "$tmp/cap/env.exr" --sweep --counts 1,1024 --table "$tmp/sweep.csv" --plot "$tmp/sweep.svg" -q
 check "sweep plot" 0 "<svg" -- cat "$tmp/sweep.svg"
 check "mr-eval plot" 0 "" -- "$bin/mr-eval" plot "$tmp/sweep.csv" --x count --y irradiance_rms --group method --out "$tmp/plot.svg"

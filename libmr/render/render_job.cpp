@@ -284,7 +284,12 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       std::vector<std::string> rebuilt;
       if (wc.any() && f > resumed_end) {
         ScopedTimer t(report, "world update");
-        rebuilt = method->WorldChanged(job_at(f), wc);
+        if (scene.render.world_update == "rebuild") {
+          method->Prepare(job_at(f));
+          rebuilt = {"everything (render.world_update is rebuild)"};
+        } else {
+          rebuilt = method->WorldChanged(job_at(f), wc);
+        }
         spdlog::info("frame {}: {} changed: {}", f, wc.Describe(),
                      rebuilt.empty() ? std::string("nothing to rebuild") : fmt::format("{}", fmt::join(rebuilt, ", ")));
       }

@@ -149,6 +149,11 @@ struct SceneRender {
   // where the frame's own does not see the point (docs/methods.md).
   int plate_neighbours = 2;
   int plate_neighbour_step = 3;
+  // When the world changes between frames: "incremental" (each method
+  // keeps what the change cannot reach, RenderMethod::WorldChanged) or
+  // "rebuild" (every view-independent structure made again, as for a first
+  // frame: the reference the incremental updates are measured against).
+  std::string world_update = "incremental";
 };
 
 // The layers a frame's EXR can hold, in the order they are written.

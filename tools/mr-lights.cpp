@@ -1,15 +1,18 @@
 // mr-lights: light sources from an environment map, and what they leave out.
 #include <spdlog/spdlog.h>
 
+#include <optional>
 #include <sstream>
 
 #include "cli/tool.h"
 #include "core/error.h"
+#include "core/hash.h"
 #include "core/image.h"
 #include "core/report.h"
 #include "eval/plot.h"
 #include "light/environment.h"
 #include "light/lights_file.h"
+#include "pipeline/pipeline.h"
 #include "probe/light_extraction.h"
 #include "scene/frames.h"
 
@@ -29,6 +32,24 @@ std::vector<int> ParseCounts(const std::string& s) {
     }
   }
   return out;
+}
+
+// An earlier run's lights file for this frame, when its key matches (and
+// its residual map exists): nullopt otherwise.
+std::optional<mr::Json> KeptLights(const std::string& out, const std::string& residual, const std::string& key) {
+  std::error_code ec;
+  if (!mr::fs::is_regular_file(out, ec) || (!residual.empty() && !mr::fs::is_regular_file(residual, ec)))
+    return std::nullopt;
+  try {
+    mr::Json j = mr::ReadJsonFile(out);
+    mr::ParseLights(j, out);
+    if (j["source"].value("key", "") != key || !j["source"].contains("next_id")) return std::nullopt;
+    for (const auto& l : j["lights"])
+      if (l.value("name", "").rfind("light", 0) != 0) return std::nullopt;
+    return j;
+  } catch (const std::exception&) {
+    return std::nullopt;  // unreadable: made again
+  }
 }
 
 }  // namespace
@@ -101,13 +122,15 @@ int main(int argc, char** argv) {
     const std::string command_line = mr::JoinCommandLine(argc, argv);
     // One map: its lights (named by `ids` when given), residual and error.
     auto extract_one = [&](const std::string& map_file, const std::string& out_file, const std::string& res_file,
-                           const mr::Extraction& ex, const std::vector<double>& ref, const std::vector<int>* ids) {
+                           const mr::Extraction& ex, const std::vector<double>& ref, const std::vector<int>* ids,
+                           const mr::Json& source_extra = mr::Json::object()) {
       const bool make_dirs = ids != nullptr;  // over time the patterns' folders are made
       const mr::IrradianceError e = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, false), ref);
       const mr::IrradianceError er = mr::CompareIrradiance(mr::LightsIrradiance(ex, dirs, true), ref);
       std::vector<mr::Light> lights = mr::ToLights(ex, "light", ids);
       mr::Json j = mr::LightsToJson(lights, "mr-lights: " + command_line);
       j["source"] = {{"method", eo.method}, {"count", eo.count}, {"map", map_file}};
+      for (auto& [k, v] : source_extra.items()) j["source"][k] = v;
       mr::Json sh = mr::Json::array();
       for (const auto& c : ex.residual_sh) sh.push_back({c.x(), c.y(), c.z()});
       j["residual"] = {
@@ -138,10 +161,40 @@ int main(int argc, char** argv) {
       mr::Json frames = mr::Json::array();
       std::vector<mr::ExtractedLight> prev;
       std::vector<int> prev_ids;
-      int next_id = 0, f = 0;
+      int next_id = 0, f = 0, kept = 0;
+      // Each frame's key chains the options and every map up to it (a
+      // light's name depends on the frames before): a re-run keeps the
+      // files whose key matches and redoes the rest.
+      const std::string options =
+          fmt::format("{} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold, eo.max_blob_sr, eo.sh_order,
+                      eo.seed, residual_width, match_deg, residual_file.empty());
+      mr::Fnv1a options_hash;
+      options_hash.Bytes(options.data(), options.size());
+      uint64_t key = mr::HashCombine(0x6c6967687473ULL, options_hash.value());
       for (;; ++f) {
         const std::string map_file = mr::FramePath(env_file, f).string();
         if (!mr::fs::exists(map_file)) break;
+        key = mr::HashCombine(key, mr::ContentHash(map_file));
+        const std::string key_hex = fmt::format("{:016x}", key);
+        const std::string out_file = mr::FramePath(out, f).string();
+        const std::string res_file = residual_file.empty() ? "" : mr::FramePath(residual_file, f).string();
+        if (std::optional<mr::Json> done = KeptLights(out_file, res_file, key_hex)) {
+          // Up to date: its lights carry the identities on.
+          prev.clear();
+          prev_ids.clear();
+          for (const mr::Light& l : mr::ParseLights(*done, out_file)) {
+            mr::ExtractedLight e;
+            e.direction = l.direction;
+            prev.push_back(e);
+            prev_ids.push_back(std::stoi(l.name.substr(5)));
+          }
+          next_id = (*done)["source"]["next_id"].get<int>();
+          report.AddInput(map_file);
+          report.AddOutput(out_file);
+          frames.push_back({{"frame", f}, {"kept", true}, {"lights", prev.size()}, {"ids", prev_ids}});
+          ++kept;
+          continue;
+        }
         mr::Image env;
         {
           mr::ScopedTimer t(&report, "read");
@@ -162,8 +215,7 @@ int main(int argc, char** argv) {
           ref = mr::MapIrradiance(env, dirs);
         }
         const auto [e, er] =
-            extract_one(map_file, mr::FramePath(out, f).string(),
-                        residual_file.empty() ? "" : mr::FramePath(residual_file, f).string(), ex, ref, &ids);
+            extract_one(map_file, out_file, res_file, ex, ref, &ids, mr::Json{{"key", key_hex}, {"next_id", next_id}});
         frames.push_back({{"frame", f},
                           {"lights", ex.lights.size()},
                           {"kept_identity", matched},
@@ -177,6 +229,11 @@ int main(int argc, char** argv) {
         prev_ids = ids;
       }
       if (f == 0) mr::ThrowErrorAt(mr::FileLoc{mr::FramePath(env_file, 0).string()}, "no such file");
+      if (kept > 0)
+        report.Skip("extraction", fmt::format("{} of {} frames: their lights files are up to date (same maps and "
+                                              "options, as their keys say)",
+                                              kept, f));
+      report.SetMetric("frames_kept", kept);
       report.SetMetric("method", eo.method);
       report.SetMetric("frames", frames);
       report.SetMetric("identities", next_id);

@@ -61,10 +61,12 @@ std::vector<Light> ParseLights(const Json& j, const std::string& name) {
   root.RequireObject({"version", "lights", "comment", "source", "residual"});
   if (root.Has("source")) {
     JsonNode src = root.Child("source");
-    src.RequireObject({"method", "count", "map"});
+    src.RequireObject({"method", "count", "map", "key", "next_id"});
     if (src.Has("method")) src.Child("method").String();
     if (src.Has("count")) src.Child("count").Integer(0, 1 << 30);
     if (src.Has("map")) src.Child("map").String();
+    if (src.Has("key")) src.Child("key").String();  // mr-lights over time: the inputs' key
+    if (src.Has("next_id")) src.Child("next_id").Integer(0, 1 << 30);
   }
   if (root.Has("residual")) {
     JsonNode res = root.Child("residual");

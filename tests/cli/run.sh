@@ -172,6 +172,8 @@ mkdir -p "$tmp/envs" && cp "$tmp/cap/env.exr" "$tmp/envs/00000.exr" && cp "$tmp/
 check "mr-lights over time" 0 "" -- "$bin/mr-lights" "$tmp/envs/%05d.exr" --method blobs --count 2 --out "$tmp/lt/%05d.json" --residual "$tmp/lt/res-%05d.exr" --report "$tmp/lt.json" -q
 check "a light keeps its name" 0 '"name": "light0"' -- cat "$tmp/lt/00001.json"
 check "identities reported" 0 '"kept_identity"' -- cat "$tmp/lt.json"
+check "mr-lights over time again" 0 "" -- "$bin/mr-lights" "$tmp/envs/%05d.exr" --method blobs --count 2 --out "$tmp/lt/%05d.json" --residual "$tmp/lt/res-%05d.exr" --report "$tmp/lt2.json" -q
+check "an up-to-date frame is kept" 0 '"frames_kept": 2' -- cat "$tmp/lt2.json"
 check "over time needs patterns out" 2 "needs patterns" -- "$bin/mr-lights" "$tmp/envs/%05d.exr" --out "$tmp/one.json"
 check "mr-lights sweep" 0 "variance-cut,1024" -- "$bin/mr-lights" "$tmp/cap/env.exr" --sweep --counts 1,1024 --table "$tmp/sweep.csv" --plot "$tmp/sweep.svg" -q
 check "sweep plot" 0 "<svg" -- cat "$tmp/sweep.svg"

@@ -8,12 +8,15 @@
 #include <cstdlib>
 #include <cstring>
 
+#include <algorithm>
 #include <atomic>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "core/check.h"
 #include "core/error.h"
+#include "core/hash.h"
 
 namespace mr {
 
@@ -166,6 +169,40 @@ std::string LowerExtension(const fs::path& path) {
   std::string e = path.extension().string();
   for (auto& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return e;
+}
+
+void HashFile(const fs::path& path, Hasher* h) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) ThrowErrorAt(FileLoc{path.string()}, "cannot read");
+  std::vector<char> buf(1 << 16);
+  uint64_t total = 0;
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const auto n = static_cast<size_t>(in.gcount());
+    if (n == 0) break;
+    h->Bytes(buf.data(), n);
+    total += n;
+  }
+  h->Word(total);
+}
+
+uint64_t ContentHash(const fs::path& path) {
+  Hasher h;
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    std::vector<fs::path> files;
+    for (const auto& e : fs::recursive_directory_iterator(path))
+      if (e.is_regular_file()) files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (const fs::path& f : files) {
+      h.String(f.lexically_relative(path).generic_string());
+      HashFile(f, &h);
+    }
+    h.Word(files.size());
+  } else {
+    HashFile(path, &h);
+  }
+  return h.Final();
 }
 
 }  // namespace mr

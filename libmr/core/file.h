@@ -60,4 +60,12 @@ void RequireFile(const fs::path& path, const std::string& what = "");
 // Lower-case extension with the dot (".exr"); empty when none.
 std::string LowerExtension(const fs::path& path);
 
+// A 64-bit content hash of a file, or of a folder's files (names and
+// contents, in sorted order).  For change detection, not security; throws
+// mr::Error naming a file it cannot read.
+uint64_t ContentHash(const fs::path& path);
+struct Hasher;
+// Adds a file's bytes and length to `h` (ContentHash's per-file step).
+void HashFile(const fs::path& path, Hasher* h);
+
 }  // namespace mr

@@ -5,6 +5,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
+#include <string>
 
 namespace mr {
 
@@ -45,6 +47,29 @@ class Fnv1a {
 
  private:
   uint64_t h_;
+};
+
+// Fnv1a over 64-bit words (bytes packed eight at a time, the tail's length
+// mixed in), finished by MixBits: the content hashes of files (ContentHash).
+struct Hasher {
+  Fnv1a fnv;
+  void Word(uint64_t w) { fnv.Word(w); }
+  void Bytes(const char* p, size_t n) {
+    size_t i = 0;
+    for (; i + 8 <= n; i += 8) {
+      uint64_t w;
+      std::memcpy(&w, p + i, 8);
+      Word(w);
+    }
+    uint64_t tail = 0;
+    std::memcpy(&tail, p + i, n - i);
+    Word(tail ^ (static_cast<uint64_t>(n - i) << 56));
+  }
+  void String(const std::string& s) {
+    Word(s.size());
+    Bytes(s.data(), s.size());
+  }
+  uint64_t Final() const { return fnv.Mixed(); }
 };
 
 }  // namespace mr

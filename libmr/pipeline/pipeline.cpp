@@ -37,64 +37,9 @@ namespace {
 
 // FNV-1a over 8-byte words with a final avalanche (splitmix64): fast enough
 // for gigabytes of recordings, and any changed byte changes the hash.
-struct Hasher {
-  Fnv1a fnv;
-  void Word(uint64_t w) { fnv.Word(w); }
-  void Bytes(const char* p, size_t n) {
-    size_t i = 0;
-    for (; i + 8 <= n; i += 8) {
-      uint64_t w;
-      std::memcpy(&w, p + i, 8);
-      Word(w);
-    }
-    uint64_t tail = 0;
-    std::memcpy(&tail, p + i, n - i);
-    Word(tail ^ (static_cast<uint64_t>(n - i) << 56));
-  }
-  void String(const std::string& s) {
-    Word(s.size());
-    Bytes(s.data(), s.size());
-  }
-  uint64_t Final() const { return fnv.Mixed(); }
-};
-
-void HashFile(const fs::path& path, Hasher* h) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) ThrowErrorAt(FileLoc{path.string()}, "cannot read");
-  std::vector<char> buf(1 << 16);
-  uint64_t total = 0;
-  while (in) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    const auto n = static_cast<size_t>(in.gcount());
-    if (n == 0) break;
-    h->Bytes(buf.data(), n);
-    total += n;
-  }
-  h->Word(total);
-}
-
 std::string Hex(uint64_t v) { return fmt::format("{:016x}", v); }
 
 }  // namespace
-
-uint64_t ContentHash(const fs::path& path) {
-  Hasher h;
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) {
-    std::vector<fs::path> files;
-    for (const auto& e : fs::recursive_directory_iterator(path))
-      if (e.is_regular_file()) files.push_back(e.path());
-    std::sort(files.begin(), files.end());
-    for (const fs::path& f : files) {
-      h.String(f.lexically_relative(path).generic_string());
-      HashFile(f, &h);
-    }
-    h.Word(files.size());
-  } else {
-    HashFile(path, &h);
-  }
-  return h.Final();
-}
 
 // ---------------------------------------------------------------------------
 // Planning
@@ -185,6 +130,7 @@ struct Planner {
 };
 
 void Append(std::vector<std::string>* a, const std::vector<std::string>& b) { a->insert(a->end(), b.begin(), b.end()); }
+void Append(std::vector<fs::path>* a, const std::vector<fs::path>& b) { a->insert(a->end(), b.begin(), b.end()); }
 void AppendPaths(std::vector<std::string>* a, const std::vector<fs::path>& b) {
   for (const auto& f : b) a->push_back(f.string());
 }
@@ -668,6 +614,12 @@ Pipeline PlanPipeline(const fs::path& file) {
   CheckRenderSettings(ParseScene(scene, w, (w / "scene.json").string(), false));
   p.scene = scene;
 
+  // The per-frame light the scene names by pattern: its folders' content
+  // decides the renders (scene.json itself does not change with it).
+  std::vector<fs::path> per_frame;
+  for (const char* k : {"environment", "lights"})
+    if (lighting.contains(k) && lighting[k].get<std::string>().find('%') != std::string::npos)
+      per_frame.push_back((w / lighting[k].get<std::string>()).lexically_normal().parent_path());
   const Json outputs = root.Has("outputs") ? root.Child("outputs").json() : Json{{"render", true}};
   const Node outs(outputs, "outputs", &name);
   outs.RequireObject({"render", "sweep"});
@@ -680,6 +632,7 @@ Pipeline PlanPipeline(const fs::path& file) {
       s.args = {"plate", scene_file.string(), "--out", gains_dir.string()};
       Append(&s.args, gains_options);
       s.inputs = {scene_file};
+      Append(&s.inputs, per_frame);
       s.outputs = {gains_dir};
       s.does = use_gains
                    ? "the plate's gains fitted against the rendered room, and the capture chain's re-rendering error"
@@ -693,8 +646,11 @@ Pipeline PlanPipeline(const fs::path& file) {
     if (outs.Has("render") && !outs.Child("render").Bool()) {
       s.skip = "outputs.render is false";
     } else {
-      s.args = {scene_file.string(), "--out", (w / "render").string()};
+      // --resume: the frames whose inputs (by content) and settings are those
+      // of an earlier run are kept, from the first frame to the first changed.
+      s.args = {scene_file.string(), "--out", (w / "render").string(), "--resume"};
       s.inputs = {scene_file};
+      Append(&s.inputs, per_frame);
       if (use_gains) s.inputs.push_back(fitted_gains);
       s.outputs = {w / "render"};
       s.does = fmt::format("the virtual objects rendered into every frame ({}) and composited", method);
@@ -718,6 +674,7 @@ Pipeline PlanPipeline(const fs::path& file) {
           Append(&s.args, pl.Options(sw));
         }
         s.inputs = {scene_file};
+        Append(&s.inputs, per_frame);
         if (use_gains) s.inputs.push_back(fitted_gains);
         s.outputs = {w / "sweep"};
         s.does = "error against run time of the rendering methods against the reference";

@@ -68,8 +68,6 @@ struct PipelineRunOptions {
 // outputs are kept.
 void RunPipeline(const Pipeline& pipeline, const PipelineRunOptions& options, Report* report);
 
-// A 64-bit content hash of a file, or of a folder's files (names and
-// contents, in sorted order).  For change detection, not security.
-uint64_t ContentHash(const fs::path& path);
+// ContentHash (core/file.h) decides what is up to date.
 
 }  // namespace mr

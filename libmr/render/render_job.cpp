@@ -8,7 +8,10 @@
 #include <map>
 
 #include "core/error.h"
+#include "core/file.h"
+#include "core/hash.h"
 #include "core/image.h"
+#include "core/json.h"
 #include "core/progress.h"
 #include "core/video.h"
 #include "render/composite.h"
@@ -23,6 +26,42 @@
 namespace mr {
 
 namespace {
+
+// The content of everything a scene's frames are made from that is not per
+// frame (see RunRenderJob's provenance).
+// A JSON file as parsed, its comment left out (tools write their command
+// line there: two runs of one scene from different folders are the same
+// frames).
+uint64_t JsonContentKey(const fs::path& path) {
+  Json j = ReadJsonFile(path);
+  if (j.is_object()) j.erase("comment");
+  const std::string text = j.dump();
+  Fnv1a h;
+  h.Bytes(text.data(), text.size());
+  return h.value();
+}
+
+uint64_t SceneInputsKey(const Scene& scene) {
+  uint64_t k = JsonContentKey(scene.file);
+  auto add = [&](const std::optional<fs::path>& p) {
+    k = HashCombine(k, p && !p->empty() && fs::exists(*p) ? ContentHash(*p) : 0);
+  };
+  add(scene.camera.model);
+  add(scene.camera.poses);
+  add(scene.camera.response);
+  if (scene.camera.gains) k = HashCombine(k, JsonContentKey(*scene.camera.gains));
+  if (scene.camera.frames_are_video) add(scene.camera.frames);
+  for (const SceneReal& r : scene.reals) {
+    add(r.mesh);
+    add(r.material.albedo_texture);
+  }
+  for (const SceneVirtual& v : scene.virtuals) {
+    add(v.mesh);
+    add(v.material.albedo_texture);
+    add(v.formfactors);
+  }
+  return k;
+}
 
 // A frame's plate as reflections look it up: radiance in the render's units
 // at the frame's gain, and where it clipped (codes only).
@@ -124,8 +163,30 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   // there would: byte-identical frames).
   // A frame's provenance: the job's settings, the frame and its plate gain
   // (a refitted gains file re-renders the frames whose gain changed).
+  // And what it is made from, by content: the scene file, the camera
+  // model, poses, response, gains, meshes and textures, and each frame's
+  // own photograph, environment map and lights file, chained over the
+  // frames from `begin`, since a frame can carry over state from those
+  // before it (ic's records, vct's grid): a changed input re-renders its
+  // frame and the frames after it, --resume keeps those before.
+  const uint64_t global_key = SceneInputsKey(scene);
+  std::vector<uint64_t> chain;  // chain[i]: the key of frame begin + i
+  auto inputs_key = [&](int f) {
+    while (static_cast<int>(chain.size()) <= f - begin) {
+      const int g = begin + static_cast<int>(chain.size());
+      uint64_t k = chain.empty() ? global_key : chain.back();
+      if (scene.camera.frames && !scene.camera.frames_are_video) {
+        const fs::path photo = FramePath(*scene.camera.frames, g);
+        k = HashCombine(k, fs::exists(photo) ? ContentHash(photo) : 0);
+      }
+      for (const std::optional<fs::path>& file : {EnvironmentAt(scene, g), LightsAt(scene, g)})
+        k = HashCombine(k, file ? ContentHash(*file) : 0);
+      chain.push_back(k);
+    }
+    return chain[static_cast<size_t>(f - begin)];
+  };
   auto provenance = [&](int f) {
-    std::string p = frame_provenance + fmt::format(" frame {}", f);
+    std::string p = frame_provenance + fmt::format(" frame {} inputs {:016x}", f, inputs_key(f));
     if (scene.output.grain != "off") p += " grain " + scene.output.grain;
     if (!decoding.frame_gains.empty()) {
       const Rgb g = decoding.ForFrame(f).gain;

@@ -1,7 +1,5 @@
 #include "render/world.h"
 
-#include <fstream>
-
 #include <fmt/format.h>
 
 #include "core/hash.h"
@@ -26,14 +24,7 @@ Json WorldChange::ToJson() const {
 }
 
 WorldTracker::FileState WorldTracker::Stat(const std::optional<fs::path>& path) {
-  FileState s{path, 0};
-  if (!path) return s;
-  std::ifstream in(*path, std::ios::binary);
-  Fnv1a h;
-  char buf[1 << 16];
-  while (in.read(buf, sizeof buf) || in.gcount() > 0) h.Bytes(buf, static_cast<size_t>(in.gcount()));
-  s.hash = h.value();
-  return s;
+  return FileState{path, path ? ContentHash(*path) : 0};
 }
 
 WorldTracker::WorldTracker(const Scene& scene, const RenderScene& rs, int frame) : scene_(scene) {

@@ -53,6 +53,14 @@ done
 check "resumed outputs equal one run's, byte for byte" 0 "" -- test "$same" -eq 1
 check "resume again: nothing to render" 0 "--resume: complete in the output folder" -- bash -c "'$bin/mr-render' '$cap/video.json' --out '$tmp/killed' --spp 4 --resume -q --report '$tmp/r2.json' && cat '$tmp/r2.json'"
 check "other settings are not resumed" 0 "" -- bash -c "'$bin/mr-render' '$cap/video.json' --out '$tmp/killed' --spp 2 --resume -q --report '$tmp/r3.json' && ! grep -q 'resume: complete' '$tmp/r3.json'"
+# Inputs are compared by content: a map per frame, frame 6's changed, keeps
+# frames 0-5 and renders 6 on.
+mkdir -p "$cap/e"
+for i in $(seq 0 11); do cp "$cap/env.exr" "$cap/e/$(printf %05d $i).exr"; done
+sed 's|"environment": "env.exr"|"environment": "e/%05d.exr"|' "$cap/video.json" > "$cap/video-pf.json"
+check "per-frame light rendered" 0 "" -- "$bin/mr-render" "$cap/video-pf.json" --out "$tmp/pf" --spp 1 --resume -q
+oiiotool "$cap/env.exr" --mulc 1.5 -o "$cap/e/00006.exr"
+check "a changed frame's input re-renders it and the frames after" 0 '"frames 0:6"' -- bash -c "'$bin/mr-render' '$cap/video-pf.json' --out '$tmp/pf' --spp 1 --resume -q --report '$tmp/r4.json' && cat '$tmp/r4.json'"
 
 # mr-pipeline killed at random points and run again: it resumes from the
 # stages that finished, and its outputs equal an uninterrupted run's.

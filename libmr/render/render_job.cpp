@@ -41,6 +41,16 @@ uint64_t JsonContentKey(const fs::path& path) {
   return h.value();
 }
 
+// The inputs key an earlier run left beside frame f ("" when none).
+std::string InputsKeyOf(const fs::path& out_dir, int f) {
+  const fs::path p = out_dir / ".mr-render" / fmt::format("{:05d}.inputs", f);
+  std::error_code ec;
+  if (!fs::is_regular_file(p, ec)) return "";
+  std::string t = ReadTextFile(p);
+  while (!t.empty() && (t.back() == '\n' || t.back() == ' ')) t.pop_back();
+  return t;
+}
+
 uint64_t SceneInputsKey(const Scene& scene) {
   uint64_t k = JsonContentKey(scene.file);
   auto add = [&](const std::optional<fs::path>& p) {
@@ -164,29 +174,25 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   // A frame's provenance: the job's settings, the frame and its plate gain
   // (a refitted gains file re-renders the frames whose gain changed).
   // And what it is made from, by content: the scene file, the camera
-  // model, poses, response, gains, meshes and textures, and each frame's
-  // own photograph, environment map and lights file, chained over the
-  // frames from `begin`, since a frame can carry over state from those
-  // before it (ic's records, vct's grid): a changed input re-renders its
-  // frame and the frames after it, --resume keeps those before.
+  // model, poses, response, gains, meshes and textures, and the frame's
+  // own photograph, environment map and lights file.  --resume keeps frames
+  // from the first on while theirs match, so a changed input re-renders its
+  // frame and every frame after it (which may carry over state from it:
+  // ic's records, vct's grid).  The key does not depend on where a shard
+  // begins: shards write the frames one run writes.
   const uint64_t global_key = SceneInputsKey(scene);
-  std::vector<uint64_t> chain;  // chain[i]: the key of frame begin + i
   auto inputs_key = [&](int f) {
-    while (static_cast<int>(chain.size()) <= f - begin) {
-      const int g = begin + static_cast<int>(chain.size());
-      uint64_t k = chain.empty() ? global_key : chain.back();
-      if (scene.camera.frames && !scene.camera.frames_are_video) {
-        const fs::path photo = FramePath(*scene.camera.frames, g);
-        k = HashCombine(k, fs::exists(photo) ? ContentHash(photo) : 0);
-      }
-      for (const std::optional<fs::path>& file : {EnvironmentAt(scene, g), LightsAt(scene, g)})
-        k = HashCombine(k, file ? ContentHash(*file) : 0);
-      chain.push_back(k);
+    uint64_t k = global_key;
+    if (scene.camera.frames && !scene.camera.frames_are_video) {
+      const fs::path photo = FramePath(*scene.camera.frames, f);
+      k = HashCombine(k, fs::exists(photo) ? ContentHash(photo) : 0);
     }
-    return chain[static_cast<size_t>(f - begin)];
+    for (const std::optional<fs::path>& file : {EnvironmentAt(scene, f), LightsAt(scene, f)})
+      k = HashCombine(k, file ? ContentHash(*file) : 0);
+    return k;
   };
   auto provenance = [&](int f) {
-    std::string p = frame_provenance + fmt::format(" frame {} inputs {:016x}", f, inputs_key(f));
+    std::string p = frame_provenance + fmt::format(" frame {}", f);
     if (scene.output.grain != "off") p += " grain " + scene.output.grain;
     if (!decoding.frame_gains.empty()) {
       const Rgb g = decoding.ForFrame(f).gain;
@@ -196,7 +202,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   };
   int resumed_end = begin;
   if (o.resume) {
-    while (resumed_end < end && FrameComplete(out_dir, resumed_end, scene.output, provenance(resumed_end)))
+    while (resumed_end < end && FrameComplete(out_dir, resumed_end, scene.output, provenance(resumed_end)) &&
+           InputsKeyOf(out_dir, resumed_end) == fmt::format("{:016x}", inputs_key(resumed_end)))
       ++resumed_end;
     if (resumed_end > begin)
       report->Skip(fmt::format("frames {}:{}", begin, resumed_end),
@@ -529,6 +536,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       FrameLayers layers{&cr.composite, &codes, &mixed, &real, &mask, &cr.difference, &variance, &samples, photo_ptr};
       WriteFrameFiles(out_dir, f, layers, encoding, decoding.CodesColorSpace(encoding), scene.output, o.tool,
                       provenance(f), report);
+      // The frame's inputs key beside it (not in it: inputs that differ
+      // only in their comments or paths still give the same frame's bytes).
+      std::error_code ec;
+      fs::create_directories(out_dir / ".mr-render", ec);
+      WriteTextFile(out_dir / ".mr-render" / fmt::format("{:05d}.inputs", f), fmt::format("{:016x}\n", inputs_key(f)));
       if (video_out) video_out->WriteCodes(codes);
       if (scene.output.review) {
         const Image plate_codes = decoding.ToCodes(photo ? decoding.ToRadiance(*photo) : real, encoding);

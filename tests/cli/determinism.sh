@@ -35,7 +35,7 @@ same() {
           echo "    differs: $rel"; bad=1
         fi ;;
     esac
-  done < <(find "$a" -type f ! -name '*report*.json' ! -name '*.log' ! -path '*/.mr-pipeline/*' | sort)
+  done < <(find "$a" -type f ! -name '*report*.json' ! -name '*.log' ! -path '*/.mr-pipeline/*' ! -path '*/.mr-render/*' | sort)
   if [ "$bad" -eq 0 ] && [ "$n" -gt 0 ]; then
     echo "ok   $name ($n files)"; pass=$((pass + 1))
   else

@@ -1140,6 +1140,57 @@ TEST_F(Capture, AVirtualLightFollowsItsTrajectory) {
   EXPECT_EQ(rv.metrics()["vct"]["frames"]["1"]["voxelised"], "kept") << rv.metrics()["frames"][1]["world"].dump();
 }
 
+// An object that leaves the view and comes back (frame 1: 40 m away,
+// behind the camera; frames 0 and 2 on the table): frame 1's composite is
+// the plate, but for the object's far-away light (mean |difference| under
+// 1e-3 of the mean plate); frame 2 is, byte
+// for byte (pt), the static scene at frame 2's pose; ic, whose records on
+// the object were dropped when it left, makes them again when it returns.
+TEST_F(Capture, AnObjectLeavesTheViewAndComesBack) {
+  // Three frames: the capture's two, and the second again a frame later.
+  Json base = ReadJsonFile(Cap() / "scene.json");
+  fs::create_directories(Cap() / "photos3");
+  for (int f = 0; f < 3; ++f)
+    fs::copy_file(Cap() / "photos" / fmt::format("{:05d}.exr", std::min(f, 1)),
+                  Cap() / "photos3" / fmt::format("{:05d}.exr", f), fs::copy_options::overwrite_existing);
+  Trajectory t = ReadTum(Cap() / "trajectory.txt");
+  t.poses.push_back({t.poses.back().timestamp + 1 / 30.0, t.poses.back().world_from_cam});
+  WriteTum(Cap() / "trajectory3.txt", t);
+  base["camera"]["frames"] = "photos3/%05d.exr";
+  base["camera"]["poses"]["path"] = "trajectory3.txt";
+  base.erase("reference");
+  Json j = base;
+  j["virtual"][0].erase("transform");
+  j["virtual"][0]["trajectory"] = Json::parse(R"([
+    {"frame": 0, "translation": [0.1, 0.9, 0]},
+    {"frame": 1, "translation": [0.1, 0.9, -40]},
+    {"frame": 2, "translation": [0.12, 0.9, 0.02]}])");
+  Json still = base;
+  still["virtual"][0]["transform"] = {{"translation", {0.12, 0.9, 0.02}}};
+  RenderOptions o;
+  o.method = "pt";
+  o.spp = 2;
+  o.frame_end = 3;
+  Report rd("mr-render", "test"), rs("mr-render", "test"), ri("mr-render", "test");
+  const fs::path dyn = RenderVariant(j, "away", o, &rd);
+  const Image away = ReadImage(dyn / "00001.exr");
+  Image diff = away.Layer("difference");
+  for (float& v : diff.values()) v = std::abs(v);
+  EXPECT_LT(MeanOfValues(diff), 1e-3 * MeanOfValues(away.Layer("photo")));
+  o.frame_begin = 2;
+  const fs::path stat = RenderVariant(still, "back", o, &rs);
+  EXPECT_EQ(ReadImage(dyn / "00002.exr").Layer("composite").values(),
+            ReadImage(stat / "00002.exr").Layer("composite").values());
+  o.method = "ic";
+  o.frame_begin = 0;
+  RenderVariant(j, "away", o, &ri);
+  const Json& ic = ri.metrics()["ic"]["frames"];
+  EXPECT_GT(ic["2"]["records_created"].get<int64_t>(), 0);
+  for (int f = 0; f < 3; ++f)
+    for (float v : ReadImage(dir_->path() / "away-ic" / fmt::format("{:05d}.exr", f)).values())
+      ASSERT_TRUE(std::isfinite(v)) << f;
+}
+
 // A lamp switched from nothing to 1e4 W/sr between two frames (lights per
 // frame): ic's records, made under the dark frame, are all re-evaluated at
 // once, not kept until they age out (the paper's t_max is no answer to a

@@ -1186,9 +1186,10 @@ TEST_F(Capture, AnObjectLeavesTheViewAndComesBack) {
   RenderVariant(j, "away", o, &ri);
   const Json& ic = ri.metrics()["ic"]["frames"];
   EXPECT_GT(ic["2"]["records_created"].get<int64_t>(), 0);
-  for (int f = 0; f < 3; ++f)
-    for (float v : ReadImage(dir_->path() / "away-ic" / fmt::format("{:05d}.exr", f)).values())
-      ASSERT_TRUE(std::isfinite(v)) << f;
+  for (int f = 0; f < 3; ++f) {
+    const Image frame = ReadImage(dir_->path() / "away-ic" / fmt::format("{:05d}.exr", f));
+    for (float v : frame.values()) ASSERT_TRUE(std::isfinite(v)) << f;
+  }
 }
 
 // A lamp switched from nothing to 1e4 W/sr between two frames (lights per

@@ -168,9 +168,7 @@ int main(int argc, char** argv) {
       const std::string options =
           fmt::format("{} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold, eo.max_blob_sr, eo.sh_order,
                       eo.seed, residual_width, match_deg, residual_file.empty());
-      mr::Fnv1a options_hash;
-      options_hash.Bytes(options.data(), options.size());
-      uint64_t key = mr::HashCombine(0x6c6967687473ULL, options_hash.value());
+      uint64_t key = mr::HashCombine(0x6c6967687473ULL, mr::HashString(options));
       for (;; ++f) {
         const std::string map_file = mr::FramePath(env_file, f).string();
         if (!mr::fs::exists(map_file)) break;

@@ -118,12 +118,6 @@ std::string MapKey(const fs::path& path) {
   }
 }
 
-uint64_t Fnv1aString(const std::string& s) {
-  Fnv1a h;
-  h.Bytes(s.data(), s.size());
-  return h.value();
-}
-
 void WriteMap(const ProbeSequenceOptions& o, int f, const Image& map, Report* report, const std::string& key = "") {
   ImageWriteOptions wo;
   if (!key.empty()) wo.attributes["mr:light_key"] = key;
@@ -243,7 +237,7 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
   // inputs did not change and redoes the rest (docs/methods.md).
   const uint64_t options_key =
       HashCombine(ContentHash(o.fisheye),
-                  Fnv1aString(fmt::format(
+                  HashString(fmt::format(
                       "mr-probe light 1 {} {} {} {} {} {} {} {} {} {} {}", o.unwrap.width, o.unwrap.reflectance,
                       o.unwrap.camera_cone_deg, fmt::join(o.unwrap.rotate.data(), o.unwrap.rotate.data() + 9, ","),
                       o.filter.time_constant_s, o.filter.jump_ratio, o.filter.jump_floor, o.filter.jump_report_fraction,

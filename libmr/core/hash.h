@@ -49,6 +49,13 @@ class Fnv1a {
   uint64_t h_;
 };
 
+// The standard FNV-1a of a string's bytes (keys of option strings and names).
+inline uint64_t HashString(const std::string& s) {
+  Fnv1a h;
+  h.Bytes(s.data(), s.size());
+  return h.value();
+}
+
 // Fnv1a over 64-bit words (bytes packed eight at a time, the tail's length
 // mixed in), finished by MixBits: the content hashes of files (ContentHash).
 struct Hasher {

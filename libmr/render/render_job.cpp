@@ -35,10 +35,7 @@ namespace {
 uint64_t JsonContentKey(const fs::path& path) {
   Json j = ReadJsonFile(path);
   if (j.is_object()) j.erase("comment");
-  const std::string text = j.dump();
-  Fnv1a h;
-  h.Bytes(text.data(), text.size());
-  return h.value();
+  return HashString(j.dump());
 }
 
 // The inputs key an earlier run left beside frame f ("" when none).

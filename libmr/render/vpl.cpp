@@ -16,12 +16,6 @@ namespace {
 
 uint32_t MaskOf(uint8_t sets) { return sets == kLightsReal ? kMaskReal : kMaskAll; }
 
-uint64_t Fnv1aHash(const std::string& name) {
-  Fnv1a h;
-  h.Bytes(name.data(), name.size());
-  return h.value();
-}
-
 struct Emitter {
   int light = -1;  // -1: the environment
   double power = 0;
@@ -139,7 +133,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     for (auto& e : emitters) {
       e.first = first;
       first += e.paths;
-      e.stream = e.light < 0 ? 0x656e76ULL : Fnv1aHash(scene.lights()[static_cast<size_t>(e.light)].light().name);
+      e.stream = e.light < 0 ? 0x656e76ULL : HashString(scene.lights()[static_cast<size_t>(e.light)].light().name);
     }
   }
   const int max_vpl_depth = st.max_depth - 2;  // a VPL at depth k ends a path of k + 2 surfaces

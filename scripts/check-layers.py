@@ -90,9 +90,9 @@ for args in calls((tests / "CMakeLists.txt").read_text(), "mr_test"):
     if args[0] == "name":
         continue
     allowed = set()
-    for l in keyword_args(args, "LAYERS", {"SOURCES"}):
+    for l in keyword_args(args, "LAYERS", {"SOURCES", "RELEASE_ONLY"}):
         allowed |= reach(l)
-    for s in keyword_args(args, "SOURCES", {"LAYERS"}):
+    for s in keyword_args(args, "SOURCES", {"LAYERS", "RELEASE_ONLY"}):
         covered.add(s)
         check(tests / s, allowed, args[0])
         if not (tests / s).exists():

@@ -2,6 +2,8 @@
 # Installs what mr needs, builds, and runs the test suite.
 #   scripts/test.sh            release build in build/, all tests
 #   scripts/test.sh --sanitize AddressSanitizer + UBSan build in build-asan/, all tests but release_only
+#                              (source checks, and the large accuracy tests whose code a lighter test
+#                              runs: RELEASE_ONLY in tests/CMakeLists.txt)
 #   scripts/test.sh --fuzz S   libFuzzer targets (clang) in build-fuzz/, S seconds each
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -329,6 +329,44 @@ bool CameraModel::Unproject(const Eigen::Vector2d& q, Eigen::Vector3d* dir) cons
   return true;
 }
 
+bool CameraModel::UnprojectNear(const Eigen::Vector2d& q, const Eigen::Vector3d& near, Eigen::Vector3d* dir) const {
+  MR_CHECK(impl_);
+  if (!q.allFinite()) return false;
+  // Newton on the stereographic coordinates u of the direction (regular
+  // everywhere but straight backwards): dir = (4 u, 4 - |u|^2) / (4 + |u|^2).
+  // libmrcal unprojects the pinhole, stereographic and lon/lat models in
+  // closed form, and CAHVORE not at all (Unproject has its own solve).
+  const auto type = impl_->lensmodel.type;
+  const bool closed_form = type == MRCAL_LENSMODEL_PINHOLE || type == MRCAL_LENSMODEL_STEREOGRAPHIC ||
+                           type == MRCAL_LENSMODEL_LONLAT || type == MRCAL_LENSMODEL_LATLON;
+  const Eigen::Vector3d n0 = near.normalized();
+  if (closed_form || type == MRCAL_LENSMODEL_CAHVORE || !n0.allFinite() || n0.z() <= -0.9) return Unproject(q, dir);
+  Eigen::Vector2d u = 2 * n0.head<2>() / (1 + n0.z());
+  for (int it = 0; it < 6; ++it) {
+    const double n2 = u.squaredNorm(), s = 4 + n2;
+    const Eigen::Vector3d num(4 * u.x(), 4 * u.y(), 4 - n2), v = num / s;
+    if (!IsStereographicFamily(impl_->lensmodel.type) && v.z() <= 0) break;
+    mrcal_point3_t pm = {{v.x(), v.y(), v.z()}}, dq_dp[2];
+    mrcal_point2_t qm;
+    if (!mrcal_project(&qm, dq_dp, nullptr, &pm, 1, &impl_->lensmodel, intrinsics_.data())) break;
+    const Eigen::Vector2d r(qm.x - q.x(), qm.y - q.y());
+    if (!r.allFinite()) break;
+    if (r.norm() < 1e-8) {
+      *dir = v;  // unit by construction
+      return true;
+    }
+    Eigen::Matrix<double, 2, 3> dq_dv;
+    dq_dv << dq_dp[0].x, dq_dp[0].y, dq_dp[0].z, dq_dp[1].x, dq_dp[1].y, dq_dp[1].z;
+    Eigen::Matrix<double, 3, 2> dv_du;
+    dv_du.col(0) = Eigen::Vector3d(4, 0, -2 * u.x()) / s - num * (2 * u.x()) / (s * s);
+    dv_du.col(1) = Eigen::Vector3d(0, 4, -2 * u.y()) / s - num * (2 * u.y()) / (s * s);
+    const Eigen::Matrix2d J = dq_dv * dv_du;
+    if (!(std::abs(J.determinant()) > 1e-300)) break;
+    u -= J.inverse() * r;
+  }
+  return Unproject(q, dir);
+}
+
 namespace {
 double FovBetween(const CameraModel& m, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
                   const Eigen::Vector2d& centre) {

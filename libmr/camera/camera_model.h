@@ -64,6 +64,13 @@ class CameraModel {
   // Unit direction in the camera frame that images at pixel q.  Returns false
   // where the solve fails (outside the model's valid domain).
   bool Unproject(const Eigen::Vector2d& q, Eigen::Vector3d* dir) const;
+  // The same from a nearby direction `near` (the ray of a neighbouring
+  // pixel or supersample, as renderers sweep the image): Newton steps on the
+  // projection and its gradient, with no solver set up per point (libmrcal's
+  // unprojection of OPENCV and splined lenses is an iterative solve per
+  // point, most of the cost of a synthetic view).  Converges to 1e-8 px of q;
+  // where it does not within a few steps it is Unproject.
+  bool UnprojectNear(const Eigen::Vector2d& q, const Eigen::Vector3d& near, Eigen::Vector3d* dir) const;
 
   // Angle (degrees) between the rays through the left and right (top and
   // bottom) edge midpoints, through the optical centre when it is in view.

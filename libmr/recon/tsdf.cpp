@@ -221,18 +221,23 @@ void TsdfVolume::Integrate(const std::vector<int32_t>& blocks, const DepthMap& d
     const Eigen::Vector3i b = impl_->coords[static_cast<size_t>(id)];
     Voxel* vox = &impl_->voxels[static_cast<size_t>(id) * kVoxelsPerBlock];
     int64_t n = 0;
+    // Voxel (x, y, z) of the block in the camera frame: p0 + x ex + y ey + z ez
+    // (scalars in the loop: it is the hot one of fusion).
+    const Eigen::Vector3f p0 = R * ((b * kB).cast<float>() * vs) + t;
+    const Eigen::Vector3f ex = R.col(0) * vs, ey = R.col(1) * vs, ez = R.col(2) * vs;
     for (int z = 0; z < kB; ++z)
-      for (int y = 0; y < kB; ++y)
+      for (int y = 0; y < kB; ++y) {
+        const float rx = p0.x() + y * ey.x() + z * ez.x(), ry = p0.y() + y * ey.y() + z * ez.y(),
+                    rz = p0.z() + y * ey.z() + z * ez.z();
         for (int x = 0; x < kB; ++x) {
-          const Eigen::Vector3f pw = (b * kB + Eigen::Vector3i(x, y, z)).cast<float>() * vs;
-          const Eigen::Vector3f pc = R * pw + t;
-          if (pc.z() <= 0.01f) continue;
-          const int u = static_cast<int>(std::lround(fx * pc.x() / pc.z() + cx));
-          const int v = static_cast<int>(std::lround(fy * pc.y() / pc.z() + cy));
+          const float pcx = rx + x * ex.x(), pcy = ry + x * ex.y(), pcz = rz + x * ex.z();
+          if (pcz <= 0.01f) continue;
+          const int u = static_cast<int>(std::lround(fx * pcx / pcz + cx));
+          const int v = static_cast<int>(std::lround(fy * pcy / pcz + cy));
           if (u < 0 || v < 0 || u >= depth.width || v >= depth.height) continue;
           const float d = depth.at(u, v);
           if (!(d > 0)) continue;
-          const float sdf = d - pc.z();
+          const float sdf = d - pcz;
           if (sdf < -tr) continue;
           const float tsdf = std::min(1.0f, sdf / tr);
           Voxel& vx = vox[x + kB * (y + kB * z)];
@@ -246,6 +251,7 @@ void TsdfVolume::Integrate(const std::vector<int32_t>& blocks, const DepthMap& d
           vx.weight = std::min(w1, max_w);
           ++n;
         }
+      }
     updated += n;
   });
   if (stats) stats->voxels_updated += updated.load();

@@ -535,8 +535,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                       provenance(f), report);
       // The frame's inputs key beside it (not in it: inputs that differ
       // only in their comments or paths still give the same frame's bytes).
-      std::error_code ec;
-      fs::create_directories(out_dir / ".mr-render", ec);
+      std::error_code key_ec;
+      fs::create_directories(out_dir / ".mr-render", key_ec);
       WriteTextFile(out_dir / ".mr-render" / fmt::format("{:05d}.inputs", f), fmt::format("{:016x}\n", inputs_key(f)));
       if (video_out) video_out->WriteCodes(codes);
       if (scene.output.review) {

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/check.h"
 #include "core/error.h"
 #include "core/file.h"
 #include "core/math.h"
@@ -10,9 +11,30 @@
 
 namespace mr {
 
-Image RenderBoardView(const BoardSpec& b, const CameraModel& camera, const Rigid3& cam_from_board,
-                      const BoardViewOptions& o) {
-  const int W = camera.width(), H = camera.height(), S = std::max(1, o.supersample);
+BoardViewRenderer::BoardViewRenderer(const CameraModel& camera, int supersample)
+    : width_(camera.width()), height_(camera.height()), supersample_(std::max(1, supersample)) {
+  const int S = supersample_, WS = width_ * S;
+  rays_.assign(static_cast<size_t>(WS) * height_ * S, Eigen::Vector3d::Constant(NAN));
+  ParallelFor(0, static_cast<int64_t>(height_) * S, [&](int64_t row) {
+    const int y = static_cast<int>(row / S), sy = static_cast<int>(row % S);
+    Eigen::Vector3d prev;  // the last ray along the row: the next one starts from it
+    bool have_prev = false;
+    for (int x = 0; x < width_; ++x)
+      for (int sx = 0; sx < S; ++sx) {
+        const Eigen::Vector2d q(x - 0.5 + (sx + 0.5) / S, static_cast<double>(y) - 0.5 + (sy + 0.5) / S);
+        Eigen::Vector3d d;
+        have_prev = have_prev ? camera.UnprojectNear(q, prev, &d) : camera.Unproject(q, &d);
+        if (!have_prev) continue;
+        prev = d;
+        rays_[static_cast<size_t>(row) * WS + x * S + sx] = d;
+      }
+  });
+}
+
+Image BoardViewRenderer::Render(const BoardSpec& b, const Rigid3& cam_from_board, const BoardViewOptions& o) const {
+  MR_CHECK_MSG(std::max(1, o.supersample) == supersample_, "BoardViewRenderer: made for supersample {}, asked for {}",
+               supersample_, o.supersample);
+  const int W = width_, H = height_, S = supersample_, WS = W * S;
   const Rigid3 board_from_cam = cam_from_board.Inverse();
   const Eigen::Matrix3d R = board_from_cam.rotation.toRotationMatrix();
   const Eigen::Vector3d c = board_from_cam.translation;  // camera centre in the board frame
@@ -30,16 +52,10 @@ Image RenderBoardView(const BoardSpec& b, const CameraModel& camera, const Rigid
   ParallelFor(0, H, [&](int64_t y) {
     for (int x = 0; x < W; ++x) {
       double sum = 0;
-      int n = 0;
       for (int sy = 0; sy < S; ++sy)
         for (int sx = 0; sx < S; ++sx) {
-          const Eigen::Vector2d q(x - 0.5 + (sx + 0.5) / S, static_cast<double>(y) - 0.5 + (sy + 0.5) / S);
-          Eigen::Vector3d d;
-          ++n;
-          if (!camera.Unproject(q, &d)) {
-            sum += 0;  // outside the lens: black
-            continue;
-          }
+          const Eigen::Vector3d& d = rays_[static_cast<size_t>(y * S + sy) * WS + x * S + sx];
+          if (std::isnan(d.x())) continue;  // outside the lens: black
           const Eigen::Vector3d db = R * d;
           double value = o.background * o.exposure;
           if (std::abs(db.z()) > 1e-12) {
@@ -48,7 +64,7 @@ Image RenderBoardView(const BoardSpec& b, const CameraModel& camera, const Rigid
           }
           sum += std::min(1.0, value);
         }
-      img.at(x, static_cast<int>(y), 0) = static_cast<float>(sum / n);
+      img.at(x, static_cast<int>(y), 0) = static_cast<float>(sum / (S * S));
     }
   });
   GaussianBlur(&img, o.blur_sigma_px);
@@ -61,6 +77,11 @@ Image RenderBoardView(const BoardSpec& b, const CameraModel& camera, const Rigid
         img.at(x, y, 0) = static_cast<float>(Clamp(img.at(x, y, 0) + o.noise_sigma * g, 0.0, 1.0));
       }
   return img;
+}
+
+Image RenderBoardView(const BoardSpec& b, const CameraModel& camera, const Rigid3& cam_from_board,
+                      const BoardViewOptions& o) {
+  return BoardViewRenderer(camera, o.supersample).Render(b, cam_from_board, o);
 }
 
 std::vector<Rigid3> CalibrationBoardPoses(const BoardSpec& b, int n) {
@@ -154,6 +175,7 @@ std::vector<fs::path> WriteBoardSet(const std::string& lens, const BoardSpec& b,
                         poses[0].translation + Eigen::Vector3d(0.6 * poses[0].translation.z(), 0, 0));
   for (const Cam& c : cams) {
     c.model.Write(out / "truth" / (c.name + ".cameramodel"), note);
+    const BoardViewRenderer renderer(c.model, 2);
     written.push_back(out / "truth" / (c.name + ".cameramodel"));
     for (size_t i = 0; i < poses.size() + 3; ++i) {
       BoardViewOptions vo;
@@ -165,7 +187,7 @@ std::vector<fs::path> WriteBoardSet(const std::string& lens, const BoardSpec& b,
       if (i == poses.size() + 1) vo.exposure = 20;
       if (i == poses.size() + 2) pose = half_out;
       const fs::path f = out / "photos" / fmt::format("{}-{:02d}.png", c.name, i);
-      WriteImage(f, RenderBoardView(b, c.model, c.cam_from_ref * pose, vo));
+      WriteImage(f, renderer.Render(b, c.cam_from_ref * pose, vo));
       written.push_back(f);
     }
   }

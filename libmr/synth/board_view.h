@@ -28,6 +28,21 @@ struct BoardViewOptions {
 Image RenderBoardView(const BoardSpec& board, const CameraModel& camera, const Rigid3& cam_from_board,
                       const BoardViewOptions& options = {});
 
+// The same for many views through one camera: the camera's ray at every
+// supersample of every pixel is unprojected once, here (mrcal's unprojection
+// of splined and OPENCV lenses is an iterative solve per point, most of the
+// cost of a view).  Render gives the bytes RenderBoardView gives with the
+// same options, whose supersample must be this one.
+class BoardViewRenderer {
+ public:
+  BoardViewRenderer(const CameraModel& camera, int supersample);
+  Image Render(const BoardSpec& board, const Rigid3& cam_from_board, const BoardViewOptions& options) const;
+
+ private:
+  int width_, height_, supersample_;
+  std::vector<Eigen::Vector3d> rays_;  // row-major over (W S) x (H S); NaN outside the lens
+};
+
 // Board poses for calibration photographs by a camera of about 90 degrees:
 // around the axis at 0.3-0.5 m, turned and tilted, their centres spread
 // over the field of view.

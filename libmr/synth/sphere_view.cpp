@@ -27,13 +27,17 @@ Image RenderSphereView(const EnvironmentMap& env, const CameraModel& camera, con
   const double c2 = centre.squaredNorm() - radius * radius;
   Image img = Image::Rgb(W, H);
   ParallelFor(0, H, [&](int64_t y) {
+    Eigen::Vector3d prev;  // the last ray along the row: the next one starts from it
+    bool have_prev = false;
     for (int x = 0; x < W; ++x) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       for (int sy = 0; sy < S; ++sy)
         for (int sx = 0; sx < S; ++sx) {
           const Eigen::Vector2d q(x - 0.5 + (sx + 0.5) / S, static_cast<double>(y) - 0.5 + (sy + 0.5) / S);
           Eigen::Vector3d d;
-          if (!camera.Unproject(q, &d)) continue;  // outside the lens: black
+          have_prev = have_prev ? camera.UnprojectNear(q, prev, &d) : camera.Unproject(q, &d);
+          if (!have_prev) continue;  // outside the lens: black
+          prev = d;
           d.normalize();
           // |t d - c| = r: t^2 - 2 (d.c) t + |c|^2 - r^2 = 0, the nearer root.
           const double b = d.dot(centre), disc = b * b - c2;

@@ -135,9 +135,10 @@ TEST(Calibrate, RecoversAKnownLensFromSyntheticPhotographs) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int k = 0;
+  const BoardViewRenderer renderer(truth, vo.supersample);
   for (const Rigid3& pose : CalibrationBoardPoses(b, 16)) {
     vo.seed = static_cast<uint64_t>(++k);
-    detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("view{}", k)));
+    detections.push_back(DetectCorners(renderer.Render(b, pose, vo), b, fmt::format("view{}", k)));
   }
   CalibrationOptions o;
   o.lensmodel = "LENSMODEL_OPENCV8";
@@ -184,13 +185,14 @@ TEST(Calibrate, BoardsOnlyNearTheCentreLeaveTheEdgesUncertainAndSaySo) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int k = 0;
+  const BoardViewRenderer renderer(truth, vo.supersample);
   for (Rigid3 pose : CalibrationBoardPoses(b, 12)) {
     // Twice as far and drawn towards the axis: the boards cover the middle third.
     pose.translation = 0.3 * pose.translation + Eigen::Vector3d(0, 0, 0.45);
     pose.translation.x() -= 0.5 * (pose.rotation * Eigen::Vector3d(0.105, 0, 0)).x();
     pose.translation.y() -= 0.5 * (pose.rotation * Eigen::Vector3d(0, 0.075, 0)).y();
     vo.seed = static_cast<uint64_t>(++k);
-    detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("view{}", k)));
+    detections.push_back(DetectCorners(renderer.Render(b, pose, vo), b, fmt::format("view{}", k)));
   }
   double lo_x = 1e9, hi_x = -1e9;
   for (const auto& d : detections)
@@ -245,9 +247,10 @@ TEST(Calibrate, RecoversA190DegreeFisheye) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int n = 0;
+  const BoardViewRenderer renderer(truth, vo.supersample);
   for (const Rigid3& pose : FisheyeBoardPoses(b, 0.3)) {
     vo.seed = static_cast<uint64_t>(++n);
-    detections.push_back(DetectCorners(RenderBoardView(b, truth, pose, vo), b, fmt::format("view{}", n)));
+    detections.push_back(DetectCorners(renderer.Render(b, pose, vo), b, fmt::format("view{}", n)));
   }
   int found = 0;
   double widest = 0;
@@ -291,14 +294,15 @@ TEST(Calibrate, RigExtrinsicsWithinThreeSigmaOfTheTruth) {
   vo.supersample = 2;
   vo.noise_sigma = 0.01;
   int k = 0;
+  const BoardViewRenderer render0(cam0, vo.supersample), render1(cam1, vo.supersample);
   for (const Rigid3& pose : CalibrationBoardPoses(b, 14)) {
     // The boards shifted half the baseline, so that both cameras see most of them.
     const Rigid3 shifted(pose.rotation, pose.translation + Eigen::Vector3d(0.055, 0, 0.05));
     vo.seed = static_cast<uint64_t>(++k);
-    detections[0].push_back(DetectCorners(RenderBoardView(b, cam0, shifted, vo), b, fmt::format("cam0-{}", k)));
+    detections[0].push_back(DetectCorners(render0.Render(b, shifted, vo), b, fmt::format("cam0-{}", k)));
     vo.seed += 1000;
     detections[1].push_back(
-        DetectCorners(RenderBoardView(b, cam1, cam1_from_cam0 * shifted, vo), b, fmt::format("cam1-{}", k)));
+        DetectCorners(render1.Render(b, cam1_from_cam0 * shifted, vo), b, fmt::format("cam1-{}", k)));
   }
   CalibrationOptions o;
   const RigCalibrationResult rig = CalibrateRig(b, detections, {{480, 360}, {480, 360}}, o);

@@ -85,6 +85,32 @@ TEST_P(LensModels, ProjectUnprojectRoundTrip) {
   }
 }
 
+// From a neighbouring ray (half a pixel away, and from a ray ten degrees
+// away) UnprojectNear lands on Unproject's ray: both converge to a small
+// fraction of a pixel, 1e-6 rad as above.
+TEST_P(LensModels, UnprojectNearAgreesWithUnproject) {
+  const ModelCase& mc = GetParam();
+  CameraModel m(mc.lensmodel, mc.intrinsics, 640, 480);
+  int tested = 0;
+  for (const Eigen::Vector3d& d : Directions(mc.max_off_axis_deg)) {
+    Eigen::Vector2d q;
+    ASSERT_TRUE(m.Project(d, &q));
+    Eigen::Vector3d exact, from_neighbour, from_far, neighbour, far_ray;
+    ASSERT_TRUE(m.Unproject(q, &exact));
+    if (!m.Unproject(q + Eigen::Vector2d(0.5, -0.25), &neighbour)) continue;
+    ASSERT_TRUE(m.UnprojectNear(q, neighbour, &from_neighbour)) << mc.lensmodel << " at " << q.transpose();
+    EXPECT_LT(AngleBetween(from_neighbour, exact), 1e-6) << mc.lensmodel << " at " << q.transpose();
+    EXPECT_NEAR(from_neighbour.norm(), 1.0, 1e-12);
+    far_ray = Eigen::AngleAxisd(10 * kDegToRad, Eigen::Vector3d::UnitY()) * exact;
+    ASSERT_TRUE(m.UnprojectNear(q, far_ray, &from_far)) << mc.lensmodel << " at " << q.transpose();
+    EXPECT_LT(AngleBetween(from_far, exact), 1e-6) << mc.lensmodel << " at " << q.transpose();
+    ++tested;
+  }
+  EXPECT_GT(tested, 50);
+  Eigen::Vector3d out;
+  EXPECT_FALSE(m.UnprojectNear(Eigen::Vector2d(NAN, 1), Eigen::Vector3d::UnitZ(), &out));
+}
+
 TEST_P(LensModels, FileRoundTripIsExact) {
   const ModelCase& mc = GetParam();
   test::TempDir dir;

@@ -401,7 +401,8 @@ Pipeline PlanPipeline(const fs::path& file) {
         // Albedo de-lit by the captured light (a map per frame: the first frame's).
         const fs::path delight = env.string().find('%') != std::string::npos ? FramePath(env, 0) : env;
         std::error_code ec;
-        if (!light_video && !fs::is_regular_file(delight, ec))  // a light video's maps are the probe stage's
+        // A given map must exist; the probe's and a light video's are made by their stage.
+        if (light.Has("environment") && !fs::is_regular_file(delight, ec))
           light.Child("environment")
               .Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
         Append(&s.args, {"--env", delight.string()});

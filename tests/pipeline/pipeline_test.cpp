@@ -63,6 +63,31 @@ TEST(PlanPipeline, LeavesOutWhatTheInputsDoNotNeed) {
   EXPECT_EQ(p.scene["real"][0]["mesh"], "../room.ply");  // relative to work/
 }
 
+// The main job's shape (examples/synthetic/pipeline.json): the light from a
+// probe and the room from RGB-D with its albedo de-lit by that light, whose
+// map the probe stage has yet to make.  (A regression: the plan asked for
+// lighting.environment, which this file does not have, and nlohmann's
+// out_of_range ended mr-pipeline.)
+TEST(PlanPipeline, TheRoomIsDelitByTheMapTheProbeStageMakes) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "probe.exr", "sphere.exr", "light.cameramodel", "poses.txt", "ball.ply"})
+    WriteTextFile(dir / f, "x");
+  fs::create_directories(dir / "rgbd");
+  WriteTextFile(dir / "p.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"},
+    "lighting": {"probe": {"photos": "probe.exr",
+                           "sphere": {"camera": "light.cameramodel", "photos": "sphere.exr", "radius": 0.0254}}},
+    "room": {"rgbd": "rgbd"}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}], "render": {"method": "pt"}})");
+  const Pipeline p = PlanPipeline(dir / "p.json");
+  const PipelineStage& fuse = Stage(p, "fuse");
+  ASSERT_TRUE(fuse.skip.empty()) << fuse.skip;
+  const auto env = std::find(fuse.args.begin(), fuse.args.end(), "--env");
+  ASSERT_NE(env, fuse.args.end());
+  EXPECT_EQ(fs::path(*(env + 1)).filename(), "env.exr");
+  EXPECT_TRUE(Stage(p, "probe").skip.empty());
+}
+
 // A world that changes: the light per frame (patterns) and an object's
 // trajectory pass through to scene.json; extracting lights from a map per
 // frame is refused (not built yet), naming the key.

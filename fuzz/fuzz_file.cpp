@@ -4,6 +4,7 @@
 // hang or unbounded memory (libFuzzer's -rss_limit_mb and -timeout).
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <fstream>
 #include <string>
@@ -12,6 +13,7 @@
 #include "calib/probe_file.h"
 #include "core/error.h"
 #include "core/image.h"
+#include "core/video.h"
 #include "hdr/exposures_file.h"
 #include "light/environment.h"
 #include "pipeline/pipeline.h"
@@ -29,6 +31,7 @@ std::string Extension() {
   if (kKind == "exr") return ".exr";
   if (kKind == "hdrenv") return ".hdr";
   if (kKind == "depth") return ".png";
+  if (kKind == "video") return ".mkv";  // FFmpeg probes the bytes, whatever the name says
   if (kKind == "exposures") return ".txt";
   return ".json";  // probe, pipeline, board
 }
@@ -53,6 +56,15 @@ void Read(const std::string& path) {
     mr::EnvironmentMap env(mr::ReadImage(path), path);
   } else if (kKind == "depth") {
     mr::ReadDepth(path, mr::DepthReadOptions(), 0, 0);
+  } else if (kKind == "video") {
+    // As a video plate is read (scene/frames.cpp): the size, the count the
+    // container claims, then frames in order and one going back (a reopen).
+    mr::VideoReader video(path);
+    (void)video.width();
+    (void)video.height();
+    const int n = std::min(video.frame_count(), 3);
+    for (int i = 0; i < n; ++i) video.Frame(i);
+    if (n > 1) video.Frame(0);
   }
 }
 

@@ -18,6 +18,7 @@ packages=(
   libopenmesh-dev libembree-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
+  blender python3-opencv              # the Cycles cross-check and bench/cycles_compare.py
   # the end-to-end pipeline: video registration, batch rendering, man pages
   colmap parallel help2man dpkg-dev
 )

@@ -29,6 +29,11 @@ int main(int argc, char** argv) {
   app.add_option("--object-material", o.object_material, "The object's material: diffuse, glossy or mirror")
       ->default_val("diffuse")
       ->check(CLI::IsMember({"diffuse", "glossy", "mirror"}));
+  app.add_option("--lens", o.lens,
+                 "The scene camera's lens: opencv4 (mild barrel distortion) or pinhole (for renderers without "
+                 "lens models)")
+      ->default_val("opencv4")
+      ->check(CLI::IsMember({"opencv4", "pinhole"}));
   app.add_option("--truth-spp", o.truth_spp, "Samples per pixel of the ground truth (default: the preset's)")
       ->check(mr::kPositive);
   std::string boards, board_file;

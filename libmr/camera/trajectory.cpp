@@ -1,6 +1,7 @@
 #include "camera/trajectory.h"
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <regex>
@@ -173,10 +174,17 @@ std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& 
     int i, j;
   };
   std::vector<Cand> cands;
+  constexpr int kNearest = 8;
+  const auto nb = static_cast<ptrdiff_t>(bs.size());
   for (size_t i = 0; i < a.size(); ++i) {
-    auto lo = std::lower_bound(bs.begin(), bs.end(), a[i] - max_dt);
-    for (auto it = lo; it != bs.end() && *it <= a[i] + max_dt; ++it) {
-      int j = bo[static_cast<size_t>(it - bs.begin())];
+    // Outwards from a[i]'s place in bs, the nearer side first (left on a tie).
+    ptrdiff_t r = std::lower_bound(bs.begin(), bs.end(), a[i]) - bs.begin(), l = r - 1;
+    for (int k = 0; k < kNearest; ++k) {
+      const double dl = l >= 0 ? a[i] - bs[static_cast<size_t>(l)] : INFINITY;
+      const double dr = r < nb ? bs[static_cast<size_t>(r)] - a[i] : INFINITY;
+      if (!(std::min(dl, dr) <= max_dt)) break;
+      const ptrdiff_t take = dl <= dr ? l-- : r++;
+      const int j = bo[static_cast<size_t>(take)];
       cands.push_back({std::abs(a[i] - b[j]), static_cast<int>(i), j});
     }
   }

@@ -44,7 +44,11 @@ void Write7ScenesPose(const fs::path& path, const Rigid3& world_from_cam);
 Trajectory Read7ScenesFolder(const fs::path& dir);
 
 // The TUM association of two timestamp lists: index pairs (a, b), greedy by
-// smallest |ta - tb| <= max_dt, each index used once, sorted by a.
+// smallest |ta - tb| <= max_dt, each index used once, sorted by a.  Each ta
+// is offered its 8 nearest tb within max_dt (TUM's associate.py offers all
+// of them): the same pairs wherever fewer than 8 lie that close, as in any
+// recording, and O(n log n) where a list repeats one timestamp thousands of
+// times (all of them: n^2 candidates, a hang found by fuzz_rgbdlist).
 std::vector<std::pair<int, int>> AssociateTimestamps(const std::vector<double>& a, const std::vector<double>& b,
                                                      double max_dt);
 

@@ -3,6 +3,7 @@
 #include <opencv2/videoio.hpp>
 
 #include <unistd.h>
+#include <algorithm>
 #include <atomic>
 
 #include "core/error.h"
@@ -26,6 +27,13 @@ VideoReader::VideoReader(const fs::path& path) : impl_(std::make_unique<Impl>())
   RequireFile(path, "video");
   impl_->path = path;
   impl_->Open();
+  // The container's claim, checked before a frame is decoded into floats
+  // (12 bytes a pixel): 2^26 pixels is twice 8K UHD.
+  const double pixels = std::max(0.0, impl_->cap.get(cv::CAP_PROP_FRAME_WIDTH)) *
+                        std::max(0.0, impl_->cap.get(cv::CAP_PROP_FRAME_HEIGHT));
+  if (pixels > double(1 << 26))
+    ThrowErrorAt(FileLoc{path.string()}, "the video claims {} x {} pixels a frame (at most 2^26 are read)",
+                 impl_->cap.get(cv::CAP_PROP_FRAME_WIDTH), impl_->cap.get(cv::CAP_PROP_FRAME_HEIGHT));
 }
 VideoReader::~VideoReader() = default;
 
@@ -44,6 +52,9 @@ Image VideoReader::Frame(int index) {
                    impl_->next);
     ++impl_->next;
   }
+  if (m.total() > (size_t{1} << 26))  // a stream may change its size after the header
+    ThrowErrorAt(FileLoc{impl_->path.string()}, "frame {} has {} x {} pixels (at most 2^26 are read)", index, m.cols,
+                 m.rows);
   if (m.type() != CV_8UC3)
     ThrowErrorAt(FileLoc{impl_->path.string()}, "unsupported pixel format (expected 8-bit colour)");
   Image img = Image::Rgb(m.cols, m.rows);

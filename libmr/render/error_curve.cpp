@@ -2,6 +2,9 @@
 
 #include <cmath>
 
+#include <fmt/format.h>
+
+#include "core/error.h"
 #include "core/image_metrics.h"
 
 namespace mr {
@@ -13,6 +16,37 @@ Image ChangedRegion(const Image& ref, const Image& photo) {
       for (int c = 0; c < 3; ++c)
         if (ref.at(x, y, c) != photo.at(x, y, c)) region.at(x, y, 0) = 1;
   return region;
+}
+
+TruthNoise EstimateTruthNoise(const Image& mixed_half, const Image& real_half, const Image& mixed, const Image& real,
+                              int n_half, int n) {
+  if (n_half <= 0 || n_half >= n) throw Error(fmt::format("truth noise: {} of {} samples is not a part", n_half, n));
+  const double n1 = n_half, n2 = n - n_half, k = n1 * n2 / (static_cast<double>(n) * n);
+  double sum = 0, sum_region = 0;
+  int64_t values = 0, region_values = 0;
+  for (int y = 0; y < mixed.height(); ++y)
+    for (int x = 0; x < mixed.width(); ++x) {
+      bool changed = false;
+      double e = 0;
+      for (int c = 0; c < 3; ++c) {
+        const double t = mixed.at(x, y, c), d = t - real.at(x, y, c);
+        const double d_half = static_cast<double>(mixed_half.at(x, y, c)) - real_half.at(x, y, c);
+        const double d_b = (n * d - n1 * d_half) / n2;
+        changed |= mixed.at(x, y, c) != real.at(x, y, c);
+        const double r = (d_half - d_b) * (d_half - d_b) / (t * t + kRelMseEpsilon);
+        if (std::isfinite(r)) e += r;
+      }
+      sum += e;
+      values += 3;
+      if (changed) {
+        sum_region += e;
+        region_values += 3;
+      }
+    }
+  TruthNoise noise;
+  noise.relmse = values ? k * sum / values : 0;
+  noise.region_relmse = region_values ? k * sum_region / region_values : 0;
+  return noise;
 }
 
 FrameError MeasureFrame(const Image& composite, const Image& reference, const Image* region) {

@@ -29,6 +29,24 @@ FrameError MeasureFrame(const Image& composite, const Image& reference, const Im
 double MeasureFlicker(const Image& composite, const Image& previous_composite, const Image& reference,
                       const Image& previous_reference, const Image* region);
 
+// The noise of a converged differential render (the truth mr-synth writes),
+// from the same render stopped halfway: (mixed_half, real_half) after the
+// first n_half samples per pixel, (mixed, real) after all n.  What scoring
+// sees of the truth is its difference D = mixed - real (the photograph is
+// the real part, so it cancels), so the noise is that of D: with D_b the
+// second part's mean, (n D - n_half D_half) / (n - n_half), the expected
+// (D_half - D_b)^2 is sigma^2 (1/n_half + 1/(n - n_half)) and the truth's
+// own variance sigma^2 / n is that times n_half (n - n_half) / n^2.  Both
+// figures are relMSE-normalised by the truth (mixed), as every error they
+// bound: `relmse` over the image, `region_relmse` over ChangedRegion.  An
+// estimator's error against this truth cannot fall below them: a method at
+// relMSE e is really at about e - noise.  Needs 0 < n_half < n.
+struct TruthNoise {
+  double relmse = 0, region_relmse = 0;
+};
+TruthNoise EstimateTruthNoise(const Image& mixed_half, const Image& real_half, const Image& mixed, const Image& real,
+                              int n_half, int n);
+
 class ErrorCurve {
  public:
   // A checkpoint of the current frame.

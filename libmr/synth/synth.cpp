@@ -18,6 +18,7 @@
 #include "geometry/primitives.h"
 #include "hdr/exposures_file.h"
 #include "light/lights_file.h"
+#include "render/error_curve.h"
 #include "render/path_tracer.h"
 #include "render/pt.h"
 #include "render/render_scene.h"
@@ -277,8 +278,13 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
     lights.push_back(spot);
   }
   const double f = 0.9 * p.width;  // ~58 degree horizontal field of view
-  c.camera = CameraModel("LENSMODEL_OPENCV4", {f, f, (p.width - 1) / 2.0, (p.height - 1) / 2.0, -0.02, 0.005, 0, 0},
-                         p.width, p.height);
+  const double cx = (p.width - 1) / 2.0, cy = (p.height - 1) / 2.0;
+  if (o.lens == "opencv4")
+    c.camera = CameraModel("LENSMODEL_OPENCV4", {f, f, cx, cy, -0.02, 0.005, 0, 0}, p.width, p.height);
+  else if (o.lens == "pinhole")
+    c.camera = CameraModel("LENSMODEL_PINHOLE", {f, f, cx, cy}, p.width, p.height);
+  else
+    throw UsageError(fmt::format("unknown lens \"{}\" (opencv4, pinhole)", o.lens));
   Trajectory& traj = c.trajectory;
   const Eigen::Vector3d target(0, 0.8, 0.2);
   for (int i = 0; i < p.frames; ++i) {
@@ -466,16 +472,34 @@ void RunSynth(const SynthOptions& o, Report* report) {
   st.seed = HashCombine(o.seed, 0x7275746875ULL);  // independent of mr-render's seed
   int64_t changed = 0;
   float exposure = 0;  // one for the whole sequence, from frame 0
+  TruthNoise noise_sum;
   VideoWriter video(o.out / "photos.mp4", p.width, p.height, 30.0);
   for (int i = 0; i < p.frames; ++i) {
     st.frame = i;
     if (world) world->Advance(i, &rs);
     PtFrameRenderer fr(rs, c.camera, c.trajectory.poses[static_cast<size_t>(i)].world_from_cam, st);
+    // In two halves, so that the truth states its own noise (the result is
+    // the same as one pass: the samples do not depend on the split).
+    Image mixed_half, real_half;
     {
       ScopedTimer t(report, "render truth");
-      fr.RenderPass(truth_spp);
+      if (truth_spp >= 2) {
+        fr.RenderPass(truth_spp / 2);
+        mixed_half = fr.Mixed();
+        real_half = fr.Real();
+        fr.RenderPass(truth_spp - truth_spp / 2);
+      } else {
+        fr.RenderPass(truth_spp);
+      }
     }
     Image photo = fr.Real(), truth = fr.Mixed();
+    if (truth_spp >= 2) {
+      const TruthNoise n = EstimateTruthNoise(mixed_half, real_half, truth, photo, truth_spp / 2, truth_spp);
+      noise_sum.relmse += n.relmse;
+      noise_sum.region_relmse += n.region_relmse;
+      spdlog::debug("frame {}: the truth's own noise: relMSE {:.3g}, in the object's region {:.3g}", i, n.relmse,
+                    n.region_relmse);
+    }
     for (size_t k = 0; k < photo.values().size(); ++k) changed += photo.values()[k] != truth.values()[k];
     ImageWriteOptions wo;
     wo.tool = o.tool;
@@ -526,6 +550,16 @@ void RunSynth(const SynthOptions& o, Report* report) {
   report->AddOutput((o.out / "photos.mp4").string());
   report->SetMetric("frames", p.frames);
   report->SetMetric("truth_spp", truth_spp);
+  if (truth_spp >= 2) {
+    // Means over the frames (render/error_curve.h, EstimateTruthNoise).
+    const double region = noise_sum.region_relmse / p.frames;
+    report->SetMetric("truth_noise_relmse", noise_sum.relmse / p.frames);
+    report->SetMetric("truth_noise_region_relmse", region);
+    spdlog::info(
+        "the truth's own noise: relMSE {:.3g} in the object's region; errors against it below about {:.3g} "
+        "are not resolved",
+        region, 3 * region);
+  }
   report->SetMetric("size", {p.width, p.height});
   report->SetMetric("sun_to_sky", p.sun_to_sky);
   report->SetMetric("changed_values", changed);

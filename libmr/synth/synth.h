@@ -34,6 +34,9 @@ struct SynthOptions {
   // 0.25, GGX specular 0.6 at roughness 0.3) or mirror (specular 0.9 at
   // roughness 0.05).
   std::string object_material = "diffuse";
+  // The scene camera's lens: opencv4 (a mild barrel distortion, the default)
+  // or pinhole (for renderers without lens models, e.g. bench/cycles_compare.py).
+  std::string lens = "opencv4";
   bool spot_light = false;  // a real spot light above the table (lights.json)
   // A world that changes during the video: the sun moving across the sky
   // (env/NNNNN.exr), the spot lamp switched on halfway (lights/NNNNN.json),

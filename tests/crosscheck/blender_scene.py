@@ -1,18 +1,42 @@
-# Renders the cross-check scene with Blender Cycles (run by crosscheck.py):
-#   blender -b --factory-startup -P blender_scene.py -- SPEC.json OUT.exr
-# SPEC names the OBJ meshes, their albedos, the lat-long environment map, the
-# pinhole camera (fx, width, height) and mr's world_from_cam (4x4, mr's camera
-# frame: x right, y down, z forward; mr's world: y up).  Blender's world is
-# z up: OBJ import maps (x, y, z) -> (x, -z, y), and so does this script.
+# Renders an mr scene with Blender Cycles, for tests/crosscheck/crosscheck.py
+# and bench/cycles_compare.py:
+#   blender -b --factory-startup -noaudio -P blender_scene.py -- SPEC.json OUT.exr
+# SPEC (JSON):
+#   meshes: [{name, path (.obj or .ply), role: "real" | "virtual" (default
+#     real), world_from_object (4x4, mr's world; optional), albedo [3],
+#     specular [3] and roughness (optional: mr's GGX lobe)}]
+#   environment: a lat-long EXR in mr's (OpenEXR's) convention
+#   env_rotation_deg: 90 (Blender's equirectangular lookup is a quarter turn
+#     from OpenEXR's: docs/benchmarks.md, "Cross-check against Blender Cycles")
+#   camera: {width, height, fx, fy, cx, cy} (a pinhole, mrcal's pixel centres)
+#   world_from_cam: 4x4 (mr's camera frame: x right, y down, z forward; mr's
+#     world: y up.  Blender's world is z up: (x, y, z) -> (x, -z, y).)
+#   spp, max_depth, seed, threads
+#   mode: "full" (every mesh), "real" (the real meshes only), "catcher" (the
+#     real meshes as shadow catchers, composited over `plate` in Blender's
+#     compositor: plate x shadow-catcher pass, the object's pass over it) or
+#     "mask" (the virtual objects' coverage: real meshes held out, camera
+#     rays only; the image's alpha)
+#   plate: the photograph (linear EXR) for "catcher"
+#   border: [x0, y0, x1, y1] (optional): render only these pixels (x0 <= x < x1,
+#     y0 <= y < y1, mr's pixels, y down); the rest of OUT is zero
+# Writes OUT (32-bit float EXR, RGBA) and OUT.json: {"render_seconds": the
+# time of bpy.ops.render.render (scene sync, BVH build, sampling,
+# compositing), "setup_seconds": scene building and mesh import}.
 import json
 import math
 import sys
+import time
 
 import bpy
 from mathutils import Matrix
 
+t_start = time.perf_counter()
 spec = json.load(open(sys.argv[sys.argv.index("--") + 1]))
 out = sys.argv[sys.argv.index("--") + 2]
+mode = spec.get("mode", "full")
+if mode not in ("full", "real", "catcher", "mask"):
+    raise SystemExit("blender_scene.py: unknown mode %r" % mode)
 
 bpy.ops.wm.read_factory_settings(use_empty=True)
 scene = bpy.context.scene
@@ -21,39 +45,93 @@ scene.cycles.device = "CPU"
 scene.cycles.samples = spec["spp"]
 scene.cycles.use_denoising = False
 scene.cycles.use_adaptive_sampling = False
-scene.cycles.max_bounces = spec["max_depth"]
-scene.cycles.diffuse_bounces = spec["max_depth"]
-scene.cycles.glossy_bounces = spec["max_depth"]
+depth = 0 if mode == "mask" else spec["max_depth"]
+scene.cycles.max_bounces = depth
+scene.cycles.diffuse_bounces = depth
+scene.cycles.glossy_bounces = depth
+scene.cycles.transparent_max_bounces = 0
 scene.cycles.sample_clamp_direct = 0
 scene.cycles.sample_clamp_indirect = 0
+scene.cycles.caustics_reflective = True
+scene.cycles.caustics_refractive = True
+scene.cycles.blur_glossy = 0.0  # no filter glossy: mr does not blur
 scene.cycles.pixel_filter_type = "BOX"  # a one-pixel box, as mr's uniform jitter over the pixel
 scene.cycles.filter_width = 1.0
-scene.cycles.seed = 1
-scene.render.resolution_x = spec["width"]
-scene.render.resolution_y = spec["height"]
+scene.cycles.seed = spec.get("seed", 1)
+cam_spec = spec["camera"]
+W, H = cam_spec["width"], cam_spec["height"]
+scene.render.resolution_x = W
+scene.render.resolution_y = H
 scene.render.resolution_percentage = 100
-scene.render.film_transparent = False
+scene.render.film_transparent = mode in ("catcher", "mask")
 scene.view_settings.view_transform = "Standard"
 scene.render.image_settings.file_format = "OPEN_EXR"
 scene.render.image_settings.color_depth = "32"
+scene.render.image_settings.color_mode = "RGBA"
 scene.render.threads_mode = "FIXED"
-scene.render.threads = 2
+scene.render.threads = spec.get("threads", 2)
+if "border" in spec:
+    x0, y0, x1, y1 = spec["border"]
+    scene.render.use_border = True
+    scene.render.use_crop_to_border = False
+    scene.render.border_min_x, scene.render.border_max_x = x0 / W, x1 / W
+    scene.render.border_min_y, scene.render.border_max_y = 1 - y1 / H, 1 - y0 / H
 
 to_blender = Matrix(((1, 0, 0, 0), (0, 0, -1, 0), (0, 1, 0, 0), (0, 0, 0, 1)))
 
-for m in spec["meshes"]:
-    bpy.ops.wm.obj_import(filepath=m["obj"], forward_axis="NEGATIVE_Z", up_axis="Y")
-    obj = bpy.context.selected_objects[0]
+
+def material(m):
     mat = bpy.data.materials.new(m["name"])
     mat.use_nodes = True
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    mat.node_tree.nodes.remove(bsdf)
-    diffuse = mat.node_tree.nodes.new("ShaderNodeBsdfDiffuse")
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.remove(nodes["Principled BSDF"])
+    surface = nodes["Material Output"].inputs["Surface"]
+    if mode == "mask":
+        emit = nodes.new("ShaderNodeEmission")
+        emit.inputs["Color"].default_value = (1, 1, 1, 1)
+        links.new(emit.outputs["Emission"], surface)
+        return mat
+    # mr's BSDF (render/bsdf.cpp): albedo / pi + specular x GGX (alpha =
+    # roughness^2, no Fresnel), the two lobes added.
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
     diffuse.inputs["Color"].default_value = (*m["albedo"], 1.0)
     diffuse.inputs["Roughness"].default_value = 0.0  # Lambertian
-    mat.node_tree.links.new(diffuse.outputs["BSDF"], mat.node_tree.nodes["Material Output"].inputs["Surface"])
+    spec_rgb = m.get("specular", [0, 0, 0])
+    if max(spec_rgb) > 0:
+        glossy = nodes.new("ShaderNodeBsdfGlossy")
+        glossy.distribution = "GGX"
+        glossy.inputs["Color"].default_value = (*spec_rgb, 1.0)
+        glossy.inputs["Roughness"].default_value = m.get("roughness", 0.5)
+        add = nodes.new("ShaderNodeAddShader")
+        links.new(diffuse.outputs["BSDF"], add.inputs[0])
+        links.new(glossy.outputs["BSDF"], add.inputs[1])
+        links.new(add.outputs["Shader"], surface)
+    else:
+        links.new(diffuse.outputs["BSDF"], surface)
+    return mat
+
+
+for m in spec["meshes"]:
+    role = m.get("role", "real")
+    if mode == "real" and role == "virtual":
+        continue
+    path = m["path"]
+    # Both importers keep the file's vertices (the OBJ one puts its axis
+    # change in the object's matrix, replaced here).
+    if path.lower().endswith(".ply"):
+        bpy.ops.import_mesh.ply(filepath=path)
+    else:
+        bpy.ops.wm.obj_import(filepath=path, forward_axis="NEGATIVE_Z", up_axis="Y")
+    obj = bpy.context.selected_objects[0]
+    obj.matrix_world = to_blender @ Matrix(m.get("world_from_object", Matrix.Identity(4)))
+    for p in obj.data.polygons:
+        p.use_smooth = False  # flat shading, as mr
     obj.data.materials.clear()
-    obj.data.materials.append(mat)
+    obj.data.materials.append(material(m))
+    if role == "real" and mode == "catcher":
+        obj.is_shadow_catcher = True
+    if role == "real" and mode == "mask":
+        obj.is_holdout = True
 
 # Environment: Blender's equirectangular u = atan2(d.y, -d.x) / 2pi + 0.5 is
 # mr's (OpenEXR's) u = 0.5 - atan2(x, z) / 2pi rotated by a quarter turn.
@@ -61,29 +139,64 @@ world = bpy.data.worlds.new("env")
 scene.world = world
 world.use_nodes = True
 nodes = world.node_tree.nodes
-tex = nodes.new("ShaderNodeTexEnvironment")
-tex.image = bpy.data.images.load(spec["environment"])
-tex.image.colorspace_settings.name = "Linear"
-tex.interpolation = "Closest"
-coord = nodes.new("ShaderNodeTexCoord")
-mapping = nodes.new("ShaderNodeMapping")
-mapping.vector_type = "VECTOR"
-mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(spec["env_rotation_deg"]))
-world.node_tree.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
-world.node_tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
-world.node_tree.links.new(tex.outputs["Color"], nodes["Background"].inputs["Color"])
+if mode == "mask":
+    nodes["Background"].inputs["Strength"].default_value = 0.0
+else:
+    tex = nodes.new("ShaderNodeTexEnvironment")
+    tex.image = bpy.data.images.load(spec["environment"])
+    tex.image.colorspace_settings.name = "Linear"
+    tex.interpolation = "Closest"
+    coord = nodes.new("ShaderNodeTexCoord")
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.vector_type = "VECTOR"
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.radians(spec.get("env_rotation_deg", 90.0)))
+    world.node_tree.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
+    world.node_tree.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    world.node_tree.links.new(tex.outputs["Color"], nodes["Background"].inputs["Color"])
 
+# The camera: a pinhole whose principal point may leave the centre
+# (Blender's shift, in units of the width with a horizontal sensor fit).
+if abs(cam_spec["fx"] - cam_spec["fy"]) > 1e-9 * cam_spec["fx"]:
+    raise SystemExit("blender_scene.py: fx != fy (Blender's camera has square pixels)")
 cam_data = bpy.data.cameras.new("cam")
 cam_data.sensor_fit = "HORIZONTAL"
 cam_data.sensor_width = 36.0
-cam_data.lens = spec["fx"] * 36.0 / spec["width"]
+cam_data.lens = cam_spec["fx"] * 36.0 / W
+cam_data.shift_x = ((W - 1) / 2 - cam_spec["cx"]) / W
+cam_data.shift_y = (cam_spec["cy"] - (H - 1) / 2) / W
 cam_data.clip_start = 1e-3
 cam = bpy.data.objects.new("cam", cam_data)
 scene.collection.objects.link(cam)
 scene.camera = cam
-world_from_cam = Matrix(spec["world_from_cam"])
 flip = Matrix(((1, 0, 0, 0), (0, -1, 0, 0), (0, 0, -1, 0), (0, 0, 0, 1)))  # mr camera -> Blender camera axes
-cam.matrix_world = to_blender @ world_from_cam @ flip
+cam.matrix_world = to_blender @ Matrix(spec["world_from_cam"]) @ flip
 
+if mode == "catcher":
+    # What a Blender user does: the shadow-catcher pass multiplies the plate,
+    # the objects' pass goes over it (Blender manual, "Shadow Catcher").
+    bpy.context.view_layer.cycles.use_pass_shadow_catcher = True
+    scene.use_nodes = True
+    tree = scene.node_tree
+    tree.nodes.clear()
+    rl = tree.nodes.new("CompositorNodeRLayers")
+    plate = tree.nodes.new("CompositorNodeImage")
+    plate.image = bpy.data.images.load(spec["plate"])
+    plate.image.colorspace_settings.name = "Linear"
+    mul = tree.nodes.new("CompositorNodeMixRGB")
+    mul.blend_type = "MULTIPLY"
+    mul.inputs[0].default_value = 1.0
+    tree.links.new(plate.outputs["Image"], mul.inputs[1])
+    tree.links.new(rl.outputs["Shadow Catcher"], mul.inputs[2])
+    over = tree.nodes.new("CompositorNodeAlphaOver")  # premultiplied: fg + (1 - fg.a) bg
+    tree.links.new(mul.outputs["Image"], over.inputs[1])
+    tree.links.new(rl.outputs["Image"], over.inputs[2])
+    comp = tree.nodes.new("CompositorNodeComposite")
+    comp.use_alpha = True
+    tree.links.new(over.outputs["Image"], comp.inputs["Image"])
+
+t_setup = time.perf_counter() - t_start
 scene.render.filepath = out
+t0 = time.perf_counter()
 bpy.ops.render.render(write_still=True)
+t_render = time.perf_counter() - t0
+json.dump({"render_seconds": t_render, "setup_seconds": t_setup}, open(out + ".json", "w"))

@@ -107,10 +107,11 @@ def main():
     json.dump(scene, open(os.path.join(work, "scene2.json"), "w"), indent=2)
     subprocess.run([os.path.join(bin_dir, "mr-render"), os.path.join(work, "scene2.json"), "-q"], check=True)
 
-    spec = {"meshes": [{"name": "plane", "obj": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},
-                       {"name": "sphere", "obj": os.path.join(work, "sphere.obj"), "albedo": [0.8, 0.6, 0.4]}],
+    spec = {"meshes": [{"name": "plane", "path": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},
+                       {"name": "sphere", "role": "virtual", "path": os.path.join(work, "sphere.obj"), "albedo": [0.8, 0.6, 0.4]}],
             "environment": env_path, "env_rotation_deg": float(os.environ.get("MR_CROSSCHECK_ENV_ROT", "90")),
-            "width": w, "height": h, "fx": fx, "world_from_cam": M.tolist(), "spp": spp, "max_depth": max_depth}
+            "camera": {"width": w, "height": h, "fx": fx, "fy": fx, "cx": (w - 1) / 2, "cy": (h - 1) / 2},
+            "world_from_cam": M.tolist(), "spp": spp, "max_depth": max_depth}
     json.dump(spec, open(os.path.join(work, "blender.json"), "w"), indent=2)
     cycles = os.path.join(work, "cycles.exr")
     subprocess.run([blender, "-b", "--factory-startup", "-noaudio", "-P", os.path.join(HERE, "blender_scene.py"), "--",

@@ -33,6 +33,32 @@ TEST(Associate, MatchesTumAssociateGreedyByDifference) {
   EXPECT_EQ(p[2], std::make_pair(3, 3));
 }
 
+// A list that repeats one timestamp (a recorder whose clock stopped): every
+// pair is within max_dt.  Offering all of them was 10^10 candidates here, a
+// hang (found by fuzz_rgbdlist, whose inputs of a few thousand lines ran at
+// 1.5 ms each).  Each a is now offered its 8 nearest: here the same 8 b, so
+// 8 pairs, one to one (which frame goes with which is unknowable anyway).
+TEST(Associate, ARepeatedTimestampPairsInBoundedWork) {
+  const std::vector<double> a(100000, 7.0), b(100000, 7.0);
+  const auto p = AssociateTimestamps(a, b, 0.02);
+  ASSERT_EQ(p.size(), 8u);
+  std::vector<char> used_b(b.size(), 0);
+  for (const auto& [i, j] : p) {
+    EXPECT_FALSE(used_b[static_cast<size_t>(j)]);
+    used_b[static_cast<size_t>(j)] = 1;
+  }
+  // Sane lists are paired as associate.py pairs them: 30 fps against 30 fps
+  // shifted by 4 ms, every frame to its own.
+  std::vector<double> c, d;
+  for (int k = 0; k < 1000; ++k) {
+    c.push_back(k / 30.0);
+    d.push_back(k / 30.0 + 0.004);
+  }
+  const auto q = AssociateTimestamps(c, d, 0.02);
+  ASSERT_EQ(q.size(), c.size());
+  for (size_t k = 0; k < q.size(); ++k) EXPECT_EQ(q[k], std::make_pair(int(k), int(k)));
+}
+
 TEST(Ate, HornRemovesARigidMotionExactly) {
   Trajectory ref = Line(20, 0.05);
   // A curved reference so that the rotation is determined.

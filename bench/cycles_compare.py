@@ -31,7 +31,9 @@ processes (start-up, loading, writing).  The truth's own noise is stated
 
 Usage: bench/cycles_compare.py BIN_DIR OUT_DIR [--quick] [--scenes bunny-room,table-top]
          [--mesh PLY] [--threads N]
-Writes OUT_DIR/results.csv and prints a Markdown table per scene.
+Writes OUT_DIR/SCENE/results.csv and OUT_DIR/results.csv (every scene's rows),
+and prints each row as it is measured.  A scene's plate and truth are kept
+and reused by later runs into the same OUT_DIR.
 """
 import argparse
 import ast
@@ -47,9 +49,11 @@ import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 BLENDER_SCENE = os.path.join(HERE, "..", "tests", "crosscheck", "blender_scene.py")
+sys.path.insert(0, os.path.join(HERE, "..", "tests", "crosscheck"))
 os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
 import cv2  # noqa: E402  (python3-opencv)
 import numpy as np  # noqa: E402
+from mr_to_blender import env_for_blender  # noqa: E402
 
 EPS = 0.01  # mr's relMSE epsilon (core/image_metrics.h)
 
@@ -141,8 +145,10 @@ def blender_spec(scene_path):
             meshes.append(m)
     cam = s["camera"]
     pose = [line for line in open(os.path.join(d, cam["poses"]["path"])) if line.strip() and line[0] != "#"][0]
-    return {"meshes": meshes, "environment": os.path.join(d, s["lighting"]["environment"]),
-            "env_rotation_deg": 90.0, "camera": read_cameramodel(os.path.join(d, cam["model"])),
+    env = os.path.join(d, s["lighting"]["environment"])
+    env_blender = os.path.splitext(env)[0] + "-blender.exr"
+    env_for_blender(env, env_blender)
+    return {"meshes": meshes, "environment": env_blender, "env_rotation_deg": 0.0, "camera": read_cameramodel(os.path.join(d, cam["model"])),
             "world_from_cam": pose_matrix(pose).tolist(), "max_depth": s["render"].get("max_depth", 5), "seed": 1}
 
 
@@ -340,10 +346,20 @@ def main():
             cp = os.path.join(work, "cycles-catcher-%d.exr" % spp)
             write_rgb(cp, read_rgb(c))
             add("cycles-catcher", "-", spp, cs, cw, cp)
+    # Per scene, then every scene's table in OUT (a scene run again replaces its rows).
+    fields = list(rows[0].keys())
+    for name in a.scenes.split(","):
+        with open(os.path.join(out, name, "results.csv"), "w", newline="") as f:
+            w = csv.DictWriter(f, fieldnames=fields)
+            w.writeheader()
+            w.writerows(r for r in rows if r["scene"] == name)
     with open(os.path.join(out, "results.csv"), "w", newline="") as f:
-        w = csv.DictWriter(f, fieldnames=list(rows[0].keys()))
+        w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()
-        w.writerows(rows)
+        for name in sorted(os.listdir(out)):
+            path = os.path.join(out, name, "results.csv")
+            if os.path.isfile(path):
+                w.writerows(csv.DictReader(open(path)))
     print("wrote %s" % os.path.join(out, "results.csv"))
 
 

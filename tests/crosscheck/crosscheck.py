@@ -107,9 +107,15 @@ def main():
     json.dump(scene, open(os.path.join(work, "scene2.json"), "w"), indent=2)
     subprocess.run([os.path.join(bin_dir, "mr-render"), os.path.join(work, "scene2.json"), "-q"], check=True)
 
+    # The map in Blender's convention (a quarter turn, half a pixel and a
+    # (W-1)/W stretch from OpenEXR's; docs/benchmarks.md "Cross-check").
+    sys.path.insert(0, HERE)
+    from mr_to_blender import env_for_blender
+    env_blender = os.path.join(work, "env-blender.exr")
+    env_for_blender(env_path, env_blender)
     spec = {"meshes": [{"name": "plane", "path": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},
                        {"name": "sphere", "role": "virtual", "path": os.path.join(work, "sphere.obj"), "albedo": [0.8, 0.6, 0.4]}],
-            "environment": env_path, "env_rotation_deg": float(os.environ.get("MR_CROSSCHECK_ENV_ROT", "90")),
+            "environment": env_blender, "env_rotation_deg": 0.0,
             "camera": {"width": w, "height": h, "fx": fx, "fy": fx, "cx": (w - 1) / 2, "cy": (h - 1) / 2},
             "world_from_cam": M.tolist(), "spp": spp, "max_depth": max_depth}
     json.dump(spec, open(os.path.join(work, "blender.json"), "w"), indent=2)

@@ -12,7 +12,8 @@ virtual object and the object's region (where the object changes the plate):
               scene at PLATE_SPP, the truth the plate plus the converged
               difference of two Cycles renders with and without the bunny
               (same seed, so paths that miss the bunny cancel), rendered only
-              inside the region's bounding box.
+              inside the region's bounding box; where the bunny covers a
+              pixel, its own render (weighted by its coverage).
 Each renderer composites the object into the plate:
   mr pt, ic, vpl, vct  mr-render's differential composite;
   cycles-diff          two Cycles renders (with and without the object)
@@ -278,18 +279,23 @@ def main():
                 region = dilate(read_alpha(m) > 0, 3) | (diff > 0.02 * plate.max(axis=2) + 1e-4)
                 ys, xs = np.nonzero(region)
                 border = [int(max(0, xs.min() - 4)), int(max(0, ys.min() - 4)), int(xs.max() + 5), int(ys.max() + 5)]
+                # The truth is the photograph with the bunny in it: the
+                # bunny's own render where it covers the pixel, the plate
+                # plus the bunny's change elsewhere (the composite's form).
+                inside = np.zeros_like(region)
+                inside[border[1]:border[3], border[0]:border[2]] = True
+                M = read_alpha(m)[:, :, None] * inside[:, :, None]
                 halves = []
                 for k in range(2):
                     f, _, _ = bl.render(spec, "t-full%d" % k, mode="full", spp=truth_spp // 2, seed=11 + k, border=border)
                     r, _, _ = bl.render(spec, "t-real%d" % k, mode="real", spp=truth_spp // 2, seed=11 + k, border=border)
-                    halves.append(read_rgb(f) - read_rgb(r))
-                inside = np.zeros_like(region)
-                inside[border[1]:border[3], border[0]:border[2]] = True
+                    F, R = read_rgb(f), read_rgb(r)
+                    halves.append(M * F + (1 - M) * (plate + (F - R) * inside[:, :, None]))
                 region &= inside
-                truth = plate + 0.5 * (halves[0] + halves[1]) * inside[:, :, None]
+                truth = 0.5 * (halves[0] + halves[1])
                 write_rgb(truth_path, truth)
                 np.save(os.path.join(work, "region.npy"), region)
-                noise = truth_noise(plate + halves[0], plate + halves[1], truth, region)
+                noise = truth_noise(halves[0], halves[1], truth, region)
                 json.dump({"truth_noise_region_relmse": noise}, open(os.path.join(work, "truth.json"), "w"))
             plate, truth = read_rgb(plate_path), read_rgb(truth_path)
             region = np.load(os.path.join(work, "region.npy"))

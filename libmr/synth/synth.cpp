@@ -478,8 +478,11 @@ void RunSynth(const SynthOptions& o, Report* report) {
     st.frame = i;
     if (world) world->Advance(i, &rs);
     PtFrameRenderer fr(rs, c.camera, c.trajectory.poses[static_cast<size_t>(i)].world_from_cam, st);
-    // In two halves, so that the truth states its own noise (the result is
-    // the same as one pass: the samples do not depend on the split).
+    // In two halves, so that the truth states its own noise.  Every pixel the
+    // object can change gets the same samples as in one pass (they do not
+    // depend on the split); pixels whose rays provably see only the sky
+    // (pt's skip) keep the first half's, so the photograph's sky differs
+    // from a one-pass render there, within its noise.
     Image mixed_half, real_half;
     {
       ScopedTimer t(report, "render truth");

@@ -1,10 +1,12 @@
 #include "core/video.h"
 
+#include <limits>
 #include <opencv2/videoio.hpp>
 
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
+#include <limits>
 
 #include "core/error.h"
 #include "core/math.h"
@@ -37,9 +39,18 @@ VideoReader::VideoReader(const fs::path& path) : impl_(std::make_unique<Impl>())
 }
 VideoReader::~VideoReader() = default;
 
-int VideoReader::width() const { return static_cast<int>(impl_->cap.get(cv::CAP_PROP_FRAME_WIDTH)); }
-int VideoReader::height() const { return static_cast<int>(impl_->cap.get(cv::CAP_PROP_FRAME_HEIGHT)); }
-int VideoReader::frame_count() const { return static_cast<int>(impl_->cap.get(cv::CAP_PROP_FRAME_COUNT)); }
+namespace {
+// A container property as a count: a damaged file can claim NaN, a negative
+// number or -2^63 (0 then: unknown), or more than an int holds.
+int CountProperty(double v) {
+  if (!(v > 0)) return 0;
+  return v >= double(std::numeric_limits<int>::max()) ? std::numeric_limits<int>::max() : static_cast<int>(v);
+}
+}  // namespace
+
+int VideoReader::width() const { return CountProperty(impl_->cap.get(cv::CAP_PROP_FRAME_WIDTH)); }
+int VideoReader::height() const { return CountProperty(impl_->cap.get(cv::CAP_PROP_FRAME_HEIGHT)); }
+int VideoReader::frame_count() const { return CountProperty(impl_->cap.get(cv::CAP_PROP_FRAME_COUNT)); }
 double VideoReader::fps() const { return impl_->cap.get(cv::CAP_PROP_FPS); }
 
 Image VideoReader::Frame(int index) {

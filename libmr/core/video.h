@@ -15,7 +15,7 @@ class VideoReader {
   ~VideoReader();
   int width() const;
   int height() const;
-  int frame_count() const;  // as the container reports it (may be approximate)
+  int frame_count() const;  // as the container reports it (may be approximate; 0: unknown)
   double fps() const;
   // Frame `index` (0-based), decoded as sRGB.  Sequential access is fastest;
   // going backwards reopens the file.  Throws mr::Error past the end.

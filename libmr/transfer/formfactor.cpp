@@ -429,9 +429,13 @@ VertexTransfer ReadTransfer(const fs::path& path) {
   h.vertex_count = static_cast<int64_t>(Get<uint64_t>(head.data(), 40));
   h.mesh_hash = Get<uint64_t>(head.data(), 48);
   h.valid_spp = static_cast<int>(Get<uint32_t>(head.data(), 56));
-  const int expected = h.basis == TransferBasis::kCube ? 6 * h.resolution * h.resolution : h.order * h.order;
-  if (h.resolution < 1 || h.resolution > 256 ||
-      (h.basis == TransferBasis::kSh && (h.order < 1 || h.order > kMaxShOrder)) || h.coefficients != expected)
+  // Ranges first: the coefficient count is computed only from values that cannot overflow it.
+  const bool in_range = h.resolution >= 1 && h.resolution <= 256 &&
+                        (h.basis != TransferBasis::kSh || (h.order >= 1 && h.order <= kMaxShOrder));
+  const int expected = !in_range                         ? -1
+                       : h.basis == TransferBasis::kCube ? 6 * h.resolution * h.resolution
+                                                         : h.order * h.order;
+  if (!in_range || h.coefficients != expected)
     ThrowErrorAt(loc, "inconsistent header: basis {}, resolution {}, order {}, {} coefficients per vertex",
                  h.basis == TransferBasis::kCube ? "cube" : "sh", h.resolution, h.order, h.coefficients);
   const auto size = fs::file_size(path);

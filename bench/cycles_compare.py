@@ -31,7 +31,7 @@ processes (start-up, loading, writing).  The truth's own noise is stated
 (relMSE of its two halves / 4, in the region).
 
 Usage: bench/cycles_compare.py BIN_DIR OUT_DIR [--quick] [--scenes bunny-room,table-top]
-         [--mesh PLY] [--threads N]
+         [--mesh PLY] [--threads N] [--renderers mr,mr-fast,cycles]
 Writes OUT_DIR/SCENE/results.csv and OUT_DIR/results.csv (every scene's rows),
 and prints each row as it is measured.  A scene's plate and truth are kept
 and reused by later runs into the same OUT_DIR.
@@ -230,7 +230,11 @@ def main():
     ap.add_argument("--scenes", default="bunny-room,table-top")
     ap.add_argument("--mesh", default=os.path.join(HERE, "..", "..", "shared", "data", "meshes", "bun_zipper_res2.ply"))
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--renderers", default="mr,mr-fast,cycles",
+                    help="which to run: mr (pt), mr-fast (ic, vpl, vct), cycles; the rows of those left out are "
+                         "kept from OUT's earlier results")
     a = ap.parse_args()
+    renderers = set(a.renderers.split(","))
     bin_dir, out = os.path.abspath(a.bin_dir), os.path.abspath(a.out_dir)
     if not os.path.isfile(a.mesh):
         raise SystemExit("cycles_compare: no bunny mesh at %s (--mesh)" % a.mesh)
@@ -319,7 +323,8 @@ def main():
         s = json.load(open(scene_path))
         s.pop("reference", None)
         s["output"] = {"dir": "render", "png": False, "layers": ["composite", "mask"]}
-        for method, block, spp in [("pt", {}, n) for n in spps] + fast:
+        todo = ([("pt", {}, n) for n in spps] if "mr" in renderers else []) + (fast if "mr-fast" in renderers else [])
+        for method, block, spp in todo:
             s["render"]["method"] = method
             s["render"]["spp"] = spp
             for m in ("ic", "vpl", "vct"):
@@ -338,6 +343,8 @@ def main():
         # Cycles: the coverage once (shared by every cycles-diff setting,
         # counted in each), then per spp the two renders differenced and the
         # shadow catcher.
+        if "cycles" not in renderers:
+            continue
         mask_path, mask_s, mask_wall = bl.render(spec, "c-mask", mode="mask", spp=64)
         M = read_alpha(mask_path)[:, :, None]
         for spp in spps:
@@ -354,11 +361,18 @@ def main():
             add("cycles-catcher", "-", spp, cs, cw, cp)
     # Per scene, then every scene's table in OUT (a scene run again replaces its rows).
     fields = list(rows[0].keys())
+
+    def group(renderer):
+        return "cycles" if renderer.startswith("cycles") else "mr" if renderer == "mr pt" else "mr-fast"
+
     for name in a.scenes.split(","):
-        with open(os.path.join(out, name, "results.csv"), "w", newline="") as f:
+        path = os.path.join(out, name, "results.csv")
+        kept = [r for r in csv.DictReader(open(path)) if group(r["renderer"]) not in renderers] \
+            if os.path.isfile(path) else []
+        with open(path, "w", newline="") as f:
             w = csv.DictWriter(f, fieldnames=fields)
             w.writeheader()
-            w.writerows(r for r in rows if r["scene"] == name)
+            w.writerows([r for r in rows if r["scene"] == name] + kept)
     with open(os.path.join(out, "results.csv"), "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=fields)
         w.writeheader()

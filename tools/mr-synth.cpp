@@ -29,6 +29,11 @@ int main(int argc, char** argv) {
   app.add_option("--object-material", o.object_material, "The object's material: diffuse, glossy or mirror")
       ->default_val("diffuse")
       ->check(CLI::IsMember({"diffuse", "glossy", "mirror"}));
+  app.add_option("--table-top", o.table_top,
+                 "The table top's material: glossy (GGX, roughness 0.25) or diffuse (no caustics: the sun reflected "
+                 "by the table, fireflies for a path tracer)")
+      ->default_val("glossy")
+      ->check(CLI::IsMember({"glossy", "diffuse"}));
   app.add_option("--lens", o.lens,
                  "The scene camera's lens: opencv4 (mild barrel distortion) or pinhole (for renderers without "
                  "lens models)")

@@ -32,9 +32,8 @@ constexpr int kPrimes[64] = {2,   3,   5,   7,   11,  13,  17,  19,  23,  29,  3
                              137, 139, 149, 151, 157, 163, 167, 173, 179, 181, 191, 193, 197, 199, 211, 223,
                              227, 229, 233, 239, 241, 251, 257, 263, 269, 271, 277, 281, 283, 293, 307, 311};
 
-uint32_t ReverseBits32(uint32_t n) {
-  n = (n << 16) | (n >> 16);
-  n = ((n & 0x00ff00ff) << 8) | ((n & 0xff00ff00) >> 8);
+inline uint32_t ReverseBits32(uint32_t n) {
+  n = __builtin_bswap32(n);
   n = ((n & 0x0f0f0f0f) << 4) | ((n & 0xf0f0f0f0) >> 4);
   n = ((n & 0x33333333) << 2) | ((n & 0xcccccccc) >> 2);
   n = ((n & 0x55555555) << 1) | ((n & 0xaaaaaaaa) >> 1);
@@ -91,6 +90,72 @@ std::array<float, 2> Sobol2D(uint32_t index, uint32_t seed, bool scramble) {
   }
   // 24 bits so that the float never rounds up to 1.
   return {static_cast<float>(v0 >> 8) * 0x1p-24f, static_cast<float>(v1 >> 8) * 0x1p-24f};
+}
+
+namespace {
+
+// Sobol' dimension 1 (see Sobol2D), bit-reversed, one byte of the index at
+// a time: kSobol1Reversed[k][b] is the reversed point of index b << 8k.
+struct Sobol1Tables {
+  uint32_t t[4][256];
+  Sobol1Tables() {
+    uint32_t dir[32];
+    dir[0] = 1u << 31;
+    for (int k = 1; k < 32; ++k) dir[k] = dir[k - 1] ^ (dir[k - 1] >> 1);
+    for (int k = 0; k < 4; ++k)
+      for (uint32_t b = 0; b < 256; ++b) {
+        uint32_t v = 0;
+        for (int bit = 0; bit < 8; ++bit)
+          if (b & (1u << bit)) v ^= dir[8 * k + bit];
+        t[k][b] = ReverseBits32(v);
+      }
+  }
+};
+const Sobol1Tables kSobol1Reversed;
+
+inline uint32_t ReversedSobol1(uint32_t i) {
+  const auto& t = kSobol1Reversed.t;
+  return t[0][i & 255] ^ t[1][(i >> 8) & 255] ^ t[2][(i >> 16) & 255] ^ t[3][i >> 24];
+}
+
+// 32 scrambled bits and 21 random ones below them (the infinite scramble's
+// deeper digits): uniform in [0, 1).
+inline double ToUnit(uint32_t bits, uint64_t low) {
+  return static_cast<double>((static_cast<uint64_t>(bits) << 21) | (low & 0x1fffff)) * 0x1p-53;
+}
+
+}  // namespace
+
+// With R the bit reversal and S_k the Laine-Karras permutation under seed k
+// (an Owen scramble of a reversed value), a draw's shuffled index is
+// i' = R S_a R i, its van der Corput point R i' scrambled is R S_b R R i' =
+// R S_b i', and its Sobol' dimension-1 point P(i') scrambled is
+// R S_c R P(i').  R i is kept (reversed_index_), so a 1D draw costs two
+// reversals and a 2D draw three.
+Sampler Sampler::Stratified(uint64_t seed, uint32_t index) {
+  Sampler s;
+  s.stratified_ = true;
+  s.seed_ = MixBits(seed);
+  s.index_ = index;
+  s.reversed_index_ = ReverseBits32(index);
+  return s;
+}
+
+double Sampler::Stratified1D() {
+  const uint64_t h = MixBits(seed_ + (dimension_++ + 1) * kGoldenGamma);
+  const uint32_t shuffled = ReverseBits32(LaineKarrasPermutation(reversed_index_, static_cast<uint32_t>(h)));
+  const uint64_t low = MixBits(h);
+  return ToUnit(ReverseBits32(LaineKarrasPermutation(shuffled, static_cast<uint32_t>(h >> 32))), low);
+}
+
+std::array<double, 2> Sampler::Stratified2D() {
+  const uint64_t h = MixBits(seed_ + (dimension_ + 1) * kGoldenGamma);
+  dimension_ += 2;
+  const uint64_t h2 = MixBits(h), low = MixBits(h2);
+  const uint32_t shuffled = ReverseBits32(LaineKarrasPermutation(reversed_index_, static_cast<uint32_t>(h)));
+  return {
+      ToUnit(ReverseBits32(LaineKarrasPermutation(shuffled, static_cast<uint32_t>(h >> 32))), low),
+      ToUnit(ReverseBits32(LaineKarrasPermutation(ReversedSobol1(shuffled), static_cast<uint32_t>(h2))), low >> 21)};
 }
 
 std::array<double, 3> SampleUniformSphere(double u0, double u1) {

@@ -72,6 +72,52 @@ double RadicalInverse(int dimension, uint64_t index);
 // (0,2)-sequence in base 2: every 2^k prefix is stratified.
 std::array<float, 2> Sobol2D(uint32_t index, uint32_t seed = 0, bool scramble = false);
 
+// The random numbers of one path: either independent (PCG32) or one sample
+// of a stratified sequence (Owen-scrambled Sobol', Burley 2020, "Practical
+// Hash-based Owen Scrambling").
+//
+// Stratified: a pixel's samples 0..N-1 are points of a sequence seeded by
+// the pixel; every call draws a fresh dimension (1D) or pair of dimensions
+// (2D).  Each draw's dimensions are shuffled apart from every other draw's
+// by Owen-scrambling the sample index with a hash of (seed, dimension), so
+// that, per draw, the first 2^m samples are stratified: in 1D one point in
+// each interval of length 2^-m, in 2D a (0,m,2)-net (one point in each
+// elementary box 2^-a x 2^-(m-a)), and draws are decorrelated from each
+// other.  Each point is uniformly distributed on its own (the estimates
+// stay unbiased); 32 bits come from the scrambled sequence, the 21 below
+// them from a hash (the infinite scramble's deeper digits).
+//
+// Paths that must stay aligned (the real and the mixed path parting at a
+// virtual object) copy the Sampler: the copy continues at the same
+// dimension.  Independent mode draws exactly what a Pcg32 would.
+class Sampler {
+ public:
+  static Sampler Random(uint64_t seed, uint64_t stream) {
+    Sampler s;
+    s.pcg_.Seed(seed, stream);
+    return s;
+  }
+  static Sampler Stratified(uint64_t seed, uint32_t index);
+  double NextDouble() { return stratified_ ? Stratified1D() : pcg_.NextDouble(); }
+  // Two values meant to be used together (a point on the pixel, the lens, a
+  // light, a BSDF lobe): a 2D-stratified pair.
+  std::array<double, 2> Next2D() {
+    if (stratified_) return Stratified2D();
+    const double u0 = pcg_.NextDouble();
+    return {u0, pcg_.NextDouble()};
+  }
+  bool stratified() const { return stratified_; }
+  bool operator==(const Sampler&) const = default;
+
+ private:
+  double Stratified1D();
+  std::array<double, 2> Stratified2D();
+  Pcg32 pcg_;
+  uint64_t seed_ = 0;
+  uint32_t index_ = 0, reversed_index_ = 0, dimension_ = 0;
+  bool stratified_ = false;
+};
+
 // Maps a point of [0,1)^2 to directions, with pdfs in solid angle.
 // The vectors are (x, y, z) with z the pole.
 std::array<double, 3> SampleUniformSphere(double u0, double u1);

@@ -44,11 +44,13 @@ std::vector<Eigen::Vector3d> ReferenceVertexRadiance(const Mesh& mesh, const Ima
     CoordinateSystem(n, &t, &b);
     Eigen::Vector3d e = Eigen::Vector3d::Zero();  // estimate of irradiance E
     for (int s = 0; s < rays; ++s) {
-      Pcg32 rng(HashCombine(seed, static_cast<uint64_t>(s)), static_cast<uint64_t>(v));
+      // Sample s of the vertex's stratified sequence.
+      Sampler rng = Sampler::Stratified(HashCombine(seed, static_cast<uint64_t>(v)), static_cast<uint32_t>(s));
       // Environment sample, MIS against cosine sampling.
       Eigen::Vector3d wi;
       double pdf_l = 0;
-      const Eigen::Vector3d le = em.Sample(rng.NextDouble(), rng.NextDouble(), rng.NextDouble(), &wi, &pdf_l);
+      const auto [e0, e1] = rng.Next2D();
+      const Eigen::Vector3d le = em.Sample(e0, e1, &wi, &pdf_l);
       const double cos_l = wi.dot(n);
       if (pdf_l > 0 && cos_l > 0) {
         Ray r;
@@ -61,7 +63,8 @@ std::vector<Eigen::Vector3d> ReferenceVertexRadiance(const Mesh& mesh, const Ima
       }
       // Cosine sample: the path tracer weighs an escape against the
       // environment pdf, and follows hits on the object for `bounces`.
-      const auto c = SampleCosineHemisphere(rng.NextDouble(), rng.NextDouble());
+      const auto [c0, c1] = rng.Next2D();
+      const auto c = SampleCosineHemisphere(c0, c1);
       const Eigen::Vector3d d = c[0] * t + c[1] * b + c[2] * n;
       if (c[2] <= 0) continue;
       Ray r;

@@ -52,54 +52,30 @@ EnvironmentMap::EnvironmentMap(const Image& img, const std::string& name, double
   const double dlat = kPi / (height_ - 1);
   for (int y = 0; y <= height_; ++y)
     row_sin_[static_cast<size_t>(y)] = std::sin(std::clamp(kPi / 2 - (y - 0.5) * dlat, -kPi / 2, kPi / 2));
-  // Per-cell solid-angle pdf, and Vose's alias table over the cells' weights:
-  // O(1) sampling with exactly the probabilities weight / total.
+  // Per-cell solid-angle pdf; rows are chosen by their share of the total,
+  // then a cell within the row by its share of the row (cdf_ is row-major, so
+  // a row's segment of it is its conditional distribution).
   const size_t n = radiance_.size();
   pdf_.assign(n, 0.0);
-  alias_prob_.assign(n, 0.0);
-  alias_.assign(n, 0);
-  if (total_ > 0) {
-    std::vector<double> scaled(n);
-    std::vector<uint32_t> small, large;
-    for (size_t i = 0; i < n; ++i) {
-      const double w = cdf_[i + 1] - cdf_[i];
-      pdf_[i] = w / total_ / solid_angle_[i];
-      scaled[i] = w / total_ * static_cast<double>(n);
-      (scaled[i] < 1 ? small : large).push_back(static_cast<uint32_t>(i));
-    }
-    while (!small.empty() && !large.empty()) {
-      const uint32_t s = small.back(), l = large.back();
-      small.pop_back();
-      alias_prob_[s] = scaled[s];
-      alias_[s] = l;
-      scaled[l] = (scaled[l] + scaled[s]) - 1;
-      if (scaled[l] < 1) {
-        large.pop_back();
-        small.push_back(l);
-      }
-    }
-    // What is left has probability 1 up to rounding; a cell of zero weight
-    // left here by rounding must never be chosen: point it at a large cell.
-    for (uint32_t i : large) alias_prob_[i] = 1;
-    for (uint32_t i : small) {
-      if (cdf_[i + 1] - cdf_[i] > 0) {
-        alias_prob_[i] = 1;
-      } else {
-        alias_prob_[i] = 0;
-        alias_[i] = large.empty() ? FirstPositiveCell() : large.front();
-      }
-    }
-  }
-  for (size_t i = 0; i < n; ++i)
-    if (alias_prob_[i] < 1 && !(cdf_[alias_[i] + 1] - cdf_[alias_[i]] > 0))
-      alias_prob_[i] = 1;  // never alias to a zero cell
+  if (total_ > 0)
+    for (size_t i = 0; i < n; ++i) pdf_[i] = (cdf_[i + 1] - cdf_[i]) / total_ / solid_angle_[i];
+  row_cdf_.resize(static_cast<size_t>(height_) + 1);
+  for (int y = 0; y <= height_; ++y) row_cdf_[static_cast<size_t>(y)] = cdf_[static_cast<size_t>(y) * width_];
 }
 
-uint32_t EnvironmentMap::FirstPositiveCell() const {
-  for (size_t i = 0; i < radiance_.size(); ++i)
-    if (cdf_[i + 1] - cdf_[i] > 0) return static_cast<uint32_t>(i);
-  return 0;
+namespace {
+
+// The index i in [0, n) with c[i] <= t < c[i + 1] (c non-decreasing, c[0] <= t);
+// never an empty interval: past the last non-empty one (rounding) it is that one.
+size_t Invert(const double* c, size_t n, double t) {
+  size_t i = static_cast<size_t>(std::upper_bound(c, c + n + 1, t) - c);
+  i = i == 0 ? 0 : i - 1;
+  if (i >= n) i = n - 1;
+  while (i > 0 && !(c[i + 1] > c[i])) --i;  // t rounded onto or past the end
+  return i;
 }
+
+}  // namespace
 
 EnvironmentMap EnvironmentMap::Constant(const Eigen::Vector3d& radiance) {
   Image img = Image::Rgb(4, 3);
@@ -138,22 +114,30 @@ double EnvironmentMap::Pdf(const Eigen::Vector3d& dir) const {
   return pdf_[i];
 }
 
-Eigen::Vector3d EnvironmentMap::Sample(double u0, double u1, double u2, Eigen::Vector3d* dir, double* pdf) const {
+Eigen::Vector3d EnvironmentMap::Sample(double u0, double u1, Eigen::Vector3d* dir, double* pdf) const {
   *pdf = 0;
   if (empty() || total_ <= 0) return Eigen::Vector3d::Zero();
-  // Cell from the alias table (cells of zero weight are never chosen).
-  const double un = u0 * static_cast<double>(radiance_.size());
-  size_t i = std::min(static_cast<size_t>(un), radiance_.size() - 1);
-  if (un - static_cast<double>(i) >= alias_prob_[i]) i = alias_[i];
-  const int px = static_cast<int>(i % width_), py = static_cast<int>(i / width_);
-  // Uniform in solid angle within the cell.
+  // Row by u0, cell in the row by u1, both by inverting the cumulative
+  // weights; what is left of each places the direction in the cell (uniform
+  // in solid angle: linear in sin(latitude) and longitude).  The map from
+  // (u0, u1) to directions is continuous and monotone in each, so
+  // stratified numbers give stratified directions (over the sun's cells too).
+  const size_t py = Invert(row_cdf_.data(), static_cast<size_t>(height_), u0 * total_);
+  const double r0_lo = row_cdf_[py], r0_w = row_cdf_[py + 1] - r0_lo;
+  const double f0 = Clamp((u0 * total_ - r0_lo) / r0_w, 0.0, 1.0);
+  const double* row = cdf_.data() + py * static_cast<size_t>(width_);
+  const double t1 = r0_lo + u1 * r0_w;
+  const size_t px = Invert(row, static_cast<size_t>(width_), t1);
+  const double c_w = row[px + 1] - row[px];
+  const double f1 = Clamp((t1 - row[px]) / c_w, 0.0, 1.0);
+  const size_t i = py * static_cast<size_t>(width_) + px;
   const double dlon = kTwoPi / (width_ - 1);
-  const double lon_c = kPi - px * dlon;
+  const double lon_c = kPi - static_cast<double>(px) * dlon;
   const double lon_hi = std::min(kPi, lon_c + dlon / 2), lon_lo = std::max(-kPi, lon_c - dlon / 2);
-  const double s_lo = row_sin_[static_cast<size_t>(py) + 1], s_hi = row_sin_[static_cast<size_t>(py)];
-  const double s = Clamp(s_lo + u1 * (s_hi - s_lo), -1.0, 1.0);
+  const double s_lo = row_sin_[py + 1], s_hi = row_sin_[py];
+  const double s = Clamp(s_hi - f0 * (s_hi - s_lo), -1.0, 1.0);
   // LatLongToDirection with sin(latitude) = s, without the round trip through asin.
-  const double lon = lon_lo + u2 * (lon_hi - lon_lo), cl = SafeSqrt(1 - s * s);
+  const double lon = lon_hi - f1 * (lon_hi - lon_lo), cl = SafeSqrt(1 - s * s);
   *dir = world_from_env_ * Eigen::Vector3d(std::sin(lon) * cl, s, std::cos(lon) * cl);
   *pdf = pdf_[i];
   return radiance_[i].cast<double>();

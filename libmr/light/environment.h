@@ -6,6 +6,9 @@
 // cell it lies in), and directions are sampled by choosing a cell in
 // proportion to luminance x solid angle and then uniformly in solid angle
 // inside it: Eval, Sample and Pdf are exactly consistent, which the tests check.
+// Sampling inverts the marginal (rows) and conditional (cells in a row)
+// distributions, a continuous map of the unit square: stratified numbers
+// (Sampler) stay stratified over the map, the sun's few cells included.
 #pragma once
 
 #include <cstdint>
@@ -39,8 +42,9 @@ class EnvironmentMap {
 
   // Radiance arriving from world direction `dir` (unit).
   Eigen::Vector3d Eval(const Eigen::Vector3d& dir) const;
-  // Samples a world direction; returns the radiance and sets the solid-angle pdf.
-  Eigen::Vector3d Sample(double u0, double u1, double u2, Eigen::Vector3d* dir, double* pdf) const;
+  // Samples a world direction from (u0, u1) in [0,1)^2 (u0: the row, u1: the
+  // cell in it); returns the radiance and sets the solid-angle pdf.
+  Eigen::Vector3d Sample(double u0, double u1, Eigen::Vector3d* dir, double* pdf) const;
   double Pdf(const Eigen::Vector3d& dir) const;
   // Eval and Pdf with one lookup (what an escaped path needs).
   Eigen::Vector3d EvalWithPdf(const Eigen::Vector3d& dir, double* pdf) const;
@@ -53,11 +57,9 @@ class EnvironmentMap {
   std::vector<Eigen::Vector3f> radiance_;  // per pixel, scaled
   std::vector<double> cdf_;                // over cells, luminance x solid angle
   std::vector<double> solid_angle_;
-  std::vector<double> pdf_;         // per cell, solid angle
-  std::vector<double> row_sin_;     // sin(latitude) of the row edges
-  std::vector<double> alias_prob_;  // Vose alias table
-  std::vector<uint32_t> alias_;
-  uint32_t FirstPositiveCell() const;
+  std::vector<double> pdf_;      // per cell, solid angle
+  std::vector<double> row_sin_;  // sin(latitude) of the row edges
+  std::vector<double> row_cdf_;  // cdf_ at the rows' starts (height + 1)
   double total_ = 0;
   Eigen::Matrix3d world_from_env_ = Eigen::Matrix3d::Identity();
 };

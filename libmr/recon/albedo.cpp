@@ -237,7 +237,8 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
         if (env.empty()) continue;
         Eigen::Vector3d dl;
         double pdf_env = 0;
-        const Eigen::Vector3d L = env.Sample(rng.NextDouble(), rng.NextDouble(), rng.NextDouble(), &dl, &pdf_env);
+        const double e0 = rng.NextDouble(), e1 = rng.NextDouble();  // in this order
+        const Eigen::Vector3d L = env.Sample(e0, e1, &dl, &pdf_env);
         const double c = n.dot(dl);
         if (c <= 0 || !(pdf_env > 0)) continue;
         Ray sr;

@@ -51,8 +51,9 @@ double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
   double pdf = diffuse_weight_ * wi.z() * kInvPi;
   if (glossy_weight_ > 0) {
     Eigen::Vector3d h = (wo + wi).normalized();
-    // D(h) cos(theta_h) sampling of half vectors, mapped to wi: / (4 |wo . h|).
-    pdf += glossy_weight_ * D(h) * h.z() / (4 * std::abs(wo.dot(h)));
+    // Visible normals: D_wo(h) = G1(wo) max(0, wo . h) D(h) / wo.z, mapped to
+    // wi by / (4 wo . h).
+    if (wo.dot(h) > 0) pdf += glossy_weight_ * D(h) / ((1 + Lambda(wo)) * 4 * wo.z());
   }
   return pdf;
 }
@@ -63,11 +64,21 @@ bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1
     auto d = SampleCosineHemisphere(u0, u1);
     s->wi = Eigen::Vector3d(d[0], d[1], d[2]);
   } else {
-    // theta_h with tan^2 = a^2 u / (1 - u): the D(h) cos(theta_h) density.
-    const double t2 = alpha_ * alpha_ * u0 / std::max(1e-300, 1 - u0);
-    const double c = 1 / std::sqrt(1 + t2), sn = SafeSqrt(1 - c * c);
-    const double phi = kTwoPi * u1;
-    Eigen::Vector3d h(sn * std::cos(phi), sn * std::sin(phi), c);
+    // The normals wo sees (Heitz 2018, "Sampling the GGX Distribution of
+    // Visible Normals"): the weight f cos / pdf of the lobe is
+    // G2(wo, wi) / G1(wo) <= 1, where sampling D(h) cos(theta_h) gives
+    // weights up to ~2 / alpha at grazing wo (fireflies off glossy
+    // surfaces seen at a grazing angle).
+    const Eigen::Vector3d vh = Eigen::Vector3d(alpha_ * wo.x(), alpha_ * wo.y(), wo.z()).normalized();
+    const double len2 = vh.x() * vh.x() + vh.y() * vh.y();
+    const Eigen::Vector3d t1 =
+        len2 > 0 ? Eigen::Vector3d(-vh.y(), vh.x(), 0) / std::sqrt(len2) : Eigen::Vector3d(1, 0, 0);
+    const Eigen::Vector3d t2 = vh.cross(t1);
+    const double r = std::sqrt(u0), phi = kTwoPi * u1;
+    const double p1 = r * std::cos(phi), sh = 0.5 * (1 + vh.z());
+    const double p2 = (1 - sh) * SafeSqrt(1 - p1 * p1) + sh * r * std::sin(phi);
+    const Eigen::Vector3d nh = p1 * t1 + p2 * t2 + SafeSqrt(1 - p1 * p1 - p2 * p2) * vh;
+    const Eigen::Vector3d h = Eigen::Vector3d(alpha_ * nh.x(), alpha_ * nh.y(), std::max(1e-12, nh.z())).normalized();
     s->wi = 2 * wo.dot(h) * h - wo;
   }
   if (s->wi.z() <= 0) return false;

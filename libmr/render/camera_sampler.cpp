@@ -49,13 +49,14 @@ bool CameraSampler::PixelValid(int x, int y) const {
   return corner_ok_[c00] && corner_ok_[c10] && corner_ok_[c01] && corner_ok_[c11];
 }
 
-Pcg32 CameraSampler::Sample(int x, int y, int s, Ray* ray) const {
+Sampler CameraSampler::Sample(int x, int y, int s, Ray* ray) const {
   const size_t i = static_cast<size_t>(y) * width_ + x;
   const size_t c00 = static_cast<size_t>(y) * (width_ + 1) + x, c10 = c00 + 1, c01 = c00 + width_ + 1, c11 = c01 + 1;
-  // One generator per (pixel, sample index): samples are independent of
-  // each other, of the thread count and of how passes split them.
-  Pcg32 rng(HashCombine(frame_seed_, static_cast<uint64_t>(s)), i);
-  const double fx = rng.NextDouble(), fy = rng.NextDouble();
+  // One sequence per pixel, sample s of it: samples depend on neither the
+  // thread count nor how passes split them, and a pixel's first 2^m samples
+  // are stratified in every draw.
+  Sampler rng = Sampler::Stratified(HashCombine(frame_seed_, i), static_cast<uint32_t>(s));
+  const auto [fx, fy] = rng.Next2D();
   const Eigen::Vector3d d = (1 - fy) * ((1 - fx) * corner_dirs_[c00] + fx * corner_dirs_[c10]) +
                             fy * ((1 - fx) * corner_dirs_[c01] + fx * corner_dirs_[c11]);
   if (!exposure_.any()) {
@@ -72,7 +73,7 @@ Pcg32 CameraSampler::Sample(int x, int y, int s, Ray* ray) const {
   if (exposure_.aperture_radius > 0) {
     // Thin lens: the ray through the lens point that meets the pinhole ray
     // where it crosses the focal surface.
-    const double u1 = rng.NextDouble(), u2 = rng.NextDouble();
+    const auto [u1, u2] = rng.Next2D();
     const double r = exposure_.aperture_radius * std::sqrt(u1), phi = 2 * 3.14159265358979323846 * u2;
     const double along = dir.z() > 0.1 ? exposure_.focus_distance / dir.z() : exposure_.focus_distance;
     const Eigen::Vector3d focus = along * dir;

@@ -46,9 +46,11 @@ class CameraSampler {
   int height() const { return height_; }
   // False for pixels outside the lens's valid region.
   bool PixelValid(int x, int y) const;
-  // The generator of sample `s` of pixel (x, y), already advanced past the
-  // two numbers that placed the camera ray `ray`.
-  Pcg32 Sample(int x, int y, int s, Ray* ray) const;
+  // The numbers of sample `s` of pixel (x, y): sample s of the pixel's
+  // stratified sequence (Sampler), already past the draws that placed the
+  // camera ray `ray` (the point in the pixel, then the shutter time and the
+  // lens point where the exposure has them).
+  Sampler Sample(int x, int y, int s, Ray* ray) const;
   // World-space unit directions through the pixel's corners, in order around
   // it, at the frame's pose (the middle of the shutter interval).
   void CornerDirections(int x, int y, Eigen::Vector3d c[4]) const;

@@ -123,7 +123,7 @@ std::string IrradianceCache::WorldChanged(const WorldChange& c) {
 
 void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
   // Stratified cosine-distributed directions, the record's own stream.
-  Pcg32 rng(HashCombine(settings_.seed, 0x6963), r->index);
+  Sampler rng = Sampler::Random(HashCombine(settings_.seed, 0x6963), r->index);
   const int n = std::max(1, settings_.rays);
   const int side = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(n))));
   const ShadingFrame frame_n(r->n);
@@ -406,7 +406,7 @@ void IcFrameRenderer::RenderPass(int spp) {
   ShadePixels(spp);
 }
 
-void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int sample, PathSample* out) {
+void IcFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pi, int sample, PathSample* out) {
   const EmbreeScene& embree = scene_.embree();
   const size_t k = pi * static_cast<size_t>(samples_) + static_cast<size_t>(sample - first_);
   int64_t row_rays = 0;
@@ -415,7 +415,7 @@ void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int 
   // One surface point for the wanted solutions: emission, direct light,
   // cached indirect diffuse light, and the glossy lobe's path.
   auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, const Eigen::Vector3d& e_m,
-                   const Eigen::Vector3d& e_r, Pcg32& g) {
+                   const Eigen::Vector3d& e_r, Sampler& g) {
     PathVertex v = MakeVertex(scene_, r, hit);
     const bool xv = hit.is_virtual;
     if (want_m) mixed += v.material->emission;
@@ -440,7 +440,8 @@ void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int 
     });
     if (cache_->settings().glossy_depth == 0) return;  // next-event light only
     BsdfSample bs;
-    const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
+    const double ul = g.NextDouble();
+    const auto [u0, u1] = g.Next2D();
     if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return;
     const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
     const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
@@ -467,7 +468,7 @@ void IcFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t pi, int 
   } else if (hit.is_virtual) {
     primary_virtual = true;
     const Entry& re = real_[k];
-    Pcg32 real_rng = rng;
+    Sampler real_rng = rng;
     Ray rr = ray;
     rr.mask = kMaskReal;
     Hit rh;

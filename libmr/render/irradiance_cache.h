@@ -115,7 +115,7 @@ class IcFrameRenderer : public PixelLoopMethod {
     double w = 0;
     Eigen::Vector3d sum_m = Eigen::Vector3d::Zero(), sum_r = Eigen::Vector3d::Zero();  // sums of w E_m, w E_r
   };
-  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
+  void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   void Splat(size_t record, int64_t first_row, int64_t last_row);
   void SplatAll(const std::vector<size_t>& records);
 

@@ -134,16 +134,16 @@ inline void AddEscapedCameraRay(const RenderScene& scene, const Ray& ray, Eigen:
 // pdf (false: light sampling alone, for methods that never count those
 // emitters through BSDF-sampled rays at this vertex).
 template <class Emit>
-void NextEvent(const RenderScene& scene, const PathVertex& v, Pcg32& rng, Emit&& emit, bool mis = true) {
+void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true) {
   const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
   const Eigen::Vector3d origin = v.p + v.frame.n * v.offset;
   const EnvironmentMap& env = scene.environment();
   {
-    const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble();
+    const auto [u0, u1] = rng.Next2D();
     Eigen::Vector3d wi;
     double pdf_light = 0;
     if (!env.empty()) {
-      const Eigen::Vector3d le = env.Sample(u0, u1, u2, &wi, &pdf_light);
+      const Eigen::Vector3d le = env.Sample(u0, u1, &wi, &pdf_light);
       const Eigen::Vector3d wi_l = v.frame.ToLocal(wi);
       if (pdf_light > 0 && wi_l.z() > 0) {
         const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
@@ -155,7 +155,7 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Pcg32& rng, Emit&&
     }
   }
   for (const LightSource& l : scene.lights()) {
-    const double u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    const auto [u0, u1] = rng.Next2D();
     LightSample ls;
     if (!l.Sample(v.p, u0, u1, &ls)) continue;
     const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
@@ -207,7 +207,7 @@ inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray 
 // along `ray` (1 or 0 by shadow ray; vct: a shadow cone).  Returns rays traced.
 template <class VirtualPass>
 int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen::Vector3d& albedo, bool x_virtual,
-                      bool want_m, bool want_r, Pcg32& rng, Eigen::Vector3d* mixed, Eigen::Vector3d* real,
+                      bool want_m, bool want_r, Sampler& rng, Eigen::Vector3d* mixed, Eigen::Vector3d* real,
                       VirtualPass&& virtual_pass) {
   const EmbreeScene& embree = scene.embree();
   int64_t rays = 0;
@@ -222,7 +222,8 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
     *real += c;
     *mixed += c * virtual_pass(shadow);
   });
-  const auto d = SampleCosineHemisphere(rng.NextDouble(), rng.NextDouble());
+  const auto u = rng.Next2D();
+  const auto d = SampleCosineHemisphere(u[0], u[1]);
   const double pdf = d[2] * kInvPi;
   if (!(pdf > 0)) return rays;
   Ray sky = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskReal);

@@ -54,7 +54,7 @@ bool DifferentialPathTracer::ViewRadiance(const PlateView& pv, const Eigen::Vect
   return L->allFinite();
 }
 
-bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, Pcg32& rng, int* rays,
+bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, Sampler& rng, int* rays,
                                               Eigen::Vector3d* L) const {
   if (!settings_.plate_reflections || settings_.plates.empty()) return false;
   // The real room as the plate shows it (emitted and reflected light
@@ -88,7 +88,7 @@ bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::
 }
 
 Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf,
-                                                    int depth, Pcg32& rng, int* rays, int escape_from_depth,
+                                                    int depth, Sampler& rng, int* rays, int escape_from_depth,
                                                     bool from_virtual) const {
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
@@ -114,7 +114,8 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       if (!Occluded(shadow)) L += beta.cwiseProduct(c);
     });
     BsdfSample s;
-    const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    const double ul = rng.NextDouble();
+    const auto [u0, u1] = rng.Next2D();
     if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) break;
     beta = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
     prev_pdf = s.pdf;
@@ -129,7 +130,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
 }
 
 PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int start_depth,
-                                             Pcg32& rng, int escape_from_depth) const {
+                                             Sampler& rng, int escape_from_depth) const {
   PathSample out;
   int* rays = &out.rays;
   Ray ray = start;
@@ -151,7 +152,7 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
       // The paths part: the real one continues behind the object with a copy
       // of the random stream, the mixed one goes on from the object.
       if (depth == 0) out.primary_virtual = true;
-      Pcg32 real_rng = rng;
+      Sampler real_rng = rng;
       out.real += TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, real_rng, &out.rays, escape_from_depth);
       out.mixed += TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, &out.rays, escape_from_depth);
       return out;
@@ -181,7 +182,8 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
       out.mixed += beta.cwiseProduct(c);
     });
     BsdfSample s;
-    const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    const double ul = rng.NextDouble();
+    const auto [u0, u1] = rng.Next2D();
     if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return out;
     beta = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
     prev_pdf = s.pdf;

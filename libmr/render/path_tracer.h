@@ -60,7 +60,7 @@ class DifferentialPathTracer {
   DifferentialPathTracer(const RenderScene& scene, const PathTracerSettings& settings)
       : scene_(scene), settings_(settings), plate_counters_(std::make_shared<PlateCounters>()) {}
   const PlateCounters& plate_counters() const { return *plate_counters_; }
-  PathSample Trace(const Ray& primary, Pcg32& rng) const {
+  PathSample Trace(const Ray& primary, Sampler& rng) const {
     return TraceFrom(primary, Eigen::Vector3d::Ones(), 0, 0, rng);
   }
   // The shared differential path from `start` on, as if it had reached
@@ -68,18 +68,18 @@ class DifferentialPathTracer {
   // with solid-angle pdf `prev_pdf` (0: no MIS on escape).  Rays escaping
   // before bounce `escape_from_depth` count nothing (a method that takes
   // direct light by light sampling alone passes depth + 1).
-  PathSample TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int depth, Pcg32& rng,
+  PathSample TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int depth, Sampler& rng,
                        int escape_from_depth = 0) const;
   // Radiance arriving along `ray` in the scene with everything in it
   // (virtual included); `prev_pdf` is the solid-angle pdf that chose the
   // direction (0: no MIS against lights on escape).
-  Eigen::Vector3d Radiance(const Ray& ray, double prev_pdf, Pcg32& rng) const {
+  Eigen::Vector3d Radiance(const Ray& ray, double prev_pdf, Sampler& rng) const {
     int rays = 0;
     return TraceSingle(ray, kMaskAll, Eigen::Vector3d::Ones(), prev_pdf, 0, rng, &rays, 0);
   }
   // Radiance arriving along `ray` in the real scene alone (virtual geometry
   // and lights left out), times beta, from bounce `depth` on.
-  Eigen::Vector3d RealRadiance(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, int depth, Pcg32& rng,
+  Eigen::Vector3d RealRadiance(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, int depth, Sampler& rng,
                                int* rays) const {
     return TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, rng, rays, 0);
   }
@@ -87,7 +87,7 @@ class DifferentialPathTracer {
   // scene with everything in it, times beta: the plate where it sees the
   // real point met (PlateView), else rendered.
   Eigen::Vector3d MixedRadianceFromVirtual(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, int depth,
-                                           Pcg32& rng, int* rays) const {
+                                           Sampler& rng, int* rays) const {
     return TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, rays, 0, true);
   }
   // At real vertex `v`, met by a mixed ray leaving a virtual surface: adds
@@ -96,12 +96,12 @@ class DifferentialPathTracer {
   // it (PlateView; the path ends there); false, adding nothing, where the
   // room must be rendered (no plate, a glossy surface, unseen or clipped).
   // Counted either way.
-  bool PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, Pcg32& rng, int* rays,
+  bool PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, Sampler& rng, int* rays,
                         Eigen::Vector3d* L) const;
 
  private:
   // One path seeing geometry through `mask`, from `ray` on.
-  Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth, Pcg32& rng,
+  Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth, Sampler& rng,
                               int* rays, int escape_from_depth, bool from_virtual = false) const;
   bool Intersect(const Ray& ray, Hit* hit) const {
     if (settings_.ray_log) settings_.ray_log->closest.push_back(ray);

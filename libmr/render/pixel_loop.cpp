@@ -24,7 +24,7 @@ void PixelLoopMethod::ShadePixels(int spp) {
       acc_.Count(i, spp);
       for (int s = spp_; s < spp_ + spp; ++s) {  // after the earlier passes' samples
         Ray ray;
-        Pcg32 rng = sampler_.Sample(x, static_cast<int>(y), s, &ray);
+        Sampler rng = sampler_.Sample(x, static_cast<int>(y), s, &ray);
         PathSample ps;
         Shade(ray, rng, y, i, s, &ps);
         row_rays += ps.rays;

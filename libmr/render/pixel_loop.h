@@ -35,7 +35,7 @@ class PixelLoopMethod : public FrameMethod {
   // Sample `sample` of pixel `pixel` (in image row `row`) along camera ray
   // `ray` with its generator: fills mixed, real, primary_virtual and rays.
   // Called concurrently for different rows; a row's samples in order.
-  virtual void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) = 0;
+  virtual void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) = 0;
   // True for a pixel that needs no more samples (pt: provably no difference).
   virtual bool PixelDone(size_t pixel) const {
     (void)pixel;

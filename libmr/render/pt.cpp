@@ -84,7 +84,7 @@ PtFrameRenderer::PtFrameRenderer(const RenderScene& scene, const CameraModel& ca
   }
 }
 
-void PtFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t, size_t, int, PathSample* out) {
+void PtFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t, int, PathSample* out) {
   *out = tracer_.Trace(ray, rng);
 }
 

@@ -24,7 +24,7 @@ class PtFrameRenderer : public PixelLoopMethod {
   const PlateCounters& plate_counters() const { return tracer_.plate_counters(); }
 
  private:
-  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
+  void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   bool PixelDone(size_t pixel) const override { return skip_[pixel] && accumulator().count(pixel) > 0; }
   DifferentialPathTracer tracer_;
   std::vector<char> skip_;  // provably zero difference

@@ -291,7 +291,7 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     const bool to_real = dl.sets & kLightsReal, to_mixed = dl.sets & kLightsMixed;
     std::vector<std::vector<Deposit>> deposits(static_cast<size_t>(nu) * nv);
     ParallelFor(0, static_cast<int64_t>(deposits.size()), [&](int64_t j) {
-      Pcg32 rng(HashCombine(st.seed, 0x766374 + di), static_cast<uint64_t>(j));
+      Sampler rng = Sampler::Random(HashCombine(st.seed, 0x766374 + di), static_cast<uint64_t>(j));
       const double u = u0 + (static_cast<double>(j % nu) + rng.NextDouble()) * du;
       const double v = v0 + (static_cast<double>(j / nu) + rng.NextDouble()) * dv;
       const Ray ray = MakeRay(centre + u * t + v * b + far * dl.dir, -dl.dir, kMaskAll);
@@ -323,7 +323,7 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     const bool to_real = !l.is_virtual();
     std::vector<std::vector<Deposit>> deposits(static_cast<size_t>(side) * side);
     ParallelFor(0, static_cast<int64_t>(deposits.size()), [&](int64_t j) {
-      Pcg32 rng(HashCombine(st.seed, 0x766c74 + li), static_cast<uint64_t>(j));
+      Sampler rng = Sampler::Random(HashCombine(st.seed, 0x766c74 + li), static_cast<uint64_t>(j));
       const double a = (static_cast<double>(j % side) + rng.NextDouble()) / side;
       const double c = (static_cast<double>(j / side) + rng.NextDouble()) / side;
       const double cos_t = 1 - a * (1 - cos_max), sin_t = SafeSqrt(1 - cos_t * cos_t), phi = kTwoPi * c;
@@ -405,7 +405,7 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     const int spt = std::max(1, st.far_field_samples);
     ParallelFor(0, static_cast<int64_t>(raw.size()), [&](int64_t i) {
       const int px = static_cast<int>(i % w), py = static_cast<int>(i / w);
-      Pcg32 rng(HashCombine(st.seed, 0x666172), static_cast<uint64_t>(i));
+      Sampler rng = Sampler::Random(HashCombine(st.seed, 0x666172), static_cast<uint64_t>(i));
       Eigen::Vector3d sm = Eigen::Vector3d::Zero(), sr = sm, km = sm, kr = sm;
       for (int s = 0; s < spt; ++s) {
         const double x = std::clamp(px - 0.5 + rng.NextDouble(), 0.0, w - 1.0);
@@ -625,7 +625,7 @@ void VctFrameRenderer::RenderPass(int spp) {
   for (const Counters& c : rows_) counters_ += c;
 }
 
-void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, int, PathSample* out) {
+void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, int, PathSample* out) {
   const EmbreeScene& embree = scene_.embree();
   const VctVolumes& vol = *vol_;
   const VctSettings& st = vol.settings();
@@ -638,7 +638,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
   Counters c;
   Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
   bool primary_virtual = false;
-  auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, Pcg32& g) {
+  auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, Sampler& g) {
     PathVertex v = MakeVertex(scene_, r, hit);
     const bool xv = hit.is_virtual;
     if (want_m) mixed += v.material->emission;
@@ -708,7 +708,8 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
                              l.is_virtual(), xv, want_m, want_r, &mixed, &real);
     }
     BsdfSample bs;
-    const double ul = g.NextDouble(), u0 = g.NextDouble(), u1 = g.NextDouble();
+    const double ul = g.NextDouble();
+    const auto [u0, u1] = g.Next2D();
     if (!vg.bsdf.Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
     const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
     const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
@@ -731,7 +732,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t, in
     AddEscapedCameraRay(scene_, ray, &mixed, &real);
   } else if (hit.is_virtual) {
     primary_virtual = true;
-    Pcg32 real_rng = rng;
+    Sampler real_rng = rng;
     Ray rr = ray;
     rr.mask = kMaskReal;
     Hit rh;

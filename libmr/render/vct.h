@@ -133,7 +133,7 @@ class VctFrameRenderer : public PixelLoopMethod {
   const Counters& counters() const { return counters_; }
 
  private:
-  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
+  void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   const RenderScene& scene_;
   std::shared_ptr<const VctVolumes> vol_;
   std::vector<Counters> rows_;  // this pass's, per image row

@@ -35,13 +35,13 @@ std::vector<DirectionalVpl> DirectionalLights(const RenderScene& scene, int dire
   const int nd = std::max(1, directions);
   if (!env.empty()) {
     const int n1 = (nd + 1) / 2, n2 = nd / 2;
-    Pcg32 rng(HashCombine(seed, 0x646972), 0);
+    Sampler rng = Sampler::Random(HashCombine(seed, 0x646972), 0);
     for (int k = 0; k < nd; ++k) {
       Eigen::Vector3d dir;
       double pdf = 0;
-      const double u = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble();
+      const double u = rng.NextDouble(), u1 = rng.NextDouble();
       if (k < n1) {
-        env.Sample((k + u) / n1, u1, u2, &dir, &pdf);
+        env.Sample((k + u) / n1, u1, &dir, &pdf);
       } else {
         const auto d = SampleUniformSphere((k - n1 + u) / n2, u1);
         dir = Eigen::Vector3d(d[0], d[1], d[2]);
@@ -59,7 +59,7 @@ std::vector<DirectionalVpl> DirectionalLights(const RenderScene& scene, int dire
     if (l.light().type != LightType::kDistant) continue;
     const uint8_t sets = l.is_virtual() ? kLightsMixed : kLightsBoth;
     const int n = l.light().IsDelta() ? 1 : std::max(1, nd / 4);
-    Pcg32 rng(HashCombine(seed, 0x646973), i);
+    Sampler rng = Sampler::Random(HashCombine(seed, 0x646973), i);
     for (int k = 0; k < n; ++k) {
       LightSample ls;
       const double u0 = (k + rng.NextDouble()) / n, u1 = rng.NextDouble();
@@ -152,10 +152,10 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
       while (ei + 1 < emitters.size() && j >= emitters[ei].first + emitters[ei].paths) ++ei;
       const Emitter& em = emitters[ei];
       if (em.paths == 0) return;
-      Pcg32 rng(HashCombine(HashCombine(st.seed, 0x76706c), em.stream), static_cast<uint64_t>(j - em.first));
+      Sampler rng =
+          Sampler::Random(HashCombine(HashCombine(st.seed, 0x76706c), em.stream), static_cast<uint64_t>(j - em.first));
       const double p_select = static_cast<double>(em.paths) / st.paths;  // flux / (p_select paths) = / em.paths
-      const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u2 = rng.NextDouble(), u3 = rng.NextDouble(),
-                   u4 = rng.NextDouble();
+      const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u3 = rng.NextDouble(), u4 = rng.NextDouble();
       Eigen::Vector3d origin, dir, flux;
       uint8_t sets = kLightsBoth;
       // Parallel light (the environment, distant lights) enters through a
@@ -185,7 +185,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
       if (em.light < 0) {
         double pdf = 0;
         Eigen::Vector3d w;
-        const Eigen::Vector3d L = env.Sample(u0, u1, u2, &w, &pdf);
+        const Eigen::Vector3d L = env.Sample(u0, u1, &w, &pdf);
         if (!(pdf > 0)) return;
         from_disc(w, L / pdf);
       } else {
@@ -221,14 +221,14 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
       // path meets a virtual object the real-only path goes on behind it.
       std::vector<Vpl>& vs = per_path[static_cast<size_t>(j)];
       const double flux0 = flux.maxCoeff();
-      const std::function<void(Ray, uint8_t, Eigen::Vector3d, int, Pcg32&)> walk =
-          [&](Ray ray, uint8_t path_sets, Eigen::Vector3d phi, int depth, Pcg32& g) {
+      const std::function<void(Ray, uint8_t, Eigen::Vector3d, int, Sampler&)> walk =
+          [&](Ray ray, uint8_t path_sets, Eigen::Vector3d phi, int depth, Sampler& g) {
             for (; depth <= max_vpl_depth; ++depth) {
               ray.mask = MaskOf(path_sets);
               Hit hit;
               if (!embree.Intersect(ray, &hit)) return;
               if (hit.is_virtual && path_sets == kLightsBoth) {
-                Pcg32 real_rng = g;
+                Sampler real_rng = g;
                 walk(ray, kLightsReal, phi, depth, real_rng);  // ir VPLs
                 path_sets = kLightsMixed;
               }
@@ -317,8 +317,8 @@ class VplShader {
 
   // Radiance along `ray` (times beta) for the wanted solutions; `from_virtual`:
   // the ray leaves a virtual surface.
-  void ShadeRay(Ray ray, bool want_m, bool want_r, int depth, double prev_pdf, const Eigen::Vector3d& beta, Pcg32& rng,
-                Accum* acc, bool from_virtual = false) const {
+  void ShadeRay(Ray ray, bool want_m, bool want_r, int depth, double prev_pdf, const Eigen::Vector3d& beta,
+                Sampler& rng, Accum* acc, bool from_virtual = false) const {
     ray.mask = want_m ? kMaskAll : kMaskReal;
     Hit hit;
     ++acc->c.rays;
@@ -337,7 +337,7 @@ class VplShader {
     if (hit.is_virtual) {
       if (depth == 0) acc->primary_virtual = true;
       if (want_r) {
-        Pcg32 real_rng = rng;
+        Sampler real_rng = rng;
         ShadeRay(ray, false, true, depth, prev_pdf, beta, real_rng, acc);
       }
       ShadeAt(MakeVertex(scene_, ray, hit), true, true, false, depth, beta, rng, acc, true);
@@ -353,7 +353,7 @@ class VplShader {
   }
 
   void ShadeAt(const PathVertex& v, bool x_virtual, bool want_m, bool want_r, int depth, const Eigen::Vector3d& beta,
-               Pcg32& rng, Accum* acc, bool emission) const {
+               Sampler& rng, Accum* acc, bool emission) const {
     if (emission) Add(acc, want_m, want_r, beta.cwiseProduct(v.material->emission));
     if (v.bsdf.IsBlack()) return;
     const bool split = v.material->IsGlossy() && depth < st_.glossy_depth;
@@ -372,7 +372,8 @@ class VplShader {
                                            want_r, &acc->mixed, &acc->real);
       });
       BsdfSample s;
-      const double ul = rng.NextDouble(), u0 = rng.NextDouble(), u1 = rng.NextDouble();
+      const double ul = rng.NextDouble();
+      const auto [u0, u1] = rng.Next2D();
       if (glossy.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
         const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
         ShadeRay(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
@@ -386,8 +387,9 @@ class VplShader {
   // closer than the clamp distance, weighted by the part the clamp removed
   // (1 - d²/clamp²), along one cosine-sampled ray.
   void Compensate(const PathVertex& v, bool x_virtual, bool want_m, bool want_r, const Eigen::Vector3d& beta,
-                  Pcg32& rng, Accum* acc) const {
-    const auto d = SampleCosineHemisphere(rng.NextDouble(), rng.NextDouble());
+                  Sampler& rng, Accum* acc) const {
+    const auto u = rng.Next2D();
+    const auto d = SampleCosineHemisphere(u[0], u[1]);
     const Eigen::Vector3d dir = v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2]));
     const Eigen::Vector3d albedo = DiffuseAlbedo(v);  // f cos / pdf of the diffuse lobe
     auto one = [&](uint32_t mask, bool m, bool r) {
@@ -400,7 +402,7 @@ class VplShader {
       if (w <= 0) return;
       if (hit.is_virtual && !m) return;
       Accum sub;
-      Pcg32 g = rng;
+      Sampler g = rng;
       const PathVertex y = MakeVertex(scene_, ray, hit);
       ShadeAt(y, hit.is_virtual, m, r && !hit.is_virtual, 1, beta.cwiseProduct(albedo) * w, g, &sub, false);
       if (m) acc->mixed += sub.mixed;
@@ -553,7 +555,7 @@ void VplFrameRenderer::RenderPass(int spp) {
   for (const Counters& c : rows_) counters_ += c;
 }
 
-void VplFrameRenderer::Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t i, int, PathSample* out) {
+void VplFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t i, int, PathSample* out) {
   Counters& rc = rows_[static_cast<size_t>(row)];
   Accum acc;
   VplShader(scene_, *set_, &plate_tracer_).ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);

@@ -106,7 +106,7 @@ class VplFrameRenderer : public PixelLoopMethod {
   };
 
  private:
-  void Shade(const Ray& ray, Pcg32& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
+  void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   const RenderScene& scene_;
   std::shared_ptr<const VplSet> set_;
   DifferentialPathTracer plate_tracer_;  // the plate at real points (PlateAtRealPoint) only

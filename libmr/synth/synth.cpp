@@ -124,11 +124,11 @@ void WriteBracket(const fs::path& dir, const std::string& prefix, const Image& r
 
 }  // namespace
 
-std::vector<SynthPart> SynthRoom() {
+std::vector<SynthPart> SynthRoom(bool glossy_table) {
   // The room: floor, back and left walls (open to the sky above, in front and to the right),
   // a table with a glossy top, two boxes of known albedo.
   Material glossy = Diffuse(0.15, 0.15, 0.18);
-  glossy.specular = Eigen::Vector3d::Constant(0.6);
+  glossy.specular = Eigen::Vector3d::Constant(glossy_table ? 0.6 : 0.0);
   glossy.roughness = 0.25;
   std::vector<SynthPart> parts = {
       {"floor", Quad({-3, 0, -3}, {-3, 0, 3}, {3, 0, 3}, {3, 0, -3}), Diffuse(0.55, 0.5, 0.45)},
@@ -222,7 +222,9 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   p = GetSynthPreset(o.preset);
   if (o.frames > 0) p.frames = o.frames;
   c.truth_spp = o.truth_spp > 0 ? o.truth_spp : p.truth_spp;
-  c.parts = SynthRoom();
+  if (o.table_top != "glossy" && o.table_top != "diffuse")
+    throw UsageError(fmt::format("unknown table top \"{}\" (glossy, diffuse)", o.table_top));
+  c.parts = SynthRoom(o.table_top == "glossy");
   // The virtual object, resting on the table.
   Mesh& object = c.object;
   fs::path object_file;

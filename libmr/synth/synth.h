@@ -34,6 +34,9 @@ struct SynthOptions {
   // 0.25, GGX specular 0.6 at roughness 0.3) or mirror (specular 0.9 at
   // roughness 0.05).
   std::string object_material = "diffuse";
+  // The table top: glossy (the default) or diffuse (no caustic paths: the
+  // sun reflected by the table onto the room and the object).
+  std::string table_top = "glossy";
   // The scene camera's lens: opencv4 (a mild barrel distortion, the default)
   // or pinhole (for renderers without lens models, e.g. bench/cycles_compare.py).
   std::string lens = "opencv4";
@@ -68,7 +71,10 @@ struct SynthPart {
   Mesh mesh;
   Material material;
 };
-std::vector<SynthPart> SynthRoom();
+// `glossy_table`: the table top glossy (GGX specular 0.6, roughness 0.25;
+// the sun's reflection in it lights the room, caustic paths that are a
+// path tracer's fireflies) or diffuse (albedo 0.15/0.15/0.18 alone).
+std::vector<SynthPart> SynthRoom(bool glossy_table = true);
 // A capture as computed, before anything is written: the room, the object
 // on the table, the sky and lights, the camera and its path.
 struct SynthCapture {

@@ -29,7 +29,8 @@ TEST(EnvironmentMap, SamplingIsExactlyProportionalToLuminance) {
   for (int i = 0; i < 20000; ++i) {
     Eigen::Vector3d dir;
     double pdf = 0;
-    Eigen::Vector3d le = env.Sample(rng.NextDouble(), rng.NextDouble(), rng.NextDouble(), &dir, &pdf);
+    const double u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    Eigen::Vector3d le = env.Sample(u0, u1, &dir, &pdf);
     ASSERT_GT(pdf, 0);
     ASSERT_NEAR(dir.norm(), 1.0, 1e-12);
     // The sampled direction lies in the sampled cell: Eval and Pdf agree.
@@ -41,11 +42,11 @@ TEST(EnvironmentMap, SamplingIsExactlyProportionalToLuminance) {
   EXPECT_GT(sun_hits, 19990);  // the sun holds all but ~1e-9 of the power
 }
 
-// The alias table picks cells with exactly their weights and never a cell
-// of zero weight: a black map with two lit pixels whose weights are 1 : 3
+// Sampling picks cells with exactly their weights and never a cell of zero
+// weight: a black map with two lit pixels whose weights are 1 : 3
 // (equal solid angle, luminance 1 : 3).  200 000 draws: the share's standard
 // deviation is 0.001, the tolerance 0.005.
-TEST(EnvironmentMap, AliasTableMatchesWeightsAndSkipsBlackCells) {
+TEST(EnvironmentMap, SamplingMatchesWeightsAndSkipsBlackCells) {
   Image img = Image::Rgb(32, 17, 0.0f);
   for (int c = 0; c < 3; ++c) {
     img.at(7, 8, c) = 1.0f;
@@ -58,11 +59,63 @@ TEST(EnvironmentMap, AliasTableMatchesWeightsAndSkipsBlackCells) {
   for (int i = 0; i < n; ++i) {
     Eigen::Vector3d dir;
     double pdf = 0;
-    Eigen::Vector3d le = env.Sample(rng.NextDouble(), rng.NextDouble(), rng.NextDouble(), &dir, &pdf);
+    const double u0 = rng.NextDouble(), u1 = rng.NextDouble();
+    Eigen::Vector3d le = env.Sample(u0, u1, &dir, &pdf);
     ASSERT_GT(le.x(), 0.5);  // never a black cell
     bright += le.x() > 2;
   }
   EXPECT_NEAR(static_cast<double>(bright) / n, 0.75, 0.005);
+}
+
+// Stratified numbers must stay stratified through the map: the light a
+// surface receives from a blob sun (Gaussian, sigma 1.5 pixels of 256, peak
+// 2000 x the sky) with half of the sun hidden behind an edge, estimated with
+// 256 samples.  Over 64 seeds the RMS error with the Sampler's stratified
+// pairs must be under 0.4 of that with independent numbers (measured: 0.26;
+// scattering u0's neighbours over unrelated rows, as an alias table does
+// with cells, gives 0.76).
+TEST(EnvironmentMap, SamplingKeepsStratification) {
+  const int w = 256, h = 128;
+  Image img = Image::Rgb(w, h, 1.0f);
+  const double sx = 80.3, sy = 40.6;  // the sun's centre
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const double r2 = (x - sx) * (x - sx) + (y - sy) * (y - sy);
+      for (int c = 0; c < 3; ++c) img.at(x, y, c) += static_cast<float>(2000 * std::exp(-r2 / (2 * 1.5 * 1.5)));
+    }
+  EnvironmentMap env(img, "blob.exr");
+  const Eigen::Vector3d sun = LatLongPixelToDirection(Eigen::Vector2d(sx, sy), w, h);
+  const Eigen::Vector3d n = (sun + Eigen::Vector3d(0.3, 0.5, 0.1)).normalized();
+  // An edge through the sun's centre: a half-plane of directions is hidden.
+  const Eigen::Vector3d edge = sun.cross(Eigen::Vector3d(0.2, 0.9, -0.4)).normalized();
+  auto f = [&](const Eigen::Vector3d& d, const Eigen::Vector3d& le, double pdf) {
+    return d.dot(edge) > 0 ? 0.0 : std::max(0.0, d.dot(n)) * Luminance(le) / pdf;
+  };
+  // The reference: the same integral with 2^18 stratified samples.
+  auto estimate = [&](auto&& next2d, int count) {
+    CompensatedSum<double> sum;
+    for (int i = 0; i < count; ++i) {
+      const auto u = next2d(i);
+      Eigen::Vector3d d;
+      double pdf = 0;
+      const Eigen::Vector3d le = env.Sample(u[0], u[1], &d, &pdf);
+      sum += f(d, le, pdf);
+    }
+    return sum.Value() / count;
+  };
+  const double truth =
+      estimate([](int i) { return Sampler::Stratified(99, static_cast<uint32_t>(i)).Next2D(); }, 1 << 18);
+  double se_strat = 0, se_random = 0;
+  for (int seed = 0; seed < 64; ++seed) {
+    const double a =
+        estimate([&](int i) { return Sampler::Stratified(seed + 1000, static_cast<uint32_t>(i)).Next2D(); }, 256);
+    Pcg32 rng(static_cast<uint64_t>(seed), 5);
+    const double b = estimate([&](int) { return std::array<double, 2>{rng.NextDouble(), rng.NextDouble()}; }, 256);
+    se_strat += (a - truth) * (a - truth);
+    se_random += (b - truth) * (b - truth);
+  }
+  EXPECT_GT(truth, 0);
+  EXPECT_LT(std::sqrt(se_strat / se_random), 0.4);
 }
 
 TEST(EnvironmentMap, PdfIntegratesToOne) {
@@ -86,7 +139,7 @@ TEST(EnvironmentMap, RotationAndConstant) {
   EnvironmentMap env(img, "e.exr", 2.0, yaw90);
   Eigen::Vector3d dir;
   double pdf;
-  env.Sample(0.5, 0.5, 0.5, &dir, &pdf);
+  env.Sample(0.5, 0.5, &dir, &pdf);
   // +z of the map is rotated to +x of the world; the scale applies.
   EXPECT_GT(dir.x(), 0.9);
   EXPECT_EQ(env.Eval(dir).x(), 2.0);

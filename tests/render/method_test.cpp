@@ -126,7 +126,7 @@ class ConstantMethod : public PixelLoopMethod {
   std::vector<int> last_sample = std::vector<int>(12, -1);
 
  private:
-  void Shade(const Ray&, Pcg32&, int64_t, size_t pixel, int sample, PathSample* out) override {
+  void Shade(const Ray&, Sampler&, int64_t, size_t pixel, int sample, PathSample* out) override {
     out->mixed = Eigen::Vector3d(1, 2, 3);
     out->real = pixel == 0 ? Eigen::Vector3d::Constant(NAN) : Eigen::Vector3d(1, 1, 1);
     out->primary_virtual = pixel % 2 == 1;

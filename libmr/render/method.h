@@ -24,6 +24,7 @@
 #include "core/json_node.h"
 #include "core/report.h"
 #include "render/camera_sampler.h"
+#include "render/pixel_accumulator.h"
 #include "render/plate_view.h"
 #include "scene/scene.h"
 
@@ -43,6 +44,11 @@ class FrameMethod {
   virtual Image SampleCount() const = 0;         // samples per pixel, "Y"
   virtual int64_t nonfinite_samples() const { return 0; }
   virtual int64_t skipped_pixels() const { return 0; }
+  // Adaptive sampling for the passes to come (pixel_accumulator.h); false
+  // where the method has no per-pixel loop to stop.
+  virtual bool SetAdaptive(const AdaptiveSampling&) { return false; }
+  // Pixels adaptive sampling stopped so far.
+  virtual int64_t adaptive_stopped() const { return 0; }
 };
 
 // What a job knows before its first frame.

@@ -14,13 +14,23 @@ PixelLoopMethod::PixelLoopMethod(const CameraModel& camera, const Rigid3& world_
       acc_(width_, height_) {}
 
 void PixelLoopMethod::ShadePixels(int spp) {
+  if (adaptive_.on()) {
+    const size_t n = static_cast<size_t>(width_) * height_;
+    if (stopped_.empty()) stopped_.assign(n, 0);
+    std::vector<char> valid(n, 0);
+    for (int y = 0; y < height_; ++y)
+      for (int x = 0; x < width_; ++x)
+        valid[static_cast<size_t>(y) * width_ + x] =
+            sampler_.PixelValid(x, y) && !PixelDone(static_cast<size_t>(y) * width_ + x);
+    adaptive_stopped_ += UpdateAdaptiveStops(acc_, adaptive_, valid, &stopped_);
+  }
   std::atomic<int64_t> nonfinite{0}, rays{0};
   ParallelFor(0, height_, [&](int64_t y) {
     int64_t row_rays = 0, row_nonfinite = 0;
     for (int x = 0; x < width_; ++x) {
       const size_t i = static_cast<size_t>(y) * width_ + x;
       if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;  // outside the lens
-      if (PixelDone(i)) continue;
+      if (PixelDone(i) || (!stopped_.empty() && stopped_[i])) continue;
       acc_.Count(i, spp);
       for (int s = spp_; s < spp_ + spp; ++s) {  // after the earlier passes' samples
         Ray ray;

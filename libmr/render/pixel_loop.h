@@ -25,6 +25,11 @@ class PixelLoopMethod : public FrameMethod {
   Image DifferenceVariance() const final { return acc_.DifferenceVariance(); }
   Image SampleCount() const final { return acc_.SampleCount(); }
   int64_t nonfinite_samples() const final { return nonfinite_; }
+  bool SetAdaptive(const AdaptiveSampling& a) final {
+    adaptive_ = a;
+    return true;
+  }
+  int64_t adaptive_stopped() const final { return adaptive_stopped_; }
   int samples_per_pixel() const { return spp_; }
   // Closest-hit and occlusion queries of the samples (PathSample::rays).
   int64_t rays_traced() const { return rays_; }
@@ -56,6 +61,9 @@ class PixelLoopMethod : public FrameMethod {
   PixelAccumulator acc_;
   int spp_ = 0;
   int64_t nonfinite_ = 0, rays_ = 0;
+  AdaptiveSampling adaptive_;
+  std::vector<char> stopped_;  // by adaptive sampling
+  int64_t adaptive_stopped_ = 0;
 };
 
 }  // namespace mr

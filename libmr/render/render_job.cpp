@@ -191,6 +191,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   auto provenance = [&](int f) {
     std::string p = frame_provenance + fmt::format(" frame {}", f);
     if (scene.output.grain != "off") p += " grain " + scene.output.grain;
+    if (scene.render.adaptive_threshold > 0)
+      p += fmt::format(" adaptive {:.9g} min_spp {}", scene.render.adaptive_threshold, scene.render.adaptive_min_spp);
     if (!decoding.frame_gains.empty()) {
       const Rgb g = decoding.ForFrame(f).gain;
       p += fmt::format(" gain {:.9g},{:.9g},{:.9g}", g[0], g[1], g[2]);
@@ -421,6 +423,10 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                           plates};
     std::unique_ptr<FrameMethod> fr;
     if (!frame_copy) fr = method->NewFrame(fc);
+    const AdaptiveSampling adaptive{scene.render.adaptive_threshold, scene.render.adaptive_min_spp};
+    if (fr && adaptive.on() && !fr->SetAdaptive(adaptive) && f == resumed_end)
+      report->Skip("adaptive sampling",
+                   fmt::format("render.method {} has no per-pixel sample loop to stop", scene.render.method));
     std::optional<Image> region;
     if (ref && photo) region = ChangedRegion(*ref, *photo);
     const Image* photo_ptr = photo ? &*photo : nullptr;
@@ -498,6 +504,12 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                {"copied_through", !fr},
                {"environment_pixels_sampled_once", env_pixels}};
     if (!world_json.is_null()) fj["world"] = world_json;
+    if (fr && adaptive.on()) {
+      double total = 0;
+      for (float c : samples.values()) total += c;
+      fj["adaptive"] = {{"stopped_pixels", fr->adaptive_stopped()},
+                        {"mean_spp", total / std::max<size_t>(1, samples.values().size())}};
+    }
     if (env_pixels > 0 && done > 1)
       report->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
                    "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");

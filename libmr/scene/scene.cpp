@@ -300,9 +300,9 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
     // block (render.vpl, ...), kept as written for the method to parse.
     Node r = root.Child("render");
     static const std::initializer_list<const char*> generic = {
-        "method",      "spp",           "max_depth",        "seed",
-        "frames",      "time_budget_s", "plate_neighbours", "plate_neighbour_step",
-        "world_update"};
+        "method",       "spp",           "max_depth",        "seed",
+        "frames",       "time_budget_s", "plate_neighbours", "plate_neighbour_step",
+        "world_update", "adaptive"};
     if (!r.json().is_object()) r.Fail(fmt::format("expected an object, got {}", r.TypeName()));
     for (auto& [k, v] : r.json().items()) {
       bool known = false;
@@ -326,6 +326,12 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
       if (!ParseFrameRange(v, &s.render.frame_begin, &s.render.frame_end, &why)) f.Fail(why);
     }
     if (r.Has("time_budget_s")) s.render.time_budget_s = r.Child("time_budget_s").Number(0, 1e9);
+    if (r.Has("adaptive")) {
+      const Node a = r.Child("adaptive");
+      a.RequireObject({"threshold", "min_spp"});
+      if (a.Has("threshold")) s.render.adaptive_threshold = a.Child("threshold").Number(0, 1);
+      if (a.Has("min_spp")) s.render.adaptive_min_spp = static_cast<int>(a.Child("min_spp").Integer(2, 1 << 24));
+    }
     if (r.Has("plate_neighbours"))
       s.render.plate_neighbours = static_cast<int>(r.Child("plate_neighbours").Integer(0, 16));
     if (r.Has("world_update")) s.render.world_update = r.Child("world_update").OneOf({"incremental", "rebuild"});

@@ -144,6 +144,11 @@ struct SceneRender {
   uint64_t seed = 0;
   int frame_begin = 0, frame_end = -1;  // [begin, end); end -1 = all
   double time_budget_s = 0;             // 0 = none
+  // render.adaptive: a pixel stops taking samples once it has min_spp and
+  // the composite's own noise around it is at most `threshold` (relMSE;
+  // render/pixel_accumulator.h).  0: every pixel takes spp samples.
+  double adaptive_threshold = 0;
+  int adaptive_min_spp = 16;
   // Reflections take the room from the frame's own plate, then from these
   // neighbours' (frames f +- k step, k = 1..plate_neighbours, nearest first)
   // where the frame's own does not see the point (docs/methods.md).

@@ -120,15 +120,10 @@ class Capture : public ::testing::Test {
 };
 test::TempDir* Capture::dir_ = nullptr;
 
-// Unbiased: the composite's relMSE against the truth falls as 1/spp.  Over
-// three doublings (1 -> 8 spp) the ideal ratio is 8; 5 leaves room for noise
-// in the estimate of the error itself and the truth's own noise (at 256 spp,
-// 1/32 of the 8-spp estimate's).  On the capture with a diffuse table top:
-// the glossy one's caustic paths (the sun reflected by the table onto the
-// room) are rare samples thousands of times a pixel's mean, and one drawn
-// between 2 and 8 spp made the error rise (issue 22, docs/methods.md).
-TEST_F(Capture, RelativeErrorFallsAsOneOverSpp) {
-  const fs::path made = test::SharedFixture("render-job-capture-diffuse-table", [](const fs::path& out) {
+// The small capture with a diffuse table top (no caustic paths), one frame,
+// truth at 256 spp: made once for all of this file's test processes.
+fs::path DiffuseTableCapture() {
+  return test::SharedFixture("render-job-capture-diffuse-table", [](const fs::path& out) {
     SynthOptions o;
     o.out = out;
     o.frames = 1;
@@ -138,6 +133,17 @@ TEST_F(Capture, RelativeErrorFallsAsOneOverSpp) {
     Report r("mr-synth", "test");
     RunSynth(o, &r);
   });
+}
+
+// Unbiased: the composite's relMSE against the truth falls as 1/spp.  Over
+// three doublings (1 -> 8 spp) the ideal ratio is 8; 5 leaves room for noise
+// in the estimate of the error itself and the truth's own noise (at 256 spp,
+// 1/32 of the 8-spp estimate's).  On the capture with a diffuse table top:
+// the glossy one's caustic paths (the sun reflected by the table onto the
+// room) are rare samples thousands of times a pixel's mean, and one drawn
+// between 2 and 8 spp made the error rise (issue 22, docs/methods.md).
+TEST_F(Capture, RelativeErrorFallsAsOneOverSpp) {
+  const fs::path made = DiffuseTableCapture();
   RenderOptions o;
   o.spp = 8;
   o.out_dir = dir_->path() / "r8";
@@ -160,16 +166,7 @@ TEST_F(Capture, RelativeErrorFallsAsOneOverSpp) {
 // zero by chance lost 6% on the medium capture, docs/methods.md), and the
 // report says how many pixels stopped and the mean samples they took.
 TEST_F(Capture, AdaptiveSamplingKeepsTheObjectsTotalChange) {
-  const fs::path made = test::SharedFixture("render-job-capture-diffuse-table", [](const fs::path& out) {
-    SynthOptions o;
-    o.out = out;
-    o.frames = 1;
-    o.truth_spp = 256;
-    o.table_top = "diffuse";
-    o.probe = false;
-    Report r("mr-synth", "test");
-    RunSynth(o, &r);
-  });
+  const fs::path made = DiffuseTableCapture();
   const fs::path cap = dir_->path() / "adaptive-cap";
   fs::copy(made, cap, fs::copy_options::recursive);
   const Json j = Json::parse(ReadTextFile(cap / "scene.json"));

@@ -53,6 +53,31 @@ uint32_t LaineKarrasPermutation(uint32_t x, uint32_t seed) {
 uint32_t OwenScramble(uint32_t v, uint32_t seed) {
   return ReverseBits32(LaineKarrasPermutation(ReverseBits32(v), seed));
 }
+
+// Sobol' dimension 1, bit-reversed, one byte of the index at
+// a time: kSobol1Reversed[k][b] is the reversed point of index b << 8k.
+struct Sobol1Tables {
+  uint32_t t[4][256];
+  Sobol1Tables() {
+    uint32_t dir[32];
+    dir[0] = 1u << 31;
+    for (int k = 1; k < 32; ++k) dir[k] = dir[k - 1] ^ (dir[k - 1] >> 1);
+    for (int k = 0; k < 4; ++k)
+      for (uint32_t b = 0; b < 256; ++b) {
+        uint32_t v = 0;
+        for (int bit = 0; bit < 8; ++bit)
+          if (b & (1u << bit)) v ^= dir[8 * k + bit];
+        t[k][b] = ReverseBits32(v);
+      }
+  }
+};
+const Sobol1Tables kSobol1Reversed;
+
+inline uint32_t ReversedSobol1(uint32_t i) {
+  const auto& t = kSobol1Reversed.t;
+  return t[0][i & 255] ^ t[1][(i >> 8) & 255] ^ t[2][(i >> 16) & 255] ^ t[3][i >> 24];
+}
+
 }  // namespace
 
 double RadicalInverse(int dimension, uint64_t index) {
@@ -76,13 +101,8 @@ std::array<float, 2> Sobol2D(uint32_t index, uint32_t seed, bool scramble) {
   // Dimension 0: van der Corput (generator matrix = identity, bit-reversed).
   uint32_t v0 = ReverseBits32(index);
   // Dimension 1: primitive polynomial x + 1, direction numbers v_k = 2^(32-k)
-  // combined by v_k = v_{k-1} ^ (v_{k-1} >> 1).
-  uint32_t v1 = 0;
-  uint32_t dir = 1u << 31;
-  for (uint32_t i = index; i; i >>= 1) {
-    if (i & 1) v1 ^= dir;
-    dir ^= dir >> 1;
-  }
+  // combined by v_k = v_{k-1} ^ (v_{k-1} >> 1) (Sobol1Tables).
+  uint32_t v1 = ReverseBits32(ReversedSobol1(index));
   if (scramble) {
     uint64_t h = MixBits(seed);
     v0 = OwenScramble(v0, static_cast<uint32_t>(h));
@@ -93,30 +113,6 @@ std::array<float, 2> Sobol2D(uint32_t index, uint32_t seed, bool scramble) {
 }
 
 namespace {
-
-// Sobol' dimension 1 (see Sobol2D), bit-reversed, one byte of the index at
-// a time: kSobol1Reversed[k][b] is the reversed point of index b << 8k.
-struct Sobol1Tables {
-  uint32_t t[4][256];
-  Sobol1Tables() {
-    uint32_t dir[32];
-    dir[0] = 1u << 31;
-    for (int k = 1; k < 32; ++k) dir[k] = dir[k - 1] ^ (dir[k - 1] >> 1);
-    for (int k = 0; k < 4; ++k)
-      for (uint32_t b = 0; b < 256; ++b) {
-        uint32_t v = 0;
-        for (int bit = 0; bit < 8; ++bit)
-          if (b & (1u << bit)) v ^= dir[8 * k + bit];
-        t[k][b] = ReverseBits32(v);
-      }
-  }
-};
-const Sobol1Tables kSobol1Reversed;
-
-inline uint32_t ReversedSobol1(uint32_t i) {
-  const auto& t = kSobol1Reversed.t;
-  return t[0][i & 255] ^ t[1][(i >> 8) & 255] ^ t[2][(i >> 16) & 255] ^ t[3][i >> 24];
-}
 
 // 32 scrambled bits and 21 random ones below them (the infinite scramble's
 // deeper digits): uniform in [0, 1).

@@ -1,7 +1,13 @@
 #include "core/image.h"
 
+#include <OpenEXR/ImfChannelList.h>
+#include <OpenEXR/ImfFrameBuffer.h>
+#include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfOutputFile.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 
@@ -86,6 +92,54 @@ TEST(Image, HalfRefusesOverflowUnlessClamping) {
   EXPECT_EQ(back.at(1, 1, 0), 65504.0f);
   EXPECT_EQ(back.at(2, 2, 1), -65504.0f);
   EXPECT_EQ(back.at(0, 0, 0), 1.0f);
+}
+
+// ReadImage converts non-float pixels itself (image_io.cpp: OpenImageIO's
+// own conversion reads through a 64 MB buffer): an EXR whose channels have
+// different types (float, half, uint) comes back value for value.
+TEST(Image, ExrWithPerChannelTypesReadsEveryChannel) {
+  TempDir dir;
+  const int w = 5, h = 3;
+  std::vector<float> f(w * h);
+  std::vector<Imath::half> hv(w * h);
+  std::vector<unsigned> u(w * h);
+  for (int i = 0; i < w * h; ++i) {
+    f[i] = 1e-6f * std::pow(10.0f, static_cast<float>(i) * 0.8f);  // 1e-6 .. ~1e5
+    hv[i] = Imath::half(0.25f * static_cast<float>(i) - 1.0f);     // exact in half
+    u[i] = 1000u * static_cast<unsigned>(i);
+  }
+  const std::string path = (dir / "mixed.exr").string();
+  {
+    Imf::Header header(w, h);
+    header.channels().insert("A", Imf::Channel(Imf::FLOAT));
+    header.channels().insert("B", Imf::Channel(Imf::HALF));
+    header.channels().insert("C", Imf::Channel(Imf::UINT));
+    Imf::FrameBuffer fb;
+    fb.insert("A", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(f.data()), sizeof(float), sizeof(float) * w));
+    fb.insert("B",
+              Imf::Slice(Imf::HALF, reinterpret_cast<char*>(hv.data()), sizeof(Imath::half), sizeof(Imath::half) * w));
+    fb.insert("C", Imf::Slice(Imf::UINT, reinterpret_cast<char*>(u.data()), sizeof(unsigned), sizeof(unsigned) * w));
+    Imf::OutputFile out(path.c_str(), header);
+    out.setFrameBuffer(fb);
+    out.writePixels(h);
+  }
+  const Image img = ReadImage(path);
+  ASSERT_EQ(img.channels(), 3);
+  // OpenImageIO orders the channels its own way (B as blue before A).
+  const auto& names = img.channel_names();
+  const auto index = [&](const char* n) {
+    return static_cast<int>(std::find(names.begin(), names.end(), n) - names.begin());
+  };
+  const int a = index("A"), b = index("B"), c = index("C");
+  ASSERT_TRUE(a < 3 && b < 3 && c < 3);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      const int i = y * w + x;
+      EXPECT_EQ(img.at(x, y, a), f[i]) << i;
+      EXPECT_EQ(img.at(x, y, b), static_cast<float>(hv[i])) << i;
+      // OpenImageIO maps uint32 to [0, 1] as it does every integer type.
+      EXPECT_NEAR(img.at(x, y, c), static_cast<double>(u[i]) / 4294967295.0, 1e-12) << i;
+    }
 }
 
 TEST(Image, LdrRoundTripsThroughTheStatedTransfer) {

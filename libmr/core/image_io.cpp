@@ -91,6 +91,59 @@ void CheckPngChunks(const fs::path& path) {
   }
 }
 
+// OpenEXR reads a value of a known type by its own layout, not by the size
+// the attribute declares: a box2i declared as 4 bytes still takes 16, a
+// channel list runs to its terminating NUL and a string vector's entries
+// are allocated at the lengths they claim.  Where the two disagree OpenEXR
+// goes on reading from the wrong byte, so a later "size" is garbage (1149
+// bytes made it allocate a 1.7 GB string; found by fuzz/fuzz_exr).  The
+// value must therefore have exactly its type's layout.
+void CheckExrAttributeValue(const FileLoc& loc, const std::string& name, const std::string& type,
+                            const std::vector<unsigned char>& v, size_t max_name) {
+  static const std::pair<const char*, size_t> kFixed[] = {{"box2i", 16},      {"box2f", 16},   {"chromaticities", 32},
+                                                          {"compression", 1}, {"double", 8},   {"envmap", 1},
+                                                          {"float", 4},       {"int", 4},      {"keycode", 28},
+                                                          {"lineOrder", 1},   {"m33f", 36},    {"m33d", 72},
+                                                          {"m44f", 64},       {"m44d", 128},   {"rational", 8},
+                                                          {"tiledesc", 9},    {"timecode", 8}, {"v2i", 8},
+                                                          {"v2f", 8},         {"v2d", 16},     {"v3i", 12},
+                                                          {"v3f", 12},        {"v3d", 24},     {"deepImageState", 1}};
+  auto bad = [&](const std::string& why) {
+    ThrowErrorAt(loc, "OpenEXR header: attribute \"{}\" of type {}: {} (corrupt file)", name, type, why);
+  };
+  const auto u32 = [&](size_t k) {
+    return static_cast<uint64_t>(v[k] | (uint32_t{v[k + 1]} << 8) | (uint32_t{v[k + 2]} << 16) |
+                                 (uint32_t{v[k + 3]} << 24));
+  };
+  for (const auto& [t, bytes] : kFixed)
+    if (type == t) {
+      if (v.size() != bytes) bad(fmt::format("{} bytes declared, the type has {}", v.size(), bytes));
+      return;
+    }
+  if (type == "chlist") {
+    // Per channel: a NUL-terminated name and 16 bytes; a NUL ends the list.
+    size_t k = 0;
+    while (k < v.size() && v[k] != 0) {
+      const size_t start = k;
+      while (k < v.size() && v[k] != 0) ++k;
+      if (k - start > max_name) bad(fmt::format("a channel name longer than {} bytes", max_name));
+      k += 17;
+    }
+    if (k + 1 != v.size()) bad(fmt::format("the channel list does not end at its declared {} bytes", v.size()));
+  } else if (type == "preview") {
+    if (v.size() < 8 || 8 + 4 * u32(0) * u32(4) != v.size())
+      bad(fmt::format("the preview image's size does not match its declared {} bytes", v.size()));
+  } else if (type == "stringvector") {
+    for (size_t k = 0; k < v.size();) {
+      if (k + 4 > v.size() || u32(k) > v.size() - k - 4)
+        bad(fmt::format("an entry runs past the declared {} bytes", v.size()));
+      k += 4 + u32(k);
+    }
+  } else if (type == "floatvector") {
+    if (v.size() % 4 != 0) bad(fmt::format("{} bytes declared, not a whole number of floats", v.size()));
+  }
+}
+
 void CheckExrHeader(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in) return;  // the reader reports it
@@ -103,14 +156,21 @@ void CheckExrHeader(const fs::path& path) {
       head[3] != 0x01)
     return;
   const uint32_t flags = head[5] | (uint32_t{head[6]} << 8) | (uint32_t{head[7]} << 16);
-  const bool single_tiled = flags & 0x2, deep = flags & 0x8, multipart = flags & 0x10;
-  // The attributes: name, type (each NUL-terminated, at most 255 bytes),
-  // a 4-byte size and the value; a NUL ends the header.
+  const bool single_tiled = flags & 0x2, long_names = flags & 0x4, deep = flags & 0x8, multipart = flags & 0x10;
+  // The attributes: name, type (each NUL-terminated, at most 31 bytes, 255
+  // with the long-names flag), a 4-byte size and the value; a NUL ends the
+  // header.  OpenEXR reads a longer name only up to the limit and goes on
+  // from the middle of it, taking later bytes for the type and the size:
+  // 1149 bytes with a 32-byte name made it allocate a 1.7 GB string
+  // (found by fuzz/fuzz_exr), so a longer name is refused here.
+  const size_t max_name = long_names ? 255 : 31;
   auto read_name = [&](std::string* s) {
     s->clear();
     for (char c; in.get(c);) {
       if (c == '\0') return true;
-      if (s->size() >= 255) ThrowErrorAt(loc, "OpenEXR header: an attribute name longer than 255 bytes (corrupt file)");
+      if (s->size() >= max_name)
+        ThrowErrorAt(loc, "OpenEXR header: an attribute name or type longer than {} bytes{} (corrupt file)", max_name,
+                     long_names ? "" : " without the long-names flag");
       s->push_back(c);
     }
     ThrowErrorAt(loc, "OpenEXR header runs past the end of the file (truncated file?)");
@@ -138,6 +198,7 @@ void CheckExrHeader(const fs::path& path) {
     std::vector<unsigned char> v(static_cast<size_t>(n));
     if (n > 0 && !in.read(reinterpret_cast<char*>(v.data()), n))
       ThrowErrorAt(loc, "OpenEXR header runs past the end of the file (truncated file?)");
+    CheckExrAttributeValue(loc, name, type, v, long_names ? 255 : 31);
     if (name == "dataWindow" && type == "box2i" && n == 16) {
       width = int64_t{i32(&v[8])} - i32(&v[0]) + 1;
       height = int64_t{i32(&v[12])} - i32(&v[4]) + 1;

@@ -285,6 +285,7 @@ void VplSet::Describe(Report* report) const {
   report->SetMetric("vpl.directional", static_cast<int64_t>(directional_.size()));
   report->SetMetric("vpl.clamp_distance_m", clamp_);
   report->SetMetric("vpl.compensate", settings_.compensate);
+  report->SetMetric("vpl.final_gather", settings_.final_gather);
   report->SetMetric("vpl.build_seconds", build_seconds_);
   report->SetMetric("vpl.paths_ended_by_roulette", paths_ended_below_);
 }
@@ -357,14 +358,17 @@ class VplShader {
     if (emission) Add(acc, want_m, want_r, beta.cwiseProduct(v.material->emission));
     if (v.bsdf.IsBlack()) return;
     const bool split = v.material->IsGlossy() && depth < st_.glossy_depth;
+    const bool gather = st_.final_gather && x_virtual && depth == 0;
     if (!split) {
-      Gather(v, v.bsdf, x_virtual, want_m, want_r, beta, acc, depth == 0);
+      Gather(v, v.bsdf, x_virtual, want_m, want_r, beta, acc, depth == 0, !gather);
+      if (gather) FinalGather(v, v.bsdf, beta, rng, acc);
     } else {
       // Diffuse lobe by VPLs; glossy lobe by next-event estimation and one
       // BSDF-sampled ray, gathered where it lands.
       const Bsdf diffuse = DiffuseLobe(scene_, v);
       const Bsdf& glossy = scene_.glossy_bsdf(Id(v));
-      Gather(v, diffuse, x_virtual, want_m, want_r, beta, acc, depth == 0);
+      Gather(v, diffuse, x_virtual, want_m, want_r, beta, acc, depth == 0, !gather);
+      if (gather) FinalGather(v, diffuse, beta, rng, acc);
       PathVertex g = v;
       g.bsdf = glossy;
       NextEvent(scene_, g, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
@@ -380,7 +384,33 @@ class VplShader {
                  b, rng, acc, x_virtual);
       }
     }
-    if (st_.compensate && depth == 0) Compensate(v, x_virtual, want_m, want_r, beta, rng, acc);
+    if (st_.compensate && depth == 0 && !gather) Compensate(v, x_virtual, want_m, want_r, beta, rng, acc);
+  }
+
+  // The indirect light at virtual point v (I_m only) through `bsdf` along
+  // one sampled ray: at a real point the plate sees, its radiance and the
+  // objects' shadows there (PlateAtRealPoint, as pt); elsewhere the light
+  // the VPLs give the point met, as at a camera ray's point.  A ray that
+  // escapes adds nothing: the directional VPLs hold the environment's direct
+  // light at v, as they do without the gather.
+  void FinalGather(const PathVertex& v, const Bsdf& bsdf, const Eigen::Vector3d& beta, Sampler& rng, Accum* acc) const {
+    BsdfSample s;
+    const double ul = rng.NextDouble();
+    const auto [u0, u1] = rng.Next2D();
+    if (!bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return;
+    const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
+    const Ray ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll);
+    Hit hit;
+    ++acc->c.gather_rays;
+    if (!scene_.embree().Intersect(ray, &hit)) return;
+    const PathVertex y = MakeVertex(scene_, ray, hit);
+    if (plate_ && !hit.is_virtual) {
+      int rays = 0;
+      const bool taken = plate_->PlateAtRealPoint(y, b, rng, &rays, &acc->mixed);
+      acc->c.shadow_rays += rays;
+      if (taken) return;
+    }
+    ShadeAt(y, hit.is_virtual, true, false, 1, b, rng, acc, false);
   }
 
   // Kollig & Keller's correction: the light that reaches v from surfaces
@@ -430,8 +460,10 @@ class VplShader {
   uint32_t Id(const PathVertex& v) const { return v.geometry_id; }
 
   // Every VPL, directional VPL and delta light at v through `bsdf`.
+  // point_vpls false: the directional VPLs and delta lights only (the
+  // direct light; a final gather takes the rest).
   void Gather(const PathVertex& v, const Bsdf& bsdf, bool x_virtual, bool want_m, bool want_r,
-              const Eigen::Vector3d& beta, Accum* acc, bool measure_bias) const {
+              const Eigen::Vector3d& beta, Accum* acc, bool measure_bias, bool point_vpls = true) const {
     thread_local std::vector<Contribution> list;
     list.clear();
     const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
@@ -462,6 +494,7 @@ class VplShader {
            l.is_virtual() ? kLightsMixed : kLightsBoth);
     }
     for (const Vpl& p : set_.vpls()) {
+      if (!point_vpls) break;
       if (!(p.sets & wanted)) continue;
       Eigen::Vector3d d = p.p - origin;
       const double d2 = d.squaredNorm();
@@ -560,7 +593,7 @@ void VplFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t i
   Accum acc;
   VplShader(scene_, *set_, &plate_tracer_).ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
   Counters c = acc.c;
-  c.rays += acc.c.shadow_rays + acc.c.compensation_rays;  // every ray the sample traced
+  c.rays += acc.c.shadow_rays + acc.c.compensation_rays + acc.c.gather_rays;  // every ray the sample traced
   rc += c;
   out->mixed = acc.mixed;
   out->real = acc.real;
@@ -597,6 +630,7 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "dropped_vpl_tests", counters_.dropped);
   report->SetMetric(k + "virtual_tests_skipped", counters_.virtual_tests_skipped);
   report->SetMetric(k + "compensation_rays", counters_.compensation_rays);
+  report->SetMetric(k + "gather_rays", counters_.gather_rays);
   if (counters_.dropped > 0)
     report->Skip(fmt::format("frame {}: {} VPL shadow tests", frame, counters_.dropped),
                  fmt::format("their unshadowed contribution was below {} of the mean one at the point (bias at most "
@@ -610,8 +644,8 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
 namespace {
 
 VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject(
-      {"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate", "plate_reflections"});
+  v.RequireObject({"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate",
+                   "plate_reflections", "final_gather"});
   VplSettings o;
   if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
   if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
@@ -620,6 +654,7 @@ VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("drop_threshold")) o.drop_threshold = v.Child("drop_threshold").Number(0, 1);
   if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
   if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
+  if (v.Has("final_gather")) o.final_gather = v.Child("final_gather").Bool();
   return WithSceneRender(o, scene);
 }
 

@@ -284,6 +284,26 @@ TEST(Image, ExrHeaderClaimingMoreThanTheFileHoldsIsRefused) {
   std::memcpy(&bytes[at + key.size() + 4 + 12], &big, 4);
   WriteTextFile(dir / "claims.exr", bytes);
   refused(dir / "claims.exr", "claims 16384x16384 pixels");
+
+  // A value whose layout disagrees with its declared size: OpenEXR reads by
+  // the layout and goes on from the wrong byte (fuzz_exr: a channel list
+  // not ending where declared made it allocate a 1.7 GB string).
+  fs::copy_file(fs::path(MR_SOURCE_DIR) / "fuzz" / "corpus" / "exr" / "chlist-overrun.exr", dir / "chlist.exr");
+  refused(dir / "chlist.exr", "the channel list does not end at its declared 461 bytes");
+  const std::string window = ReadTextFile(dir / "flat.exr");
+  std::string shrunk = window;
+  const int32_t four = 4;  // dataWindow's box2i declared as 4 bytes
+  std::memcpy(&shrunk[at + key.size()], &four, 4);
+  WriteTextFile(dir / "box.exr", shrunk);
+  refused(dir / "box.exr", "4 bytes declared, the type has 16");
+  // A name past 31 bytes without the long-names flag: OpenEXR stops reading
+  // it at the limit and takes the rest for the type and the size.
+  std::string renamed = window;
+  const size_t comp = renamed.find(std::string("compression") + '\0' + "compression");
+  ASSERT_NE(comp, std::string::npos);
+  renamed.replace(comp, 11, "compression_with_a_name_over_31_bytes");
+  WriteTextFile(dir / "name.exr", renamed);
+  refused(dir / "name.exr", "longer than 31 bytes without the long-names flag");
 }
 
 TEST(Image, WriterRejectsWhatAFormatCannotHold) {

@@ -310,13 +310,20 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   // (a run per component), so a header claiming more than 16 pixels a byte
   // lies: refused before the buffer is allocated (found by fuzz/fuzz_hdrenv:
   // 109 bytes claiming 83333333x2 pixels, a 2 GB allocation).
-  if (info.format == "hdr") {
-    std::error_code ec;
-    const auto bytes = fs::file_size(path, ec);
-    if (!ec && pixels > 16 * static_cast<int64_t>(bytes) + 4096)
-      ThrowErrorAt(loc, "the header claims {}x{} pixels, more than the file's {} bytes can hold", spec.width,
-                   spec.height, bytes);
-  }
+  // Any other compressed format gets a generic bound: at most 65536 values
+  // a byte, far above what deflate (1032), JPEG or LZW reach on real
+  // images.  OpenImageIO picks the reader by the file's content, so a file
+  // named .exr or .hdr may be read as anything it supports (fuzz_exr and
+  // fuzz_hdrenv: 48 bytes of WebP claiming 12663x13749 pixels, 2.8 GB of
+  // floats).  OpenEXR files are checked by their header (CheckExrHeader).
+  std::error_code size_ec;
+  const auto bytes = static_cast<int64_t>(fs::file_size(path, size_ec));
+  if (!size_ec && info.format == "hdr" && pixels > 16 * bytes + 4096)
+    ThrowErrorAt(loc, "the header claims {}x{} pixels, more than the file's {} bytes can hold", spec.width, spec.height,
+                 bytes);
+  if (!size_ec && info.format != "openexr" && pixels * spec.nchannels > 65536 * (bytes + 1))
+    ThrowErrorAt(loc, "the {} header claims {}x{} pixels of {} channels, more than the file's {} bytes can hold",
+                 info.format, spec.width, spec.height, spec.nchannels, bytes);
 
   std::vector<std::string> names = spec.channelnames;
   for (size_t i = 0; i < names.size(); ++i)

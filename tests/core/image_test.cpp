@@ -304,6 +304,10 @@ TEST(Image, ExrHeaderClaimingMoreThanTheFileHoldsIsRefused) {
   renamed.replace(comp, 11, "compression_with_a_name_over_31_bytes");
   WriteTextFile(dir / "name.exr", renamed);
   refused(dir / "name.exr", "longer than 31 bytes without the long-names flag");
+  // OpenImageIO reads by content: 48 bytes of WebP named .exr, claiming
+  // 12663x13749 pixels (fuzz_exr), refused before 2.8 GB are allocated.
+  fs::copy_file(fs::path(MR_SOURCE_DIR) / "fuzz" / "corpus" / "exr" / "webp-claiming-2.8GB.exr", dir / "webp.exr");
+  refused(dir / "webp.exr", "the webp header claims 12663x13749 pixels of 4 channels, more than the file's 48 bytes");
 }
 
 TEST(Image, WriterRejectsWhatAFormatCannotHold) {

@@ -132,9 +132,7 @@ int main(int argc, char** argv) {
                                                                                   {"vct-resolution", "vct.resolution"},
                                                                                   {"vct-spp", "vct.spp"},
                                                                                   {"prt-spp", "prt.spp"}})
-    sweep->add_option(
-        "--" + flag, alias[key],
-        "= --set " + key + "=L" + (flag == "vpl-paths" ? " (and vpl.directions: a quarter of each, at least 16)" : ""));
+    sweep->add_option("--" + flag, alias[key], "= --set " + key + "=L");
   sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
   mr::PlateCheckOptions po_plate;
@@ -235,13 +233,6 @@ int main(int argc, char** argv) {
       for (const auto& [key, values] : alias) {
         if (values.empty()) continue;
         mr::AddSweepAxis(key + "=" + values, &so);
-        if (key == "vpl.paths") {  // as before --set: directional VPLs a quarter of the paths, at least 16
-          std::string d;
-          for (const auto& v : so.set["vpl.paths"])
-            if (v.is_number_integer())
-              d += (d.empty() ? "" : ",") + std::to_string(std::max<int64_t>(16, v.get<int64_t>() / 4));
-          mr::AddSweepAxis("vpl.directions=" + d, &so);
-        }
       }
       for (const auto& spec : sweep_set) mr::AddSweepAxis(spec, &so);
       so.out = sweep_out;

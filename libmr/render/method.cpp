@@ -24,7 +24,7 @@ const std::vector<MethodInfo>& RenderMethodRegistry() {
        .summary = "differential instant radiosity (Knecht et al. 2010)",
        .one_pass = true,
        .prepare_timing = "build vpls",
-       .sweep = {{"paths", {64, 128, 256, 512}}, {"directions", {16, 32, 64, 128}}, {"spp", {2, 4, 8, 16}}},
+       .sweep = {{"paths", {64, 128, 256, 512}}, {"spp", {2, 4, 8, 16}}},
        .create = MakeVplMethod},
       {.name = "vct",
        .summary = "delta global illumination by voxel cone tracing (Thoner & Kuijper 2016)",

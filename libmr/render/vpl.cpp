@@ -83,7 +83,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
   out->clamp_ = st.clamp_distance > 0 ? st.clamp_distance : 0.02 * diag;
   const EnvironmentMap& env = scene.environment();
 
-  out->directional_ = DirectionalLights(scene, st.directions, st.seed, centre);
+  if (st.fixed_directions) out->directional_ = DirectionalLights(scene, st.directions, st.seed, centre);
 
   // Light paths.
   std::vector<Emitter> emitters;
@@ -286,6 +286,7 @@ void VplSet::Describe(Report* report) const {
   report->SetMetric("vpl.clamp_distance_m", clamp_);
   report->SetMetric("vpl.compensate", settings_.compensate);
   report->SetMetric("vpl.final_gather", settings_.final_gather);
+  report->SetMetric("vpl.fixed_directions", settings_.fixed_directions);
   report->SetMetric("vpl.build_seconds", build_seconds_);
   report->SetMetric("vpl.paths_ended_by_roulette", paths_ended_below_);
 }
@@ -360,14 +361,14 @@ class VplShader {
     const bool split = v.material->IsGlossy() && depth < st_.glossy_depth;
     const bool gather = st_.final_gather && x_virtual && depth == 0;
     if (!split) {
-      Gather(v, v.bsdf, x_virtual, want_m, want_r, beta, acc, depth == 0, !gather);
+      Gather(v, v.bsdf, v.material->IsGlossy(), x_virtual, want_m, want_r, beta, rng, acc, depth == 0, !gather);
       if (gather) FinalGather(v, v.bsdf, beta, rng, acc);
     } else {
       // Diffuse lobe by VPLs; glossy lobe by next-event estimation and one
       // BSDF-sampled ray, gathered where it lands.
       const Bsdf diffuse = DiffuseLobe(scene_, v);
       const Bsdf& glossy = scene_.glossy_bsdf(Id(v));
-      Gather(v, diffuse, x_virtual, want_m, want_r, beta, acc, depth == 0, !gather);
+      Gather(v, diffuse, false, x_virtual, want_m, want_r, beta, rng, acc, depth == 0, !gather);
       if (gather) FinalGather(v, diffuse, beta, rng, acc);
       PathVertex g = v;
       g.bsdf = glossy;
@@ -460,10 +461,35 @@ class VplShader {
   uint32_t Id(const PathVertex& v) const { return v.geometry_id; }
 
   // Every VPL, directional VPL and delta light at v through `bsdf`.
-  // point_vpls false: the directional VPLs and delta lights only (the
-  // direct light; a final gather takes the rest).
-  void Gather(const PathVertex& v, const Bsdf& bsdf, bool x_virtual, bool want_m, bool want_r,
-              const Eigen::Vector3d& beta, Accum* acc, bool measure_bias, bool point_vpls = true) const {
+  // The light at v through `bsdf` (its glossy lobe too where `glossy`):
+  // the direct light, sampled here (DirectDiffuse, as ic and vct) or from
+  // the fixed directional VPLs (VplSettings::fixed_directions), and the
+  // VPLs' (point_vpls false: the direct light only; a final gather takes the
+  // rest).
+  void Gather(const PathVertex& v, const Bsdf& bsdf, bool glossy, bool x_virtual, bool want_m, bool want_r,
+              const Eigen::Vector3d& beta, Sampler& rng, Accum* acc, bool measure_bias, bool point_vpls = true) const {
+    if (!st_.fixed_directions) {
+      Eigen::Vector3d m = Eigen::Vector3d::Zero(), r = Eigen::Vector3d::Zero();
+      PathVertex vd = v;
+      vd.bsdf = DiffuseLobe(scene_, v);
+      acc->c.shadow_rays += DirectDiffuse(scene_, vd, v.albedo, x_virtual, want_m, want_r, rng, &m, &r, [&](Ray sr) {
+        sr.mask = kMaskVirtual;
+        ++acc->c.shadow_rays;
+        return scene_.embree().Occluded(sr) ? 0.0 : 1.0;
+      });
+      if (glossy) {  // light sampling alone: no BSDF-sampled ray of this lobe counts the emitters
+        PathVertex vg = v;
+        vg.bsdf = scene_.glossy_bsdf(Id(v));
+        NextEvent(
+            scene_, vg, rng,
+            [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+              acc->c.shadow_rays += AddNextEvent(scene_, c, shadow, virtual_light, x_virtual, want_m, want_r, &m, &r);
+            },
+            false);
+      }
+      acc->mixed += beta.cwiseProduct(m);
+      acc->real += beta.cwiseProduct(r);
+    }
     thread_local std::vector<Contribution> list;
     list.clear();
     const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
@@ -480,11 +506,13 @@ class VplShader {
       list.push_back({value, bias, dir, tfar, sets});
     };
     for (const DirectionalVpl& d : set_.directional()) {
+      if (!st_.fixed_directions) break;
       const Eigen::Vector3d wi = v.frame.ToLocal(d.dir);
       if (wi.z() <= 0) continue;
       push(bsdf.Eval(wo_l, wi).cwiseProduct(d.irradiance) * wi.z(), Eigen::Vector3d::Zero(), d.dir, INFINITY, d.sets);
     }
     for (const LightSource& l : scene_.lights()) {
+      if (!st_.fixed_directions) break;
       if (l.light().type == LightType::kDistant) continue;  // directional VPLs
       LightSample ls;
       if (!l.Sample(v.p, 0, 0, &ls)) continue;
@@ -644,8 +672,8 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
 namespace {
 
 VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject({"paths", "directions", "glossy_depth", "clamp_distance", "drop_threshold", "compensate",
-                   "plate_reflections", "final_gather"});
+  v.RequireObject({"paths", "directions", "fixed_directions", "glossy_depth", "clamp_distance", "drop_threshold",
+                   "compensate", "plate_reflections", "final_gather"});
   VplSettings o;
   if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
   if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
@@ -655,6 +683,7 @@ VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
   if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
   if (v.Has("final_gather")) o.final_gather = v.Child("final_gather").Bool();
+  if (v.Has("fixed_directions")) o.fixed_directions = v.Child("fixed_directions").Bool();
   return WithSceneRender(o, scene);
 }
 

@@ -31,6 +31,11 @@ struct VctSettings {
   int far_field_samples = 16;    // paths per far-field texel
   double cone_offset = 1.0;      // cone origins lifted off the surface, voxels
   int max_depth = 5;             // far-field paths
+  // At the virtual points the camera sees, indirect light along one
+  // cosine-sampled ray per sample, from the point it meets as vct shades it,
+  // instead of six diffuse cones from the object's own surface (which
+  // missed half a backlit object's bounce light: docs/methods.md, "vct").
+  bool final_gather = true;
   uint64_t seed = 0;
 };
 
@@ -118,7 +123,7 @@ class VctFrameRenderer : public PixelLoopMethod {
 
   struct Counters {
     int64_t diffuse_cones = 0, specular_cones = 0, shadow_cones = 0, shadow_cones_skipped = 0, steps = 0, rays = 0,
-            relight_skipped = 0;
+            relight_skipped = 0, gather_rays = 0;
     Counters& operator+=(const Counters& o) {
       diffuse_cones += o.diffuse_cones;
       specular_cones += o.specular_cones;
@@ -127,6 +132,7 @@ class VctFrameRenderer : public PixelLoopMethod {
       steps += o.steps;
       rays += o.rays;
       relight_skipped += o.relight_skipped;
+      gather_rays += o.gather_rays;
       return *this;
     }
   };

@@ -1,0 +1,189 @@
+// Issue 22's stiff cases, for every sampled method through the registry
+// (pt, ic, vpl, vct): a sun 1e6 x the sky straight behind the object, a
+// near-mirror object (GGX roughness 0.01) and an object that fills the
+// whole view.  Each method's image must be finite with no sample dropped,
+// and agree with pt's converged render where the case lets it.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <string>
+
+#include "core/json_node.h"
+#include "core/math.h"
+#include "core/spherical.h"
+#include "geometry/primitives.h"
+#include "render/gi_scenes.h"
+#include "render/method.h"
+#include "render/render_scene.h"
+
+namespace mr {
+namespace {
+
+using namespace gi_test;
+
+struct Rendered {
+  std::unique_ptr<RenderMethod> method;  // owns what the frame may point to (ic's cache)
+  std::unique_ptr<FrameMethod> frame;
+};
+
+Rendered Render(const std::string& name, const Json& block, const RenderScene& rs, const CameraModel& cam,
+                const Rigid3& pose, int spp) {
+  Json render = {{"method", name}};
+  if (!block.empty()) render[name] = block;
+  const Json j = {{"version", 1},
+                  {"camera", {{"model", "cam.cameramodel"}}},
+                  {"virtual", Json::array({{{"mesh", "object.ply"}}})},
+                  {"render", render}};
+  const Scene scene = ParseScene(j, ".", "scene.json", false);
+  const std::string file = "scene.json";
+  Rendered r;
+  r.method = FindRenderMethod(name).create(JsonNode(block, "render." + name, &file), scene);
+  Report report("mr-render", "test");
+  r.method->Prepare(JobContext{scene, rs, cam, spp, 0, false, &report});
+  r.frame = r.method->NewFrame(FrameContext{rs, cam, pose, 0, 0, nullptr});
+  r.frame->RenderPass(spp);
+  return r;
+}
+
+// The fast methods at settings that take a few seconds here.
+const std::vector<std::pair<std::string, Json>> kFast = {
+    {"ic", {{"rays", 64}}}, {"vpl", {{"paths", 256}}}, {"vct", {{"resolution", 32}}}};
+
+bool AllFinite(const Image& img) {
+  for (float v : img.values())
+    if (!std::isfinite(v)) return false;
+  return true;
+}
+
+// Mean of channel 1 of `img` over the pixels where `mask` is exactly
+// `value` (1: the object covers the pixel entirely; 0: not at all).
+double MeanWhere(const Image& img, const Image& mask, float value, int* count = nullptr) {
+  double s = 0;
+  int n = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      if (mask.at(x, y, 0) == value) {
+        s += img.at(x, y, 1);
+        ++n;
+      }
+  if (count) *count = n;
+  return n > 0 ? s / n : 0;
+}
+
+// A sun 1e6 x the sky, low (8 degrees up), exactly behind a virtual sphere
+// resting on the floor as the camera sees it: the camera looks into the
+// sun, the sphere hides it, and its shadow runs towards the camera.  The
+// sphere's side facing the camera is lit by the sky and the floor's bounce
+// of the sun; its rim is next to pixels that see the sun itself (their
+// I_m - I_r must stay 0: a camera ray that meets nothing is the plate).
+TEST(Stiff, SunBehindTheObject) {
+  Image sky = Image::Rgb(64, 32);
+  for (float& v : sky.values()) v = 0.5f;
+  const int sx = 20, sy = 14;  // row 14 of 32: 8.4 degrees above the horizon
+  for (int c = 0; c < 3; ++c) sky.at(sx, sy, c) = 0.5e6f;
+  RenderScene rs;
+  rs.AddReal(Quad({-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}), Diffuse(0.6));
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Eigen::Vector3d(0, 0.3, 0));
+  rs.AddVirtual(UvSphere(0.3f, 32), t, Diffuse(0.8));
+  rs.SetEnvironment(EnvironmentMap(sky, "sun"));
+  rs.Commit();
+  const Eigen::Vector3d sun = LatLongPixelToDirection(Eigen::Vector2d(sx + 0.5, sy + 0.5), 64, 32);
+  ASSERT_GT(sun.y(), 0.1);
+  const Eigen::Vector3d centre(0, 0.3, 0);
+  const Rigid3 pose = LookAt(centre - 1.6 * sun, centre);
+  const CameraModel cam = Pinhole(40, 30, 50);
+  Rendered pt = Render("pt", Json::object(), rs, cam, pose, 1024);
+  const Image mask = pt.frame->Mask();
+  int covered = 0;
+  const double truth = MeanWhere(pt.frame->Mixed(), mask, 1.0f, &covered);
+  ASSERT_GT(covered, 100);
+  ASSERT_GT(truth, 0);
+  for (const auto& [name, block] : kFast) {
+    Rendered r = Render(name, block, rs, cam, pose, 8);
+    const Image m = r.frame->Mixed(), re = r.frame->Real();
+    EXPECT_TRUE(AllFinite(m) && AllFinite(re)) << name;
+    EXPECT_EQ(r.frame->nonfinite_samples(), 0) << name;
+    // The sphere's face towards the camera: sky and the floor's bounce of
+    // the sun, no sun.  Bound: 10%, a few times the methods' error on this
+    // face at these settings (printed).
+    const double face = MeanWhere(m, mask, 1.0f);
+    std::printf("sun behind the object: %s %.3f, pt %.3f\n", name.c_str(), face, truth);
+    EXPECT_NEAR(face, truth, 0.1 * truth) << name;
+    // Pixels whose camera rays see only the sky and sun: no difference.
+    for (int y = 0; y < m.height(); ++y)
+      for (int x = 0; x < m.width(); ++x)
+        if (mask.at(x, y, 0) == 0 && r.frame->Mask().at(x, y, 0) == 0)
+          for (int c = 0; c < 3; ++c)
+            if (!std::isfinite(m.at(x, y, c) - re.at(x, y, c))) ADD_FAILURE() << name << " " << x << "," << y;
+  }
+}
+
+// A near-mirror sphere (GGX roughness 0.01, specular 0.9, no diffuse) in a
+// sky of 0.5 with no sun: each pixel sees 0.9 x 0.5 x the lobe's
+// directional albedo, which at this roughness is 1 but for the shadowing
+// at grazing angles (the sphere's rim): the mean over the sphere's pixels
+// lies within 0.43 and 0.45 (0.45 measured for every method: the rim's
+// pixels are mostly partly covered and left out).
+TEST(Stiff, NearMirrorObject) {
+  RenderScene rs;
+  Material mirror;
+  mirror.albedo = Eigen::Vector3d::Zero();
+  mirror.specular = Eigen::Vector3d::Constant(0.9);
+  mirror.roughness = 0.01;
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  rs.AddVirtual(UvSphere(0.5f, 64), t, mirror);
+  Image sky = Image::Rgb(64, 32);
+  for (float& v : sky.values()) v = 0.5f;
+  rs.SetEnvironment(EnvironmentMap(sky, "sky"));
+  rs.Commit();
+  const CameraModel cam = Pinhole(32, 24, 40);
+  const Rigid3 pose = LookAt({0, 0.2, -2.0}, {0, 0, 0});
+  for (const auto& [name, block] :
+       std::vector<std::pair<std::string, Json>>{{"pt", Json::object()}, kFast[0], kFast[1], kFast[2]}) {
+    Rendered r = Render(name, block, rs, cam, pose, 16);
+    const Image m = r.frame->Mixed();
+    EXPECT_TRUE(AllFinite(m)) << name;
+    EXPECT_EQ(r.frame->nonfinite_samples(), 0) << name;
+    int n = 0;
+    const double mean = MeanWhere(m, r.frame->Mask(), 1.0f, &n);
+    EXPECT_GT(n, 50) << name;
+    std::printf("near-mirror object: %s %.4f\n", name.c_str(), mean);
+    EXPECT_NEAR(mean, 0.44, 0.011) << name;
+  }
+}
+
+// A virtual sphere that fills the whole view, under a sky with a sun 1e3 x
+// brighter, resting above the real floor: every camera sample's first hit
+// is virtual (mask 1 everywhere), no real point is seen directly, so the
+// composite is I_m alone; each fast method must agree with pt there.
+TEST(Stiff, ObjectCoveringTheWholeView) {
+  RenderScene rs;
+  rs.AddReal(Quad({-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}), Diffuse(0.6));
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Eigen::Vector3d(0, 0.5, 0));
+  rs.AddVirtual(UvSphere(0.45f, 48), t, Diffuse(0.7));
+  rs.SetEnvironment(Sky(1e3));
+  rs.Commit();
+  // Outside the sphere, close enough that it fills the frame.
+  const CameraModel cam = Pinhole(32, 24, 60);
+  const Rigid3 pose = LookAt({0, 0.5, -0.6}, {0, 0.5, 0});
+  Rendered pt = Render("pt", Json::object(), rs, cam, pose, 256);
+  const Image mask = pt.frame->Mask();
+  for (float v : mask.values()) ASSERT_EQ(v, 1.0f);
+  const double truth = Mean(pt.frame->Mixed());
+  for (const auto& [name, block] : kFast) {
+    Rendered r = Render(name, block, rs, cam, pose, 8);
+    EXPECT_TRUE(AllFinite(r.frame->Mixed())) << name;
+    EXPECT_EQ(r.frame->nonfinite_samples(), 0) << name;
+    const Image covered = r.frame->Mask();
+    for (float v : covered.values()) ASSERT_EQ(v, 1.0f) << name;
+    std::printf("object covering the view: %s %.4f, pt %.4f\n", name.c_str(), Mean(r.frame->Mixed()), truth);
+    EXPECT_NEAR(Mean(r.frame->Mixed()), truth, 0.1 * truth) << name;
+  }
+}
+
+}  // namespace
+}  // namespace mr

@@ -147,12 +147,7 @@ TEST(Gi, IcAndVplMatchPathTracerAroundAnObjectOnTheFloor) {
 // pt's; without it they lose most of the floor's bounce light.
 TEST(Vpl, FinalGatherGivesASmallObjectItsNearBounceLight) {
   RenderScene s;
-  s.AddReal(Quad({-6, 0, -6}, {6, 0, -6}, {6, 0, 6}, {-6, 0, 6}), Diffuse(0.6));
-  Eigen::Affine3d t = Eigen::Affine3d::Identity();
-  t.translate(Eigen::Vector3d(0, 0.1, 0));
-  s.AddVirtual(UvSphere(0.1f, 24), t, Diffuse(0.8));
-  s.SetEnvironment(Sky(1e2));
-  s.Commit();
+  SphereOnFloor(&s, 6, 0.1f, 24, 1e2);
   const CameraModel cam = Pinhole(40, 30, 90);
   const Rigid3 pose = LookAt({0, 0.3, -0.8}, {0, 0.08, 0});
   PathTracerSettings ps;
@@ -311,12 +306,7 @@ TEST(Vpl, DroppedShadowTestsStayWithinTheirBound) {
 // 1e-3) are not made; the composite changes by less than 1e-4 relMSE.
 TEST(Ic, InfluenceRegionSkipChangesLittle) {
   RenderScene s;
-  s.AddReal(Quad({-20, 0, -20}, {20, 0, -20}, {20, 0, 20}, {-20, 0, 20}), Diffuse(0.6));
-  Eigen::Affine3d t = Eigen::Affine3d::Identity();
-  t.translate(Eigen::Vector3d(0, 0.05, 0));
-  s.AddVirtual(UvSphere(0.05f, 16), t, Diffuse(0.8));
-  s.SetEnvironment(Sky(100));
-  s.Commit();
+  SphereOnFloor(&s, 20, 0.05f, 16, 100);
   const CameraModel cam = Pinhole(32, 24, 16);
   const Rigid3 pose = LookAt({0, 3, -6}, {0, 0, 4});
   auto run = [&](double threshold, int64_t* records) {

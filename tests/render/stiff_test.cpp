@@ -155,21 +155,16 @@ TEST(Stiff, NearMirrorObject) {
   }
 }
 
-// A virtual sphere that fills the whole view, under a sky with a sun 1e3 x
-// brighter, resting above the real floor: every camera sample's first hit
-// is virtual (mask 1 everywhere), no real point is seen directly, so the
+// A virtual sphere that fills the whole view, resting on the real floor
+// under a sky with a sun 1e3 x brighter: every camera sample's first hit is
+// virtual (mask 1 everywhere), no real point is seen directly, so the
 // composite is I_m alone; each fast method must agree with pt there.
 TEST(Stiff, ObjectCoveringTheWholeView) {
   RenderScene rs;
-  rs.AddReal(Quad({-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}), Diffuse(0.6));
-  Eigen::Affine3d t = Eigen::Affine3d::Identity();
-  t.translate(Eigen::Vector3d(0, 0.5, 0));
-  rs.AddVirtual(UvSphere(0.45f, 48), t, Diffuse(0.7));
-  rs.SetEnvironment(Sky(1e3));
-  rs.Commit();
+  SphereOnFloor(&rs, 4, 0.45f, 48, 1e3);
   // Outside the sphere, close enough that it fills the frame.
   const CameraModel cam = Pinhole(32, 24, 60);
-  const Rigid3 pose = LookAt({0, 0.5, -0.6}, {0, 0.5, 0});
+  const Rigid3 pose = LookAt({0, 0.45, -0.6}, {0, 0.45, 0});
   Rendered pt = Render("pt", Json::object(), rs, cam, pose, 256);
   const Image mask = pt.frame->Mask();
   for (float v : mask.values()) ASSERT_EQ(v, 1.0f);

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "calib/board.h"
 #include "calib/probe_file.h"
@@ -36,11 +37,21 @@ std::string Extension() {
   return ".json";  // probe, pipeline, board
 }
 
-// Images are capped at 4M pixels here, not at ReadImage's 2^28: a 1134-byte
-// WebP may truly hold 14114x984 pixels, whose decode took 13 s under the
-// sanitizers (a libFuzzer timeout that is slowness, not a defect).  The
-// production cap is Image.ExrHeaderClaimingMoreThanTheFileHoldsIsRefused's.
-constexpr int64_t kMaxPixels = int64_t{1} << 22;
+// Images are capped at 4M pixels and 16M values here, not at ReadImage's
+// 2^28 pixels: a 1134-byte WebP may truly hold 14114x984 pixels, whose
+// decode took 13 s under the sanitizers (a libFuzzer timeout), and a PIZ
+// file of 2 KB may truly hold 4M pixels of a hundred channels (1.6 GB, past
+// libFuzzer's memory limit): slowness and size, not defects.  The header is
+// read (and checked) either way.  The production caps are tested by
+// Image.ExrHeaderClaimingMoreThanTheFileHoldsIsRefused.
+constexpr int64_t kMaxPixels = int64_t{1} << 22, kMaxValues = int64_t{1} << 24;
+
+bool SmallEnough(const std::string& path) {
+  int w = 0, h = 0;
+  std::vector<std::string> channels;
+  mr::ReadImageHeader(path, &w, &h, &channels);
+  return int64_t{w} * h * static_cast<int64_t>(std::max<size_t>(1, channels.size())) <= kMaxValues;
+}
 
 void Read(const std::string& path) {
   if (kKind == "ffc") {
@@ -54,12 +65,14 @@ void Read(const std::string& path) {
   } else if (kKind == "exposures") {
     mr::ReadExposures(path, {"a.png", "b.png", "c.png"});
   } else if (kKind == "exr") {
+    if (!SmallEnough(path)) return;
     mr::ImageReadOptions o;
     o.nonfinite = mr::NonFinite::kAllow;
     o.max_pixels = kMaxPixels;
     const mr::Image img = mr::ReadImage(path, o);
     for (const std::string& l : img.LayerNames()) img.Layer(l);
   } else if (kKind == "hdrenv") {
+    if (!SmallEnough(path)) return;
     mr::ImageReadOptions o;
     o.max_pixels = kMaxPixels;
     mr::EnvironmentMap env(mr::ReadImage(path, o), path);

@@ -40,9 +40,9 @@ std::string Extension() {
 // Images are capped at 4M pixels and 16M values here, not at ReadImage's
 // 2^28 pixels: a 1134-byte WebP may truly hold 14114x984 pixels, whose
 // decode took 13 s under the sanitizers (a libFuzzer timeout), and a PIZ
-// file of 2 KB may truly hold 4M pixels of a hundred channels (1.6 GB, past
-// libFuzzer's memory limit): slowness and size, not defects.  The header is
-// read (and checked) either way.  The production caps are tested by
+// file of 2 KB could truly hold 4M pixels of a hundred channels (1.6 GB,
+// past libFuzzer's memory limit): slowness and size, not defects.  The
+// header is read (and checked) either way.  The production caps are tested by
 // Image.ExrHeaderClaimingMoreThanTheFileHoldsIsRefused.
 constexpr int64_t kMaxPixels = int64_t{1} << 22, kMaxValues = int64_t{1} << 24;
 

@@ -2,6 +2,8 @@
 // against pt on purpose-built scenes.
 #include <gtest/gtest.h>
 
+#include <memory>
+
 #include "core/image_metrics.h"
 #include "core/math.h"
 #include "geometry/primitives.h"
@@ -15,6 +17,14 @@ namespace mr {
 namespace {
 
 using namespace gi_test;
+
+// A vpl frame of `spp` samples per pixel with its own VPL set.
+std::unique_ptr<VplFrameRenderer> RenderVpl(const RenderScene& s, const VplSettings& vs, const CameraModel& cam,
+                                            const Rigid3& pose, int spp) {
+  auto r = std::make_unique<VplFrameRenderer>(s, VplSet::Build(s, vs), cam, pose, 0, 0);
+  r->RenderPass(spp);
+  return r;
+}
 
 TEST(Ic, IntegratingSphereWithAlbedoNearOne) {
   RenderScene s;
@@ -171,14 +181,10 @@ TEST(Vpl, FinalGatherGivesASmallObjectItsNearBounceLight) {
   const double truth = object_mean(pt);
   VplSettings vs;
   vs.paths = 64;
-  const auto set = VplSet::Build(s, vs);
-  VplFrameRenderer gathered(s, set, cam, pose, 0, 0);
-  gathered.RenderPass(16);
+  const auto gathered = RenderVpl(s, vs, cam, pose, 16);
   vs.final_gather = false;
-  VplFrameRenderer plain(s, VplSet::Build(s, vs), cam, pose, 0, 0);
-  plain.RenderPass(16);
-  const double g = object_mean(gathered), p = object_mean(plain);
-
+  const auto plain = RenderVpl(s, vs, cam, pose, 16);
+  const double g = object_mean(*gathered), p = object_mean(*plain);
   EXPECT_NEAR(g, truth, 0.03 * truth) << "without the gather: " << p;
   EXPECT_LT(p, 0.9 * truth);
 }
@@ -202,13 +208,11 @@ TEST(Vpl, SampledDirectLightMatchesPtWhereAFixedSetIsOneDraw) {
   const double truth = Mean(pt.Mixed());
   VplSettings vs;
   vs.paths = 64;
-  VplFrameRenderer sampled(s, VplSet::Build(s, vs), cam, pose, 0, 0);
-  sampled.RenderPass(16);
+  const auto sampled = RenderVpl(s, vs, cam, pose, 16);
   vs.fixed_directions = true;
-  VplFrameRenderer fixed(s, VplSet::Build(s, vs), cam, pose, 0, 0);
-  fixed.RenderPass(16);
-  EXPECT_NEAR(Mean(sampled.Mixed()), truth, 0.015 * truth);
-  EXPECT_GT(std::abs(Mean(fixed.Mixed()) - truth), 0.1 * truth);
+  const auto fixed = RenderVpl(s, vs, cam, pose, 16);
+  EXPECT_NEAR(Mean(sampled->Mixed()), truth, 0.015 * truth);
+  EXPECT_GT(std::abs(Mean(fixed->Mixed()) - truth), 0.1 * truth);
 }
 
 // A virtual spot light over the real floor: all of its light is a
@@ -267,19 +271,16 @@ TEST(Vpl, SunBesideAWallClampBiasMeasuredAndCompensated) {
   vs.paths = 512;
   vs.drop_threshold = 0;
   vs.clamp_distance = 1e-6;
-  VplFrameRenderer unclamped(s, VplSet::Build(s, vs), cam, pose, 0, 0);
-  unclamped.RenderPass(1);
+  const auto unclamped = RenderVpl(s, vs, cam, pose, 1);
   vs.clamp_distance = 1.0;
-  VplFrameRenderer plain(s, VplSet::Build(s, vs), cam, pose, 0, 0);
-  plain.RenderPass(1);
+  const auto plain = RenderVpl(s, vs, cam, pose, 1);
   vs.compensate = true;
-  VplFrameRenderer comp(s, VplSet::Build(s, vs), cam, pose, 0, 0);
-  comp.RenderPass(16);
-  const double u = Mean(unclamped.Mixed()), p = Mean(plain.Mixed()), c = Mean(comp.Mixed());
-  EXPECT_EQ(CountNonFinite(comp.Mixed()), 0);
+  const auto comp = RenderVpl(s, vs, cam, pose, 16);
+  const double u = Mean(unclamped->Mixed()), p = Mean(plain->Mixed()), c = Mean(comp->Mixed());
+  EXPECT_EQ(CountNonFinite(comp->Mixed()), 0);
   ASSERT_LT(p, 0.995 * u);  // the clamp matters here (1.5%)
   // Luminance ratio (the sky is grey, so luminance = each channel).
-  EXPECT_NEAR(plain.clamp_bias_mixed(), (u - p) / p, 0.01 * (u - p) / p);
+  EXPECT_NEAR(plain->clamp_bias_mixed(), (u - p) / p, 0.01 * (u - p) / p);
   EXPECT_LT(std::abs(c - u), 0.5 * (u - p));
 }
 

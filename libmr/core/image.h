@@ -84,8 +84,10 @@ struct ImageReadOptions {
   // kReject: NaN/Inf pixels are an error naming the file, the count and the
   // first offending pixel.  kAllow: kept as they are (mr-info counts them).
   NonFinite nonfinite = NonFinite::kReject;
-  // Refuse images with more pixels than this (corrupt headers claim huge sizes).
+  // Refuse images with more pixels than this (corrupt headers claim huge
+  // sizes), or more values (pixels x channels) than max_values.
   int64_t max_pixels = int64_t{1} << 28;
+  int64_t max_values = int64_t{1} << 32;
 };
 
 struct ImageFileInfo {

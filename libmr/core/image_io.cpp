@@ -321,6 +321,9 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   if (pixels > options.max_pixels)
     ThrowErrorAt(loc, "image is {}x{} = {} pixels, more than the limit of {} (corrupt header?)", spec.width,
                  spec.height, pixels, options.max_pixels);
+  if (pixels * spec.nchannels > options.max_values)
+    ThrowErrorAt(loc, "image is {}x{} pixels of {} channels, more than the limit of {} values (corrupt header?)",
+                 spec.width, spec.height, spec.nchannels, options.max_values);
   // Radiance HDR's run-length coding holds at most 127 pixels in 8 bytes
   // (a run per component), so a header claiming more than 16 pixels a byte
   // lies: refused before the buffer is allocated (found by fuzz/fuzz_hdrenv:

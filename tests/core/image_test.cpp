@@ -269,6 +269,16 @@ TEST(Image, ExrHeaderClaimingMoreThanTheFileHoldsIsRefused) {
   const Image flat = Image::Rgb(512, 512, 0.25f);
   WriteImage(dir / "flat.exr", flat);
   EXPECT_EQ(ReadImage(dir / "flat.exr").values(), flat.values());
+  ImageReadOptions few;
+  few.max_values = 512 * 512 * 3 - 1;
+  try {
+    ReadImage(dir / "flat.exr", few);
+    ADD_FAILURE() << "read past max_values";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("512x512 pixels of 3 channels, more than the limit of 786431 values"),
+              std::string::npos)
+        << e.what();
+  }
   ImageWriteOptions half;
   half.pixel_type = PixelType::kHalf;
   WriteImage(dir / "flat-half.exr", flat, half);

@@ -287,6 +287,8 @@ void VplSet::Describe(Report* report) const {
   report->SetMetric("vpl.compensate", settings_.compensate);
   report->SetMetric("vpl.final_gather", settings_.final_gather);
   report->SetMetric("vpl.fixed_directions", settings_.fixed_directions);
+  if (!settings_.fixed_directions)
+    report->Skip("directional VPLs", "the direct light is sampled at every shading point (vpl.fixed_directions off)");
   report->SetMetric("vpl.build_seconds", build_seconds_);
   report->SetMetric("vpl.paths_ended_by_roulette", paths_ended_below_);
 }
@@ -392,8 +394,8 @@ class VplShader {
   // one sampled ray: at a real point the plate sees, its radiance and the
   // objects' shadows there (PlateAtRealPoint, as pt); elsewhere the light
   // the VPLs give the point met, as at a camera ray's point.  A ray that
-  // escapes adds nothing: the directional VPLs hold the environment's direct
-  // light at v, as they do without the gather.
+  // escapes adds nothing: Gather took the environment's direct light at v
+  // (sampled, or the fixed directional VPLs), as it does without the gather.
   void FinalGather(const PathVertex& v, const Bsdf& bsdf, const Eigen::Vector3d& beta, Sampler& rng, Accum* acc) const {
     BsdfSample s;
     const double ul = rng.NextDouble();
@@ -460,7 +462,6 @@ class VplShader {
   Eigen::Vector3d DiffuseAlbedo(const PathVertex& v) const { return v.albedo; }
   uint32_t Id(const PathVertex& v) const { return v.geometry_id; }
 
-  // Every VPL, directional VPL and delta light at v through `bsdf`.
   // The light at v through `bsdf` (its glossy lobe too where `glossy`):
   // the direct light, sampled here (DirectDiffuse, as ic and vct) or from
   // the fixed directional VPLs (VplSettings::fixed_directions), and the
@@ -505,8 +506,7 @@ class VplShader {
       total += l;
       list.push_back({value, bias, dir, tfar, sets});
     };
-    for (const DirectionalVpl& d : set_.directional()) {
-      if (!st_.fixed_directions) break;
+    for (const DirectionalVpl& d : set_.directional()) {  // empty unless fixed_directions
       const Eigen::Vector3d wi = v.frame.ToLocal(d.dir);
       if (wi.z() <= 0) continue;
       push(bsdf.Eval(wo_l, wi).cwiseProduct(d.irradiance) * wi.z(), Eigen::Vector3d::Zero(), d.dir, INFINITY, d.sets);

@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/exr_check.h"
 #include "core/image.h"
+#include "core/image_format.h"
 #include "core/math.h"
 #include "core/png_check.h"
 #include "core/stderr_capture.h"
@@ -46,15 +47,37 @@ ImageFileInfo InfoFromSpec(const OIIO::ImageInput& in, const OIIO::ImageSpec& sp
   return info;
 }
 
-std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* spec) {
+// `limits`: the most pixels and values a caller takes (null: any).
+std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* spec,
+                                       const ImageReadOptions* limits = nullptr) {
   RequireFile(path, "image");
   CheckPngChunks(path);
-  CheckExrHeader(path);
+  const ExrBuffers buffers = CheckExrHeader(path);
+  // OpenEXR allocates a chunk's lines (32 for PIZ, 256 for DWAB) however
+  // few the image has: a 1-line image 1.4M pixels wide made it take 1.5 GB
+  // on opening (fuzz_exr).
+  if (limits && (buffers.pixels > limits->max_pixels || buffers.values > limits->max_values)) {
+    const bool padded = buffers.pixels > buffers.width * buffers.height;
+    ThrowErrorAt(FileLoc{path.string()},
+                 "image is {}x{} pixels of {} channels{}, more than the limit of {} pixels and {} values (corrupt "
+                 "header?)",
+                 buffers.width, buffers.height, buffers.channels,
+                 padded ? fmt::format(", in chunks spanning {} pixels", buffers.pixels) : "", limits->max_pixels,
+                 limits->max_values);
+  }
+  const std::string format = ImageFormatOf(path);
   StderrCapture library_lines;  // libpng prints its errors before OpenImageIO reports them
-  auto in = OIIO::ImageInput::open(path.string());
+  // The reader of the file's format only: no fallback to OpenImageIO's others.
+  auto in = OIIO::ImageInput::create(format);
+  std::string err;
+  if (!in) {
+    err = OIIO::geterror();
+  } else if (!in->open(path.string(), *spec)) {
+    err = in->geterror();
+    in.reset();
+  }
   if (!in) {
     const std::string printed = library_lines.Take();
-    std::string err = OIIO::geterror();
     if (err.empty()) err = printed.empty() ? "not a readable image" : printed;
     ThrowErrorAt(FileLoc{path.string()}, "cannot read image: {}", err);
   }
@@ -63,6 +86,30 @@ std::unique_ptr<OIIO::ImageInput> Open(const fs::path& path, OIIO::ImageSpec* sp
 }
 
 }  // namespace
+
+std::string ImageFormatOf(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) ThrowErrorAt(FileLoc{path.string()}, "cannot open image");
+  unsigned char b[10] = {};
+  in.read(reinterpret_cast<char*>(b), sizeof b);
+  const std::streamsize n = in.gcount();
+  auto starts = [&](std::initializer_list<int> magic) {
+    if (n < static_cast<std::streamsize>(magic.size())) return false;
+    size_t i = 0;
+    for (int m : magic)
+      if (b[i++] != m) return false;
+    return true;
+  };
+  if (starts({0x76, 0x2f, 0x31, 0x01})) return "openexr";
+  if (starts({'#', '?'})) return "hdr";
+  if (starts({0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'})) return "png";
+  if (starts({0xff, 0xd8, 0xff})) return "jpeg";
+  if (starts({'I', 'I', 42, 0}) || starts({'M', 'M', 0, 42})) return "tiff";
+  if (starts({'P', 'F'}) || starts({'P', 'f'})) return "pnm";
+  ThrowErrorAt(FileLoc{path.string()}, "{}",
+               n == 0 ? "is empty, not an image"
+                      : "is not an OpenEXR, Radiance HDR, PNG, JPEG, TIFF or PFM image (by its first bytes)");
+}
 
 void CheckPngChunks(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -144,17 +191,18 @@ void CheckExrAttributeValue(const FileLoc& loc, const std::string& name, const s
   }
 }
 
-void CheckExrHeader(const fs::path& path) {
+ExrBuffers CheckExrHeader(const fs::path& path) {
+  ExrBuffers most;
   std::ifstream in(path, std::ios::binary);
-  if (!in) return;  // the reader reports it
+  if (!in) return most;  // the reader reports it
   std::error_code ec;
   const uint64_t size = fs::file_size(path, ec);
-  if (ec) return;
+  if (ec) return most;
   const FileLoc loc{path.string()};
   unsigned char head[8];
   if (!in.read(reinterpret_cast<char*>(head), 8) || head[0] != 0x76 || head[1] != 0x2f || head[2] != 0x31 ||
       head[3] != 0x01)
-    return;
+    return most;
   const uint32_t flags = head[5] | (uint32_t{head[6]} << 8) | (uint32_t{head[7]} << 16);
   const bool single_tiled = flags & 0x2, long_names = flags & 0x4, deep = flags & 0x8, multipart = flags & 0x10;
   // The attributes: name, type (each NUL-terminated, at most 31 bytes, 255
@@ -183,7 +231,7 @@ void CheckExrHeader(const fs::path& path) {
   // opening: 1999 bytes of multi-part header took 1.9 GB; fuzz_exr).
   double need_all = 0;
   for (int part = 0;; ++part) {
-    int64_t width = 0, height = 0, pixel_bytes = 0, tile_w = 0, tile_h = 0;
+    int64_t width = 0, height = 0, pixel_bytes = 0, channels = 0, tile_w = 0, tile_h = 0;
     int compression = -1;
     bool have_window = false, any = false;
     std::string part_type;
@@ -226,6 +274,7 @@ void CheckExrHeader(const fs::path& path) {
           if (k + 17 > v.size()) break;
           const int32_t t = i32(&v[k + 1]);
           pixel_bytes += t == 1 ? 2 : 4;
+          ++channels;
           k += 17;
         }
       }
@@ -235,17 +284,21 @@ void CheckExrHeader(const fs::path& path) {
     const bool tiled = (multipart ? part_type == "tiledimage" : single_tiled) && tile_w > 0 && tile_h > 0;
     if (!part_deep && have_window && width > 0 && height > 0) {  // else the reader judges
       int64_t chunks = 0;
+      double padded = 0;  // the pixels OpenEXR's buffers span: whole chunks
       if (tiled) {
         chunks = ((width + tile_w - 1) / tile_w) * ((height + tile_h - 1) / tile_h);
+        padded = std::max(static_cast<double>(width) * static_cast<double>(height),
+                          static_cast<double>(tile_w) * static_cast<double>(tile_h));
       } else {
         // Scanlines per chunk: none, RLE, ZIPS 1; ZIP, PXR24 16; PIZ, B44,
         // B44A, DWAA 32; DWAB 256.
         static const int kLines[] = {1, 1, 1, 16, 32, 16, 32, 32, 32, 256};
         const int lines = compression >= 0 && compression < 10 ? kLines[compression] : 1;
         chunks = (height + lines - 1) / lines;
+        padded = static_cast<double>(width) * static_cast<double>(std::max<int64_t>(height, lines));
       }
-      // Bytes of pixels per byte of file, where bounded.
-      static const double kRatio[] = {1, 64, 1100, 1100, 0, 1400, 32.0 / 3, 32.0 / 3, 0, 0};
+      // Bytes of pixels per byte of file (docs/formats.md, "Reading images").
+      static const double kRatio[] = {1, 64, 1100, 1100, 2000, 1400, 32.0 / 3, 32.0 / 3, 500000, 500000};
       const double ratio = compression >= 0 && compression < 10 ? kRatio[compression] : 0;
       const double pixels = static_cast<double>(width) * static_cast<double>(height);
       const double need = std::max(16.0 * static_cast<double>(chunks),
@@ -256,9 +309,15 @@ void CheckExrHeader(const fs::path& path) {
                      "the OpenEXR header{} claims {}x{} pixels in {} chunks, more than the file's {} bytes can hold "
                      "(truncated or corrupt file?)",
                      multipart ? fmt::format(" of part {}", part) : "", width, height, chunks, size);
+      constexpr double kMost = 9e18;
+      const double values = padded * static_cast<double>(std::max<int64_t>(1, channels));
+      if (values > static_cast<double>(most.values))
+        most = {static_cast<int64_t>(std::min(padded, kMost)), static_cast<int64_t>(std::min(values, kMost)), width,
+                height, channels};
     }
     if (!multipart) break;
   }
+  return most;
 }
 
 ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height, std::vector<std::string>* channels) {
@@ -311,7 +370,7 @@ bool ReadPixelsAsFloat(OIIO::ImageInput& in, const OIIO::ImageSpec& spec, float*
 
 Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFileInfo* info_out) {
   OIIO::ImageSpec spec;
-  auto in = Open(path, &spec);
+  auto in = Open(path, &spec, &options);
   const FileLoc loc{path.string()};
   ImageFileInfo info = InfoFromSpec(*in, spec);
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
@@ -330,10 +389,10 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   // 109 bytes claiming 83333333x2 pixels, a 2 GB allocation).
   // Any other compressed format gets a generic bound: at most 65536 values
   // a byte, far above what deflate (1032), JPEG or LZW reach on real
-  // images.  OpenImageIO picks the reader by the file's content, so a file
-  // named .exr or .hdr may be read as anything it supports (fuzz_exr and
-  // fuzz_hdrenv: 48 bytes of WebP claiming 12663x13749 pixels, 2.8 GB of
-  // floats).  OpenEXR files are checked by their header (CheckExrHeader).
+  // images (fuzz_exr and fuzz_hdrenv found 48 bytes of WebP named .exr
+  // claiming 12663x13749 pixels, 2.8 GB of floats, before the format was
+  // told by content: ImageFormatOf).  OpenEXR files are checked by their
+  // header (CheckExrHeader).
   std::error_code size_ec;
   const auto bytes = static_cast<int64_t>(fs::file_size(path, size_ec));
   if (!size_ec && info.format == "hdr" && pixels > 16 * bytes + 4096)

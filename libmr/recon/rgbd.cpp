@@ -10,6 +10,7 @@
 
 #include "camera/camera_model.h"
 #include "core/error.h"
+#include "core/image_format.h"
 #include "core/png_check.h"
 
 namespace mr {
@@ -21,17 +22,9 @@ namespace {
 // malformed file (found by fuzz/fuzz_depth).  Depth maps are PNG, TIFF, EXR
 // or PFM: any other file is refused before a decoder sees it.
 void CheckDepthSignature(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  unsigned char b[8] = {};
-  in.read(reinterpret_cast<char*>(b), 8);
-  const std::streamsize n = in.gcount();
-  const bool png = n == 8 && b[0] == 0x89 && b[1] == 'P' && b[2] == 'N' && b[3] == 'G' && b[4] == '\r' &&
-                   b[5] == '\n' && b[6] == 0x1a && b[7] == '\n';
-  const bool tiff = n >= 4 && ((b[0] == 'I' && b[1] == 'I' && b[2] == 42 && b[3] == 0) ||
-                               (b[0] == 'M' && b[1] == 'M' && b[2] == 0 && b[3] == 42));
-  const bool pfm = n >= 2 && b[0] == 'P' && (b[1] == 'f' || b[1] == 'F');
-  const bool exr = n >= 4 && b[0] == 0x76 && b[1] == 0x2f && b[2] == 0x31 && b[3] == 0x01;
-  if (!png && !tiff && !pfm && !exr) ThrowErrorAt(FileLoc{path.string()}, "is not a PNG, TIFF, EXR or PFM depth image");
+  const std::string f = ImageFormatOf(path);
+  if (f != "png" && f != "tiff" && f != "pnm" && f != "openexr")
+    ThrowErrorAt(FileLoc{path.string()}, "is not a PNG, TIFF, EXR or PFM depth image");
 }
 
 // cv::imread, with OpenCV's exceptions (its PFM reader asserts on a malformed

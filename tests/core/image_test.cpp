@@ -216,9 +216,13 @@ TEST(Image, BadFilesGiveOneClearError) {
   };
   expect_error(dir / "missing.exr", "does not exist");
   { std::ofstream(dir / "empty.exr"); }
-  expect_error(dir / "empty.exr", "cannot read");
+  expect_error(dir / "empty.exr", "is empty, not an image");
   { std::ofstream(dir / "text.png") << "this is not a png"; }
-  expect_error(dir / "text.png", "cannot read");
+  expect_error(dir / "text.png", "is not an OpenEXR, Radiance HDR, PNG, JPEG, TIFF or PFM image");
+  // A PNG named .exr is read as the PNG it is.
+  WriteImage(dir / "small.png", Image::Rgb(4, 3, 0.5f));
+  fs::copy_file(dir / "small.png", dir / "png-named.exr");
+  EXPECT_EQ(ReadImage(dir / "png-named.exr").width(), 4);
   // A truncated EXR: the header survives, the pixels do not.
   Image img = Ramp(64, 64, {"R", "G", "B"});
   WriteImage(dir / "full.exr", img);
@@ -275,10 +279,26 @@ TEST(Image, ExrHeaderClaimingMoreThanTheFileHoldsIsRefused) {
     ReadImage(dir / "flat.exr", few);
     ADD_FAILURE() << "read past max_values";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("512x512 pixels of 3 channels, more than the limit of 786431 values"),
+    EXPECT_NE(std::string(e.what()).find("512x512 pixels of 3 channels, more than the limit of 268435456 pixels and "
+                                         "786431 values"),
               std::string::npos)
         << e.what();
   }
+  // OpenEXR allocates whole chunks (16 lines for ZIP) however few lines the
+  // image has (fuzz_exr: a 1-line PIZ image 1.4M pixels wide took 1.5 GB):
+  // a 100000x1 image spans 1.6M pixels there, past a 1M-pixel limit.
+  WriteImage(dir / "line.exr", Image::Rgb(100000, 1, 0.5f));
+  ImageReadOptions million;
+  million.max_pixels = 1000000;
+  try {
+    ReadImage(dir / "line.exr", million);
+    ADD_FAILURE() << "read past max_pixels";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("100000x1 pixels of 3 channels, in chunks spanning 1600000 pixels"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(ReadImage(dir / "line.exr").width(), 100000);
   ImageWriteOptions half;
   half.pixel_type = PixelType::kHalf;
   WriteImage(dir / "flat-half.exr", flat, half);
@@ -314,10 +334,27 @@ TEST(Image, ExrHeaderClaimingMoreThanTheFileHoldsIsRefused) {
   renamed.replace(comp, 11, "compression_with_a_name_over_31_bytes");
   WriteTextFile(dir / "name.exr", renamed);
   refused(dir / "name.exr", "longer than 31 bytes without the long-names flag");
-  // OpenImageIO reads by content: 48 bytes of WebP named .exr, claiming
-  // 12663x13749 pixels (fuzz_exr), refused before 2.8 GB are allocated.
+  // 48 bytes of WebP named .exr, claiming 12663x13749 pixels (fuzz_exr):
+  // not a format mr reads, refused by its first bytes before 2.8 GB are
+  // allocated.  A format mr does read gets the generic bound: a JPEG whose
+  // frame header is patched to claim 12000x12000 pixels.
   fs::copy_file(fs::path(MR_SOURCE_DIR) / "fuzz" / "corpus" / "exr" / "webp-claiming-2.8GB.exr", dir / "webp.exr");
-  refused(dir / "webp.exr", "the webp header claims 12663x13749 pixels of 4 channels, more than the file's 48 bytes");
+  refused(dir / "webp.exr", "is not an OpenEXR, Radiance HDR, PNG, JPEG, TIFF or PFM image");
+  WriteImage(dir / "small.jpg", Image::Rgb(16, 16, 0.5f));
+  std::string jpeg = ReadTextFile(dir / "small.jpg");
+  size_t sof = std::string::npos;
+  for (size_t i = 2; i + 9 < jpeg.size(); ++i)
+    if (static_cast<unsigned char>(jpeg[i]) == 0xff && (static_cast<unsigned char>(jpeg[i + 1]) & 0xfc) == 0xc0) {
+      sof = i;  // SOF0..SOF3: length (2), precision (1), height (2), width (2)
+      break;
+    }
+  ASSERT_NE(sof, std::string::npos);
+  for (size_t k : {sof + 5, sof + 7}) {
+    jpeg[k] = static_cast<char>(12000 >> 8);
+    jpeg[k + 1] = static_cast<char>(12000 & 0xff);
+  }
+  WriteTextFile(dir / "claims.jpg", jpeg);
+  refused(dir / "claims.jpg", "the jpeg header claims 12000x12000 pixels of 3 channels, more than the file's");
   // Every part's header of a multi-part file is checked (fuzz_exr: a
   // second part's header made OpenEXR take 1.9 GB on opening 1999 bytes).
   fs::copy_file(fs::path(MR_SOURCE_DIR) / "fuzz" / "corpus" / "exr" / "multipart-second-header.exr",

@@ -46,6 +46,13 @@ Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi)
   return f;
 }
 
+Eigen::Vector3d Bsdf::DiffuseBound() const { return albedo_ * kInvPi; }
+
+Eigen::Vector3d Bsdf::GlossyBound(const Eigen::Vector3d& wo) const {
+  if (glossy_weight_ <= 0 || wo.z() <= 0) return Eigen::Vector3d::Zero();
+  return specular_ / (4 * kPi * alpha_ * alpha_ * wo.z());
+}
+
 double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
   if (wo.z() <= 0 || wi.z() <= 0) return 0;
   double pdf = diffuse_weight_ * wi.z() * kInvPi;

@@ -26,6 +26,12 @@ class Bsdf {
   // Returns false when no direction was produced (e.g. below the horizon).
   bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const;
   bool IsBlack() const { return diffuse_weight_ + glossy_weight_ <= 0; }
+  // Bounds on f(wo, wi) wi.z over every wi, per channel, for a light tree's
+  // error bounds: the diffuse part's is albedo/pi times the cosine (the
+  // caller bounds the cosine), `glossy` is specular/(4 pi alpha^2 wo.z)
+  // (GGX's D peaks at 1/(pi alpha^2), the masking term is at most 1).
+  Eigen::Vector3d DiffuseBound() const;
+  Eigen::Vector3d GlossyBound(const Eigen::Vector3d& wo) const;
 
  private:
   double D(const Eigen::Vector3d& h) const;

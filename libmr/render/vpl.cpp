@@ -264,6 +264,19 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     for (auto& v : per_path) out->vpls_.insert(out->vpls_.end(), v.begin(), v.end());
     out->paths_ended_below_ = below.load();
   }
+  if (st.cut_error > 0 && out->vpls_.size() >= static_cast<size_t>(st.cut_min_vpls)) {
+    for (const uint8_t sets : {kLightsBoth, kLightsMixed, kLightsReal}) {
+      std::vector<int> idx;
+      for (size_t i = 0; i < out->vpls_.size(); ++i) {
+        const Vpl& v = out->vpls_[i];
+        // A VPL whose every bound is zero (a black surface) lights nothing.
+        if (v.sets == sets &&
+            Luminance(v.flux.cwiseProduct(v.bsdf.DiffuseBound() + v.bsdf.GlossyBound(v.wi_local))) > 0)
+          idx.push_back(static_cast<int>(i));
+      }
+      if (!idx.empty()) out->trees_.emplace_back(out->vpls_, std::move(idx), sets, diag, HashCombine(st.seed, sets));
+    }
+  }
   out->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
@@ -289,6 +302,16 @@ void VplSet::Describe(Report* report) const {
   report->SetMetric("vpl.fixed_directions", settings_.fixed_directions);
   if (!settings_.fixed_directions)
     report->Skip("directional VPLs", "the direct light is sampled at every shading point (vpl.fixed_directions off)");
+  report->SetMetric("vpl.cut_error", settings_.cut_error);
+  report->SetMetric("vpl.max_cut", settings_.max_cut);
+  int64_t tree_nodes = 0;
+  for (const VplTree& t : trees_) tree_nodes += static_cast<int64_t>(t.size());
+  report->SetMetric("vpl.tree_nodes", tree_nodes);
+  report->SetMetric("vpl.cut_min_vpls", settings_.cut_min_vpls);
+  if (settings_.cut_error > 0 && trees_.empty())
+    report->Skip("light trees (lightcuts)",
+                 fmt::format("{} VPLs, fewer than vpl.cut_min_vpls = {}: testing each costs less than clustering",
+                             vpls_.size(), settings_.cut_min_vpls));
   report->SetMetric("vpl.build_seconds", build_seconds_);
   report->SetMetric("vpl.paths_ended_by_roulette", paths_ended_below_);
 }
@@ -469,6 +492,7 @@ class VplShader {
   // rest).
   void Gather(const PathVertex& v, const Bsdf& bsdf, bool glossy, bool x_virtual, bool want_m, bool want_r,
               const Eigen::Vector3d& beta, Sampler& rng, Accum* acc, bool measure_bias, bool point_vpls = true) const {
+    double direct = 0;  // the direct light's luminance here (lightcuts' error is relative to the whole)
     if (!st_.fixed_directions) {
       Eigen::Vector3d m = Eigen::Vector3d::Zero(), r = Eigen::Vector3d::Zero();
       PathVertex vd = v;
@@ -490,6 +514,7 @@ class VplShader {
       }
       acc->mixed += beta.cwiseProduct(m);
       acc->real += beta.cwiseProduct(r);
+      direct = std::max(Luminance(m), Luminance(r));
     }
     thread_local std::vector<Contribution> list;
     list.clear();
@@ -521,8 +546,11 @@ class VplShader {
       push(bsdf.Eval(wo_l, wi).cwiseProduct(ls.li) * wi.z(), Eigen::Vector3d::Zero(), ls.wi, ls.distance * (1 - 1e-6),
            l.is_virtual() ? kLightsMixed : kLightsBoth);
     }
+    const bool cuts = !set_.trees().empty();
+    if (point_vpls && cuts)
+      Lightcut(v, bsdf, wo_l, origin, want_m, want_r && !x_virtual, direct, beta, measure_bias, acc);
     for (const Vpl& p : set_.vpls()) {
-      if (!point_vpls) break;
+      if (!point_vpls || cuts) break;
       if (!(p.sets & wanted)) continue;
       Eigen::Vector3d d = p.p - origin;
       const double d2 = d.squaredNorm();
@@ -541,45 +569,180 @@ class VplShader {
     }
     if (list.empty()) return;
     const double cut = st_.drop_threshold * total / static_cast<double>(list.size());
-    const bool virtual_geometry = scene_.has_virtual_geometry();
     for (const Contribution& c : list) {
       if (Luminance(c.value) < cut) {
         ++acc->c.dropped;
         continue;
       }
       const bool m = want_m && (c.sets & kLightsMixed), r = want_r && !x_virtual && (c.sets & kLightsReal);
-      Ray shadow = MakeRay(origin, c.dir, kMaskAll, c.tfar);
+      const auto [seen_m, seen_r] = Visible(origin, c.dir, c.tfar, m, r, acc);
       const Eigen::Vector3d value = beta.cwiseProduct(c.value), bias = beta.cwiseProduct(c.bias);
-      if (m && r) {  // a shared contribution at a real point: st_r, then st_v
-        shadow.mask = kMaskReal;
-        ++acc->c.shadow_rays;
-        if (scene_.embree().Occluded(shadow)) continue;
-        acc->real += value;
-        acc->bias_r += bias;
-        if (virtual_geometry) {
-          if (SegmentMeetsBoxes(origin, c.dir, std::min(c.tfar, 1e30), scene_.virtual_bounds())) {
-            shadow.mask = kMaskVirtual;
-            ++acc->c.shadow_rays;
-            if (scene_.embree().Occluded(shadow)) continue;
-          } else {
-            ++acc->c.virtual_tests_skipped;
-          }
-        }
+      if (seen_m) {
         acc->mixed += value;
         acc->bias_m += bias;
-      } else if (m) {
-        shadow.mask = kMaskAll;
-        ++acc->c.shadow_rays;
-        if (scene_.embree().Occluded(shadow)) continue;
-        acc->mixed += value;
-        acc->bias_m += bias;
-      } else if (r) {
-        shadow.mask = kMaskReal;
-        ++acc->c.shadow_rays;
-        if (scene_.embree().Occluded(shadow)) continue;
+      }
+      if (seen_r) {
         acc->real += value;
         acc->bias_r += bias;
       }
+    }
+  }
+
+  // Whether the segment from `origin` along `dir` to tfar is clear in I_m
+  // and in I_r (each asked only where wanted).  A shared contribution at a
+  // real point is tested against the real scene first (st_r), then, if the
+  // segment meets a virtual object's box, against the virtual objects (st_v).
+  std::pair<bool, bool> Visible(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, double tfar, bool m, bool r,
+                                Accum* acc) const {
+    Ray shadow = MakeRay(origin, dir, kMaskAll, tfar);
+    if (m && r) {
+      shadow.mask = kMaskReal;
+      ++acc->c.shadow_rays;
+      if (scene_.embree().Occluded(shadow)) return {false, false};
+      if (scene_.has_virtual_geometry()) {
+        if (SegmentMeetsBoxes(origin, dir, std::min(tfar, 1e30), scene_.virtual_bounds())) {
+          shadow.mask = kMaskVirtual;
+          ++acc->c.shadow_rays;
+          if (scene_.embree().Occluded(shadow)) return {false, true};
+        } else {
+          ++acc->c.virtual_tests_skipped;
+        }
+      }
+      return {true, true};
+    }
+    if (m) {
+      shadow.mask = kMaskAll;
+      ++acc->c.shadow_rays;
+      return {!scene_.embree().Occluded(shadow), false};
+    }
+    if (r) {
+      shadow.mask = kMaskReal;
+      ++acc->c.shadow_rays;
+      return {false, !scene_.embree().Occluded(shadow)};
+    }
+    return {false, false};
+  }
+
+  // One VPL's light at the point (origin, frame n, BSDF `bsdf` seen from
+  // wo_l), shadowed, for I_m and I_r; with the clamp's bias where asked.
+  struct VplLight {
+    Eigen::Vector3d m = Eigen::Vector3d::Zero(), r = Eigen::Vector3d::Zero();
+    Eigen::Vector3d bias_m = Eigen::Vector3d::Zero(), bias_r = Eigen::Vector3d::Zero();
+  };
+  VplLight OneVpl(const Vpl& p, const Eigen::Vector3d& origin, const ShadingFrame& frame, const Bsdf& bsdf,
+                  const Eigen::Vector3d& wo_l, bool m, bool r, bool measure_bias, Accum* acc) const {
+    VplLight out;
+    m = m && (p.sets & kLightsMixed);
+    r = r && (p.sets & kLightsReal);
+    if (!m && !r) return out;
+    Eigen::Vector3d d = p.p - origin;
+    const double d2 = d.squaredNorm();
+    if (!(d2 > 0)) return out;
+    const double dist = std::sqrt(d2);
+    d /= dist;
+    const double cos_x = d.dot(frame.n), cos_y = -d.dot(p.frame.n);
+    if (cos_x <= 0 || cos_y <= 0) return out;
+    const Eigen::Vector3d fx = bsdf.Eval(wo_l, frame.ToLocal(d));
+    if (fx.maxCoeff() <= 0) return out;
+    const Eigen::Vector3d e =
+        p.flux.cwiseProduct(p.bsdf.Eval(p.wi_local, p.frame.ToLocal(-d))).cwiseProduct(fx) * (cos_x * cos_y);
+    if (!(e.maxCoeff() > 0)) return out;
+    const double g = 1 / std::max(d2, clamp2_);
+    const auto [seen_m, seen_r] = Visible(origin, d, dist * (1 - 1e-5), m, r, acc);
+    const Eigen::Vector3d bias = measure_bias ? Eigen::Vector3d(e * (1 / d2 - g)) : Eigen::Vector3d::Zero();
+    if (seen_m) {
+      out.m = e * g;
+      out.bias_m = bias;
+    }
+    if (seen_r) {
+      out.r = e * g;
+      out.bias_r = bias;
+    }
+    return out;
+  }
+
+  // The VPLs' light at v through the light trees (lightcuts, Walter et al.
+  // 2005): the cut starts at each tree's root, each cluster estimated by its
+  // representative's shadowed light times the cluster's weight over the
+  // representative's (unbiased over the representative's draw), and the
+  // cluster with the largest error bound is split while that bound exceeds
+  // cut_error of the point's estimated light (`direct`: the light already
+  // gathered there, the VPLs' estimate added) and the cut holds fewer than
+  // max_cut clusters.  A child keeps its parent's representative's value
+  // when it has the same one (one shadow test fewer).
+  void Lightcut(const PathVertex& v, const Bsdf& bsdf, const Eigen::Vector3d& wo_l, const Eigen::Vector3d& origin,
+                bool m, bool r, double direct, const Eigen::Vector3d& beta, bool measure_bias, Accum* acc) const {
+    struct Cluster {
+      int tree, node;
+      double scale;
+      VplLight rep;
+    };
+    struct Entry {  // the heap's: by error bound
+      double err;
+      int slot;
+      bool operator<(const Entry& o) const { return err < o.err || (err == o.err && slot < o.slot); }
+    };
+    thread_local std::vector<Cluster> clusters;
+    thread_local std::vector<Entry> heap;
+    clusters.clear();
+    heap.clear();
+    const Eigen::Vector3d dx = bsdf.DiffuseBound(), gx = bsdf.GlossyBound(wo_l);
+    const uint8_t wanted = static_cast<uint8_t>((m ? kLightsMixed : 0) | (r ? kLightsReal : 0));
+    Eigen::Vector3d total_m = Eigen::Vector3d::Zero(), total_r = Eigen::Vector3d::Zero();
+    auto add = [&](int ti, int node, const VplLight* same) {
+      const VplTree& t = set_.trees()[static_cast<size_t>(ti)];
+      const VplCluster& c = t.node(node);
+      double err = 0;
+      if (!c.leaf()) {
+        const Eigen::Vector3d bound = t.Bound(node, v.p, v.frame.t, v.frame.b, v.frame.n, dx, gx, clamp2_);
+        if (!(bound.maxCoeff() > 0)) return;  // no light of the cluster reaches v
+        err = Luminance(bound);
+      }
+      Cluster k{ti, node, c.weight / t.weight(c.rep), {}};
+      k.rep =
+          same ? *same
+               : OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, wo_l, m, r, measure_bias, acc);
+      total_m += k.rep.m * k.scale;
+      total_r += k.rep.r * k.scale;
+      clusters.push_back(k);
+      if (err > 0) {
+        heap.push_back({err, static_cast<int>(clusters.size()) - 1});
+        std::push_heap(heap.begin(), heap.end());
+      }
+    };
+    ++acc->c.cut_points;
+    for (size_t ti = 0; ti < set_.trees().size(); ++ti) {
+      const VplTree& t = set_.trees()[ti];
+      if (!(t.sets() & wanted)) continue;
+      acc->c.cut_vpls += static_cast<int64_t>((t.size() + 1) / 2);
+      add(static_cast<int>(ti), t.root(), nullptr);
+    }
+    // Clusters split are zeroed in place (scale 0): the cut is what remains.
+    const auto max_cut = static_cast<size_t>(std::max(1, st_.max_cut));
+    size_t cut_size = clusters.size();
+    while (!heap.empty() && cut_size < max_cut &&
+           heap.front().err > st_.cut_error * (direct + std::max(Luminance(total_m), Luminance(total_r)))) {
+      std::pop_heap(heap.begin(), heap.end());
+      const int slot = heap.back().slot;
+      heap.pop_back();
+      const Cluster k = clusters[static_cast<size_t>(slot)];
+      clusters[static_cast<size_t>(slot)].scale = 0;
+      total_m -= k.rep.m * k.scale;
+      total_r -= k.rep.r * k.scale;
+      const VplTree& t = set_.trees()[static_cast<size_t>(k.tree)];
+      const VplCluster& c = t.node(k.node);
+      const size_t before = clusters.size();
+      for (const int child : c.child) add(k.tree, child, t.node(child).rep == c.rep ? &k.rep : nullptr);
+      cut_size += clusters.size() - before;
+      --cut_size;
+    }
+    acc->c.cut_clusters += static_cast<int64_t>(cut_size);
+    for (const Cluster& k : clusters) {
+      if (k.scale == 0) continue;
+      acc->mixed += beta.cwiseProduct(k.rep.m) * k.scale;
+      acc->real += beta.cwiseProduct(k.rep.r) * k.scale;
+      acc->bias_m += beta.cwiseProduct(k.rep.bias_m) * k.scale;
+      acc->bias_r += beta.cwiseProduct(k.rep.bias_r) * k.scale;
     }
   }
 
@@ -659,6 +822,17 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "virtual_tests_skipped", counters_.virtual_tests_skipped);
   report->SetMetric(k + "compensation_rays", counters_.compensation_rays);
   report->SetMetric(k + "gather_rays", counters_.gather_rays);
+  if (counters_.cut_points > 0) {
+    report->SetMetric(k + "cut_points", counters_.cut_points);
+    report->SetMetric(k + "mean_cut", static_cast<double>(counters_.cut_clusters) / counters_.cut_points);
+    report->SetMetric(k + "mean_vpls_per_cut", static_cast<double>(counters_.cut_vpls) / counters_.cut_points);
+    report->Skip(fmt::format("frame {}: {} of {} VPL shadow tests", frame, counters_.cut_vpls - counters_.cut_clusters,
+                             counters_.cut_vpls),
+                 fmt::format("lightcuts: each cluster of a cut is tested through one representative, the cut refined "
+                             "until no cluster's error bound exceeds {} of the point's light (vpl.cut_error; 0 tests "
+                             "every VPL)",
+                             set_->settings().cut_error));
+  }
   if (counters_.dropped > 0)
     report->Skip(fmt::format("frame {}: {} VPL shadow tests", frame, counters_.dropped),
                  fmt::format("their unshadowed contribution was below {} of the mean one at the point (bias at most "
@@ -673,7 +847,7 @@ namespace {
 
 VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   v.RequireObject({"paths", "directions", "fixed_directions", "glossy_depth", "clamp_distance", "drop_threshold",
-                   "compensate", "plate_reflections", "final_gather"});
+                   "compensate", "plate_reflections", "final_gather", "cut_error", "max_cut", "cut_min_vpls"});
   VplSettings o;
   if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
   if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
@@ -684,6 +858,9 @@ VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
   if (v.Has("final_gather")) o.final_gather = v.Child("final_gather").Bool();
   if (v.Has("fixed_directions")) o.fixed_directions = v.Child("fixed_directions").Bool();
+  if (v.Has("cut_error")) o.cut_error = v.Child("cut_error").Number(0, 1);
+  if (v.Has("max_cut")) o.max_cut = static_cast<int>(v.Child("max_cut").Integer(1, 1 << 24));
+  if (v.Has("cut_min_vpls")) o.cut_min_vpls = static_cast<int>(v.Child("cut_min_vpls").Integer(0, 1 << 30));
   return WithSceneRender(o, scene);
 }
 

@@ -14,6 +14,7 @@
 #include "render/path_common.h"
 #include "render/path_tracer.h"
 #include "render/pixel_loop.h"
+#include "render/vpl_tree.h"
 
 namespace mr {
 
@@ -44,6 +45,17 @@ struct VplSettings {
   // a 6 m floor), so without it the object misses most of its near bounce
   // light (docs/methods.md, "vpl").
   bool final_gather = true;
+  // Lightcuts (Walter et al. 2005): the VPLs are gathered through a light
+  // tree, each cluster by one representative and one shadow test, refined
+  // until no cluster's bound on its error exceeds cut_error of the point's
+  // estimated light, or the cut holds max_cut clusters.  0: every VPL is
+  // tested (the exhaustive gather, with drop_threshold).
+  // Below cut_min_vpls VPLs the trees cost more than the shadow tests they
+  // save (docs/benchmarks.md: a loss at 1000 VPLs in the bunny room, a
+  // gain of 3.3x at 3753 on the table-top): every VPL is tested.
+  double cut_error = 0.02;
+  int max_cut = 1000;
+  int cut_min_vpls = 2048;
 };
 
 enum VplSets : uint8_t { kLightsReal = 1, kLightsMixed = 2, kLightsBoth = 3 };
@@ -79,6 +91,9 @@ class VplSet {
   static std::shared_ptr<const VplSet> Build(const RenderScene& scene, const VplSettings& settings);
   const std::vector<Vpl>& vpls() const { return vpls_; }
   const std::vector<DirectionalVpl>& directional() const { return directional_; }
+  // Light trees over the VPLs, one per set (shared, mixed-only, real-only);
+  // empty unless settings().cut_error > 0 and there are cut_min_vpls VPLs.
+  const std::vector<VplTree>& trees() const { return trees_; }
   const VplSettings& settings() const { return settings_; }
   double clamp_distance() const { return clamp_; }
   double build_seconds() const { return build_seconds_; }
@@ -88,6 +103,7 @@ class VplSet {
  private:
   std::vector<Vpl> vpls_;
   std::vector<DirectionalVpl> directional_;
+  std::vector<VplTree> trees_;
   VplSettings settings_;
   double clamp_ = 0, build_seconds_ = 0;
   int64_t paths_ended_below_ = 0;  // VPLs not stored: flux below the drop threshold
@@ -108,7 +124,13 @@ class VplFrameRenderer : public PixelLoopMethod {
 
   struct Counters {
     int64_t shadow_rays = 0, dropped = 0, virtual_tests_skipped = 0, rays = 0, compensation_rays = 0, gather_rays = 0;
+    // Lightcuts: points gathered through the trees, the clusters of their
+    // cuts, and the VPLs those clusters stood for.
+    int64_t cut_points = 0, cut_clusters = 0, cut_vpls = 0;
     Counters& operator+=(const Counters& o) {
+      cut_points += o.cut_points;
+      cut_clusters += o.cut_clusters;
+      cut_vpls += o.cut_vpls;
       shadow_rays += o.shadow_rays;
       dropped += o.dropped;
       virtual_tests_skipped += o.virtual_tests_skipped;

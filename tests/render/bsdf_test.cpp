@@ -83,8 +83,9 @@ TEST(Bsdf, GlossySamplingWeightIsAtMostOneAndPdfIsTheSamplersDensity) {
         pdf_integral += b.Pdf(wo, Eigen::Vector3d(d[0], d[1], d[2])) / kUniformSpherePdf;
       }
       EXPECT_LE(max_weight, 1 + 1e-9) << rough << " " << theta_deg;
-      if (rough >= 0.5)  // sharper lobes are too narrow for uniform directions to integrate
+      if (rough >= 0.5) {  // sharper lobes are too narrow for uniform directions to integrate
         EXPECT_NEAR(pdf_integral.Value() / n, static_cast<double>(above) / n, 0.01) << rough << " " << theta_deg;
+      }
     }
   }
 }

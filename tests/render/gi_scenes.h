@@ -71,7 +71,7 @@ inline void OpenCorner(RenderScene* s, double sun, bool with_object = true) {
 
 // A floor of half-width `half` (albedo 0.6), a virtual sphere of radius r
 // (albedo 0.8, `segments` rings) resting on it at the origin, under Sky(sun).
-inline void SphereOnFloor(RenderScene* s, double half, float r, int segments, double sun) {
+inline void SphereOnFloor(RenderScene* s, float half, float r, int segments, double sun) {
   s->AddReal(Quad({-half, 0, -half}, {half, 0, -half}, {half, 0, half}, {-half, 0, half}), Diffuse(0.6));
   Eigen::Affine3d t = Eigen::Affine3d::Identity();
   t.translate(Eigen::Vector3d(0, r, 0));

@@ -334,11 +334,37 @@ struct Contribution {
   uint8_t sets;
 };
 
+// The cuts made at a pixel's first camera sample, reused by its later
+// samples of the same pass at points of the same surface facing the same
+// way (VplSettings::reuse_cuts).  One per thread; a pixel's samples of a
+// pass run on one thread, in order, so reuse does not depend on threads.
+struct CutCache {
+  struct Cut {
+    uint32_t geometry = 0;
+    uint8_t wanted = 0;
+    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    std::vector<std::pair<int, int>> nodes;  // (tree, node) of the cut
+  };
+  const void* owner = nullptr;
+  int64_t pass = -1;
+  size_t pixel = SIZE_MAX;
+  std::vector<Cut> cuts;
+  // Starts the pixel's samples: forgets every cut made elsewhere.
+  void Begin(const void* o, int64_t p, size_t px) {
+    if (o != owner || p != pass || px != pixel) cuts.clear();
+    owner = o;
+    pass = p;
+    pixel = px;
+  }
+};
+
 class VplShader {
  public:
   // `plate`: the plate at real points met from virtual surfaces (null: none).
-  VplShader(const RenderScene& scene, const VplSet& set, const DifferentialPathTracer* plate = nullptr)
-      : scene_(scene), set_(set), st_(set.settings()), plate_(plate) {
+  // `cuts`: the pixel's cuts to reuse at the camera's points (null: none).
+  VplShader(const RenderScene& scene, const VplSet& set, const DifferentialPathTracer* plate = nullptr,
+            CutCache* cuts = nullptr)
+      : scene_(scene), set_(set), st_(set.settings()), plate_(plate), cuts_(cuts) {
     clamp2_ = set.clamp_distance() * set.clamp_distance();
   }
 
@@ -711,6 +737,30 @@ class VplShader {
       }
     };
     ++acc->c.cut_points;
+    // At a camera point (measure_bias: depth 0), the pixel's earlier cut on
+    // the same surface facing the same way (within about 25 degrees).
+    CutCache::Cut* reuse = nullptr;
+    if (cuts_ && measure_bias && st_.reuse_cuts)
+      for (CutCache::Cut& k : cuts_->cuts)
+        if (k.geometry == v.geometry_id && k.wanted == wanted && k.n.dot(v.frame.n) > 0.9) reuse = &k;
+    if (reuse) {
+      ++acc->c.cuts_reused;
+      for (const VplTree& t : set_.trees())
+        if (t.sets() & wanted) acc->c.cut_vpls += static_cast<int64_t>((t.size() + 1) / 2);
+      acc->c.cut_clusters += static_cast<int64_t>(reuse->nodes.size());
+      for (const auto& [ti, node] : reuse->nodes) {
+        const VplTree& t = set_.trees()[static_cast<size_t>(ti)];
+        const VplCluster& c = t.node(node);
+        const double scale = c.weight / t.weight(c.rep);
+        const VplLight l =
+            OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, wo_l, m, r, measure_bias, acc);
+        acc->mixed += beta.cwiseProduct(l.m) * scale;
+        acc->real += beta.cwiseProduct(l.r) * scale;
+        acc->bias_m += beta.cwiseProduct(l.bias_m) * scale;
+        acc->bias_r += beta.cwiseProduct(l.bias_r) * scale;
+      }
+      return;
+    }
     for (size_t ti = 0; ti < set_.trees().size(); ++ti) {
       const VplTree& t = set_.trees()[ti];
       if (!(t.sets() & wanted)) continue;
@@ -737,8 +787,16 @@ class VplShader {
       --cut_size;
     }
     acc->c.cut_clusters += static_cast<int64_t>(cut_size);
+    CutCache::Cut* keep = nullptr;
+    if (cuts_ && measure_bias && st_.reuse_cuts && cuts_->cuts.size() < 4) {
+      keep = &cuts_->cuts.emplace_back();
+      keep->geometry = v.geometry_id;
+      keep->wanted = wanted;
+      keep->n = v.frame.n;
+    }
     for (const Cluster& k : clusters) {
       if (k.scale == 0) continue;
+      if (keep) keep->nodes.emplace_back(k.tree, k.node);
       acc->mixed += beta.cwiseProduct(k.rep.m) * k.scale;
       acc->real += beta.cwiseProduct(k.rep.r) * k.scale;
       acc->bias_m += beta.cwiseProduct(k.rep.bias_m) * k.scale;
@@ -750,6 +808,7 @@ class VplShader {
   const VplSet& set_;
   const VplSettings& st_;
   const DifferentialPathTracer* plate_;
+  CutCache* cuts_;
   double clamp2_ = 0;
 };
 
@@ -774,6 +833,7 @@ VplFrameRenderer::VplFrameRenderer(const RenderScene& scene, std::shared_ptr<con
 }
 
 void VplFrameRenderer::RenderPass(int spp) {
+  ++pass_;
   rows_.assign(static_cast<size_t>(height()), Counters());
   ShadePixels(spp);
   for (const Counters& c : rows_) counters_ += c;
@@ -782,7 +842,9 @@ void VplFrameRenderer::RenderPass(int spp) {
 void VplFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t i, int, PathSample* out) {
   Counters& rc = rows_[static_cast<size_t>(row)];
   Accum acc;
-  VplShader(scene_, *set_, &plate_tracer_).ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
+  thread_local CutCache cuts;
+  cuts.Begin(this, pass_, i);
+  VplShader(scene_, *set_, &plate_tracer_, &cuts).ShadeRay(ray, true, true, 0, 0, Eigen::Vector3d::Ones(), rng, &acc);
   Counters c = acc.c;
   c.rays += acc.c.shadow_rays + acc.c.compensation_rays + acc.c.gather_rays;  // every ray the sample traced
   rc += c;
@@ -826,6 +888,7 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
     report->SetMetric(k + "cut_points", counters_.cut_points);
     report->SetMetric(k + "mean_cut", static_cast<double>(counters_.cut_clusters) / counters_.cut_points);
     report->SetMetric(k + "mean_vpls_per_cut", static_cast<double>(counters_.cut_vpls) / counters_.cut_points);
+    report->SetMetric(k + "cuts_reused", counters_.cuts_reused);
     report->Skip(fmt::format("frame {}: {} of {} VPL shadow tests", frame, counters_.cut_vpls - counters_.cut_clusters,
                              counters_.cut_vpls),
                  fmt::format("lightcuts: each cluster of a cut is tested through one representative, the cut refined "
@@ -847,7 +910,8 @@ namespace {
 
 VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   v.RequireObject({"paths", "directions", "fixed_directions", "glossy_depth", "clamp_distance", "drop_threshold",
-                   "compensate", "plate_reflections", "final_gather", "cut_error", "max_cut", "cut_min_vpls"});
+                   "compensate", "plate_reflections", "final_gather", "cut_error", "max_cut", "cut_min_vpls",
+                   "reuse_cuts"});
   VplSettings o;
   if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
   if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
@@ -860,6 +924,7 @@ VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("fixed_directions")) o.fixed_directions = v.Child("fixed_directions").Bool();
   if (v.Has("cut_error")) o.cut_error = v.Child("cut_error").Number(0, 1);
   if (v.Has("max_cut")) o.max_cut = static_cast<int>(v.Child("max_cut").Integer(1, 1 << 24));
+  if (v.Has("reuse_cuts")) o.reuse_cuts = v.Child("reuse_cuts").Bool();
   if (v.Has("cut_min_vpls")) o.cut_min_vpls = static_cast<int>(v.Child("cut_min_vpls").Integer(0, 1 << 30));
   return WithSceneRender(o, scene);
 }

@@ -50,12 +50,17 @@ struct VplSettings {
   // until no cluster's bound on its error exceeds cut_error of the point's
   // estimated light, or the cut holds max_cut clusters.  0: every VPL is
   // tested (the exhaustive gather, with drop_threshold).
-  // Below cut_min_vpls VPLs the trees cost more than the shadow tests they
-  // save (docs/benchmarks.md: a loss at 1000 VPLs in the bunny room, a
-  // gain of 3.3x at 3753 on the table-top): every VPL is tested.
+  // Below cut_min_vpls VPLs the trees cost about what they save
+  // (docs/benchmarks.md: even at 232 VPLs in the bunny room, 1.5x faster at
+  // 227 on the table-top and 6.8x at 3753): every VPL is tested.
   double cut_error = 0.02;
   int max_cut = 1000;
-  int cut_min_vpls = 2048;
+  int cut_min_vpls = 256;
+  // A pixel's later camera samples in a pass reuse the cut its first sample
+  // made on the same surface facing the same way (normals within about 25
+  // degrees), testing the same clusters' representatives at their own
+  // points: the bounds and the refinement are paid once per pixel.
+  bool reuse_cuts = true;
 };
 
 enum VplSets : uint8_t { kLightsReal = 1, kLightsMixed = 2, kLightsBoth = 3 };
@@ -126,8 +131,9 @@ class VplFrameRenderer : public PixelLoopMethod {
     int64_t shadow_rays = 0, dropped = 0, virtual_tests_skipped = 0, rays = 0, compensation_rays = 0, gather_rays = 0;
     // Lightcuts: points gathered through the trees, the clusters of their
     // cuts, and the VPLs those clusters stood for.
-    int64_t cut_points = 0, cut_clusters = 0, cut_vpls = 0;
+    int64_t cut_points = 0, cut_clusters = 0, cut_vpls = 0, cuts_reused = 0;
     Counters& operator+=(const Counters& o) {
+      cuts_reused += o.cuts_reused;
       cut_points += o.cut_points;
       cut_clusters += o.cut_clusters;
       cut_vpls += o.cut_vpls;
@@ -148,6 +154,7 @@ class VplFrameRenderer : public PixelLoopMethod {
   DifferentialPathTracer plate_tracer_;  // the plate at real points (PlateAtRealPoint) only
   std::vector<double> bias_m_, bias_r_, lum_m_, lum_r_;
   std::vector<Counters> rows_;  // this pass's, per image row
+  int64_t pass_ = 0;            // RenderPass calls: a pixel's cuts are reused within one
   Counters counters_;
 };
 

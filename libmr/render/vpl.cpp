@@ -578,20 +578,11 @@ class VplShader {
     for (const Vpl& p : set_.vpls()) {
       if (!point_vpls || cuts) break;
       if (!(p.sets & wanted)) continue;
-      Eigen::Vector3d d = p.p - origin;
-      const double d2 = d.squaredNorm();
-      if (!(d2 > 0)) continue;
-      const double dist = std::sqrt(d2);
-      d /= dist;
-      const double cos_x = d.dot(v.frame.n), cos_y = -d.dot(p.frame.n);
-      if (cos_x <= 0 || cos_y <= 0) continue;
-      const Eigen::Vector3d fx = bsdf.Eval(wo_l, v.frame.ToLocal(d));
-      if (fx.maxCoeff() <= 0) continue;
-      const Eigen::Vector3d fy = p.bsdf.Eval(p.wi_local, p.frame.ToLocal(-d));
-      const Eigen::Vector3d e = p.flux.cwiseProduct(fy).cwiseProduct(fx) * (cos_x * cos_y);
-      const double g = 1 / std::max(d2, clamp2_);
-      push(e * g, measure_bias ? Eigen::Vector3d(e * (1 / d2 - g)) : Eigen::Vector3d::Zero(), d, dist * (1 - 1e-5),
-           p.sets);
+      Unshadowed u;
+      if (!Unshadow(p, origin, v.frame, bsdf, wo_l, &u)) continue;
+      const double g = 1 / std::max(u.d2, clamp2_);
+      push(u.e * g, measure_bias ? Eigen::Vector3d(u.e * (1 / u.d2 - g)) : Eigen::Vector3d::Zero(), u.dir,
+           u.dist * (1 - 1e-5), p.sets);
     }
     if (list.empty()) return;
     const double cut = st_.drop_threshold * total / static_cast<double>(list.size());
@@ -649,6 +640,31 @@ class VplShader {
     return {false, false};
   }
 
+  // A VPL's unclamped, unshadowed light at the point (origin, frame, BSDF
+  // `bsdf` seen from wo_l) before the 1/d^2 term: e = flux fy fx cos_x
+  // cos_y; false where it is zero (behind either surface).
+  struct Unshadowed {
+    Eigen::Vector3d e, dir;  // dir: unit, from the point to the VPL
+    double d2 = 0, dist = 0;
+  };
+  static bool Unshadow(const Vpl& p, const Eigen::Vector3d& origin, const ShadingFrame& frame, const Bsdf& bsdf,
+                       const Eigen::Vector3d& wo_l, Unshadowed* u) {
+    Eigen::Vector3d d = p.p - origin;
+    const double d2 = d.squaredNorm();
+    if (!(d2 > 0)) return false;
+    const double dist = std::sqrt(d2);
+    d /= dist;
+    const double cos_x = d.dot(frame.n), cos_y = -d.dot(p.frame.n);
+    if (cos_x <= 0 || cos_y <= 0) return false;
+    const Eigen::Vector3d fx = bsdf.Eval(wo_l, frame.ToLocal(d));
+    if (fx.maxCoeff() <= 0) return false;
+    u->e = p.flux.cwiseProduct(p.bsdf.Eval(p.wi_local, p.frame.ToLocal(-d))).cwiseProduct(fx) * (cos_x * cos_y);
+    u->dir = d;
+    u->d2 = d2;
+    u->dist = dist;
+    return true;
+  }
+
   // One VPL's light at the point (origin, frame n, BSDF `bsdf` seen from
   // wo_l), shadowed, for I_m and I_r; with the clamp's bias where asked.
   struct VplLight {
@@ -661,20 +677,11 @@ class VplShader {
     m = m && (p.sets & kLightsMixed);
     r = r && (p.sets & kLightsReal);
     if (!m && !r) return out;
-    Eigen::Vector3d d = p.p - origin;
-    const double d2 = d.squaredNorm();
-    if (!(d2 > 0)) return out;
-    const double dist = std::sqrt(d2);
-    d /= dist;
-    const double cos_x = d.dot(frame.n), cos_y = -d.dot(p.frame.n);
-    if (cos_x <= 0 || cos_y <= 0) return out;
-    const Eigen::Vector3d fx = bsdf.Eval(wo_l, frame.ToLocal(d));
-    if (fx.maxCoeff() <= 0) return out;
-    const Eigen::Vector3d e =
-        p.flux.cwiseProduct(p.bsdf.Eval(p.wi_local, p.frame.ToLocal(-d))).cwiseProduct(fx) * (cos_x * cos_y);
-    if (!(e.maxCoeff() > 0)) return out;
-    const double g = 1 / std::max(d2, clamp2_);
-    const auto [seen_m, seen_r] = Visible(origin, d, dist * (1 - 1e-5), m, r, acc);
+    Unshadowed u;
+    if (!Unshadow(p, origin, frame, bsdf, wo_l, &u) || !(u.e.maxCoeff() > 0)) return out;
+    const Eigen::Vector3d& e = u.e;
+    const double d2 = u.d2, g = 1 / std::max(d2, clamp2_);
+    const auto [seen_m, seen_r] = Visible(origin, u.dir, u.dist * (1 - 1e-5), m, r, acc);
     const Eigen::Vector3d bias = measure_bias ? Eigen::Vector3d(e * (1 / d2 - g)) : Eigen::Vector3d::Zero();
     if (seen_m) {
       out.m = e * g;

@@ -344,6 +344,7 @@ struct CutCache {
     uint8_t wanted = 0;
     Eigen::Vector3d n = Eigen::Vector3d::Zero();
     std::vector<std::pair<int, int>> nodes;  // (tree, node) of the cut
+    std::vector<double> share;               // each cluster's share of the cut's light at the first sample
   };
   const void* owner = nullptr;
   int64_t pass = -1;
@@ -357,6 +358,11 @@ struct CutCache {
     pixel = px;
   }
 };
+
+// Reused cuts: a cluster with less than kRouletteShare of the first
+// sample's light is tested with probability share / kRouletteShare, at
+// least kRouletteFloor (one that was shadowed then may not be now).
+constexpr double kRouletteShare = 0.01, kRouletteFloor = 0.25;
 
 class VplShader {
  public:
@@ -574,7 +580,7 @@ class VplShader {
     }
     const bool cuts = !set_.trees().empty();
     if (point_vpls && cuts)
-      Lightcut(v, bsdf, wo_l, origin, want_m, want_r && !x_virtual, direct, beta, measure_bias, acc);
+      Lightcut(v, bsdf, wo_l, origin, want_m, want_r && !x_virtual, direct, beta, measure_bias, rng, acc);
     for (const Vpl& p : set_.vpls()) {
       if (!point_vpls || cuts) break;
       if (!(p.sets & wanted)) continue;
@@ -704,7 +710,8 @@ class VplShader {
   // max_cut clusters.  A child keeps its parent's representative's value
   // when it has the same one (one shadow test fewer).
   void Lightcut(const PathVertex& v, const Bsdf& bsdf, const Eigen::Vector3d& wo_l, const Eigen::Vector3d& origin,
-                bool m, bool r, double direct, const Eigen::Vector3d& beta, bool measure_bias, Accum* acc) const {
+                bool m, bool r, double direct, const Eigen::Vector3d& beta, bool measure_bias, Sampler& rng,
+                Accum* acc) const {
     struct Cluster {
       int tree, node;
       double scale;
@@ -755,10 +762,15 @@ class VplShader {
       for (const VplTree& t : set_.trees())
         if (t.sets() & wanted) acc->c.cut_vpls += static_cast<int64_t>((t.size() + 1) / 2);
       acc->c.cut_clusters += static_cast<int64_t>(reuse->nodes.size());
-      for (const auto& [ti, node] : reuse->nodes) {
+      for (size_t j = 0; j < reuse->nodes.size(); ++j) {
+        const auto [ti, node] = reuse->nodes[j];
+        // A cluster that carried little of the first sample's light is
+        // tested with probability q and weighted 1/q (unbiased).
+        const double q = std::clamp(reuse->share[j] / kRouletteShare, kRouletteFloor, 1.0);
+        if (q < 1 && rng.NextDouble() >= q) continue;
         const VplTree& t = set_.trees()[static_cast<size_t>(ti)];
         const VplCluster& c = t.node(node);
-        const double scale = c.weight / t.weight(c.rep);
+        const double scale = c.weight / t.weight(c.rep) / q;
         const VplLight l =
             OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, wo_l, m, r, measure_bias, acc);
         acc->mixed += beta.cwiseProduct(l.m) * scale;
@@ -803,7 +815,11 @@ class VplShader {
     }
     for (const Cluster& k : clusters) {
       if (k.scale == 0) continue;
-      if (keep) keep->nodes.emplace_back(k.tree, k.node);
+      if (keep) {
+        keep->nodes.emplace_back(k.tree, k.node);
+        const double total = std::max(Luminance(total_m), Luminance(total_r));
+        keep->share.push_back(total > 0 ? std::max(Luminance(k.rep.m), Luminance(k.rep.r)) * k.scale / total : 0.0);
+      }
       acc->mixed += beta.cwiseProduct(k.rep.m) * k.scale;
       acc->real += beta.cwiseProduct(k.rep.r) * k.scale;
       acc->bias_m += beta.cwiseProduct(k.rep.bias_m) * k.scale;

@@ -51,15 +51,18 @@ struct VplSettings {
   // estimated light, or the cut holds max_cut clusters.  0: every VPL is
   // tested (the exhaustive gather, with drop_threshold).
   // Below cut_min_vpls VPLs the trees cost about what they save
-  // (docs/benchmarks.md: even at 232 VPLs in the bunny room, 1.5x faster at
-  // 227 on the table-top and 6.8x at 3753): every VPL is tested.
+  // (docs/benchmarks.md: even at about 60 VPLs, 1.3-1.4x faster at 230 and
+  // 8.6x at 3753 on the table-top): every VPL is tested.
   double cut_error = 0.02;
   int max_cut = 1000;
-  int cut_min_vpls = 256;
+  int cut_min_vpls = 64;
   // A pixel's later camera samples in a pass reuse the cut its first sample
   // made on the same surface facing the same way (normals within about 25
   // degrees), testing the same clusters' representatives at their own
-  // points: the bounds and the refinement are paid once per pixel.
+  // points: the bounds and the refinement are paid once per pixel.  A
+  // cluster that carried less than 1% of the first sample's light is
+  // tested with probability share/1% (at least 1/4), weighted by its
+  // inverse (unbiased).
   bool reuse_cuts = true;
 };
 

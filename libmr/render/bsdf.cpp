@@ -41,7 +41,9 @@ Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi)
   if (glossy_weight_ > 0) {
     Eigen::Vector3d h = (wo + wi).normalized();
     const double g = 1.0 / (1.0 + Lambda(wo) + Lambda(wi));  // height-correlated Smith
-    f += specular_ * (D(h) * g / (4 * wo.z() * wi.z()));
+    // At grazing angles 4 wo.z wi.z underflows to 0 where g is 0: no light.
+    const double denom = 4 * wo.z() * wi.z();
+    if (g > 0 && denom > 0) f += specular_ * (D(h) * g / denom);
   }
   return f;
 }
@@ -50,7 +52,14 @@ Eigen::Vector3d Bsdf::DiffuseBound() const { return albedo_ * kInvPi; }
 
 Eigen::Vector3d Bsdf::GlossyBound(const Eigen::Vector3d& wo) const {
   if (glossy_weight_ <= 0 || wo.z() <= 0) return Eigen::Vector3d::Zero();
-  return specular_ / (4 * kPi * alpha_ * alpha_ * wo.z());
+  // f cos = specular D G / (4 wo.z), D <= 1/(pi a^2) and G <= 1: the first
+  // bound, which grows without limit at grazing wo.  There the masking
+  // takes over: G <= 1 / (1 + Lambda(wo)) <= 2 wo.z / (a sin(theta_o)),
+  // so f cos <= specular / (2 pi a^3 sin(theta_o)).  The smaller holds.
+  const double z = std::min(wo.z(), 1.0), sin_o = std::sqrt(std::max(0.0, 1 - z * z));
+  const double a2 = alpha_ * alpha_;
+  const double grazing = sin_o > 0 ? 1 / (2 * kPi * a2 * alpha_ * sin_o) : INFINITY;
+  return specular_ * std::min(1 / (4 * kPi * a2 * z), grazing);
 }
 
 double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {

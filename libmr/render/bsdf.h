@@ -28,8 +28,10 @@ class Bsdf {
   bool IsBlack() const { return diffuse_weight_ + glossy_weight_ <= 0; }
   // Bounds on f(wo, wi) wi.z over every wi, per channel, for a light tree's
   // error bounds: the diffuse part's is albedo/pi times the cosine (the
-  // caller bounds the cosine), `glossy` is specular/(4 pi alpha^2 wo.z)
-  // (GGX's D peaks at 1/(pi alpha^2), the masking term is at most 1).
+  // caller bounds the cosine), `glossy` is specular times the smaller of
+  // 1/(4 pi alpha^2 wo.z) (GGX's D peaks at 1/(pi alpha^2), the masking
+  // term is at most 1) and 1/(2 pi alpha^3 sin theta_o) (the masking term
+  // at grazing wo): finite for every wo.
   Eigen::Vector3d DiffuseBound() const;
   Eigen::Vector3d GlossyBound(const Eigen::Vector3d& wo) const;
 

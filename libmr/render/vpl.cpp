@@ -750,6 +750,12 @@ class VplShader {
         std::push_heap(heap.begin(), heap.end());
       }
     };
+    auto credit = [&](const VplLight& l, double scale) {  // a cluster's estimate, added
+      acc->mixed += beta.cwiseProduct(l.m) * scale;
+      acc->real += beta.cwiseProduct(l.r) * scale;
+      acc->bias_m += beta.cwiseProduct(l.bias_m) * scale;
+      acc->bias_r += beta.cwiseProduct(l.bias_r) * scale;
+    };
     ++acc->c.cut_points;
     // At a camera point (measure_bias: depth 0), the pixel's earlier cut on
     // the same surface facing the same way (within about 25 degrees).
@@ -771,12 +777,8 @@ class VplShader {
         const VplTree& t = set_.trees()[static_cast<size_t>(ti)];
         const VplCluster& c = t.node(node);
         const double scale = c.weight / t.weight(c.rep) / q;
-        const VplLight l =
-            OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, wo_l, m, r, measure_bias, acc);
-        acc->mixed += beta.cwiseProduct(l.m) * scale;
-        acc->real += beta.cwiseProduct(l.r) * scale;
-        acc->bias_m += beta.cwiseProduct(l.bias_m) * scale;
-        acc->bias_r += beta.cwiseProduct(l.bias_r) * scale;
+        credit(OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, wo_l, m, r, measure_bias, acc),
+               scale);
       }
       return;
     }
@@ -820,10 +822,7 @@ class VplShader {
         const double total = std::max(Luminance(total_m), Luminance(total_r));
         keep->share.push_back(total > 0 ? std::max(Luminance(k.rep.m), Luminance(k.rep.r)) * k.scale / total : 0.0);
       }
-      acc->mixed += beta.cwiseProduct(k.rep.m) * k.scale;
-      acc->real += beta.cwiseProduct(k.rep.r) * k.scale;
-      acc->bias_m += beta.cwiseProduct(k.rep.bias_m) * k.scale;
-      acc->bias_r += beta.cwiseProduct(k.rep.bias_r) * k.scale;
+      credit(k.rep, k.scale);
     }
   }
 

@@ -70,11 +70,20 @@ PY
 # under its own light; then every method against the truth of each frame,
 # with its flicker.
 d=$out/dynamic
-"$bin/mr-synth" --preset medium --dynamic --frames 4 --truth-spp 256 --out "$d/capture" --report "$d/synth-report.json" -q
+"$bin/mr-synth" --preset medium --dynamic --plate-sphere --frames 4 --truth-spp 256 --out "$d/capture" \
+  --report "$d/synth-report.json" -q
 /usr/bin/python3 examples/synthetic/dynamic_pipeline.py "$d/capture/scene.json" > "$d/pipeline.json"
 "$bin/mr-pipeline" "$d/pipeline.json" --report "$d/pipeline-report.json"
 echo "the light captured from the light camera's video, against each frame's true sky:"
 "$bin/mr-eval" light "$d/work/env/%05d.exr" "$d/capture/env/%05d.exr" --report "$d/light-eval.json"
+# The same chain with the light from the mirror sphere in the plate itself,
+# unwrapped from each frame's pose (the plate_probe stage).
+/usr/bin/python3 examples/synthetic/dynamic_pipeline.py "$d/capture/scene.json" sphere > "$d/pipeline-sphere.json"
+"$bin/mr-pipeline" "$d/pipeline-sphere.json" --report "$d/pipeline-sphere-report.json"
+echo "the light captured from the sphere in the plate, against the light at the sphere's centre, then the sky:"
+"$bin/mr-eval" light "$d/work-sphere/env/%05d.exr" "$d/capture/reference/sphere/%05d.exr" \
+  --report "$d/light-sphere-eval.json"
+"$bin/mr-eval" light "$d/work-sphere/env/%05d.exr" "$d/capture/env/%05d.exr" --report "$d/light-sphere-sky-eval.json"
 for ms in ic:4 vpl:1 vct:4; do
   m=${ms%:*}
   "$bin/mr-render" "$d/work/scene.json" --method "$m" --spp "${ms#*:}" --out "$d/work/render-$m" \
@@ -82,7 +91,7 @@ for ms in ic:4 vpl:1 vct:4; do
 done
 echo
 echo "dynamic capture: $d/capture (lightcam/, env/ the true skies, lights/, the trajectory in scene.json);"
-echo "captured maps $d/work/env/; composites $d/work/render/*.png"
+echo "captured maps $d/work/env/ (light camera), $d/work-sphere/env/ (the sphere in the plate); composites $d/work/render/*.png, $d/work-sphere/render/*.png"
 /usr/bin/python3 - "$d" <<'PYD' || true
 import json, sys
 d = sys.argv[1]

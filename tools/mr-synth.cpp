@@ -26,6 +26,9 @@ int main(int argc, char** argv) {
   app.add_flag("--dynamic", o.dynamic,
                "A world that changes during the video: the sun moving (env/NNNNN.exr), the spot lamp switched on "
                "halfway (lights/NNNNN.json), the object sliding and turning (a trajectory); the truth per frame");
+  app.add_flag("--plate-sphere", o.plate_sphere,
+               "A 20 cm mirror sphere on the table, in the plate's view: the plate's own light probe "
+               "(plate-sphere.json says where; reference/sphere/ holds the light at its centre per frame)");
   app.add_option("--object-material", o.object_material, "The object's material: diffuse, glossy or mirror")
       ->default_val("diffuse")
       ->check(CLI::IsMember({"diffuse", "glossy", "mirror"}));

@@ -6,12 +6,22 @@
 #include <unistd.h>
 #include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <limits>
+#include <string>
 
 #include "core/error.h"
 #include "core/math.h"
 
 namespace mr {
+
+bool IsVideoFile(const fs::path& path) {
+  std::string ext = path.extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return std::tolower(c); });
+  for (const char* v : {".mp4", ".avi", ".mkv", ".mov", ".m4v", ".webm"})
+    if (ext == v) return true;
+  return false;
+}
 
 struct VideoReader::Impl {
   fs::path path;

@@ -9,6 +9,10 @@
 
 namespace mr {
 
+// Whether `path` names a video by its extension (.mp4, .avi, .mkv, .mov,
+// .m4v, .webm; any case): where a key takes an image or a video.
+bool IsVideoFile(const fs::path& path);
+
 class VideoReader {
  public:
   explicit VideoReader(const fs::path& path);

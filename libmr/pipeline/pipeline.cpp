@@ -17,6 +17,7 @@
 #include "core/json_node.h"
 #include "core/process.h"
 #include "core/version.h"
+#include "core/video.h"
 #include "geometry/mesh.h"
 #include "render/method.h"
 #include "scene/frames.h"
@@ -25,8 +26,9 @@
 namespace mr {
 
 const std::vector<std::string>& PipelineStageNames() {
-  static const std::vector<std::string> n = {"calibrate", "sphere",     "hdr",   "probe",      "lights", "fuse",
-                                             "register",  "formfactor", "scene", "radiometry", "render", "sweep"};
+  static const std::vector<std::string> n = {"calibrate",  "sphere",      "hdr",    "probe",      "fuse",
+                                             "register",   "plate_probe", "lights", "formfactor", "scene",
+                                             "radiometry", "render",      "sweep"};
   return n;
 }
 
@@ -202,19 +204,26 @@ Pipeline PlanPipeline(const fs::path& file) {
   // The lighting: a map, or a probe (photographs -> HDR -> unwrapped map),
   // and optionally lights extracted from it.
   const Node light = root.Required("lighting");
-  light.RequireObject({"environment", "probe", "light_video", "lights", "environment_up", "environment_rotation_deg",
-                       "environment_scale"});
-  if (light.Has("environment") + light.Has("probe") + light.Has("light_video") != 1)
-    light.Fail("give one of lighting.environment, lighting.probe and lighting.light_video");
+  light.RequireObject({"environment", "probe", "light_video", "sphere_in_plate", "lights", "environment_up",
+                       "environment_rotation_deg", "environment_scale"});
+  if (light.Has("environment") + light.Has("probe") + light.Has("light_video") + light.Has("sphere_in_plate") != 1)
+    light.Fail("give one of lighting.environment, lighting.probe, lighting.light_video and lighting.sphere_in_plate");
   fs::path env, probe_json, probe_raw;
-  std::optional<Node> probe, light_video;
+  std::optional<Node> probe, light_video, plate_sphere;
+  if (light.Has("sphere_in_plate")) {
+    plate_sphere.emplace(light.Child("sphere_in_plate"));
+    plate_sphere->RequireObject({"centre", "radius", "reflectance", "options"});
+    // Unwrapped after the plate's poses are known (the plate_probe stage).
+    env = w / "env" / "%05d.exr";
+  }
   if (light.Has("light_video")) {
     light_video.emplace(light.Child("light_video"));
     light_video->RequireObject({"frames", "fisheye", "exposures", "plate_times", "options"});
   }
   // Why the photograph stages have nothing to do without a probe.
-  const std::string no_probe =
-      light_video ? "the light is a light camera's video (lighting.light_video)" : "lighting.environment is given";
+  const std::string no_probe = light_video    ? "the light is a light camera's video (lighting.light_video)"
+                               : plate_sphere ? "the light is the mirror sphere in the plate (lighting.sphere_in_plate)"
+                                              : "lighting.environment is given";
   if (light.Has("probe")) {
     probe.emplace(light.Child("probe"));
     probe->RequireObject({"photos", "exposures", "probe", "sphere", "fisheye", "hdr", "unwrap"});
@@ -311,8 +320,11 @@ Pipeline PlanPipeline(const fs::path& file) {
       s.outputs = {w / "env"};
       s.does = times ? "the light camera's frames unwrapped, one map per plate frame matched by timestamp"
                      : "the light camera's frames unwrapped, one map per frame (no plate times: frame i is i)";
+    } else if (plate_sphere) {
+      s.skip =
+          "the light is the mirror sphere in the plate: unwrapped by plate_probe, once the plate's poses are known";
     } else if (!probe) {
-      env = pl.Pattern(light.Child("environment"), "environment map");  // a map, or one per frame
+      env = pl.Pattern(light.Child("environment"), "environment map");  // a map, one per frame, or a video
       s.skip = "lighting.environment is given: " + env.string();
     } else {
       env = w / "env.exr";
@@ -332,37 +344,6 @@ Pipeline PlanPipeline(const fs::path& file) {
       s.outputs = {env};
     }
   }
-  Json lighting = {{"environment", pl.Rel(env)}};
-  {
-    PipelineStage& s = stage("lights");
-    s.tool = "mr-lights";
-    if (!light.Has("lights")) {
-      s.skip = "lighting.lights is not asked for: the scene is lit by the environment map alone";
-    } else if (light.Child("lights").json().is_string()) {
-      const fs::path l = pl.Pattern(light.Child("lights"), "lights.json");  // a file, or one per frame
-      lighting["lights"] = pl.Rel(l);
-      s.skip = "lighting.lights is given: " + l.string();
-    } else {
-      const Node l = light.Child("lights");
-      l.RequireObject({"options"});
-      const bool per_frame = env.string().find('%') != std::string::npos;
-      // A map per frame: lights per frame, each keeping its name while it moves.
-      const fs::path out = per_frame ? w / "lights" / "%05d.json" : w / "lights.json";
-      const fs::path residual = per_frame ? w / "env-residual" / "%05d.exr" : w / "env-residual.exr";
-      s.args = {env.string(), "--out", out.string(), "--residual", residual.string()};
-      Append(&s.args, pl.Options(l));
-      s.inputs = {per_frame ? env.parent_path() : env};
-      s.outputs =
-          per_frame ? std::vector<fs::path>{w / "lights", w / "env-residual"} : std::vector<fs::path>{out, residual};
-      s.does = per_frame ? "lights extracted from each frame's map (a light keeps its name across frames); the scene "
-                           "is lit by them and each frame's residual map"
-                         : "lights extracted from the map; the scene is lit by them and the residual map";
-      lighting = {{"environment", pl.Rel(residual)}, {"lights", pl.Rel(out)}};
-    }
-  }
-  for (const char* k : {"environment_up", "environment_rotation_deg", "environment_scale"})
-    if (light.Has(k)) lighting[k] = light.Child(k).json();
-  scene["lighting"] = lighting;
 
   // The room: meshes given, or fused from an RGB-D recording.
   const Node room = root.Required("room");
@@ -399,6 +380,14 @@ Pipeline PlanPipeline(const fs::path& file) {
       if (std::find(opts.begin(), opts.end(), "--no-albedo") == opts.end() &&
           std::find(opts.begin(), opts.end(), "--env") == opts.end()) {
         // Albedo de-lit by the captured light (a map per frame: the first frame's).
+        if (plate_sphere)
+          room.Fail(
+              "the room's albedo is de-lit by the captured light, and the sphere in the plate gives it only once the "
+              "plate's poses are known, after the room: give room.options \"env\" (a map) or \"no-albedo\"");
+        if (IsVideoFile(env))
+          room.Fail(
+              "the room's albedo is de-lit by a map, and lighting.environment is a video: give room.options "
+              "\"env\" (a map) or \"no-albedo\"");
         const fs::path delight = env.string().find('%') != std::string::npos ? FramePath(env, 0) : env;
         std::error_code ec;
         // A given map must exist; the probe's and a light video's are made by their stage.
@@ -535,6 +524,86 @@ Pipeline PlanPipeline(const fs::path& file) {
     if (!poses.empty()) camera["poses"] = {{"format", "tum"}, {"path", pl.Rel(poses)}};
   }
   scene["camera"] = camera;
+
+  {
+    // The mirror sphere in the plate: each frame's sphere pixels unwrapped
+    // from the frame's pose into a map (mr-probe --sphere-in-plate), on the
+    // plate's own scene (its camera section alone, written first).
+    PipelineStage& s = stage("plate_probe");
+    s.tool = "mr-probe";
+    if (!plate_sphere) {
+      s.skip = "lighting.sphere_in_plate is not given";
+    } else {
+      const Node& sp = *plate_sphere;
+      if (!video.Has("frames")) sp.Fail("the sphere in the plate needs the plate (video.frames)");
+      const std::vector<double> c = sp.Required("centre").Numbers(3, -1e6, 1e6);
+      const double radius = sp.Required("radius").Number(1e-4, 100);
+      const fs::path plate_scene = w / "plate.json";
+      Json plate_camera = camera;
+      if (use_gains) plate_camera.erase("gains");  // fitted by the radiometry stage, after this one
+      s.writes_first = plate_scene;
+      // The room's meshes too: a scene has geometry (mr-probe reads none of it).
+      const Json reals = scene.contains("real") ? scene["real"] : Json::array({{{"mesh", pl.Rel(fused_mesh)}}});
+      s.writes_first_json = {{"version", 1},
+                             {"comment", fmt::format("the plate and the room, for mr-probe (written by mr-pipeline "
+                                                     "from {})",
+                                                     file.string())},
+                             {"camera", plate_camera},
+                             {"real", reals}};
+      s.args = {"--sphere-in-plate",
+                plate_scene.string(),
+                "--sphere",
+                fmt::format("{},{},{},{}", c[0], c[1], c[2], radius),
+                "--out",
+                env.string()};
+      if (sp.Has("reflectance"))
+        Append(&s.args, {"--reflectance", fmt::format("{}", sp.Child("reflectance").Number(1e-3, 1))});
+      Append(&s.args, pl.Options(sp));
+      const fs::path frames = pl.Pattern(video.Child("frames"), "video frames");
+      s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, camera_model};
+      if (!poses.empty()) s.inputs.push_back(poses);
+      if (video.Has("response")) s.inputs.push_back(pl.Path(video.Child("response"), "camera response"));
+      if (camera.contains("gains") && !use_gains) s.inputs.push_back(w / camera["gains"].get<std::string>());
+      s.outputs = {w / "env"};
+      s.does = "the mirror sphere in each plate frame unwrapped from the frame's pose into a map";
+    }
+  }
+
+  Json lighting = {{"environment", pl.Rel(env)}};
+  {
+    PipelineStage& s = stage("lights");
+    s.tool = "mr-lights";
+    if (!light.Has("lights")) {
+      s.skip = "lighting.lights is not asked for: the scene is lit by the environment map alone";
+    } else if (light.Child("lights").json().is_string()) {
+      const fs::path l = pl.Pattern(light.Child("lights"), "lights.json");  // a file, or one per frame
+      lighting["lights"] = pl.Rel(l);
+      s.skip = "lighting.lights is given: " + l.string();
+    } else {
+      const Node l = light.Child("lights");
+      l.RequireObject({"options"});
+      if (IsVideoFile(env))
+        l.Fail(
+            "mr-lights extracts lights from maps, and lighting.environment is a video: give the maps as a "
+            "pattern (env/%05d.exr)");
+      const bool per_frame = env.string().find('%') != std::string::npos;
+      // A map per frame: lights per frame, each keeping its name while it moves.
+      const fs::path out = per_frame ? w / "lights" / "%05d.json" : w / "lights.json";
+      const fs::path residual = per_frame ? w / "env-residual" / "%05d.exr" : w / "env-residual.exr";
+      s.args = {env.string(), "--out", out.string(), "--residual", residual.string()};
+      Append(&s.args, pl.Options(l));
+      s.inputs = {per_frame ? env.parent_path() : env};
+      s.outputs =
+          per_frame ? std::vector<fs::path>{w / "lights", w / "env-residual"} : std::vector<fs::path>{out, residual};
+      s.does = per_frame ? "lights extracted from each frame's map (a light keeps its name across frames); the scene "
+                           "is lit by them and each frame's residual map"
+                         : "lights extracted from the map; the scene is lit by them and the residual map";
+      lighting = {{"environment", pl.Rel(residual)}, {"lights", pl.Rel(out)}};
+    }
+  }
+  for (const char* k : {"environment_up", "environment_rotation_deg", "environment_scale"})
+    if (light.Has(k)) lighting[k] = light.Child(k).json();
+  scene["lighting"] = lighting;
 
   // Virtual objects, with form factors where prt needs them.
   const Json render = root.Has("render") ? root.Child("render").json() : Json::object();
@@ -826,6 +895,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
       const fs::path tool = argv[0];
       if (fs::exists(tool, ec)) HashFile(tool, &key);
       for (const auto& a : s.args) key.String(a);
+      if (!s.writes_first.empty()) key.String(s.writes_first_json.dump());
     } else {
       key.String(p.scene.dump());
     }
@@ -889,6 +959,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
     if (s.tool.empty()) {
       WriteSceneJson(p);
     } else {
+      if (!s.writes_first.empty()) WriteTextFile(s.writes_first, s.writes_first_json.dump(2) + "\n");
       const int rc = RunProcess(argv, log);
       if (rc != 0) {
         report->SetMetric("stages", stages);

@@ -23,10 +23,14 @@
 namespace mr {
 
 struct PipelineStage {
-  std::string
-      name;  // calibrate, sphere, hdr, probe, lights, fuse, register, formfactor, scene, radiometry, render, sweep
+  std::string name;               // PipelineStageNames()
   std::string tool;               // mr-calibrate, ...; empty: done by mr-pipeline itself (scene)
   std::vector<std::string> args;  // after the tool's name
+  // A file mr-pipeline writes (atomically) just before the tool runs, e.g.
+  // the plate's own scene for mr-probe --sphere-in-plate; its content is
+  // part of the stage's key.  Empty path: none.
+  fs::path writes_first;
+  Json writes_first_json;
   std::vector<fs::path> inputs;   // files or folders whose content decides the outputs
   std::vector<fs::path> outputs;  // what the stage makes
   fs::path report;                // the stage's JSON report

@@ -18,11 +18,9 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
   if (!scene.lighting.environment)
     throw UsageError(
         "method prt shades objects by the environment map, and the scene names none (lighting.environment)");
-  ImageReadOptions ro;
-  ro.nonfinite = NonFinite::kAllow;                        // ProjectEnvironment names a bad pixel itself
-  const fs::path env_path = *EnvironmentAt(scene, frame);  // this frame's map
-  const std::string env_name = env_path.string();
-  const Image env = ReadImage(env_path, ro);
+  std::string env_name;
+  const Image env = EnvironmentImageAt(scene, frame, &env_name);  // this frame's map, non-finite pixels kept:
+                                                                  // ProjectEnvironment names a bad one itself
   std::map<uint32_t, PrtObject> out;
   for (size_t i = 0; i < scene.virtuals.size(); ++i) {
     const SceneVirtual& v = scene.virtuals[i];

@@ -22,10 +22,18 @@ class PtFrameRenderer : public PixelLoopMethod {
   int64_t skipped_pixels() const override { return skipped_pixels_; }
   // Real points met from virtual surfaces: from the plate or rendered.
   const PlateCounters& plate_counters() const { return tracer_.plate_counters(); }
+  // Later passes sample only the pixels whose `only` is non-zero (one per
+  // pixel; empty: every pixel again), each continuing its own sample
+  // sequence: more samples where a pixel integrates a small bright source
+  // (mr-synth's mirror sphere reflecting the sun).
+  void RestrictTo(std::vector<char> only) { only_ = std::move(only); }
 
  private:
   void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
-  bool PixelDone(size_t pixel) const override { return skip_[pixel] && accumulator().count(pixel) > 0; }
+  bool PixelDone(size_t pixel) const override {
+    return (skip_[pixel] && accumulator().count(pixel) > 0) || (!only_.empty() && !only_[pixel]);
+  }
+  std::vector<char> only_;
   DifferentialPathTracer tracer_;
   std::vector<char> skip_;  // provably zero difference
   int64_t skipped_pixels_ = 0;

@@ -184,8 +184,9 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       const fs::path photo = FramePath(*scene.camera.frames, f);
       k = HashCombine(k, fs::exists(photo) ? ContentHash(photo) : 0);
     }
-    for (const std::optional<fs::path>& file : {EnvironmentAt(scene, f), LightsAt(scene, f)})
-      k = HashCombine(k, file ? ContentHash(*file) : 0);
+    k = HashCombine(k, EnvironmentKey(scene, f));
+    const std::optional<fs::path> lights = LightsAt(scene, f);
+    k = HashCombine(k, lights ? ContentHash(*lights) : 0);
     return k;
   };
   auto provenance = [&](int f) {

@@ -2,9 +2,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
+#include <mutex>
 #include <type_traits>
 
 #include "core/error.h"
+#include "core/file.h"
+#include "core/hash.h"
+#include "core/video.h"
 #include "scene/frames.h"
 
 namespace mr {
@@ -251,18 +256,99 @@ void LoadRenderScene(const Scene& scene, RenderScene* out, int frame) {
     const Mesh mesh = ReadMesh(v.mesh);
     with_name(v.mesh, [&] { out->AddVirtual(mesh, v.WorldFromObjectAt(frame), v.material); });
   }
-  if (const std::optional<fs::path> env = EnvironmentAt(scene, frame)) LoadEnvironment(scene, *env, out);
+  if (scene.lighting.environment) LoadEnvironment(scene, frame, out);
   LoadLights(scene, LightsAt(scene, frame), frame, out);
   out->Commit();
 }
 
+namespace {
+
+// An environment video's frames, decoded in order by one reader that every
+// caller shares (a render visits its frames in order; going back reopens).
+struct EnvironmentVideo {
+  std::mutex mutex;
+  fs::path path;
+  std::unique_ptr<VideoReader> reader;
+  int frames = 0;  // as the container says; 0: unknown
+  int index = -1;  // the frame in `image`
+  Image image;
+};
+
+EnvironmentVideo& SharedEnvironmentVideo() {
+  static EnvironmentVideo v;
+  return v;
+}
+
+// Frame `frame` of the video, or its last frame past its end (*from).
+Image EnvironmentVideoFrame(const fs::path& path, int frame, int* from) {
+  EnvironmentVideo& v = SharedEnvironmentVideo();
+  std::lock_guard<std::mutex> lock(v.mutex);
+  if (!v.reader || v.path != path) {
+    v.reader = std::make_unique<VideoReader>(path);
+    v.path = path;
+    v.frames = v.reader->frame_count();
+    v.index = -1;
+  }
+  int want = std::max(0, frame);
+  if (v.frames > 0) want = std::min(want, v.frames - 1);
+  if (v.index != want) {
+    try {
+      v.image = v.reader->Frame(want);
+      v.index = want;
+    } catch (const Error&) {
+      // The container claimed more frames than the stream holds (or said
+      // nothing): the last frame decoded is the last there is.
+      if (want == 0) throw;
+      v.frames = want;
+      v.reader = std::make_unique<VideoReader>(path);
+      v.image = v.reader->Frame(want - 1);
+      v.index = want - 1;
+    }
+  }
+  if (from) *from = v.index;
+  return v.image;
+}
+
+}  // namespace
+
 std::optional<fs::path> EnvironmentAt(const Scene& scene, int frame, int* from) {
   if (!scene.lighting.environment) return std::nullopt;
+  if (scene.lighting.environment_video) {
+    if (from) EnvironmentVideoFrame(*scene.lighting.environment, frame, from);
+    return scene.lighting.environment;
+  }
   const std::optional<fs::path> p = PerFrameFile(*scene.lighting.environment, frame, from);
   if (!p)
     ThrowErrorAt(FileLoc{scene.lighting.environment->string()},
                  "no environment map for frame {} or any frame before it", frame);
   return p;
+}
+
+Image EnvironmentImageAt(const Scene& scene, int frame, std::string* name, int* from) {
+  if (!scene.lighting.environment) throw UsageError("the scene names no environment (lighting.environment)");
+  if (scene.lighting.environment_video) {
+    int f = 0;
+    Image img = EnvironmentVideoFrame(*scene.lighting.environment, frame, &f);
+    if (name) *name = fmt::format("{} frame {}", scene.lighting.environment->string(), f);
+    if (from) *from = f;
+    return img;
+  }
+  const fs::path p = *EnvironmentAt(scene, frame, from);
+  if (name) *name = p.string();
+  ImageReadOptions opt;
+  opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
+  return ReadImage(p, opt);
+}
+
+uint64_t EnvironmentKey(const Scene& scene, int frame, int* from) {
+  if (!scene.lighting.environment) return 0;
+  if (!scene.lighting.environment_video) return ContentHash(*EnvironmentAt(scene, frame, from));
+  const Image img = EnvironmentVideoFrame(*scene.lighting.environment, frame, from);
+  Hasher h;
+  h.Word(static_cast<uint64_t>(img.width()));
+  h.Word(static_cast<uint64_t>(img.height()));
+  h.Bytes(reinterpret_cast<const char*>(img.values().data()), img.values().size() * sizeof(float));
+  return h.Final();
 }
 
 std::optional<fs::path> LightsAt(const Scene& scene, int frame, int* from) {
@@ -273,11 +359,11 @@ std::optional<fs::path> LightsAt(const Scene& scene, int frame, int* from) {
   return p;
 }
 
-void LoadEnvironment(const Scene& scene, const fs::path& path, RenderScene* out) {
-  ImageReadOptions opt;
-  opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
-  out->SetEnvironment(EnvironmentMap(ReadImage(path, opt), path.string(), scene.lighting.environment_scale,
-                                     scene.lighting.world_from_env));
+void LoadEnvironment(const Scene& scene, int frame, RenderScene* out) {
+  std::string name;
+  Image img = EnvironmentImageAt(scene, frame, &name);
+  out->SetEnvironment(
+      EnvironmentMap(std::move(img), name, scene.lighting.environment_scale, scene.lighting.world_from_env));
 }
 
 void LoadLights(const Scene& scene, const std::optional<fs::path>& path, int frame, RenderScene* out) {

@@ -141,10 +141,22 @@ void LoadRenderScene(const Scene& scene, RenderScene* out, int frame = 0);
 // The environment map and lights file of `frame` (per-frame patterns: the
 // frame's own or the last earlier one's, *from its frame; mr::Error naming
 // the pattern when none exists up to it); nullopt when the scene names none.
+// An environment video is its own file for every frame; *from is the frame
+// of the video that `frame` takes (the last one past its end).
 std::optional<fs::path> EnvironmentAt(const Scene& scene, int frame, int* from = nullptr);
 std::optional<fs::path> LightsAt(const Scene& scene, int frame, int* from = nullptr);
+// The environment of `frame` as stored (before environment_scale and the
+// rotation): the map file's pixels, or the video's frame (8-bit sRGB
+// decoded to linear, codes / 255 through the sRGB curve).  *name names it
+// in messages ("env.mp4 frame 12"), *from as EnvironmentAt.  The scene must
+// name an environment.
+Image EnvironmentImageAt(const Scene& scene, int frame, std::string* name = nullptr, int* from = nullptr);
+// A key of the environment of `frame` that changes only when its content
+// does: a map file's ContentHash, a video frame's pixels' hash (two equal
+// frames of a video are no change).  0 when the scene names none.
+uint64_t EnvironmentKey(const Scene& scene, int frame, int* from = nullptr);
 // Loads them into `out` (the lights replacing its lights); Commit() after.
-void LoadEnvironment(const Scene& scene, const fs::path& path, RenderScene* out);
+void LoadEnvironment(const Scene& scene, int frame, RenderScene* out);
 // The lights of `frame`: the lights file's (none without one) and the
 // scene's virtual lights posed for the frame; replaces the scene's lights.
 void LoadLights(const Scene& scene, const std::optional<fs::path>& path, int frame, RenderScene* out);

@@ -29,7 +29,8 @@ WorldTracker::FileState WorldTracker::Stat(const std::optional<fs::path>& path) 
 
 WorldTracker::WorldTracker(const Scene& scene, const RenderScene& rs, int frame) : scene_(scene) {
   (void)rs;
-  dynamic_ = scene.lighting.environment_per_frame || scene.lighting.lights_per_frame;
+  dynamic_ =
+      scene.lighting.environment_per_frame || scene.lighting.environment_video || scene.lighting.lights_per_frame;
   for (const SceneVirtualLight& l : scene.virtual_lights) {
     dynamic_ = dynamic_ || !l.keyframes.empty();
     light_poses_.push_back(PoseAt(l.keyframes, l.world_from_object, frame));
@@ -38,7 +39,8 @@ WorldTracker::WorldTracker(const Scene& scene, const RenderScene& rs, int frame)
     dynamic_ = dynamic_ || !v.keyframes.empty();
     poses_.push_back(v.WorldFromObjectAt(frame));
   }
-  if (scene.lighting.environment_per_frame) env_ = Stat(EnvironmentAt(scene, frame));
+  if (scene.lighting.environment_per_frame || scene.lighting.environment_video)
+    env_ = FileState{EnvironmentAt(scene, frame), EnvironmentKey(scene, frame)};
   if (scene.lighting.lights_per_frame) lights_ = Stat(LightsAt(scene, frame));
 }
 
@@ -55,9 +57,16 @@ WorldChange WorldTracker::Advance(int f, RenderScene* rs) {
     *state = now;
     return changed;
   };
-  c.environment = file(
-      scene_.lighting.environment_per_frame, "environment map",
-      [](const Scene& s, int g, int* from) { return EnvironmentAt(s, g, from); }, &env_, LoadEnvironment);
+  if (scene_.lighting.environment_per_frame || scene_.lighting.environment_video) {
+    int from = f;
+    const uint64_t key = EnvironmentKey(scene_, f, &from);
+    if (from != f)
+      c.notes.push_back(fmt::format("frame {} has no environment map of its own: {}frame {}'s", f,
+                                    scene_.lighting.environment_video ? "the video's last, " : "", from));
+    c.environment = key != env_.hash;  // another map with the same content is no change
+    if (c.environment) LoadEnvironment(scene_, f, rs);
+    env_.hash = key;
+  }
   // The lights: the file's when it changed, the virtual lights' when one moved.
   bool lights_moved = false;
   for (size_t i = 0; i < scene_.virtual_lights.size(); ++i) {

@@ -6,6 +6,7 @@
 #include "core/error.h"
 #include "core/json_node.h"
 #include "core/math.h"
+#include "core/video.h"
 #include "scene/frames.h"
 
 namespace mr {
@@ -218,6 +219,8 @@ Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, b
       *path = *per_frame ? ResolvePattern(n, base, check) : ResolveFile(n, base, check, what);
     };
     file_or_pattern("environment", "environment map", &s.lighting.environment, &s.lighting.environment_per_frame);
+    s.lighting.environment_video =
+        s.lighting.environment && !s.lighting.environment_per_frame && IsVideoFile(*s.lighting.environment);
     if (l.Has("environment_scale")) s.lighting.environment_scale = l.Child("environment_scale").Number(0, kHuge);
     if (l.Has("environment_rotation_deg")) {
       double yaw = l.Child("environment_rotation_deg").Number(-360, 360) * kDegToRad;

@@ -78,8 +78,12 @@ struct SceneLighting {
   // Lat-long EXR/HDR, OpenEXR envmap convention; with environment_per_frame
   // a printf pattern of one map per frame ("env/%05d.exr"), a frame without
   // its own taking the last earlier frame's (EnvironmentAt, frames.h).
+  // Or a video (IsVideoFile): frame f of the plate is lit by the video's
+  // frame f (its last past its end), 8-bit sRGB decoded to linear and then
+  // scaled by environment_scale: an LDR 360-degree camera's video, whose
+  // clipped sun is lost (docs/formats.md, "Light over time").
   std::optional<fs::path> environment;
-  bool environment_per_frame = false;
+  bool environment_per_frame = false, environment_video = false;
   double environment_scale = 1.0;
   Eigen::Matrix3d world_from_env = Eigen::Matrix3d::Identity();
   std::optional<fs::path> lights;  // lights.json from mr-lights; a pattern with lights_per_frame

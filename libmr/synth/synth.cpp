@@ -11,12 +11,14 @@
 #include "core/image.h"
 #include "core/json.h"
 #include "core/math.h"
+#include "core/parallel.h"
 #include "core/sampling.h"
 #include "core/spherical.h"
 #include "core/video.h"
 #include "geometry/mesh.h"
 #include "geometry/primitives.h"
 #include "hdr/exposures_file.h"
+#include "light/light_source.h"
 #include "light/lights_file.h"
 #include "render/error_curve.h"
 #include "render/path_tracer.h"
@@ -225,6 +227,19 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   if (o.table_top != "glossy" && o.table_top != "diffuse")
     throw UsageError(fmt::format("unknown table top \"{}\" (glossy, diffuse)", o.table_top));
   c.parts = SynthRoom(o.table_top == "glossy");
+  if (o.plate_sphere) {
+    // Facets of 1.9 degrees: a pixel of the medium preset's plate spans
+    // about 4 degrees of the sphere's normals at its centre, more towards
+    // the rim, so the (flat-shaded) facets stay below what the plate resolves.
+    const SynthPlateSphere sp;
+    c.plate_sphere = sp;
+    Mesh m = Sphere(static_cast<float>(sp.radius), 96);
+    for (auto& v : m.positions) v += sp.centre.cast<float>();
+    Material mirror = Diffuse(0, 0, 0);
+    mirror.specular = Eigen::Vector3d::Constant(sp.reflectance);
+    mirror.roughness = sp.roughness;
+    c.parts.push_back({"plate_sphere", m, mirror});
+  }
   // The virtual object, resting on the table.
   Mesh& object = c.object;
   fs::path object_file;
@@ -427,6 +442,17 @@ void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::s
     scene["virtual"][0].erase("transform");
     scene["virtual"][0]["trajectory"] = keys;
   }
+  if (c.plate_sphere) {
+    const SynthPlateSphere& sp = *c.plate_sphere;
+    const Json j = {
+        {"comment", "the mirror sphere in the plate (" + note +
+                        "): mr-probe --sphere-in-plate scene.json --sphere X,Y,Z,R --reflectance REFLECTANCE"},
+        {"centre", {sp.centre.x(), sp.centre.y(), sp.centre.z()}},
+        {"radius", sp.radius},
+        {"reflectance", sp.reflectance}};
+    WriteTextFile(o.out / "plate-sphere.json", j.dump(2) + "\n");
+    report->AddOutput((o.out / "plate-sphere.json").string());
+  }
   WriteTextFile(o.out / "scene.json", scene.dump(2) + "\n");
   for (const char* f2 : {"scene.json", "camera.cameramodel", "trajectory.txt", "env.exr", "meshes/object.ply"})
     report->AddOutput((o.out / f2).string());
@@ -440,6 +466,61 @@ void WriteSynthInputs(const SynthOptions& o, const SynthCapture& c, const std::s
   // be env.exr); and a bracket of the fish-eye pointed at the zenith.
   if (o.probe) WriteProbe(o, c.sky, report);
 }
+
+namespace {
+
+// The light arriving at the plate sphere's centre from the real room and
+// the sky, as a 256x128 lat-long map (the EXR envmap convention, world
+// axes): 64 stratified samples a pixel, each a real-only path from the
+// centre that starts past the sphere's own surface.  A point or spot lamp,
+// which rays never meet, is put into the pixel of its direction where it
+// is in sight, as the radiance that gives its irradiance there (a probe
+// sees the lamp's bulb).
+Image RenderPlateSphereTruth(const RenderScene& rs, const SynthPlateSphere& sp, const PathTracerSettings& st) {
+  const int w = 256, h = 128, spp = 64;
+  Image map = Image::Rgb(w, h);
+  std::vector<std::pair<Eigen::Vector2i, Eigen::Vector3d>> lamps;
+  for (const LightSource& l : rs.lights()) {
+    LightSample ls;
+    if (l.is_virtual() || !l.Sample(sp.centre, 0.5, 0.5, &ls) || !ls.delta || !std::isfinite(ls.distance)) continue;
+    Ray r;
+    r.origin = sp.centre.cast<float>();
+    r.direction = ls.wi.cast<float>();
+    r.tnear = static_cast<float>(sp.radius * 1.01);
+    r.tfar = static_cast<float>(ls.distance * (1 - 1e-4));
+    r.mask = kMaskReal;
+    if (rs.embree().Occluded(r)) continue;
+    const Eigen::Vector2d q = DirectionToLatLongPixel(ls.wi, w, h);
+    const Eigen::Vector2i px(std::clamp(static_cast<int>(std::lround(q.x())), 0, w - 1),
+                             std::clamp(static_cast<int>(std::lround(q.y())), 0, h - 1));
+    lamps.emplace_back(px, ls.li / LatLongPixelSolidAngle(px.x(), px.y(), w, h));
+  }
+  DifferentialPathTracer tracer(rs, st);
+  ParallelFor(0, h, [&](int64_t y) {
+    for (int x = 0; x < w; ++x) {
+      Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+      for (int k = 0; k < spp; ++k) {
+        Sampler rng = Sampler::Stratified(HashCombine(st.seed, 0x737068ULL + static_cast<uint64_t>(st.frame)),
+                                          static_cast<uint32_t>((y * w + x) * spp + k));
+        const auto u = rng.Next2D();
+        const Eigen::Vector3d d = LatLongPixelToDirection({x - 0.5 + u[0], y - 0.5 + u[1]}, w, h);  // centres at x, y
+        Ray r;
+        r.origin = sp.centre.cast<float>();
+        r.direction = d.cast<float>();
+        r.tnear = static_cast<float>(sp.radius * 1.01);
+        r.mask = kMaskReal;
+        int rays = 0;
+        sum += tracer.RealRadiance(r, Eigen::Vector3d::Ones(), 0, 0, rng, &rays);
+      }
+      for (int ch = 0; ch < 3; ++ch) map.at(x, static_cast<int>(y), ch) = static_cast<float>(sum[ch] / spp);
+    }
+  });
+  for (const auto& [px, radiance] : lamps)
+    for (int ch = 0; ch < 3; ++ch) map.at(px.x(), px.y(), ch) += static_cast<float>(radiance[ch]);
+  return map;
+}
+
+}  // namespace
 
 void RunSynth(const SynthOptions& o, Report* report) {
   if (o.out.empty()) throw UsageError("--out is required");
@@ -497,6 +578,28 @@ void RunSynth(const SynthOptions& o, Report* report) {
         fr.RenderPass(truth_spp);
       }
     }
+    if (c.plate_sphere) {
+      // The sun reflected in the mirror sphere is a few hundredths of a
+      // pixel: at truth_spp a sphere pixel's estimate of it is mostly 0 or
+      // many times its mean.  The sphere's pixels (its projection's box,
+      // 2 pixels wider) get 16 times the samples, photograph and truth alike.
+      ScopedTimer t(report, "render the plate sphere's pixels");
+      const Rigid3& pose = c.trajectory.poses[static_cast<size_t>(i)].world_from_cam;
+      const Eigen::Vector3d centre = pose.Inverse() * c.plate_sphere->centre;
+      std::vector<char> only(static_cast<size_t>(p.width) * p.height, 0);
+      Eigen::Vector2d q;
+      if (centre.z() > c.plate_sphere->radius && c.camera.Project(centre, &q)) {
+        const double fx = c.camera.intrinsics()[0];
+        const double r = fx * c.plate_sphere->radius / (centre.z() - c.plate_sphere->radius) + 2;
+        for (int y = std::max(0, static_cast<int>(q.y() - r)); y <= std::min(p.height - 1, static_cast<int>(q.y() + r));
+             ++y)
+          for (int x = std::max(0, static_cast<int>(q.x() - r));
+               x <= std::min(p.width - 1, static_cast<int>(q.x() + r)); ++x)
+            only[static_cast<size_t>(y) * p.width + x] = 1;
+      }
+      fr.RestrictTo(std::move(only));
+      fr.RenderPass(15 * truth_spp);
+    }
     Image photo = fr.Real(), truth = fr.Mixed();
     if (truth_spp >= 2) {
       const TruthNoise n = EstimateTruthNoise(mixed_half, real_half, truth, photo, truth_spp / 2, truth_spp);
@@ -536,6 +639,13 @@ void RunSynth(const SynthOptions& o, Report* report) {
       }
     WriteImage(o.out / "photos" / fmt::format("{:05d}.png", i), ldr, wo);
     video.Write(ldr);
+    if (c.plate_sphere) {
+      ScopedTimer t(report, "render the plate sphere's truth");
+      const fs::path sp = o.out / "reference" / "sphere" / fmt::format("{:05d}.exr", i);
+      fs::create_directories(sp.parent_path(), ec);
+      WriteImage(sp, RenderPlateSphereTruth(rs, *c.plate_sphere, st), wo);
+      report->AddOutput(sp.string());
+    }
     report->AddOutput(photo_path.string());
     report->AddOutput(truth_path.string());
     spdlog::info("frame {}: truth at {} spp", i, truth_spp);

@@ -10,6 +10,7 @@
 // chessboard, mirror-sphere and RGB-D generators beside these.
 #pragma once
 
+#include <optional>
 #include <string>
 
 #include "camera/camera_model.h"
@@ -46,6 +47,13 @@ struct SynthOptions {
   // the object sliding across the table and turning (a trajectory); the
   // truth rendered per frame in that frame's world.
   bool dynamic = false;
+  // A mirror sphere standing on the table in the plate's view, a real part
+  // of the room (meshes/plate_sphere.ply): the light probe of the plate
+  // itself (mr-probe --sphere-in-plate).  plate-sphere.json says where it is;
+  // reference/sphere/NNNNN.exr is, per frame, the exact light arriving at
+  // its centre from the room and the sky (the map a perfect probe there
+  // would capture; the sphere itself left out).
+  bool plate_sphere = false;
   bool probe = true;  // write probe/ (the light probe's photographs); tests that need none leave it out
   std::string tool = "mr-synth", command_line;
 };
@@ -77,8 +85,21 @@ struct SynthPart {
 std::vector<SynthPart> SynthRoom(bool glossy_table = true);
 // A capture as computed, before anything is written: the room, the object
 // on the table, the sky and lights, the camera and its path.
+// The plate's mirror sphere (SynthOptions::plate_sphere).
+struct SynthPlateSphere {
+  Eigen::Vector3d centre{-0.42, 0.85, -0.22};  // world, metres: resting on the table top's near left
+  double radius = 0.1;                         // a 20 cm garden ball
+  double reflectance = 0.6;                    // chrome's, constant (no Fresnel term, render/bsdf.h)
+  // GGX roughness 0.2 (alpha 0.04): a lobe of about 2 degrees, which
+  // smooths the reflection across the mesh's flat facets (1.9 degrees; the
+  // renderer shades by geometric normals: at roughness 0.01 each facet
+  // reflects one direction and a sun between them is missed) and stays
+  // below what the plate resolves of the sphere (4 degrees a pixel).
+  double roughness = 0.2;
+};
 struct SynthCapture {
   SynthPreset preset{};
+  std::optional<SynthPlateSphere> plate_sphere;
   // With SynthOptions::dynamic: the sky of each frame, whether the lamp is
   // on, the object's keyframes (first and last frame).
   std::vector<Image> skies;

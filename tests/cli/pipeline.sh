@@ -89,12 +89,14 @@ check "probe: changed option" 0 "lights      would run   inputs, options or the 
 check "probe: fuse unaffected" 0 "fuse        up to date" -- "$P" "$tmp/probe.json.pipeline" --dry-run
 
 # 3. Only a video and a fused recording whose colour is the video: poses from
-#    mr-fuse; a failing stage stops the run and keeps what finished.
+#    mr-fuse; a failing stage stops the run and keeps what finished (the
+#    probe's map, made before the room).
 mkdir -p "$tmp/notrgbd" && echo nothing > "$tmp/notrgbd/readme.txt"
 cat > "$tmp/fail.json" <<'JSON'
 {"version": 1, "work": "fail-work",
  "camera": {"model": "capture/camera.cameramodel"},
- "lighting": {"environment": "capture/env.exr", "lights": {"options": {"count": 2}}},
+ "lighting": {"probe": {"photos": "capture/probe/sphere.exr", "probe": "probe.json",
+                        "unwrap": {"reflectance": 0.6, "width": 64}}},
  "room": {"rgbd": "notrgbd"},
  "video": {"frames": "capture/photos/%05d.exr", "poses": {"fuse": true}},
  "virtual": [{"mesh": "object.ply"}]}
@@ -102,9 +104,9 @@ JSON
 check "fail: poses from fuse" 0 "its poses are mr-fuse's trajectory" -- "$P" "$tmp/fail.json" --dry-run
 check "fail: stage named" 1 "stage fuse failed (mr-fuse exited with 1)" -- "$P" "$tmp/fail.json" -q
 check "fail: tool's message" 1 "is not an RGB-D recording" -- "$P" "$tmp/fail.json" -q
-check "fail: finished outputs kept" 0 "" -- test -s "$tmp/fail-work/lights.json"
+check "fail: finished outputs kept" 0 "" -- test -s "$tmp/fail-work/env.exr"
 check "fail: no scene written" 0 "" -- test ! -e "$tmp/fail-work/scene.json"
-check "fail: lights not re-run" 0 "lights      up to date" -- "$P" "$tmp/fail.json" --dry-run
+check "fail: probe not re-run" 0 "probe       up to date" -- "$P" "$tmp/fail.json" --dry-run
 
 # 4. Video poses from a COLMAP model (here made from the recording's true
 #    poses moved by a known similarity, as COLMAP would give them: arbitrary
@@ -149,6 +151,24 @@ import json, sys; a = json.load(open('$tmp/colmap-work/reports/register.json'))[
 print(a); sys.exit(0 if a['centre_rmse_m'] < 1e-3 and abs(a['scale'] - 1/3.0) < 1e-6 and a['pairs'] == 12 else 1)"
 sed 's#"poses": {"colmap": "colmap"}#"poses": {"register": true}#; s#"rgbd": "rgbd", "options": {"poses": "reference", "no-albedo": true, "voxel": 0.04}#"real": [{"mesh": "capture/meshes/floor.ply"}]#' "$tmp/colmap.json" > "$tmp/bad6.json"
 check "bad: register to meshes needs a start" 1 "needs \"initial\"" -- "$P" "$tmp/bad6.json" --dry-run
+
+# 5. A dynamic capture whose light is the mirror sphere in its own plate
+#    (the main job's second dynamic chain, smaller): plate_probe unwraps
+#    each frame from its pose, the lamp's lights file passes through, and a
+#    second run is up to date.
+check "mr-synth plate sphere" 0 "" -- "$bin/mr-synth" --preset medium --dynamic --plate-sphere --frames 2 \
+  --truth-spp 2 --out "$tmp/dyn/capture" -q
+/usr/bin/python3 "$src/examples/synthetic/dynamic_pipeline.py" "$tmp/dyn/capture/scene.json" sphere \
+  | sed 's#"spp": 16#"spp": 1#' > "$tmp/dyn/sphere.json"
+check "sphere: plan" 0 "plate_probe would run   not run before" -- "$P" "$tmp/dyn/sphere.json" --dry-run
+check "sphere: no light camera" 0 "the light is the mirror sphere in the plate" -- "$P" "$tmp/dyn/sphere.json" --dry-run
+check "sphere: runs" 0 "" -- "$P" "$tmp/dyn/sphere.json" -q --report "$tmp/dyn/report.json"
+check "sphere: the plate's scene" 0 '"frames": "../capture/photos/%05d.exr"' -- cat "$tmp/dyn/work-sphere/plate.json"
+check "sphere: a map per frame" 0 "" -- test -s "$tmp/dyn/work-sphere/env/00001.exr"
+check "sphere: the scene lit by them" 0 '"environment": "env/%05d.exr"' -- cat "$tmp/dyn/work-sphere/scene.json"
+check "sphere: composites" 0 "" -- test -s "$tmp/dyn/work-sphere/render/00001.exr"
+check "sphere: mr-probe saw the sphere" 0 '"sphere_in_view": true' -- cat "$tmp/dyn/work-sphere/reports/plate_probe.json"
+check "sphere: second run up to date" 0 "plate_probe up to date" -- "$P" "$tmp/dyn/sphere.json" --dry-run
 
 # The real-data example skips cleanly where ../shared/data is absent.
 check "real example without the data" 0 "examples/real: skipped: the real data is not at $tmp/none" -- bash "$src/examples/real/run.sh" "$tmp/real" "$tmp/none"

@@ -154,6 +154,74 @@ TEST(PlanPipeline, CapturesTheLightFromALightVideo) {
   EXPECT_THROW(PlanPipeline(dir / "q.json"), Error);
 }
 
+// The mirror sphere in the plate: plate_probe runs after the plate's poses
+// (here given) on WORK/plate.json, the plate's camera section that the
+// stage writes first; lights come after it; the photograph stages say why
+// they have nothing to do; a fused room cannot be de-lit by a light made
+// after it, and a video environment is no map for mr-lights: errors naming
+// the key.
+TEST(PlanPipeline, CapturesTheLightFromTheSphereInThePlate) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "room.ply", "poses.txt", "ball.ply", "env.mp4"}) WriteTextFile(dir / f, "x");
+  fs::create_directories(dir / "plate");
+  fs::create_directories(dir / "rgbd");
+  WriteTextFile(dir / "p.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"},
+    "lighting": {"sphere_in_plate": {"centre": [-0.42, 0.85, -0.22], "radius": 0.1, "reflectance": 0.6,
+                                     "options": {"time-constant": 0.2}},
+                 "lights": {"options": {"count": 1}}},
+    "room": {"real": {"mesh": "room.ply"}},
+    "video": {"frames": "plate/%05d.exr", "frames_transfer": "linear", "poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}], "render": {"method": "pt"}})");
+  const Pipeline p = PlanPipeline(dir / "p.json");
+  const PipelineStage& s = Stage(p, "plate_probe");
+  ASSERT_TRUE(s.skip.empty()) << s.skip;
+  const fs::path work = dir.path() / "work";
+  const std::vector<std::string> want = {"--sphere-in-plate",
+                                         (work / "plate.json").string(),
+                                         "--sphere",
+                                         "-0.42,0.85,-0.22,0.1",
+                                         "--out",
+                                         (work / "env" / "%05d.exr").string(),
+                                         "--reflectance",
+                                         "0.6",
+                                         "--time-constant",
+                                         "0.2"};
+  EXPECT_EQ(s.args, want);
+  EXPECT_EQ(s.writes_first, work / "plate.json");
+  EXPECT_EQ(s.writes_first_json["camera"]["frames"], "../plate/%05d.exr");
+  EXPECT_FALSE(s.writes_first_json["camera"].contains("gains"));  // linear: fitted as a check, not applied
+  EXPECT_EQ(s.writes_first_json["camera"]["poses"]["path"], "../poses.txt");
+  const auto& names = PipelineStageNames();
+  auto at = [&](const char* n) { return std::find(names.begin(), names.end(), n) - names.begin(); };
+  EXPECT_LT(at("register"), at("plate_probe"));
+  EXPECT_LT(at("plate_probe"), at("lights"));
+  EXPECT_EQ(Stage(p, "lights").args[0], (work / "env" / "%05d.exr").string());
+  EXPECT_NE(Stage(p, "probe").skip.find("plate_probe"), std::string::npos) << Stage(p, "probe").skip;
+  EXPECT_NE(Stage(p, "hdr").skip.find("sphere in the plate"), std::string::npos) << Stage(p, "hdr").skip;
+
+  WriteTextFile(dir / "q.json", R"({"version": 1, "camera": {"model": "cam.cameramodel"},
+    "lighting": {"sphere_in_plate": {"centre": [0, 1, 0], "radius": 0.1}},
+    "room": {"rgbd": "rgbd"}, "video": {"frames": "plate/%05d.exr", "poses": {"fuse": true}},
+    "virtual": [{"mesh": "ball.ply"}]})");
+  try {
+    PlanPipeline(dir / "q.json");
+    ADD_FAILURE() << "planned";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("only once the plate's poses are known"), std::string::npos) << e.what();
+  }
+  WriteTextFile(dir / "v.json", R"({"version": 1, "camera": {"model": "cam.cameramodel"},
+    "lighting": {"environment": "env.mp4", "lights": {"options": {}}},
+    "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}]})");
+  try {
+    PlanPipeline(dir / "v.json");
+    ADD_FAILURE() << "planned";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("lighting.environment is a video"), std::string::npos) << e.what();
+  }
+}
+
 // A plate's gains are fitted unless given, turned off or hand-set; the
 // render (and the sweep) then depend on the fitted file.
 TEST(PlanPipeline, FitsThePlatesGainsUnlessToldOtherwise) {

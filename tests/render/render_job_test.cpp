@@ -1163,6 +1163,78 @@ TEST_F(Capture, PerFrameLightAndAnObjectScaledToNothing) {
   }
 }
 
+// The environment as a video (an LDR 360-degree camera's): plate frame f is
+// lit by the video's frame f, decoded through sRGB and scaled by
+// environment_scale, and renders as the static scene under that decoded map
+// (written as a float EXR: bit for bit); two equal frames are no change
+// (the world kept); past the video's end its last frame is reused, and the
+// report says so.  FFV1 (.mkv) is lossless, so frames keep their codes.
+TEST_F(Capture, EnvironmentVideoLightsEachFrameByItsFrame) {
+  const Json base = ReadJsonFile(Cap() / "scene.json");
+  const Image sky = ReadImage(Cap() / "env.exr");
+  const double scale = 4.0;  // the sky's 1/4 is code 255; the sun clips, as an LDR camera's would
+  auto frame = [&](double gain) {
+    Image f = Image::Rgb(sky.width(), sky.height());
+    for (int y = 0; y < sky.height(); ++y)
+      for (int x = 0; x < sky.width(); ++x)
+        for (int c = 0; c < 3; ++c) f.at(x, y, c) = static_cast<float>(sky.at(x, y, c) * gain / scale);
+    return f;
+  };
+  auto write_video = [&](const fs::path& p, const std::vector<double>& gains) {
+    VideoWriter w(p, sky.width(), sky.height(), 30);
+    for (double g : gains) w.Write(frame(g));
+    w.Close();
+  };
+  write_video(Cap() / "env-ab.mkv", {1.0, 0.5});
+  write_video(Cap() / "env-aa.mkv", {1.0, 1.0});
+  write_video(Cap() / "env-a.mkv", {1.0});
+  RenderOptions o;
+  o.spp = 2;
+  o.frame_end = 2;
+  auto with_env = [&](const std::string& env) {
+    Json j = base;
+    j["lighting"]["environment"] = env;
+    j["lighting"]["environment_scale"] = scale;
+    return j;
+  };
+  Report rv("mr-render", "test");
+  const fs::path dyn = RenderVariant(with_env("env-ab.mkv"), "env-video", o, &rv);
+  EXPECT_TRUE(rv.metrics()["frames"][1]["world"]["environment"].get<bool>()) << rv.metrics()["frames"][1].dump();
+  for (int f = 0; f < 2; ++f) {
+    SCOPED_TRACE(f);
+    WriteImage(Cap() / fmt::format("env-video-{}.exr", f), VideoReader(Cap() / "env-ab.mkv").Frame(f));
+    RenderOptions os = o;
+    os.frame_begin = f;
+    os.frame_end = f + 1;
+    Report rs("mr-render", "test");
+    const fs::path stat =
+        RenderVariant(with_env(fmt::format("env-video-{}.exr", f)), fmt::format("env-video-static-{}", f), os, &rs);
+    const auto name = fmt::format("{:05d}.exr", f);
+    EXPECT_EQ(ReadImage(dyn / name).Layer("composite").values(), ReadImage(stat / name).Layer("composite").values());
+  }
+  // The decoded frame is the written one through 8 bits: its mean within
+  // half a code of the sky's (clipped) mean.
+  {
+    const Image decoded = VideoReader(Cap() / "env-ab.mkv").Frame(0);
+    const Image written = frame(1.0);
+    double d = 0, w = 0;
+    for (size_t i = 0; i < decoded.values().size(); ++i) {
+      d += decoded.values()[i];
+      w += std::min(1.0f, written.values()[i]);
+    }
+    EXPECT_NEAR(d / w, 1.0, 0.01);
+  }
+  Report ra("mr-render", "test");
+  RenderVariant(with_env("env-aa.mkv"), "env-video-aa", o, &ra);
+  EXPECT_EQ(ra.metrics()["world"]["frames_kept"], 1) << ra.metrics()["world"].dump();
+  Report r1("mr-render", "test");
+  RenderVariant(with_env("env-a.mkv"), "env-video-a", o, &r1);
+  EXPECT_NE(r1.ToJson().dump().find("frame 1 has no environment map of its own: the video's last, frame 0's"),
+            std::string::npos)
+      << r1.ToJson().dump();
+  EXPECT_EQ(r1.metrics()["world"]["frames_kept"], 1);
+}
+
 // A virtual torch (a spot light in the `virtual` list) that moves between
 // the two frames: frame 1 of the dynamic job is, byte for byte (pt), the
 // static scene with the torch where its trajectory puts it; the report

@@ -238,6 +238,25 @@ TEST(ProbeSequence, SphereInMrSynthsPlateGivesTheLightAtItsCentre) {
     EXPECT_LT(at_centre.irradiance_rel_rms, 0.1);
     EXPECT_NEAR(at_centre.energy_ratio, 1.0, 0.1);
   }
+  EXPECT_EQ(report.metrics()["plate_frames_kept"], 0);
+
+  // Up to date per frame: a re-run keeps both maps (the same bytes); a
+  // changed plate frame 1 redoes that frame alone.
+  const std::string map0 = ReadTextFile(FramePath(o.out, 0)), map1 = ReadTextFile(FramePath(o.out, 1));
+  Report again;
+  RunProbeSequence(o, &again);
+  EXPECT_EQ(again.metrics()["plate_frames_kept"], 2);
+  EXPECT_EQ(ReadTextFile(FramePath(o.out, 1)), map1);
+  Image photo = ReadImage(so.out / "photos" / "00001.exr");
+  for (float& v : photo.values()) v *= 2;
+  WriteImage(so.out / "photos" / "00001.exr", photo);
+  Report changed;
+  RunProbeSequence(o, &changed);
+  EXPECT_EQ(changed.metrics()["plate_frames_kept"], 1);
+  EXPECT_TRUE(changed.metrics()["frames"][0]["kept"].get<bool>());
+  EXPECT_FALSE(changed.metrics()["frames"][1]["kept"].get<bool>());
+  EXPECT_EQ(ReadTextFile(FramePath(o.out, 0)), map0);
+  EXPECT_NE(ReadTextFile(FramePath(o.out, 1)), map1);
 }
 
 }  // namespace

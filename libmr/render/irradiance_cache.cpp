@@ -121,31 +121,104 @@ std::string IrradianceCache::WorldChanged(const WorldChange& c) {
       dropped, stale, static_cast<int64_t>(records_.size()) - stale);
 }
 
+namespace {
+
+// Ward & Heckbert's gradients from an M x N stratification of the cosine-
+// weighted hemisphere (sin^2 theta in M strata, phi in N), local frame:
+// L[j + M k] the radiance of stratum (j, k), R its ray's hit distance
+// (infinity: escaped).  The rotational gradient is pi/(MN) sum tan(theta_j)
+// v(phi) L with theta_j the stratum's centre (the sample's own theta would
+// give tan an infinite variance at the horizon) and v(phi) = (-sin, cos, 0):
+// for L = a + b d.w it gives (2 pi / 3) b (z x d), exactly what turning the
+// normal changes.  The translational gradient sums, over the strata's
+// boundaries, the projected solid angle each boundary sweeps as the point
+// moves (over the nearer of the two hits beside it) times the radiance
+// difference across it: 2 pi / N sin th cos^2 th / R across a theta
+// boundary, (sin th+ - sin th-) / R across a phi boundary (Krivanek &
+// Gautron's form; Ward & Heckbert's (cos th- - cos th+) / sin th_c lacks
+// the projection's cos th).  docs/methods.md, "ic".
+void WardHeckbertGradients(const std::vector<Eigen::Vector3d>& L, const std::vector<double>& R, int M, int N,
+                           Eigen::Matrix3d* rot, Eigen::Matrix3d* trans) {
+  rot->setZero();
+  trans->setZero();
+  auto theta_at = [&](double q) { return std::asin(std::sqrt(std::clamp(q / M, 0.0, 1.0))); };
+  for (int k = 0; k < N; ++k) {
+    const double phi = kTwoPi * (k + 0.5) / N, phi_minus = kTwoPi * k / N;
+    const Eigen::Vector3d u(std::cos(phi), std::sin(phi), 0), v(-std::sin(phi), std::cos(phi), 0);
+    const Eigen::Vector3d v_minus(-std::sin(phi_minus), std::cos(phi_minus), 0);
+    const int k_prev = (k + N - 1) % N;
+    for (int j = 0; j < M; ++j) {
+      const Eigen::Vector3d& l = L[static_cast<size_t>(j + M * k)];
+      const double th_c = theta_at(j + 0.5), th_minus = theta_at(j), th_plus = theta_at(j + 1);
+      *rot += (std::tan(th_c) * kPi / (M * N)) * l * v.transpose();
+      // Across the theta boundary below (j - 1 to j), in direction u.
+      if (j > 0) {
+        const double r = std::min(R[static_cast<size_t>(j + M * k)], R[static_cast<size_t>(j - 1 + M * k)]);
+        if (std::isfinite(r) && r > 0) {
+          const double c = std::cos(th_minus);
+          *trans += (kTwoPi / N * std::sin(th_minus) * c * c / r) * (l - L[static_cast<size_t>(j - 1 + M * k)]) *
+                    u.transpose();
+        }
+      }
+      // Across the phi boundary before (k - 1 to k), in direction v_minus.
+      if (N > 1) {
+        const double r = std::min(R[static_cast<size_t>(j + M * k)], R[static_cast<size_t>(j + M * k_prev)]);
+        if (std::isfinite(r) && r > 0)
+          *trans += ((std::sin(th_plus) - std::sin(th_minus)) / r) * (l - L[static_cast<size_t>(j + M * k_prev)]) *
+                    v_minus.transpose();
+      }
+    }
+  }
+}
+
+// Limits a gradient so that within `radius` it changes no channel by more
+// than that channel's value (a first-order step past zero is noise, and
+// would make light negative).
+void ClampGradient(const Eigen::Vector3d& e, double radius, Eigen::Matrix3d* g) {
+  for (int c = 0; c < 3; ++c) {
+    const double change = g->row(c).norm() * radius, most = std::max(0.0, e[c]);
+    if (change > most) g->row(c) *= change > 0 ? most / change : 0.0;
+  }
+}
+
+}  // namespace
+
 void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
-  // Stratified cosine-distributed directions, the record's own stream.
+  // Cosine-distributed directions in M x N strata of (sin^2 theta, phi)
+  // (N ~ pi M, as Ward & Heckbert advise), the rest random; the record's
+  // own stream.
   Sampler rng = Sampler::Random(HashCombine(settings_.seed, 0x6963), r->index);
   const int n = std::max(1, settings_.rays);
-  const int side = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(n))));
+  const int M = std::max(1, static_cast<int>(std::lround(std::sqrt(n / kPi))));
+  const int N = std::max(1, n / M);
+  const int strata = M * N;
   const ShadingFrame frame_n(r->n);
   const double offset = OffsetScale(r->p, r->p, 0);
   const Eigen::Vector3d origin = r->p + r->n * offset;
   Eigen::Vector3d em = Eigen::Vector3d::Zero(), er = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3d> lm(static_cast<size_t>(strata)), lr(static_cast<size_t>(strata));
+  std::vector<double> dist(static_cast<size_t>(strata), INFINITY);
   double r_hit = INFINITY;
   for (int k = 0; k < n; ++k) {
     double u0 = rng.NextDouble(), u1 = rng.NextDouble();
-    if (k < side * side) {
-      u0 = (k % side + u0) / side;
-      u1 = (k / side + u1) / side;
+    if (k < strata) {
+      u0 = (k % M + u0) / M;
+      u1 = (k / M + u1) / N;
     }
-    const auto d = SampleCosineHemisphere(u0, u1);
-    const Ray ray = MakeRay(origin, frame_n.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
+    const double sin_t = std::sqrt(u0), phi = kTwoPi * u1;
+    const Eigen::Vector3d d(sin_t * std::cos(phi), sin_t * std::sin(phi), SafeSqrt(1 - u0));
+    const Ray ray = MakeRay(origin, frame_n.ToWorld(d), kMaskAll);
     // Bounce 1 onwards of a differential path; escapes of the first segment
     // are direct light (the pixel's next-event estimate).
-    const double pdf = d[2] * kInvPi;
+    const double pdf = d.z() * kInvPi;
     PathSample ps = tracer_.TraceFrom(ray, Eigen::Vector3d::Ones(), pdf, 1, rng, 2);
-    if (ps.mixed.allFinite() && ps.real.allFinite()) {
-      em += ps.mixed;
-      er += ps.real;
+    if (!ps.mixed.allFinite() || !ps.real.allFinite()) ps.mixed = ps.real = Eigen::Vector3d::Zero();
+    em += ps.mixed;
+    er += ps.real;
+    if (k < strata) {
+      lm[static_cast<size_t>(k)] = ps.mixed;
+      lr[static_cast<size_t>(k)] = ps.real;
+      dist[static_cast<size_t>(k)] = ps.first_t;
     }
     r_hit = std::min(r_hit, static_cast<double>(ps.first_t));
   }
@@ -153,6 +226,33 @@ void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
   r->e_real = er * (kPi / n);
   r->r_hit = r_hit;
   r->evaluated_frame = frame;
+  r->rot_mixed.setZero();
+  r->rot_real.setZero();
+  r->trans_mixed.setZero();
+  r->trans_real.setZero();
+  if (settings_.gradients && M >= 2 && N >= 3) {
+    // Local gradients (rows: channels) turned into world vectors.
+    const Eigen::Matrix3d to_world = (Eigen::Matrix3d() << frame_n.ToWorld(Eigen::Vector3d::UnitX()),
+                                      frame_n.ToWorld(Eigen::Vector3d::UnitY()), r->n)
+                                         .finished();
+    Eigen::Matrix3d rot, trans;
+    WardHeckbertGradients(lm, dist, M, N, &rot, &trans);
+    r->rot_mixed = rot * to_world.transpose();
+    r->trans_mixed = trans * to_world.transpose();
+    WardHeckbertGradients(lr, dist, M, N, &rot, &trans);
+    r->rot_real = rot * to_world.transpose();
+    r->trans_real = trans * to_world.transpose();
+  }
+}
+
+void IrradianceCache::ClampGradients(IcRecord* r) const {
+  // Within the record's reach (accuracy x R_i) and its normal cone (the
+  // weight's 10-degree bound, sin 10 deg as the rotation's size).
+  const double reach = settings_.accuracy * r->r, turn = settings_.accuracy * std::sin(10 * kPi / 180);
+  ClampGradient(r->e_mixed, reach, &r->trans_mixed);
+  ClampGradient(r->e_real, reach, &r->trans_real);
+  ClampGradient(r->e_mixed, turn, &r->rot_mixed);
+  ClampGradient(r->e_real, turn, &r->rot_real);
 }
 
 void IrradianceCache::Describe(Report* report) const {
@@ -217,9 +317,10 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
         if (m.valid && m.is_virtual == r.on_virtual) {
           const double w = Weight(r, m.p, m.n, inv_a);
           if (w > 0) {
+            const Eigen::Vector3d turn = r.n.cross(m.n), move = m.p - r.p;
             m.w += w;
-            m.sum_m += w * r.e_mixed;
-            m.sum_r += w * r.e_real;
+            m.sum_m += w * (r.e_mixed + r.rot_mixed * turn + r.trans_mixed * move);
+            m.sum_r += w * (r.e_real + r.rot_real * turn + r.trans_real * move);
             used = true;
           }
         }
@@ -228,7 +329,7 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
           const double w = Weight(r, e.p, e.n, inv_a);
           if (w > 0) {
             e.w += w;
-            e.sum_r += w * r.e_real;
+            e.sum_r += w * (r.e_real + r.rot_real * r.n.cross(e.n) + r.trans_real * (e.p - r.p));
             used = true;
           }
         }
@@ -301,8 +402,11 @@ void IcFrameRenderer::RenderPass(int spp) {
     std::vector<size_t> due;
     for (size_t i = 0; i < cache_->records_.size(); ++i)
       if (frame_ - cache_->records_[i].evaluated_frame >= st.t_max || cache_->records_[i].stale) due.push_back(i);
-    ParallelFor(0, static_cast<int64_t>(due.size()),
-                [&](int64_t j) { cache_->Evaluate(&cache_->records_[due[static_cast<size_t>(j)]], frame_); });
+    ParallelFor(0, static_cast<int64_t>(due.size()), [&](int64_t j) {
+      IcRecord* r = &cache_->records_[due[static_cast<size_t>(j)]];
+      cache_->Evaluate(r, frame_);
+      cache_->ClampGradients(r);
+    });
     reevaluated_ = static_cast<int64_t>(due.size());
     cache_->reevaluated_ += reevaluated_;
     std::vector<size_t> all(cache_->records_.size());
@@ -390,6 +494,7 @@ void IcFrameRenderer::RenderPass(int spp) {
             }
           }
       r.r = std::clamp(ri, r.r_min, r.r_max);
+      cache_->ClampGradients(&r);
       grid[key(r.p)].push_back(i);
     }
     new_records_ += static_cast<int64_t>(added.size());
@@ -543,7 +648,7 @@ namespace {
 
 IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "evict_after", "tile",
-                   "influence_threshold", "glossy_depth", "plate_reflections"});
+                   "influence_threshold", "glossy_depth", "plate_reflections", "gradients"});
   IcSettings o;
   if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
   if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
@@ -555,6 +660,7 @@ IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
   if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
   if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
+  if (v.Has("gradients")) o.gradients = v.Child("gradients").Bool();
   if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
   return WithSceneRender(o, scene);
 }

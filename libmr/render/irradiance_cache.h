@@ -40,6 +40,11 @@ struct IcSettings {
   // frames are evicted, so that a camera moving on does not grow the cache
   // without bound; 0: never.
   int evict_after = 30;
+  // Irradiance gradients (Ward & Heckbert 1992): each record estimates how
+  // its irradiance changes as the normal turns and the point moves, from
+  // its own rays, and interpolation extrapolates along them (first order)
+  // instead of taking the record's value as flat.  docs/methods.md, "ic".
+  bool gradients = true;
   bool photograph = true;  // I_c is given: real pixels need only I_m - I_r
   int max_depth = 5;
   uint64_t seed = 0;
@@ -50,6 +55,10 @@ struct WorldChange;
 struct IcRecord {
   Eigen::Vector3d p, n;
   Eigen::Vector3d e_mixed = Eigen::Vector3d::Zero(), e_real = Eigen::Vector3d::Zero();
+  // The gradients, one row per channel (zero without IcSettings::gradients):
+  // E(p', n') ~ E + rot (n x n') + trans (p' - p).
+  Eigen::Matrix3d rot_mixed = Eigen::Matrix3d::Zero(), rot_real = Eigen::Matrix3d::Zero();
+  Eigen::Matrix3d trans_mixed = Eigen::Matrix3d::Zero(), trans_real = Eigen::Matrix3d::Zero();
   double r_hit = 0;             // least distance the record's rays met
   double r = 0;                 // R_i after the clamps
   double r_min = 0, r_max = 0;  // the pixel clamps, world units
@@ -66,8 +75,12 @@ class IrradianceCache {
   IrradianceCache(const RenderScene& scene, const IcSettings& settings);
   const IcSettings& settings() const { return settings_; }
   const std::vector<IcRecord>& records() const { return records_; }
-  // Integrates E_m, E_r and R_i at the record's point with its own stream.
+  // Integrates E_m, E_r, their gradients and R_i at the record's point
+  // with its own stream.
   void Evaluate(IcRecord* record, int frame) const;
+  // Limits the gradients to what the record's reach (R_i after the clamps)
+  // allows: within it no channel changes by more than its value.
+  void ClampGradients(IcRecord* record) const;
   // Whether a real point can see a change of indirect light (form factor bound).
   bool InInfluence(const Eigen::Vector3d& p) const;
   // The world changed between frames (render/world.h): with new light

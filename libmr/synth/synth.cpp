@@ -590,7 +590,8 @@ void RunSynth(const SynthOptions& o, Report* report) {
       Eigen::Vector2d q;
       if (centre.z() > c.plate_sphere->radius && c.camera.Project(centre, &q)) {
         const double fx = c.camera.intrinsics()[0];
-        const double r = fx * c.plate_sphere->radius / (centre.z() - c.plate_sphere->radius) + 2;
+        const double r = std::min(static_cast<double>(p.width + p.height),
+                                  fx * c.plate_sphere->radius / (centre.z() - c.plate_sphere->radius) + 2);
         for (int y = std::max(0, static_cast<int>(q.y() - r)); y <= std::min(p.height - 1, static_cast<int>(q.y() + r));
              ++y)
           for (int x = std::max(0, static_cast<int>(q.x() - r));

@@ -31,8 +31,11 @@ struct IcSettings {
   double influence_threshold = 1e-3;
   // Bounces of the glossy lobe's path from a camera hit (a BSDF-sampled
   // differential path, as pt's), at most max_depth; 0: the glossy lobe takes
-  // next-event light only; -1: max_depth.
-  int glossy_depth = -1;
+  // next-event light only; -1: max_depth (unbiased).  2, as vpl's: the
+  // longer paths through a glossy table to the sun are fireflies that made
+  // ic's error at 4 spp 13 times larger on mr-synth's capture, while the
+  // light they carry was below the error at 64 spp (docs/methods.md, "ic").
+  int glossy_depth = 2;
   // Glossy paths from virtual surfaces take the plate's radiance where it
   // sees the real point they meet (render/path_tracer.h, PlateView).
   bool plate_reflections = true;

@@ -14,8 +14,6 @@ namespace mr {
 
 namespace {
 
-const double kSqrtOneMinusCos10 = std::sqrt(1 - std::cos(10 * kDegToRad));
-
 PathTracerSettings TracerSettings(const IcSettings& s) {
   PathTracerSettings p;
   p.max_depth = s.max_depth;
@@ -33,9 +31,11 @@ PathTracerSettings GlossyTracerSettings(const IcSettings& s, const PlateViews& p
 }
 
 // Tabellion & Lamorlette's weight of record r at (p, n); <= 0: no contribution.
-double Weight(const IcRecord& r, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double inv_accuracy) {
+// `inv_normal` is 1 / sqrt(1 - cos(normal_deg)).
+double Weight(const IcRecord& r, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double inv_accuracy,
+              double inv_normal) {
   const double eps_p = (p - r.p).norm() / r.r;
-  const double eps_n = SafeSqrt(1 - std::min(1.0, n.dot(r.n))) / kSqrtOneMinusCos10;
+  const double eps_n = SafeSqrt(1 - std::min(1.0, n.dot(r.n))) * inv_normal;
   return 1 - inv_accuracy * std::max(eps_p, eps_n);
 }
 
@@ -248,7 +248,8 @@ void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
 void IrradianceCache::ClampGradients(IcRecord* r) const {
   // Within the record's reach (accuracy x R_i) and its normal cone (the
   // weight's 10-degree bound, sin 10 deg as the rotation's size).
-  const double reach = settings_.accuracy * r->r, turn = settings_.accuracy * std::sin(10 * kPi / 180);
+  const double reach = settings_.accuracy * r->r,
+               turn = std::sin(settings_.accuracy * settings_.normal_deg * kDegToRad);
   ClampGradient(r->e_mixed, reach, &r->trans_mixed);
   ClampGradient(r->e_real, reach, &r->trans_real);
   ClampGradient(r->e_mixed, turn, &r->rot_mixed);
@@ -308,6 +309,7 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
     yb = std::min(yb, px(std::ceil(q.y() + rpx), height()));
   }
   const double inv_a = 1 / cache_->settings_.accuracy;
+  const double inv_n = 1 / std::sqrt(1 - std::cos(cache_->settings_.normal_deg * kDegToRad));
   for (int y = ya; y <= yb; ++y)
     for (int x = x0; x <= x1; ++x)
       for (int s = 0; s < samples_; ++s) {
@@ -315,7 +317,7 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
         // The mixed entry: virtual records on virtual points, real ones on real.
         Entry& m = mixed_[k];
         if (m.valid && m.is_virtual == r.on_virtual) {
-          const double w = Weight(r, m.p, m.n, inv_a);
+          const double w = Weight(r, m.p, m.n, inv_a, inv_n);
           if (w > 0) {
             const Eigen::Vector3d turn = r.n.cross(m.n), move = m.p - r.p;
             m.w += w;
@@ -326,7 +328,7 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
         }
         Entry& e = real_[k];
         if (e.valid && !r.on_virtual && m.is_virtual) {  // the real point behind a virtual one
-          const double w = Weight(r, e.p, e.n, inv_a);
+          const double w = Weight(r, e.p, e.n, inv_a, inv_n);
           if (w > 0) {
             e.w += w;
             e.sum_r += w * (r.e_real + r.rot_real * r.n.cross(e.n) + r.trans_real * (e.p - r.p));
@@ -648,7 +650,7 @@ namespace {
 
 IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "evict_after", "tile",
-                   "influence_threshold", "glossy_depth", "plate_reflections", "gradients"});
+                   "influence_threshold", "glossy_depth", "plate_reflections", "gradients", "normal_deg"});
   IcSettings o;
   if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
   if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
@@ -661,6 +663,7 @@ IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
   if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
   if (v.Has("gradients")) o.gradients = v.Child("gradients").Bool();
+  if (v.Has("normal_deg")) o.normal_deg = v.Child("normal_deg").Number(1, 90);
   if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
   return WithSceneRender(o, scene);
 }

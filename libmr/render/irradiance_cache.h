@@ -48,6 +48,14 @@ struct IcSettings {
   // its own rays, and interpolation extrapolates along them (first order)
   // instead of taking the record's value as flat.  docs/methods.md, "ic".
   bool gradients = true;
+  // The normal term of the records' weight: a normal this far from the
+  // record's counts as far as a point R_i away; with accuracy a, a record
+  // reaches normals within about a x normal_deg of its own.  Tabellion &
+  // Lamorlette's 10 degrees suits records without gradients; with them the
+  // rotational gradient corrects, to first order, what a wider cone lets
+  // through, and 30 degrees keeps a fused room's noisy normals from asking
+  // a record of nearly every sample (docs/methods.md, "ic").
+  double normal_deg = 30;
   bool photograph = true;  // I_c is given: real pixels need only I_m - I_r
   int max_depth = 5;
   uint64_t seed = 0;

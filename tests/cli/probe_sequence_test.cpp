@@ -21,6 +21,21 @@
 namespace mr {
 namespace {
 
+// mr-probe --sphere-in-plate as these tests run it: no temporal filter,
+// 128-wide maps into DIR/env/.
+ProbeSequenceOptions SphereInPlate(const fs::path& scene, const Eigen::Vector3d& centre, double radius,
+                                   double reflectance, const fs::path& dir) {
+  ProbeSequenceOptions o;
+  o.scene = scene;
+  o.sphere_centre = centre;
+  o.sphere_radius = radius;
+  o.unwrap.reflectance = reflectance;
+  o.filter.time_constant_s = 0;
+  o.unwrap.width = 128;
+  o.out = dir / "env" / "%05d.exr";
+  return o;
+}
+
 // mr-synth's dynamic capture has a light camera: a zenith fish-eye recording
 // each frame's sky at its own clock (4 ms late), with auto-exposure, 2% noise
 // and frame 2 dropped.  Matched to the plate by timestamp and unwrapped, each
@@ -165,12 +180,7 @@ TEST(ProbeSequence, SphereInThePlateFillsWhatEachViewMisses) {
                 R"({"version": 1, "camera": {"model": "cam.cameramodel", "frames": "plate/%05d.exr",
                     "frames_transfer": "linear", "poses": {"format": "tum", "path": "traj.txt"}},
                     "real": {"mesh": "floor.ply"}})");
-  ProbeSequenceOptions o;
-  o.scene = dir.path() / "scene.json";
-  o.sphere_radius = 0.1;
-  o.filter.time_constant_s = 0;
-  o.unwrap.width = 128;
-  o.out = dir.path() / "env" / "%05d.exr";
+  const ProbeSequenceOptions o = SphereInPlate(dir.path() / "scene.json", Eigen::Vector3d::Zero(), 0.1, 1, dir.path());
   Report report;
   RunProbeSequence(o, &report);
   const Json& frames = report.metrics()["frames"];
@@ -213,14 +223,9 @@ TEST(ProbeSequence, SphereInMrSynthsPlateGivesTheLightAtItsCentre) {
   Report rs("mr-synth", "test");
   RunSynth(so, &rs);
   const Json sp = ReadJsonFile(so.out / "plate-sphere.json");
-  ProbeSequenceOptions o;
-  o.scene = so.out / "scene.json";
-  o.sphere_centre = Eigen::Vector3d(sp["centre"][0], sp["centre"][1], sp["centre"][2]);
-  o.sphere_radius = sp["radius"];
-  o.unwrap.reflectance = sp["reflectance"];
-  o.filter.time_constant_s = 0;
-  o.unwrap.width = 128;
-  o.out = dir.path() / "env" / "%05d.exr";
+  const ProbeSequenceOptions o =
+      SphereInPlate(so.out / "scene.json", Eigen::Vector3d(sp["centre"][0], sp["centre"][1], sp["centre"][2]),
+                    sp["radius"], sp["reflectance"], dir.path());
   Report report;
   RunProbeSequence(o, &report);
   const Json& frames = report.metrics()["frames"];

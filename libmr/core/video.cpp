@@ -12,6 +12,7 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "core/stderr_capture.h"
 
 namespace mr {
 
@@ -29,8 +30,12 @@ struct VideoReader::Impl {
   int next = 0;
   void Open() {
     cap.release();
-    if (!cap.open(path.string(), cv::CAP_FFMPEG))
-      ThrowErrorAt(FileLoc{path.string()}, "cannot open video (not a video file, or a codec FFmpeg lacks)");
+    StderrCapture ffmpeg_lines;  // FFmpeg prints why before mr's message could
+    if (!cap.open(path.string(), cv::CAP_FFMPEG)) {
+      const std::string why = ffmpeg_lines.Take();
+      ThrowErrorAt(FileLoc{path.string()}, "cannot open video (not a video file, or a codec FFmpeg lacks){}",
+                   why.empty() ? "" : ": FFmpeg says: " + why);
+    }
     next = 0;
   }
 };

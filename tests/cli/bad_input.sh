@@ -116,6 +116,13 @@ cp "$cap/photos/00000.exr" "$cap/gap/00000.exr"; cp "$cap/photos/00001.exr" "$ca
 sed 's|"photos/%05d.exr"|"gap/%05d.exr"|; s|"trajectory.txt"|"three.txt"|; /"reference"/d' "$cap/scene.json" > "$cap/gap.json"
 bad "missing middle frame: mr-render" 1 "gap/00001.exr: frame 1 is missing" -- "$bin/mr-render" "$cap/gap.json" --out "$out/r" --spp 1
 bad "missing middle frame: mr-info" 1 "gap/00001.exr: frame 1 is missing" -- "$bin/mr-info" "$cap/gap.json"
+# An environment video that is not a video, and one with no frames.
+echo "not a video" > "$cap/junk.mp4"
+sed 's|"env.exr"|"junk.mp4"|' "$cap/scene.json" > "$cap/junk-env.json"
+bad "environment video: not a video" 1 "junk.mp4: cannot open video" -- "$bin/mr-render" "$cap/junk-env.json" --out "$out/r" --spp 1
+: > "$cap/empty.mkv"
+sed 's|"env.exr"|"empty.mkv"|' "$cap/scene.json" > "$cap/empty-env.json"
+bad "environment video: empty" 1 "empty.mkv" -- "$bin/mr-render" "$cap/empty-env.json" --out "$out/r" --spp 1
 check "frames before the gap still render" 0 "" -- "$bin/mr-render" "$cap/gap.json" --out "$tmp/r-gap" --spp 1 --frames 0:1 -q
 head -n "$(($(wc -l < "$cap/trajectory.txt") - 1))" "$cap/trajectory.txt" > "$cap/few.txt"
 sed 's|"trajectory.txt"|"few.txt"|; /"reference"/d' "$cap/scene.json" > "$cap/few.json"

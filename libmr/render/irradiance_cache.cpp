@@ -177,7 +177,10 @@ void WardHeckbertGradients(const std::vector<Eigen::Vector3d>& L, const std::vec
 void ClampGradient(const Eigen::Vector3d& e, double radius, Eigen::Matrix3d* g) {
   for (int c = 0; c < 3; ++c) {
     const double change = g->row(c).norm() * radius, most = std::max(0.0, e[c]);
-    if (change > most) g->row(c) *= change > 0 ? most / change : 0.0;
+    if (!std::isfinite(change))
+      g->row(c).setZero();  // a hit at a vanishing distance: no usable slope
+    else if (change > most)
+      g->row(c) *= change > 0 ? most / change : 0.0;
   }
 }
 

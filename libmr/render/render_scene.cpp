@@ -265,11 +265,14 @@ namespace {
 
 // An environment video's frames, decoded in order by one reader that every
 // caller shares (a render visits its frames in order; going back reopens).
+// A file rewritten in place (another size or time) is opened again.
 struct EnvironmentVideo {
   std::mutex mutex;
   fs::path path;
+  uintmax_t size = 0;
+  fs::file_time_type written{};
   std::unique_ptr<VideoReader> reader;
-  int frames = 0;  // as the container says; 0: unknown
+  int frames = 0;  // as the container says, or the stream's end once met; 0: unknown
   int index = -1;  // the frame in `image`
   Image image;
 };
@@ -283,27 +286,42 @@ EnvironmentVideo& SharedEnvironmentVideo() {
 Image EnvironmentVideoFrame(const fs::path& path, int frame, int* from) {
   EnvironmentVideo& v = SharedEnvironmentVideo();
   std::lock_guard<std::mutex> lock(v.mutex);
-  if (!v.reader || v.path != path) {
+  std::error_code ec;
+  const uintmax_t size = fs::file_size(path, ec);
+  const fs::file_time_type written = fs::last_write_time(path, ec);
+  if (!v.reader || v.path != path || v.size != size || v.written != written) {
     v.reader = std::make_unique<VideoReader>(path);
     v.path = path;
+    v.size = size;
+    v.written = written;
     v.frames = v.reader->frame_count();
     v.index = -1;
   }
   int want = std::max(0, frame);
   if (v.frames > 0) want = std::min(want, v.frames - 1);
-  if (v.index != want) {
-    try {
-      v.image = v.reader->Frame(want);
-      v.index = want;
-    } catch (const Error&) {
-      // The container claimed more frames than the stream holds (or said
-      // nothing): the last frame decoded is the last there is.
-      if (want == 0) throw;
-      v.frames = want;
-      v.reader = std::make_unique<VideoReader>(path);
-      v.image = v.reader->Frame(want - 1);
-      v.index = want - 1;
+  if (v.index == want) {
+    if (from) *from = v.index;
+    return v.image;
+  }
+  try {
+    v.image = v.reader->Frame(want);
+    v.index = want;
+  } catch (const Error&) {
+    // The stream ends before `want` (the container claimed more frames, or
+    // said nothing): read it from the start to its last frame.
+    if (want == 0) throw;
+    v.reader = std::make_unique<VideoReader>(path);
+    v.index = -1;
+    for (int k = 0; k < want; ++k) {
+      try {
+        v.image = v.reader->Frame(k);
+      } catch (const Error&) {
+        if (k == 0) throw;
+        break;
+      }
+      v.index = k;
     }
+    v.frames = v.index + 1;
   }
   if (from) *from = v.index;
   return v.image;

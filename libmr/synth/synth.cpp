@@ -582,7 +582,8 @@ void RunSynth(const SynthOptions& o, Report* report) {
       // The sun reflected in the mirror sphere is a few hundredths of a
       // pixel: at truth_spp a sphere pixel's estimate of it is mostly 0 or
       // many times its mean.  The sphere's pixels (its projection's box,
-      // 2 pixels wider) get 16 times the samples, photograph and truth alike.
+      // 2 pixels wider) get 16 times the samples, photograph and truth alike
+      // (the truth's noise estimate, from its first half, overstates theirs).
       ScopedTimer t(report, "render the plate sphere's pixels");
       const Rigid3& pose = c.trajectory.poses[static_cast<size_t>(i)].world_from_cam;
       const Eigen::Vector3d centre = pose.Inverse() * c.plate_sphere->centre;
@@ -592,10 +593,10 @@ void RunSynth(const SynthOptions& o, Report* report) {
         const double fx = c.camera.intrinsics()[0];
         const double r = std::min(static_cast<double>(p.width + p.height),
                                   fx * c.plate_sphere->radius / (centre.z() - c.plate_sphere->radius) + 2);
-        for (int y = std::max(0, static_cast<int>(q.y() - r)); y <= std::min(p.height - 1, static_cast<int>(q.y() + r));
-             ++y)
-          for (int x = std::max(0, static_cast<int>(q.x() - r));
-               x <= std::min(p.width - 1, static_cast<int>(q.x() + r)); ++x)
+        // Clamped as doubles first: a point near the camera plane projects far out.
+        auto px = [](double v, int n) { return static_cast<int>(std::clamp(v, 0.0, n - 1.0)); };
+        for (int y = px(q.y() - r, p.height); y <= px(q.y() + r, p.height); ++y)
+          for (int x = px(q.x() - r, p.width); x <= px(q.x() + r, p.width); ++x)
             only[static_cast<size_t>(y) * p.width + x] = 1;
       }
       fr.RestrictTo(std::move(only));

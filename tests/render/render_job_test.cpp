@@ -1228,11 +1228,18 @@ TEST_F(Capture, EnvironmentVideoLightsEachFrameByItsFrame) {
   RenderVariant(with_env("env-aa.mkv"), "env-video-aa", o, &ra);
   EXPECT_EQ(ra.metrics()["world"]["frames_kept"], 1) << ra.metrics()["world"].dump();
   Report r1("mr-render", "test");
-  RenderVariant(with_env("env-a.mkv"), "env-video-a", o, &r1);
+  const fs::path a = RenderVariant(with_env("env-a.mkv"), "env-video-a", o, &r1);
   EXPECT_NE(r1.ToJson().dump().find("frame 1 has no environment map of its own: the video's last, frame 0's"),
             std::string::npos)
       << r1.ToJson().dump();
   EXPECT_EQ(r1.metrics()["world"]["frames_kept"], 1);
+  // The same file rewritten with another light: read again, not the
+  // frame this process decoded before.
+  write_video(Cap() / "env-a.mkv", {0.5});
+  Report r2("mr-render", "test");
+  const fs::path a2 = RenderVariant(with_env("env-a.mkv"), "env-video-a2", o, &r2);
+  EXPECT_NE(ReadImage(a / "00000.exr").Layer("composite").values(),
+            ReadImage(a2 / "00000.exr").Layer("composite").values());
 }
 
 // A virtual torch (a spot light in the `virtual` list) that moves between

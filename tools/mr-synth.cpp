@@ -44,6 +44,11 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"opencv4", "pinhole"}));
   app.add_option("--truth-spp", o.truth_spp, "Samples per pixel of the ground truth (default: the preset's)")
       ->check(mr::kPositive);
+  app.add_option("--truth-region-spp", o.truth_region_spp,
+                 "Samples per pixel of the ground truth where the object changes the image (a pilot render "
+                 "finds the pixels, grown by 2): the difference methods are scored on converges without paying "
+                 "for the rest (default: --truth-spp; even, and at least --truth-spp)")
+      ->check(mr::kPositive);
   std::string boards, board_file;
   app.add_option(
       "--boards", boards,

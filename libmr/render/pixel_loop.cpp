@@ -31,8 +31,11 @@ void PixelLoopMethod::ShadePixels(int spp) {
       const size_t i = static_cast<size_t>(y) * width_ + x;
       if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;  // outside the lens
       if (PixelDone(i) || (!stopped_.empty() && stopped_[i])) continue;
+      // After this pixel's earlier samples: a pass restricted to some pixels
+      // (PixelDone) leaves the others' sequences where they were.
+      const int first = acc_.count(i);
       acc_.Count(i, spp);
-      for (int s = spp_; s < spp_ + spp; ++s) {  // after the earlier passes' samples
+      for (int s = first; s < first + spp; ++s) {
         Ray ray;
         Sampler rng = sampler_.Sample(x, static_cast<int>(y), s, &ray);
         PathSample ps;

@@ -520,6 +520,28 @@ Image RenderPlateSphereTruth(const RenderScene& rs, const SynthPlateSphere& sp, 
   return map;
 }
 
+// The pixels where the object changes the image, found by a pilot render of
+// its own seed (independent of the truth's samples), grown by 2 pixels: the
+// truth's extra samples go there (SynthOptions::truth_region_spp).
+std::vector<char> PilotRegion(const RenderScene& rs, const CameraModel& camera, const Rigid3& world_from_cam,
+                              PathTracerSettings st) {
+  constexpr int kPilotSpp = 32, kGrow = 2;
+  st.seed = HashCombine(st.seed, 0x70696c6f74ULL);
+  PtFrameRenderer pilot(rs, camera, world_from_cam, st);
+  pilot.RenderPass(kPilotSpp);
+  const Image changed = ChangedRegion(pilot.Mixed(), pilot.Real());
+  const int w = changed.width(), h = changed.height();
+  std::vector<char> region(static_cast<size_t>(w) * h, 0);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (changed.at(x, y, 0) == 0) continue;
+      for (int v = std::max(0, y - kGrow); v <= std::min(h - 1, y + kGrow); ++v)
+        for (int u = std::max(0, x - kGrow); u <= std::min(w - 1, x + kGrow); ++u)
+          region[static_cast<size_t>(v) * w + u] = 1;
+    }
+  return region;
+}
+
 }  // namespace
 
 void RunSynth(const SynthOptions& o, Report* report) {
@@ -527,6 +549,16 @@ void RunSynth(const SynthOptions& o, Report* report) {
   const SynthCapture c = MakeSynthCapture(o);
   const SynthPreset& p = c.preset;
   const int truth_spp = c.truth_spp;
+  const int region_spp = o.truth_region_spp > 0 ? o.truth_region_spp : truth_spp;
+  if (region_spp < truth_spp)
+    throw UsageError(
+        fmt::format("--truth-region-spp {} is below the truth's {} samples per pixel", region_spp, truth_spp));
+  if (region_spp > truth_spp && (truth_spp % 2 || region_spp % 2))
+    throw UsageError(
+        fmt::format("--truth-region-spp {} and the truth's {} samples per pixel must both be even "
+                    "(the truth's two halves estimate its noise)",
+                    region_spp, truth_spp));
+  int64_t region_pixels = 0;
   std::error_code ec;
   for (const char* sub : {"", "meshes", "photos", "truth"}) fs::create_directories(o.out / sub, ec);
   if (!fs::is_directory(o.out / "truth")) ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the capture folder");
@@ -566,14 +598,30 @@ void RunSynth(const SynthOptions& o, Report* report) {
     // depend on the split); pixels whose rays provably see only the sky
     // (pt's skip) keep the first half's, so the photograph's sky differs
     // from a one-pass render there, within its noise.
+    std::vector<char> region;
+    if (region_spp > truth_spp) {
+      ScopedTimer t(report, "render the pilot for the object's region");
+      region = PilotRegion(rs, c.camera, c.trajectory.poses[static_cast<size_t>(i)].world_from_cam, st);
+      region_pixels += std::count(region.begin(), region.end(), 1);
+    }
+    // The object's region takes its extra samples in both halves alike, so
+    // that each half is half of every pixel's samples.
+    auto region_pass = [&] {
+      if (region.empty()) return;
+      fr.RestrictTo(region);
+      fr.RenderPass((region_spp - truth_spp) / 2);
+      fr.RestrictTo({});
+    };
     Image mixed_half, real_half;
     {
       ScopedTimer t(report, "render truth");
       if (truth_spp >= 2) {
         fr.RenderPass(truth_spp / 2);
+        region_pass();
         mixed_half = fr.Mixed();
         real_half = fr.Real();
         fr.RenderPass(truth_spp - truth_spp / 2);
+        region_pass();
       } else {
         fr.RenderPass(truth_spp);
       }
@@ -667,6 +715,13 @@ void RunSynth(const SynthOptions& o, Report* report) {
   report->AddOutput((o.out / "photos.mp4").string());
   report->SetMetric("frames", p.frames);
   report->SetMetric("truth_spp", truth_spp);
+  report->SetMetric("truth_region_spp", region_spp);
+  if (region_spp > truth_spp) {
+    const double share = static_cast<double>(region_pixels) / (static_cast<double>(p.width) * p.height * p.frames);
+    report->SetMetric("truth_region_share", share);
+    spdlog::info("the truth took {} samples per pixel in the object's region, {:.1f}% of the pixels", region_spp,
+                 100 * share);
+  }
   if (truth_spp >= 2) {
     // Means over the frames (render/error_curve.h, EstimateTruthNoise).
     const double region = noise_sum.region_relmse / p.frames;

@@ -30,7 +30,15 @@ struct SynthOptions {
   uint64_t seed = 1;
   std::string object = "sphere";  // sphere | box | a mesh file (OBJ/PLY/OFF/STL)
   int truth_spp = 0;              // 0: the preset's
-  int frames = 0;                 // 0: the preset's
+  // Samples per pixel of the truth in the object's region (0: truth_spp):
+  // where a pilot render (its own seed, independent of the truth's samples,
+  // so the choice of pixels adds no bias) sees the object change the image,
+  // grown by 2 pixels, the truth takes this many samples.  The difference
+  // the methods are scored on lives there; elsewhere truth_spp suffices.
+  // Must be at least truth_spp; both even, so that the truth's two halves
+  // (its noise estimate) are halves in every pixel.
+  int truth_region_spp = 0;
+  int frames = 0;  // 0: the preset's
   // The object's material: diffuse (albedo 0.8/0.75/0.7), glossy (albedo
   // 0.25, GGX specular 0.6 at roughness 0.3) or mirror (specular 0.9 at
   // roughness 0.05).

@@ -535,9 +535,9 @@ void IcFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pi, in
     PathVertex vd = v;
     vd.bsdf = DiffuseLobe(scene_, v);
     row_rays += DirectDiffuse(scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
-      sr.mask = kMaskVirtual;
-      ++row_rays;
-      return embree.Occluded(sr) ? 0.0 : 1.0;
+      const VirtualTest t = TestVirtualBlockers(scene_, sr);
+      row_rays += t != VirtualTest::kSkipped;
+      return t == VirtualTest::kBlocked ? 0.0 : 1.0;
     });
     const Eigen::Vector3d f = v.albedo * kInvPi;
     if (want_m) mixed += f.cwiseProduct(e_m);

@@ -170,10 +170,50 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit
   }
 }
 
+// Whether the segment o + t d, t in [0, tmax], meets any of `boxes`
+// (slab test, boxes grown by a relative 1e-4): false proves that no virtual
+// object can block it, so its virtual shadow test is not traced.
+inline bool SegmentMeetsBoxes(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double tmax,
+                              const std::vector<Eigen::AlignedBox3d>& boxes) {
+  for (const auto& b : boxes) {
+    const Eigen::Vector3d grow = Eigen::Vector3d::Constant(1e-4 * b.diagonal().norm() + 1e-9);
+    const Eigen::Vector3d lo = b.min() - grow, hi = b.max() + grow;
+    double t0 = 0, t1 = tmax;
+    bool miss = false;
+    for (int k = 0; k < 3 && !miss; ++k) {
+      if (std::abs(d[k]) < 1e-300) {
+        miss = o[k] < lo[k] || o[k] > hi[k];
+        continue;
+      }
+      double a = (lo[k] - o[k]) / d[k], c = (hi[k] - o[k]) / d[k];
+      if (a > c) std::swap(a, c);
+      t0 = std::max(t0, a);
+      t1 = std::min(t1, c);
+      miss = t0 > t1;
+    }
+    if (!miss) return true;
+  }
+  return false;
+}
+
+// A real point's light that passed the real blockers, tested against the
+// virtual objects: traced only where the shadow segment meets one of their
+// bounding boxes (`cull`), since no virtual object can block it elsewhere;
+// the answer is the same either way.
+enum class VirtualTest { kSkipped, kClear, kBlocked };
+inline VirtualTest TestVirtualBlockers(const RenderScene& scene, Ray shadow, bool cull = true) {
+  if (cull && !SegmentMeetsBoxes(shadow.origin.cast<double>(), shadow.direction.cast<double>(),
+                                 std::min(static_cast<double>(shadow.tfar), 1e30), scene.virtual_bounds()))
+    return VirtualTest::kSkipped;
+  shadow.mask = kMaskVirtual;
+  return scene.embree().Occluded(shadow) ? VirtualTest::kBlocked : VirtualTest::kClear;
+}
+
 // Adds a next-event contribution `c` at a point to the wanted solutions
 // through the blocker tests: I_r sees real blockers (st_r), I_m real and
-// virtual ones (st_rv = min(st_r, st_v)); a virtual light and a point on a
-// virtual surface exist in I_m only.  Returns the shadow rays traced.
+// virtual ones (st_rv = min(st_r, st_v), st_v culled by TestVirtualBlockers);
+// a virtual light and a point on a virtual surface exist in I_m only.
+// Returns the shadow rays traced.
 inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray shadow, bool virtual_light,
                         bool x_virtual, bool want_m, bool want_r, Eigen::Vector3d* mixed, Eigen::Vector3d* real) {
   const EmbreeScene& e = scene.embree();
@@ -188,10 +228,9 @@ inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray 
   *real += c;
   if (!want_m) return 1;
   if (scene.has_virtual_geometry()) {
-    shadow.mask = kMaskVirtual;
-    if (e.Occluded(shadow)) return 2;
-    *mixed += c;
-    return 2;
+    const VirtualTest t = TestVirtualBlockers(scene, shadow);
+    if (t != VirtualTest::kBlocked) *mixed += c;
+    return t == VirtualTest::kSkipped ? 1 : 2;
   }
   *mixed += c;
   return 1;
@@ -241,32 +280,6 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
     *mixed += e * pass + albedo.cwiseProduct(Escaped(scene, sky, pdf, kVirtualLights)) * pass;
   }
   return rays;
-}
-
-// Whether the segment o + t d, t in [0, tmax], meets any of `boxes`
-// (slab test, boxes grown by a relative 1e-4): false proves that no virtual
-// object can block it, so its virtual shadow test is not traced.
-inline bool SegmentMeetsBoxes(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double tmax,
-                              const std::vector<Eigen::AlignedBox3d>& boxes) {
-  for (const auto& b : boxes) {
-    const Eigen::Vector3d grow = Eigen::Vector3d::Constant(1e-4 * b.diagonal().norm() + 1e-9);
-    const Eigen::Vector3d lo = b.min() - grow, hi = b.max() + grow;
-    double t0 = 0, t1 = tmax;
-    bool miss = false;
-    for (int k = 0; k < 3 && !miss; ++k) {
-      if (std::abs(d[k]) < 1e-300) {
-        miss = o[k] < lo[k] || o[k] > hi[k];
-        continue;
-      }
-      double a = (lo[k] - o[k]) / d[k], c = (hi[k] - o[k]) / d[k];
-      if (a > c) std::swap(a, c);
-      t0 = std::max(t0, a);
-      t1 = std::min(t1, c);
-      miss = t0 > t1;
-    }
-    if (!miss) return true;
-  }
-  return false;
 }
 
 }  // namespace mr

@@ -175,9 +175,9 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
       if (Occluded(shadow)) return;  // st_r
       out.real += beta.cwiseProduct(c);
       if (virtual_geometry) {
-        shadow.mask = kMaskVirtual;
-        ++out.rays;
-        if (Occluded(shadow)) return;  // st_rv = min(st_r, st_v)
+        const VirtualTest t = TestVirtualBlockers(scene_, shadow, settings_.cull_virtual_shadow_tests);
+        (t == VirtualTest::kSkipped ? out.virtual_tests_skipped : out.rays) += 1;
+        if (t == VirtualTest::kBlocked) return;  // st_rv = min(st_r, st_v)
       }
       out.mixed += beta.cwiseProduct(c);
     });

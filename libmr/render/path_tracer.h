@@ -45,14 +45,21 @@ struct PathTracerSettings {
   // (PlateView) where it sees the room; `plates` is set per frame.
   bool plate_reflections = true;
   PlateViews plates;
+  // A real point's light that passed the real blockers is tested against
+  // the virtual objects only where its shadow segment meets one of their
+  // bounding boxes (SegmentMeetsBoxes): elsewhere no virtual object can
+  // block it.  The result is the same either way (tested); false traces
+  // every test (tests only).
+  bool cull_virtual_shadow_tests = true;
 };
 
 struct PathSample {
   Eigen::Vector3d mixed = Eigen::Vector3d::Zero();
   Eigen::Vector3d real = Eigen::Vector3d::Zero();
-  bool primary_virtual = false;  // the camera ray's first hit is virtual (mask M)
-  int rays = 0;                  // closest-hit and occlusion queries traced
-  float first_t = INFINITY;      // distance to the first surface met (infinity: none)
+  bool primary_virtual = false;   // the camera ray's first hit is virtual (mask M)
+  int rays = 0;                   // closest-hit and occlusion queries traced
+  int virtual_tests_skipped = 0;  // virtual shadow tests left out (their segment meets no virtual box)
+  float first_t = INFINITY;       // distance to the first surface met (infinity: none)
 };
 
 class DifferentialPathTracer {

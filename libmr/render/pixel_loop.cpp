@@ -24,9 +24,9 @@ void PixelLoopMethod::ShadePixels(int spp) {
             sampler_.PixelValid(x, y) && !PixelDone(static_cast<size_t>(y) * width_ + x);
     adaptive_stopped_ += UpdateAdaptiveStops(acc_, adaptive_, valid, &stopped_);
   }
-  std::atomic<int64_t> nonfinite{0}, rays{0};
+  std::atomic<int64_t> nonfinite{0}, rays{0}, culled{0};
   ParallelFor(0, height_, [&](int64_t y) {
-    int64_t row_rays = 0, row_nonfinite = 0;
+    int64_t row_rays = 0, row_nonfinite = 0, row_culled = 0;
     for (int x = 0; x < width_; ++x) {
       const size_t i = static_cast<size_t>(y) * width_ + x;
       if (!sampler_.PixelValid(x, static_cast<int>(y))) continue;  // outside the lens
@@ -41,6 +41,7 @@ void PixelLoopMethod::ShadePixels(int spp) {
         PathSample ps;
         Shade(ray, rng, y, i, s, &ps);
         row_rays += ps.rays;
+        row_culled += ps.virtual_tests_skipped;
         if (!ps.mixed.allFinite() || !ps.real.allFinite()) {
           ++row_nonfinite;  // dropped and counted: never NaN in the image
           continue;
@@ -49,11 +50,13 @@ void PixelLoopMethod::ShadePixels(int spp) {
       }
     }
     rays += row_rays;
+    culled += row_culled;
     nonfinite += row_nonfinite;
   });
   spp_ += spp;
   nonfinite_ += nonfinite.load();
   rays_ += rays.load();
+  virtual_tests_skipped_ += culled.load();
 }
 
 }  // namespace mr

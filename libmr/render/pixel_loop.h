@@ -33,6 +33,8 @@ class PixelLoopMethod : public FrameMethod {
   int samples_per_pixel() const { return spp_; }
   // Closest-hit and occlusion queries of the samples (PathSample::rays).
   int64_t rays_traced() const { return rays_; }
+  // Virtual shadow tests the samples left out (PathSample::virtual_tests_skipped).
+  int64_t virtual_tests_skipped() const { return virtual_tests_skipped_; }
 
  protected:
   PixelLoopMethod(const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
@@ -60,7 +62,7 @@ class PixelLoopMethod : public FrameMethod {
   int width_, height_;
   PixelAccumulator acc_;
   int spp_ = 0;
-  int64_t nonfinite_ = 0, rays_ = 0;
+  int64_t nonfinite_ = 0, rays_ = 0, virtual_tests_skipped_ = 0;
   AdaptiveSampling adaptive_;
   std::vector<char> stopped_;  // by adaptive sampling
   int64_t adaptive_stopped_ = 0;

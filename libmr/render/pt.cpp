@@ -118,9 +118,15 @@ class PtMethod : public SettingsMethod<PathTracerSettings> {
     else if (!job.photograph)
       job.report->Skip("plate reflections", "no plate: virtual objects reflect the rendered room");
   }
-  void FrameDone(const FrameMethod& fm, const FrameContext&, Report*, Json* frame_json) override {
-    Json c = PlateCountersJson(static_cast<const PtFrameRenderer&>(fm).plate_counters());
+  void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json* frame_json) override {
+    const auto& fr = static_cast<const PtFrameRenderer&>(fm);
+    Json c = PlateCountersJson(fr.plate_counters());
     if (!c.is_null()) (*frame_json)["plate_reflections"] = std::move(c);
+    (*frame_json)["rays"] = fr.rays_traced();
+    (*frame_json)["virtual_shadow_tests_skipped"] = fr.virtual_tests_skipped();
+    if (fr.virtual_tests_skipped() > 0)
+      report->Skip(fmt::format("frame {}: {} virtual shadow tests", f.frame, fr.virtual_tests_skipped()),
+                   "their shadow segments meet no virtual object's bounding box: no virtual object can block them");
   }
   bool TakesPlateReflections() const override { return st_.plate_reflections; }
 };

@@ -530,9 +530,13 @@ class VplShader {
       PathVertex vd = v;
       vd.bsdf = DiffuseLobe(scene_, v);
       acc->c.shadow_rays += DirectDiffuse(scene_, vd, v.albedo, x_virtual, want_m, want_r, rng, &m, &r, [&](Ray sr) {
-        sr.mask = kMaskVirtual;
+        const VirtualTest t = TestVirtualBlockers(scene_, sr);
+        if (t == VirtualTest::kSkipped) {
+          ++acc->c.virtual_tests_skipped;
+          return 1.0;
+        }
         ++acc->c.shadow_rays;
-        return scene_.embree().Occluded(sr) ? 0.0 : 1.0;
+        return t == VirtualTest::kBlocked ? 0.0 : 1.0;
       });
       if (glossy) {  // light sampling alone: no BSDF-sampled ray of this lobe counts the emitters
         PathVertex vg = v;

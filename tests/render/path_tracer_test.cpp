@@ -204,6 +204,26 @@ TEST(PathTracer, ResultsDoNotDependOnThreadsOrPassSplits) {
   EXPECT_EQ(a, c);
 }
 
+// The virtual shadow tests left out where the shadow segment meets no
+// virtual object's bounding box change nothing: the same bytes as tracing
+// every test, with fewer rays.
+TEST(PathTracer, CulledVirtualShadowTestsChangeNothing) {
+  TwoObjects s(true);
+  auto render = [&](bool cull) {
+    PathTracerSettings st;
+    st.cull_virtual_shadow_tests = cull;
+    auto r = std::make_unique<PtFrameRenderer>(s.scene, Pinhole(24, 16, 12), LookDownFrom(2), st);
+    r->RenderPass(8);
+    return r;
+  };
+  const auto culled = render(true), all = render(false);
+  EXPECT_TRUE(culled->Mixed().values() == all->Mixed().values());
+  EXPECT_TRUE(culled->Real().values() == all->Real().values());
+  EXPECT_EQ(all->virtual_tests_skipped(), 0);
+  EXPECT_GT(culled->virtual_tests_skipped(), 0);
+  EXPECT_EQ(culled->rays_traced() + culled->virtual_tests_skipped(), all->rays_traced());
+}
+
 TEST(PathTracer, VirtualObjectOutOfViewChangesOnlyLighting) {
   TwoObjects s(true);
   // Camera far to the side looking away from the box: the mask is empty.

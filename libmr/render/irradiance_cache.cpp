@@ -505,15 +505,176 @@ void IcFrameRenderer::RenderPass(int spp) {
     new_records_ += static_cast<int64_t>(added.size());
     SplatAll(added);
   }
-  for (size_t i = 0; i < used_.size(); ++i)
-    if (used_[i]) cache_->records_[i].used_frame = frame_;
   cache_->created_ += new_records_;
   cache_->passes_ += miss_passes_;
   cache_->record_rays_ += (new_records_ + reevaluated_) * st.rays;
 
   interpolated_.assign(static_cast<size_t>(width()) * height(), NAN);
   positions_.assign(static_cast<size_t>(width()) * height(), Eigen::Vector3f::Constant(NAN));
+  if (st.glossy_cache) BuildGrid();
   ShadePixels(spp);
+  // Splatted or looked up with weight > 0.
+  for (size_t i = 0; i < used_.size(); ++i)
+    if (used_[i]) cache_->records_[i].used_frame = frame_;
+}
+
+int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, bool want_r, const Eigen::Vector3d& e_m,
+                                    const Eigen::Vector3d& e_r, int depth, const Eigen::Vector3d& beta, Sampler& g,
+                                    Eigen::Vector3d* mixed_out, Eigen::Vector3d* real_out) {
+  int64_t rays = 0;
+  Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
+  auto done = [&] {
+    *mixed_out += beta.cwiseProduct(mixed);
+    *real_out += beta.cwiseProduct(real);
+    return rays;
+  };
+  if (want_m) mixed += v.material->emission;
+  if (want_r) real += v.material->emission;
+  if (v.bsdf.IsBlack()) return done();
+  const bool glossy = v.material->IsGlossy();
+  PathVertex vd = v;
+  vd.bsdf = DiffuseLobe(scene_, v);
+  rays += DirectDiffuse(scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
+    const VirtualTest t = TestVirtualBlockers(scene_, sr);
+    rays += t != VirtualTest::kSkipped;
+    return t == VirtualTest::kBlocked ? 0.0 : 1.0;
+  });
+  const Eigen::Vector3d f = v.albedo * kInvPi;
+  if (want_m) mixed += f.cwiseProduct(e_m);
+  if (want_r) real += f.cwiseProduct(e_r);
+  if (!glossy) return done();
+  PathVertex vg = v;
+  vg.bsdf = scene_.glossy_bsdf(v.geometry_id);
+  NextEvent(scene_, vg, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
+    rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
+  });
+  const IcSettings& st = cache_->settings();
+  const int glossy_depth = st.glossy_depth < 0 ? st.max_depth : std::min(st.glossy_depth, st.max_depth);
+  if (depth >= glossy_depth) return done();  // next-event light only from here
+  BsdfSample bs;
+  const double ul = g.NextDouble();
+  const auto [u0, u1] = g.Next2D();
+  if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return done();
+  const Eigen::Vector3d b = bs.f * (bs.wi.z() / bs.pdf);
+  const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
+  if (xv && !want_r) {  // the mixed path from a virtual surface: the plate where it sees
+    int nr = 0;
+    mixed += glossy_tracer_.MixedRadianceFromVirtual(next, b, bs.pdf, depth + 1, g, &nr);
+    rays += nr;
+  } else if (st.glossy_cache) {
+    rays += Continue(next, want_m, want_r, depth + 1, b, bs.pdf, g, &mixed, &real);
+  } else if (want_r && !want_m) {
+    int nr = 0;
+    real += glossy_tracer_.RealRadiance(next, b, bs.pdf, depth + 1, g, &nr);
+    rays += nr;
+  } else {
+    PathSample ps = glossy_tracer_.TraceFrom(next, b, bs.pdf, depth + 1, g);
+    rays += ps.rays;
+    mixed += ps.mixed;
+    if (want_r) real += ps.real;
+  }
+  return done();
+}
+
+int64_t IcFrameRenderer::Continue(Ray ray, bool want_m, bool want_r, int depth, const Eigen::Vector3d& beta,
+                                  double prev_pdf, Sampler& g, Eigen::Vector3d* mixed, Eigen::Vector3d* real) {
+  ray.mask = want_m ? kMaskAll : kMaskReal;
+  Hit hit;
+  int64_t rays = 1;
+  if (!scene_.embree().Intersect(ray, &hit)) {
+    const Eigen::Vector3d e = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
+    if (want_r) *real += e;
+    if (want_m) *mixed += e + beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kVirtualLights));
+    return rays;
+  }
+  if (hit.is_virtual && want_r) {  // the paths part: the real one behind the object
+    Sampler real_rng = g;
+    rays += Continue(ray, false, true, depth, beta, prev_pdf, real_rng, mixed, real);
+    want_r = false;
+  }
+  const PathVertex v = MakeVertex(scene_, ray, hit);
+  // The indirect diffuse light here: the records', or one path.
+  Eigen::Vector3d e_m = Eigen::Vector3d::Zero(), e_r = Eigen::Vector3d::Zero();
+  if (!v.bsdf.IsBlack() && !LookUp(v.p, v.frame.n, hit.is_virtual, &e_m, &e_r) &&
+      (hit.is_virtual || cache_->InInfluence(v.p))) {
+    ++lookup_misses_;
+    const int n = std::max(1, cache_->settings_.miss_rays);
+    for (int k = 0; k < n; ++k) {
+      const auto u = g.Next2D();
+      const auto d = SampleCosineHemisphere(u[0], u[1]);
+      const double pdf = d[2] * kInvPi;
+      if (!(pdf > 0)) continue;
+      const Ray r = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
+      // Bounce 1 onwards, first-segment escapes left out (the direct light's), as a record's ray.
+      const PathSample ps = cache_->tracer_.TraceFrom(r, Eigen::Vector3d::Ones(), pdf, 1, g, 2);
+      rays += ps.rays;
+      if (ps.mixed.allFinite() && ps.real.allFinite()) {
+        e_m += (kPi / n) * ps.mixed;
+        e_r += (kPi / n) * ps.real;
+      }
+    }
+  }
+  rays += ShadePoint(v, hit.is_virtual, want_m, want_r, e_m, e_r, depth, beta, g, mixed, real);
+  return rays;
+}
+
+void IcFrameRenderer::BuildGrid() {
+  grid_.clear();
+  wide_.clear();
+  const auto& records = cache_->records_;
+  const double a = cache_->settings_.accuracy;
+  std::vector<double> reach;
+  reach.reserve(records.size());
+  for (const IcRecord& r : records) reach.push_back(a * r.r);
+  if (reach.empty()) return;
+  std::vector<double> sorted = reach;
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
+  grid_cell_ = std::max(1e-6, 2 * sorted[sorted.size() / 2]);
+  for (size_t i = 0; i < records.size(); ++i) {
+    const Eigen::Vector3d lo = ((records[i].p.array() - reach[i]) / grid_cell_).floor();
+    const Eigen::Vector3d hi = ((records[i].p.array() + reach[i]) / grid_cell_).floor();
+    const Eigen::Vector3d cells = hi - lo + Eigen::Vector3d::Ones();
+    if (!cells.allFinite() || cells.prod() > 64) {
+      wide_.push_back(static_cast<uint32_t>(i));
+      continue;
+    }
+    for (int64_t x = static_cast<int64_t>(lo.x()); x <= static_cast<int64_t>(hi.x()); ++x)
+      for (int64_t y = static_cast<int64_t>(lo.y()); y <= static_cast<int64_t>(hi.y()); ++y)
+        for (int64_t z = static_cast<int64_t>(lo.z()); z <= static_cast<int64_t>(hi.z()); ++z)
+          grid_[(x * 73856093) ^ (y * 19349663) ^ (z * 83492791)].push_back(static_cast<uint32_t>(i));
+  }
+}
+
+bool IcFrameRenderer::LookUp(const Eigen::Vector3d& p, const Eigen::Vector3d& n, bool on_virtual, Eigen::Vector3d* e_m,
+                             Eigen::Vector3d* e_r) {
+  ++lookups_;
+  const double inv_a = 1 / cache_->settings_.accuracy;
+  const double inv_n = 1 / std::sqrt(1 - std::cos(cache_->settings_.normal_deg * kDegToRad));
+  double w_sum = 0;
+  Eigen::Vector3d sum_m = Eigen::Vector3d::Zero(), sum_r = Eigen::Vector3d::Zero();
+  auto visit = [&](uint32_t i) {
+    const IcRecord& r = cache_->records_[i];
+    if (r.on_virtual != on_virtual) return;
+    const double w = Weight(r, p, n, inv_a, inv_n);
+    if (!(w > 0)) return;
+    const Eigen::Vector3d turn = r.n.cross(n), move = p - r.p;
+    w_sum += w;
+    sum_m += w * (r.e_mixed + r.rot_mixed * turn + r.trans_mixed * move);
+    sum_r += w * (r.e_real + r.rot_real * turn + r.trans_real * move);
+    std::atomic_ref<uint8_t>(used_[i]).store(1, std::memory_order_relaxed);
+  };
+  const Eigen::Vector3d c = (p / grid_cell_).array().floor();
+  if (c.allFinite()) {
+    const auto x = static_cast<int64_t>(c.x()), y = static_cast<int64_t>(c.y()), z = static_cast<int64_t>(c.z());
+    const auto it = grid_.find((x * 73856093) ^ (y * 19349663) ^ (z * 83492791));
+    if (it != grid_.end())
+      for (uint32_t i : it->second) visit(i);
+  }
+  for (uint32_t i : wide_) visit(i);
+  if (!(w_sum > 0)) return false;
+  *e_m = sum_m / w_sum;
+  *e_r = sum_r / w_sum;
+  return true;
 }
 
 void IcFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pi, int sample, PathSample* out) {
@@ -522,53 +683,12 @@ void IcFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pi, in
   int64_t row_rays = 0;
   Eigen::Vector3d mixed = Eigen::Vector3d::Zero(), real = Eigen::Vector3d::Zero();
   bool primary_virtual = false;
-  // One surface point for the wanted solutions: emission, direct light,
+  // One camera point for the wanted solutions: emission, direct light,
   // cached indirect diffuse light, and the glossy lobe's path.
   auto shade = [&](const Ray& r, const Hit& hit, bool want_m, bool want_r, const Eigen::Vector3d& e_m,
                    const Eigen::Vector3d& e_r, Sampler& g) {
-    PathVertex v = MakeVertex(scene_, r, hit);
-    const bool xv = hit.is_virtual;
-    if (want_m) mixed += v.material->emission;
-    if (want_r) real += v.material->emission;
-    if (v.bsdf.IsBlack()) return;
-    const bool glossy = v.material->IsGlossy();
-    PathVertex vd = v;
-    vd.bsdf = DiffuseLobe(scene_, v);
-    row_rays += DirectDiffuse(scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
-      const VirtualTest t = TestVirtualBlockers(scene_, sr);
-      row_rays += t != VirtualTest::kSkipped;
-      return t == VirtualTest::kBlocked ? 0.0 : 1.0;
-    });
-    const Eigen::Vector3d f = v.albedo * kInvPi;
-    if (want_m) mixed += f.cwiseProduct(e_m);
-    if (want_r) real += f.cwiseProduct(e_r);
-    if (!glossy) return;
-    PathVertex vg = v;
-    vg.bsdf = scene_.glossy_bsdf(v.geometry_id);
-    NextEvent(scene_, vg, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
-      row_rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
-    });
-    if (cache_->settings().glossy_depth == 0) return;  // next-event light only
-    BsdfSample bs;
-    const double ul = g.NextDouble();
-    const auto [u0, u1] = g.Next2D();
-    if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return;
-    const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
-    const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
-    if (want_r && !want_m) {
-      int nr = 0;
-      real += glossy_tracer_.RealRadiance(next, beta, bs.pdf, 1, g, &nr);
-      row_rays += nr;
-    } else if (xv && !want_r) {  // the mixed path from a virtual surface: the plate where it sees
-      int nr = 0;
-      mixed += glossy_tracer_.MixedRadianceFromVirtual(next, beta, bs.pdf, 1, g, &nr);
-      row_rays += nr;
-    } else {
-      PathSample ps = glossy_tracer_.TraceFrom(next, beta, bs.pdf, 1, g);
-      row_rays += ps.rays;
-      mixed += ps.mixed;
-      if (want_r) real += ps.real;
-    }
+    row_rays += ShadePoint(MakeVertex(scene_, r, hit), hit.is_virtual, want_m, want_r, e_m, e_r, 0,
+                           Eigen::Vector3d::Ones(), g, &mixed, &real);
   };
   const Entry& me = mixed_[k];
   Hit hit;
@@ -616,6 +736,8 @@ void IcFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "records", static_cast<int64_t>(cache_->records_.size()));
   report->SetMetric(k + "miss_passes", miss_passes_);
   report->SetMetric(k + "pixel_rays", rays_traced());
+  report->SetMetric(k + "glossy_lookups", lookups_.load());
+  report->SetMetric(k + "glossy_lookup_misses", lookup_misses_.load());
   if (reevaluated_ == 0 && frame > 0)
     report->Skip(fmt::format("frame {}: record re-evaluation", frame),
                  "no record is t_max frames old: the records of earlier frames are reused as they are");
@@ -653,7 +775,8 @@ namespace {
 
 IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "evict_after", "tile",
-                   "influence_threshold", "glossy_depth", "plate_reflections", "gradients", "normal_deg"});
+                   "influence_threshold", "glossy_depth", "glossy_cache", "miss_rays", "plate_reflections", "gradients",
+                   "normal_deg"});
   IcSettings o;
   if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
   if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
@@ -663,7 +786,9 @@ IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("evict_after")) o.evict_after = static_cast<int>(v.Child("evict_after").Integer(0, 1 << 20));
   if (v.Has("tile")) o.tile = static_cast<int>(v.Child("tile").Integer(1, 1024));
   if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
-  if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
+  if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(-1, 64));
+  if (v.Has("glossy_cache")) o.glossy_cache = v.Child("glossy_cache").Bool();
+  if (v.Has("miss_rays")) o.miss_rays = static_cast<int>(v.Child("miss_rays").Integer(1, 1 << 16));
   if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
   if (v.Has("gradients")) o.gradients = v.Child("gradients").Bool();
   if (v.Has("normal_deg")) o.normal_deg = v.Child("normal_deg").Number(1, 90);

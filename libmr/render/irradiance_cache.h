@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include "camera/camera_model.h"
@@ -29,13 +30,22 @@ struct IcSettings {
   // spheres subtend a form factor below this (and no virtual light exists):
   // there the indirect difference is taken as zero.  Only with a photograph.
   double influence_threshold = 1e-3;
-  // Bounces of the glossy lobe's path from a camera hit (a BSDF-sampled
-  // differential path, as pt's), at most max_depth; 0: the glossy lobe takes
-  // next-event light only; -1: max_depth (unbiased).  2, as vpl's: the
-  // longer paths through a glossy table to the sun are fireflies that made
-  // ic's error at 4 spp 13 times larger on mr-synth's capture, while the
-  // light they carry was below the error at 64 spp (docs/methods.md, "ic").
+  // Bounces of the glossy lobe's path from a camera hit, at most max_depth;
+  // 0: the glossy lobe takes next-event light only; -1: max_depth.
+  // With glossy_cache, a chain of glossy reflections: every point a glossy
+  // ray meets is shaded as a camera point is (emission, direct light, the
+  // records' indirect diffuse light, and its own glossy lobe while the
+  // chain is shorter than glossy_depth).  Without, a BSDF-sampled
+  // differential path of glossy_depth bounces, as pt's: unbiased only at
+  // max_depth, and the paths through a glossy table to the sun are then
+  // fireflies (docs/methods.md, "ic").
   int glossy_depth = 2;
+  // The diffuse points glossy rays meet take their indirect light from the
+  // records (Ward's irradiance caching of secondary rays), found in a world
+  // grid; an influenced point no record reaches takes one cosine-sampled
+  // path instead.  false: glossy paths are path traced (glossy_depth).
+  bool glossy_cache = true;
+  int miss_rays = 32;  // cosine-sampled paths where no record reaches (glossy_cache)
   // Glossy paths from virtual surfaces take the plate's radiance where it
   // sees the real point they meet (render/path_tracer.h, PlateView).
   bool plate_reflections = true;
@@ -62,6 +72,7 @@ struct IcSettings {
 };
 
 struct WorldChange;
+struct PathVertex;
 
 struct IcRecord {
   Eigen::Vector3d p, n;
@@ -142,6 +153,23 @@ class IcFrameRenderer : public PixelLoopMethod {
   void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   void Splat(size_t record, int64_t first_row, int64_t last_row);
   void SplatAll(const std::vector<size_t>& records);
+  // One surface point for the wanted solutions, times beta: emission, direct
+  // light, indirect diffuse light (e_m, e_r) and the glossy lobe, whose ray
+  // goes on at glossy bounce `depth` + 1 (Continue, or a path).  Returns rays.
+  int64_t ShadePoint(const PathVertex& v, bool on_virtual, bool want_m, bool want_r, const Eigen::Vector3d& e_m,
+                     const Eigen::Vector3d& e_r, int depth, const Eigen::Vector3d& beta, Sampler& g,
+                     Eigen::Vector3d* mixed, Eigen::Vector3d* real);
+  // Radiance along a glossy ray (bounce `depth`) for the wanted solutions,
+  // times beta: each point met shaded by ShadePoint with the records'
+  // irradiance there (LookUp), or one cosine-sampled path where none reaches
+  // an influenced point.  Returns rays.
+  int64_t Continue(Ray ray, bool want_m, bool want_r, int depth, const Eigen::Vector3d& beta, double prev_pdf,
+                   Sampler& g, Eigen::Vector3d* mixed, Eigen::Vector3d* real);
+  // The records' interpolated E_m, E_r at a point (virtual records at
+  // virtual points, real ones at real); false where none has weight > 0.
+  bool LookUp(const Eigen::Vector3d& p, const Eigen::Vector3d& n, bool on_virtual, Eigen::Vector3d* e_m,
+              Eigen::Vector3d* e_r);
+  void BuildGrid();
 
   const RenderScene& scene_;
   IrradianceCache* cache_;
@@ -154,6 +182,12 @@ class IcFrameRenderer : public PixelLoopMethod {
   std::vector<Entry> mixed_, real_;  // [pixel * samples_ + s]
   std::vector<float> interpolated_;
   std::vector<Eigen::Vector3f> positions_;
+  // The records in a world grid, for LookUp: cell -> record indices (in
+  // index order); records reaching over more than a few cells in `wide_`.
+  double grid_cell_ = 1;
+  std::unordered_map<int64_t, std::vector<uint32_t>> grid_;
+  std::vector<uint32_t> wide_;
+  std::atomic<int64_t> lookups_{0}, lookup_misses_{0};
 };
 
 // ic's temporal stability on a static scene: each pixel's world point

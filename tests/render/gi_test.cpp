@@ -446,6 +446,54 @@ TEST(Vpl, ReusedCutsAgreeWithFreshOnes) {
   std::printf("reuse: %.9f vs %.9f\n", Mean(reused.Mixed()), Mean(fresh.Mixed()));
 }
 
+// With glossy_cache the points glossy rays meet take their indirect light
+// from the records, where a glossy path of glossy_depth bounces cut it.  A
+// glossy floor reflects a back wall under a uniform sky, no photograph (so
+// records are made wherever the camera looks): the floor's mean radiance
+// against pt's at 1024 spp, within 1% with the cache (measured 0.09%);
+// the two-bounce path leaves out the reflected walls' indirect light, the
+// floor's and the ceiling's bounce (measured -10.5%).
+TEST(Ic, GlossyRaysTakeTheRecordsIndirectLight) {
+  RenderScene s;
+  Material floor;
+  floor.albedo = Eigen::Vector3d::Constant(0.5);
+  floor.specular = Eigen::Vector3d::Constant(0.4);
+  floor.roughness = 0.1;
+  s.AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), floor);
+  s.AddReal(Quad({-2, 0, 1}, {2, 0, 1}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.8));
+  s.AddReal(Quad({-2, 2, -2}, {2, 2, -2}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.8));  // a ceiling
+  s.SetEnvironment(Sky(1));
+  s.Commit();
+  const CameraModel cam = Pinhole(32, 24, 16);
+  const Rigid3 pose = LookAt({0, 0.5, -1.8}, {0, 0.2, 1});
+  auto floor_mean = [](const Image& m) {  // the lower half: the floor
+    double v = 0;
+    for (int y = m.height() / 2; y < m.height(); ++y)
+      for (int x = 0; x < m.width(); ++x) v += m.at(x, y, 0) + m.at(x, y, 1) + m.at(x, y, 2);
+    return v / (1.5 * m.width() * m.height());
+  };
+  PathTracerSettings pst;
+  pst.max_depth = 8;
+  PtFrameRenderer pt(s, cam, pose, pst);
+  pt.RenderPass(1024);
+  const double ref = floor_mean(pt.Mixed());
+  auto ic = [&](bool cache) {
+    IcSettings is;
+    is.rays = 256;
+    is.max_depth = 8;
+    is.photograph = false;
+    is.glossy_cache = cache;
+    IrradianceCache c(s, is);
+    IcFrameRenderer r(s, &c, cam, pose, 0, 0);
+    r.RenderPass(16);
+    return floor_mean(r.Mixed());
+  };
+  const double cached = ic(true), cut = ic(false);
+  std::printf("floor's mean: pt %.5f, ic cached %.5f, ic cut %.5f\n", ref, cached, cut);
+  EXPECT_LT(std::abs(cached / ref - 1), 0.01);
+  EXPECT_GT(std::abs(cut / ref - 1), 3 * std::abs(cached / ref - 1));
+}
+
 // ic's records outside the objects' influence region (form factor bound
 // 1e-3) are not made; the composite changes by less than 1e-4 relMSE.
 TEST(Ic, InfluenceRegionSkipChangesLittle) {

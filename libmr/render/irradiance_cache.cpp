@@ -329,8 +329,9 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
             used = true;
           }
         }
-        Entry& e = real_[k];
-        if (e.valid && !r.on_virtual && m.is_virtual) {  // the real point behind a virtual one
+        if (r.on_virtual || !m.is_virtual || real_index_[k] == kNoEntry) continue;
+        Entry& e = real_[real_index_[k]];
+        if (e.valid) {  // the real point behind a virtual one
           const double w = Weight(r, e.p, e.n, inv_a, inv_n);
           if (w > 0) {
             e.w += w;
@@ -359,25 +360,26 @@ void IcFrameRenderer::RenderPass(int spp) {
   first_ = samples_per_pixel();
   const size_t n = static_cast<size_t>(width()) * height() * spp;
   mixed_.assign(n, Entry());
-  real_.assign(n, Entry());
   // G-buffer: the first hits of each camera sample's mixed ray and, where it
-  // meets a virtual object, of its real ray.
+  // meets a virtual object, of its real ray (a second pass, into real_).
   std::atomic<int64_t> outside{0};
-  ParallelFor(0, height(), [&](int64_t y) {
-    for (int x = 0; x < width(); ++x) {
-      if (!sampler().PixelValid(x, static_cast<int>(y))) continue;
-      Eigen::Vector3d c[4];
-      sampler().CornerDirections(x, static_cast<int>(y), c);
-      const double pixel_angle = std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0);
-      for (int s = 0; s < spp; ++s) {
-        const size_t k = (static_cast<size_t>(y) * width() + x) * spp + s;
-        Ray ray;
-        sampler().Sample(x, static_cast<int>(y), first_ + s, &ray);
-        auto fill = [&](Ray r, uint32_t mask, Entry* e) {
-          r.mask = mask;
+  auto gbuffer = [&](bool real_pass) {
+    ParallelFor(0, height(), [&](int64_t y) {
+      for (int x = 0; x < width(); ++x) {
+        if (!sampler().PixelValid(x, static_cast<int>(y))) continue;
+        Eigen::Vector3d c[4];
+        sampler().CornerDirections(x, static_cast<int>(y), c);
+        const double pixel_angle = std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0);
+        for (int s = 0; s < spp; ++s) {
+          const size_t k = (static_cast<size_t>(y) * width() + x) * spp + s;
+          if (real_pass && real_index_[k] == kNoEntry) continue;
+          Ray ray;
+          sampler().Sample(x, static_cast<int>(y), first_ + s, &ray);
+          ray.mask = real_pass ? kMaskReal : kMaskAll;
+          Entry* e = real_pass ? &real_[real_index_[k]] : &mixed_[k];
           Hit hit;
-          if (!embree.Intersect(r, &hit)) return false;
-          const PathVertex v = MakeVertex(scene_, r, hit);
+          if (!embree.Intersect(ray, &hit)) continue;
+          const PathVertex v = MakeVertex(scene_, ray, hit);
           e->p = v.p;
           e->n = v.frame.n;
           e->footprint = hit.t * pixel_angle;
@@ -385,12 +387,17 @@ void IcFrameRenderer::RenderPass(int spp) {
           e->is_virtual = hit.is_virtual;
           e->needed = hit.is_virtual || cache_->InInfluence(v.p);
           if (!e->needed) outside.fetch_add(1);
-          return hit.is_virtual;
-        };
-        if (fill(ray, kMaskAll, &mixed_[k])) fill(ray, kMaskReal, &real_[k]);
+        }
       }
-    }
-  });
+    });
+  };
+  gbuffer(false);
+  real_index_.assign(n, kNoEntry);
+  uint32_t behind = 0;
+  for (size_t k = 0; k < n; ++k)
+    if (mixed_[k].is_virtual) real_index_[k] = behind++;
+  real_.assign(behind, Entry());
+  gbuffer(true);
   outside_influence_ = outside.load();
 
   // Records no frame has used for evict_after frames go.
@@ -450,7 +457,8 @@ void IcFrameRenderer::RenderPass(int spp) {
         const int64_t s2 = j % (samples_ * 2), px = j / (samples_ * 2);
         const int x = tx * tile + static_cast<int>(px % w), y = ty * tile + static_cast<int>(px / w);
         const size_t k = (static_cast<size_t>(y) * width() + x) * samples_ + static_cast<size_t>(s2 / 2);
-        const Entry& e = s2 % 2 == 0 ? mixed_[k] : real_[k];
+        if (s2 % 2 == 1 && real_index_[k] == kNoEntry) continue;
+        const Entry& e = s2 % 2 == 0 ? mixed_[k] : real_[real_index_[k]];
         if (!e.valid || !e.needed || e.w > 0) continue;
         if (s2 % 2 == 1 && !mixed_[k].is_virtual) continue;
         IcRecord r;
@@ -697,14 +705,14 @@ void IcFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pi, in
     AddEscapedCameraRay(scene_, ray, &mixed, &real);
   } else if (hit.is_virtual) {
     primary_virtual = true;
-    const Entry& re = real_[k];
+    const Entry* re = RealEntry(k);
     Sampler real_rng = rng;
     Ray rr = ray;
     rr.mask = kMaskReal;
     Hit rh;
     ++row_rays;
     if (embree.Intersect(rr, &rh)) {
-      const Eigen::Vector3d er = re.w > 0 ? Eigen::Vector3d(re.sum_r / re.w) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3d er = re && re->w > 0 ? Eigen::Vector3d(re->sum_r / re->w) : Eigen::Vector3d::Zero();
       shade(rr, rh, false, true, Eigen::Vector3d::Zero(), er, real_rng);
     } else {
       real += Escaped(scene_, rr, 0, kRealLights);

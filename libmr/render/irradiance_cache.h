@@ -177,9 +177,15 @@ class IcFrameRenderer : public PixelLoopMethod {
   DifferentialPathTracer glossy_tracer_;
   int frame_;
   int64_t new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0, outside_influence_ = 0, evicted_ = 0;
-  std::vector<uint8_t> used_;        // per record: splatted with weight > 0 this frame (set through atomic_ref)
-  int samples_ = 0, first_ = 0;      // G-buffer samples per pixel, and the first one's index
-  std::vector<Entry> mixed_, real_;  // [pixel * samples_ + s]
+  std::vector<uint8_t> used_;    // per record: splatted with weight > 0 this frame (set through atomic_ref)
+  int samples_ = 0, first_ = 0;  // G-buffer samples per pixel, and the first one's index
+  std::vector<Entry> mixed_;     // [pixel * samples_ + s]
+  // The real entries, only where the mixed one is virtual (a few percent):
+  // real_[real_index_[k]], kNoEntry where there is none.
+  static constexpr uint32_t kNoEntry = UINT32_MAX;
+  std::vector<Entry> real_;
+  std::vector<uint32_t> real_index_;
+  const Entry* RealEntry(size_t k) const { return real_index_[k] == kNoEntry ? nullptr : &real_[real_index_[k]]; }
   std::vector<float> interpolated_;
   std::vector<Eigen::Vector3f> positions_;
   // The records in a world grid, for LookUp: cell -> record indices (in

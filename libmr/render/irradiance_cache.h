@@ -2,8 +2,9 @@
 // ../shared/papers/differential-irradiance-caching.txt), offline on the CPU.
 // Indirect diffuse light comes from world-space cache records of mixed and
 // real irradiance, kept across the frames of a render; direct light and
-// glossy lobes are traced per camera sample.  How records are made, weighted,
-// splatted and re-evaluated: docs/methods.md, "ic".
+// glossy lobes are traced per camera sample, and the points glossy rays meet
+// take their indirect light from the records too.  How records are made,
+// weighted, splatted, looked up and re-evaluated: docs/methods.md, "ic".
 #pragma once
 
 #include <atomic>

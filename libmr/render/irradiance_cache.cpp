@@ -626,8 +626,14 @@ int64_t IcFrameRenderer::Continue(Ray ray, bool want_m, bool want_r, int depth, 
   return rays;
 }
 
+namespace {
+
+int64_t CellKey(int64_t x, int64_t y, int64_t z) { return (x * 73856093) ^ (y * 19349663) ^ (z * 83492791); }
+
+}  // namespace
+
 void IcFrameRenderer::BuildGrid() {
-  grid_.clear();
+  for (auto& g : grid_) g.clear();
   wide_.clear();
   const auto& records = cache_->records_;
   const double a = cache_->settings_.accuracy;
@@ -637,19 +643,24 @@ void IcFrameRenderer::BuildGrid() {
   if (reach.empty()) return;
   std::vector<double> sorted = reach;
   std::nth_element(sorted.begin(), sorted.begin() + static_cast<long>(sorted.size() / 2), sorted.end());
-  grid_cell_ = std::max(1e-6, 2 * sorted[sorted.size() / 2]);
+  for (int l = 0; l < kGridLevels; ++l) grid_cell_[l] = std::max(1e-6, 2 * sorted[sorted.size() / 2]) * (1 << (2 * l));
   for (size_t i = 0; i < records.size(); ++i) {
-    const Eigen::Vector3d lo = ((records[i].p.array() - reach[i]) / grid_cell_).floor();
-    const Eigen::Vector3d hi = ((records[i].p.array() + reach[i]) / grid_cell_).floor();
-    const Eigen::Vector3d cells = hi - lo + Eigen::Vector3d::Ones();
-    if (!cells.allFinite() || cells.prod() > 64) {
-      wide_.push_back(static_cast<uint32_t>(i));
-      continue;
+    bool placed = false;
+    for (int l = 0; l < kGridLevels && !placed; ++l) {
+      const Eigen::Vector3d lo = ((records[i].p.array() - reach[i]) / grid_cell_[l]).floor();
+      const Eigen::Vector3d hi = ((records[i].p.array() + reach[i]) / grid_cell_[l]).floor();
+      const Eigen::Vector3d cells = hi - lo + Eigen::Vector3d::Ones();
+      if (!cells.allFinite() || cells.prod() > 64) continue;
+      for (int64_t x = static_cast<int64_t>(lo.x()); x <= static_cast<int64_t>(hi.x()); ++x)
+        for (int64_t y = static_cast<int64_t>(lo.y()); y <= static_cast<int64_t>(hi.y()); ++y)
+          for (int64_t z = static_cast<int64_t>(lo.z()); z <= static_cast<int64_t>(hi.z()); ++z) {
+            // Two cells of one record can share a key: listed once.
+            std::vector<uint32_t>& list = grid_[l][CellKey(x, y, z)];
+            if (list.empty() || list.back() != i) list.push_back(static_cast<uint32_t>(i));
+          }
+      placed = true;
     }
-    for (int64_t x = static_cast<int64_t>(lo.x()); x <= static_cast<int64_t>(hi.x()); ++x)
-      for (int64_t y = static_cast<int64_t>(lo.y()); y <= static_cast<int64_t>(hi.y()); ++y)
-        for (int64_t z = static_cast<int64_t>(lo.z()); z <= static_cast<int64_t>(hi.z()); ++z)
-          grid_[(x * 73856093) ^ (y * 19349663) ^ (z * 83492791)].push_back(static_cast<uint32_t>(i));
+    if (!placed) wide_.push_back(static_cast<uint32_t>(i));
   }
 }
 
@@ -671,11 +682,12 @@ bool IcFrameRenderer::LookUp(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
     sum_r += w * (r.e_real + r.rot_real * turn + r.trans_real * move);
     std::atomic_ref<uint8_t>(used_[i]).store(1, std::memory_order_relaxed);
   };
-  const Eigen::Vector3d c = (p / grid_cell_).array().floor();
-  if (c.allFinite()) {
-    const auto x = static_cast<int64_t>(c.x()), y = static_cast<int64_t>(c.y()), z = static_cast<int64_t>(c.z());
-    const auto it = grid_.find((x * 73856093) ^ (y * 19349663) ^ (z * 83492791));
-    if (it != grid_.end())
+  for (int l = 0; l < kGridLevels; ++l) {
+    const Eigen::Vector3d c = (p / grid_cell_[l]).array().floor();
+    if (!c.allFinite()) continue;
+    const auto it =
+        grid_[l].find(CellKey(static_cast<int64_t>(c.x()), static_cast<int64_t>(c.y()), static_cast<int64_t>(c.z())));
+    if (it != grid_[l].end())
       for (uint32_t i : it->second) visit(i);
   }
   for (uint32_t i : wide_) visit(i);

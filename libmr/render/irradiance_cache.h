@@ -190,9 +190,11 @@ class IcFrameRenderer : public PixelLoopMethod {
   std::vector<float> interpolated_;
   std::vector<Eigen::Vector3f> positions_;
   // The records in a world grid, for LookUp: cell -> record indices (in
-  // index order); records reaching over more than a few cells in `wide_`.
-  double grid_cell_ = 1;
-  std::unordered_map<int64_t, std::vector<uint32_t>> grid_;
+  // index order), in the first of kGridLevels grids (cells 4x larger at
+  // each) where a record overlaps at most 64 cells; larger ones in `wide_`.
+  static constexpr int kGridLevels = 4;
+  double grid_cell_[kGridLevels] = {};
+  std::unordered_map<int64_t, std::vector<uint32_t>> grid_[kGridLevels];
   std::vector<uint32_t> wide_;
   std::atomic<int64_t> lookups_{0}, lookup_misses_{0};
 };

@@ -52,8 +52,11 @@ r = json.load(open(o + "/work/reports/render.json"))["metrics"]
 c = json.load(open(o + "/work/reports/calibrate.json"))["metrics"]
 print("calibration RMS %.3f px; room ATE %.1f mm, mesh accuracy %.1f mm mean"
       % (c["rms_px"], 1000 * t["ate"]["rmse_m"], 1000 * m["accuracy"]["mean_m"]))
-print("composite against the truth (whole chain, pt %s spp): relMSE %.4g, region relMSE %.4g"
-      % (json.load(open(o + "/work/scene.json"))["render"]["spp"], r["relmse"], r["region_relmse"]))
+if "relmse" in r:
+    print("composite against the truth (whole chain, pt %s spp): relMSE %.4g, region relMSE %.4g"
+          % (json.load(open(o + "/work/scene.json"))["render"]["spp"], r["relmse"], r["region_relmse"]))
+else:  # every frame kept by mr-render --resume: a run again into the same folder with nothing changed
+    print("composite: every frame kept from the earlier run into this folder (nothing changed)")
 g = json.load(open(o + "/work/reports/radiometry.json"))["metrics"]
 print("capture chain re-rendering the plate (mr-eval plate, a check for these linear plates): relMSE %.4g, SSIM %.3f;"
       " fitted gain %.3f..%.3f (G)" % (g["relmse"], g["ssim"], g["gain_min"][1], g["gain_max"][1]))
@@ -101,7 +104,15 @@ runs = [("pt 16 spp", d + "/work/reports/render.json")] + [("%s %d spp" % (m, n)
 for name, f in runs:
     r = json.load(open(f))["metrics"]
     fr = r["frames"]
-    print("  %-10s %s  flicker %.3g  %.2f s  rebuilt: %s" % (
-        name, " ".join("%.3g" % x["region_relmse"] for x in fr), r["flicker"],
-        sum(x["seconds"] for x in fr) / len(fr), ", ".join(fr[1]["world"]["rebuilt"]) or "nothing"))
+    # A run again into the same folder keeps frames whose inputs did not
+    # change (mr-render --resume): their figures are the earlier run's.
+    rendered = [x for x in fr if not x.get("resumed")]
+    if not rendered:
+        print("  %-10s every frame kept from the earlier run into this folder (nothing changed)" % name)
+        continue
+    print("  %-10s %s  flicker %s  %.2f s  rebuilt: %s" % (
+        name, " ".join("%.3g" % x["region_relmse"] if "region_relmse" in x else "kept" for x in fr),
+        "%.3g" % r["flicker"] if "flicker" in r else "-",
+        sum(x["seconds"] for x in rendered) / len(rendered),
+        ", ".join(rendered[min(1, len(rendered) - 1)].get("world", {}).get("rebuilt", [])) or "nothing"))
 PYD

@@ -329,6 +329,30 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   double flicker_sum = 0;
   int flicker_frames = 0;
   int64_t clamped = 0, nonfinite = 0;
+  // A frame's error against the reference (over the region the objects
+  // change, where the plate is known) and its flicker against the frame
+  // before, into fj.
+  auto measure = [&](int f, const Image& composite, const Image& ref, const std::optional<Image>& region, Json* fj) {
+    const FrameError e = MeasureFrame(composite, ref, region ? &*region : nullptr);
+    (*fj)["rmse"] = e.rmse;
+    (*fj)["relmse"] = e.relmse;
+    (*fj)["region_relmse"] = e.region_relmse;
+    if (previous && previous->frame == f - 1) {
+      std::optional<Image> both;
+      if (region && previous->region) {
+        both = *region;
+        for (size_t i = 0; i < both->values().size(); ++i)
+          both->values()[i] = std::max(both->values()[i], previous->region->values()[i]);
+      }
+      const double flicker =
+          MeasureFlicker(composite, previous->composite, ref, previous->reference, both ? &*both : nullptr);
+      (*fj)["flicker"] = flicker;
+      flicker_sum += flicker;
+      ++flicker_frames;
+    }
+    previous = PreviousFrame{f, composite, ref, region};
+    return e;
+  };
   for (int f = begin; f < resumed_end; ++f) {  // kept by --resume
     Json fj = {{"frame", f}, {"resumed", true}};
     if (video_out || reference) {
@@ -336,9 +360,12 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       if (video_out) video_out->WriteCodes(decoding.ToCodes(composite, video_encoding));
       if (reference) {
         const Image ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
-        const FrameError e = MeasureFrame(composite, ref, nullptr);
-        fj["rmse"] = e.rmse;
-        fj["relmse"] = e.relmse;
+        // The plate, read in order (a video reads forwards), for the region.
+        PhotoEncoding encoding;
+        const std::optional<Image> photo = frames.Photo(f, &encoding);
+        std::optional<Image> region;
+        if (photo) region = ChangedRegion(ref, *photo);
+        measure(f, composite, ref, region, &fj);
       }
     }
     frames_json.push_back(fj);
@@ -514,28 +541,7 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     if (env_pixels > 0 && done > 1)
       report->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
                    "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");
-    if (ref) {
-      const FrameError e = MeasureFrame(cr.composite, *ref, region ? &*region : nullptr);
-      fj["rmse"] = e.rmse;
-      fj["relmse"] = e.relmse;
-      fj["region_relmse"] = e.region_relmse;
-      fj["curve"] = errors.EndFrame(e);
-      // The flicker against the previous frame rendered in this run.
-      if (previous && previous->frame == f - 1) {
-        std::optional<Image> both;
-        if (region && previous->region) {
-          both = *region;
-          for (size_t i = 0; i < both->values().size(); ++i)
-            both->values()[i] = std::max(both->values()[i], previous->region->values()[i]);
-        }
-        const double flicker =
-            MeasureFlicker(cr.composite, previous->composite, *ref, previous->reference, both ? &*both : nullptr);
-        fj["flicker"] = flicker;
-        flicker_sum += flicker;
-        ++flicker_frames;
-      }
-      previous = PreviousFrame{f, cr.composite, *ref, region};
-    }
+    if (ref) fj["curve"] = errors.EndFrame(measure(f, cr.composite, *ref, region, &fj));
     if (fr) method->FrameDone(*fr, fc, report, &fj);
     frames_json.push_back(fj);
     {
@@ -598,8 +604,8 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
     report->SetMetric("relmse", errors.mean_relmse());
     report->SetMetric("region_relmse", errors.mean_region_relmse());
     report->SetMetric("curve", errors.MeanCurve());
-    if (flicker_frames > 0) report->SetMetric("flicker", flicker_sum / flicker_frames);
   }
+  if (flicker_frames > 0) report->SetMetric("flicker", flicker_sum / flicker_frames);  // kept frames too
 }
 
 }  // namespace mr

@@ -52,6 +52,10 @@ for f in "$tmp"/one/*.exr "$tmp"/one/*.png; do
 done
 check "resumed outputs equal one run's, byte for byte" 0 "" -- test "$same" -eq 1
 check "resume again: nothing to render" 0 "--resume: complete in the output folder" -- bash -c "'$bin/mr-render' '$cap/video.json' --out '$tmp/killed' --spp 4 --resume -q --report '$tmp/r2.json' && cat '$tmp/r2.json'"
+# Frames kept by --resume still carry their error against the truth (over
+# the region the object changes) and their flicker.
+"$bin/mr-render" "$cap/scene.json" --out "$tmp/kept" --spp 2 -q
+check "resumed frames keep their figures" 0 "" -- bash -c "'$bin/mr-render' '$cap/scene.json' --out '$tmp/kept' --spp 2 --resume -q --report '$tmp/r5.json' && grep -q 'complete in the output folder' '$tmp/r5.json' && grep -q '\"region_relmse\"' '$tmp/r5.json' && grep -q '\"flicker\"' '$tmp/r5.json'"
 check "other settings are not resumed" 0 "" -- bash -c "'$bin/mr-render' '$cap/video.json' --out '$tmp/killed' --spp 2 --resume -q --report '$tmp/r3.json' && ! grep -q 'resume: complete' '$tmp/r3.json'"
 # Inputs are compared by content: a map per frame, frame 6's changed, keeps
 # frames 0-5 and renders 6 on.

@@ -107,12 +107,12 @@ for name, f in runs:
     # A run again into the same folder keeps frames whose inputs did not
     # change (mr-render --resume): their figures are the earlier run's.
     rendered = [x for x in fr if not x.get("resumed")]
+    figures = "%s  flicker %s" % (" ".join("%.3g" % x["region_relmse"] if "region_relmse" in x else "-" for x in fr),
+                                  "%.3g" % r["flicker"] if "flicker" in r else "-")
     if not rendered:
-        print("  %-10s every frame kept from the earlier run into this folder (nothing changed)" % name)
+        print("  %-10s %s  (every frame kept from the earlier run into this folder)" % (name, figures))
         continue
-    print("  %-10s %s  flicker %s  %.2f s  rebuilt: %s" % (
-        name, " ".join("%.3g" % x["region_relmse"] if "region_relmse" in x else "kept" for x in fr),
-        "%.3g" % r["flicker"] if "flicker" in r else "-",
-        sum(x["seconds"] for x in rendered) / len(rendered),
+    print("  %-10s %s  %.2f s  rebuilt: %s" % (
+        name, figures, sum(x["seconds"] for x in rendered) / len(rendered),
         ", ".join(rendered[min(1, len(rendered) - 1)].get("world", {}).get("rebuilt", [])) or "nothing"))
 PYD

@@ -39,6 +39,13 @@ double Weight(const IcRecord& r, const Eigen::Vector3d& p, const Eigen::Vector3d
   return 1 - inv_accuracy * std::max(eps_p, eps_n);
 }
 
+// Record r's irradiance extrapolated to (p, n) along its gradients: E_m, E_r.
+std::pair<Eigen::Vector3d, Eigen::Vector3d> Extrapolated(const IcRecord& r, const Eigen::Vector3d& p,
+                                                         const Eigen::Vector3d& n) {
+  const Eigen::Vector3d turn = r.n.cross(n), move = p - r.p;
+  return {r.e_mixed + r.rot_mixed * turn + r.trans_mixed * move, r.e_real + r.rot_real * turn + r.trans_real * move};
+}
+
 }  // namespace
 
 IrradianceCache::IrradianceCache(const RenderScene& scene, const IcSettings& settings)
@@ -322,10 +329,10 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
         if (m.valid && m.is_virtual == r.on_virtual) {
           const double w = Weight(r, m.p, m.n, inv_a, inv_n);
           if (w > 0) {
-            const Eigen::Vector3d turn = r.n.cross(m.n), move = m.p - r.p;
+            const auto [em, er] = Extrapolated(r, m.p, m.n);
             m.w += w;
-            m.sum_m += w * (r.e_mixed + r.rot_mixed * turn + r.trans_mixed * move);
-            m.sum_r += w * (r.e_real + r.rot_real * turn + r.trans_real * move);
+            m.sum_m += w * em;
+            m.sum_r += w * er;
             used = true;
           }
         }
@@ -335,7 +342,7 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
           const double w = Weight(r, e.p, e.n, inv_a, inv_n);
           if (w > 0) {
             e.w += w;
-            e.sum_r += w * (r.e_real + r.rot_real * r.n.cross(e.n) + r.trans_real * (e.p - r.p));
+            e.sum_r += w * Extrapolated(r, e.p, e.n).second;
             used = true;
           }
         }
@@ -519,7 +526,7 @@ void IcFrameRenderer::RenderPass(int spp) {
 
   interpolated_.assign(static_cast<size_t>(width()) * height(), NAN);
   positions_.assign(static_cast<size_t>(width()) * height(), Eigen::Vector3f::Constant(NAN));
-  if (st.glossy_cache) BuildGrid();
+  if (st.glossy_cache && scene_.has_glossy()) BuildGrid();  // else no glossy ray looks records up
   ShadePixels(spp);
   // Splatted or looked up with weight > 0.
   for (size_t i = 0; i < used_.size(); ++i)
@@ -601,7 +608,7 @@ int64_t IcFrameRenderer::Continue(Ray ray, bool want_m, bool want_r, int depth, 
     want_r = false;
   }
   const PathVertex v = MakeVertex(scene_, ray, hit);
-  // The indirect diffuse light here: the records', or one path.
+  // The indirect diffuse light here: the records', or miss_rays paths.
   Eigen::Vector3d e_m = Eigen::Vector3d::Zero(), e_r = Eigen::Vector3d::Zero();
   if (!v.bsdf.IsBlack() && !LookUp(v.p, v.frame.n, hit.is_virtual, &e_m, &e_r) &&
       (hit.is_virtual || cache_->InInfluence(v.p))) {
@@ -676,10 +683,10 @@ bool IcFrameRenderer::LookUp(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
     if (r.on_virtual != on_virtual) return;
     const double w = Weight(r, p, n, inv_a, inv_n);
     if (!(w > 0)) return;
-    const Eigen::Vector3d turn = r.n.cross(n), move = p - r.p;
+    const auto [em, er] = Extrapolated(r, p, n);
     w_sum += w;
-    sum_m += w * (r.e_mixed + r.rot_mixed * turn + r.trans_mixed * move);
-    sum_r += w * (r.e_real + r.rot_real * turn + r.trans_real * move);
+    sum_m += w * em;
+    sum_r += w * er;
     std::atomic_ref<uint8_t>(used_[i]).store(1, std::memory_order_relaxed);
   };
   for (int l = 0; l < kGridLevels; ++l) {

@@ -11,6 +11,7 @@
 #include "core/parallel.h"
 #include "core/report.h"
 #include "core/sampling.h"
+#include "render/camera_sampler.h"
 #include "render/path_tracer.h"
 #include "render/pt.h"
 #include "render/render_scene.h"
@@ -61,6 +62,17 @@ void BM_RenderPt(benchmark::State& state, const std::string& preset) {
 }
 BENCHMARK_CAPTURE(BM_RenderPt, small, std::string("small"))->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_RenderPt, room, std::string("room"))->Unit(benchmark::kMillisecond)->Iterations(4)->UseRealTime();
+
+// A frame's camera rays set up: every pixel corner unprojected (the room
+// preset's lens is OpenCV8, which libmrcal unprojects by an iterative solve).
+void BM_CameraSetup(benchmark::State& state, const std::string& preset) {
+  Capture& c = Get(preset);
+  for (auto _ : state) {
+    mr::CameraSampler sampler(c.camera, c.pose, 1, 0);
+    benchmark::DoNotOptimize(sampler.PixelValid(0, 0));
+  }
+}
+BENCHMARK_CAPTURE(BM_CameraSetup, room, std::string("room"))->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // The bare loop: rtcIntersect1 through EmbreeScene::Intersect over random
 // rays from the camera position, on all threads like the renderer.

@@ -33,11 +33,20 @@ CameraSampler::CameraSampler(const CameraModel& camera, const Rigid3& world_from
       exposure_(exposure) {
   corner_dirs_.resize(static_cast<size_t>(width_ + 1) * (height_ + 1));
   corner_ok_.resize(corner_dirs_.size());
+  // Each corner by Newton from its left neighbours' rays extrapolated (two
+  // or three projections; libmrcal's general solve for a distorted lens
+  // costs several times more); a row's first corners, or those after a
+  // corner outside the lens' domain, by the general solve.  Rows are
+  // independent: the same rays whatever the thread count.
   ParallelFor(0, height_ + 1, [&](int64_t y) {
     for (int x = 0; x <= width_; ++x) {
       const size_t i = static_cast<size_t>(y) * (width_ + 1) + x;
+      const Eigen::Vector2d q(x - 0.5, static_cast<double>(y) - 0.5);
       Eigen::Vector3d d;
-      corner_ok_[i] = camera.Unproject(Eigen::Vector2d(x - 0.5, static_cast<double>(y) - 0.5), &d);
+      if (x > 1 && corner_ok_[i - 1] && corner_ok_[i - 2])
+        corner_ok_[i] = camera.UnprojectNear(q, 2 * corner_dirs_[i - 1] - corner_dirs_[i - 2], &d);
+      else
+        corner_ok_[i] = camera.Unproject(q, &d);
       corner_dirs_[i] = corner_ok_[i] ? d : Eigen::Vector3d::UnitZ();
     }
   });

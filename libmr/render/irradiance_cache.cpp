@@ -327,22 +327,24 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
         // The mixed entry: virtual records on virtual points, real ones on real.
         Entry& m = mixed_[k];
         if (m.valid && m.is_virtual == r.on_virtual) {
-          const double w = Weight(r, m.p, m.n, inv_a, inv_n);
+          const Eigen::Vector3d mn = m.n.cast<double>();
+          const double w = Weight(r, m.p, mn, inv_a, inv_n);
           if (w > 0) {
-            const auto [em, er] = Extrapolated(r, m.p, m.n);
-            m.w += w;
-            m.sum_m += w * em;
-            m.sum_r += w * er;
+            const auto [em, er] = Extrapolated(r, m.p, mn);
+            m.w += static_cast<float>(w);
+            m.sum_m += (w * em).cast<float>();
+            m.sum_r += (w * er).cast<float>();
             used = true;
           }
         }
         if (r.on_virtual || !m.is_virtual || real_index_[k] == kNoEntry) continue;
         Entry& e = real_[real_index_[k]];
         if (e.valid) {  // the real point behind a virtual one
-          const double w = Weight(r, e.p, e.n, inv_a, inv_n);
+          const Eigen::Vector3d en = e.n.cast<double>();
+          const double w = Weight(r, e.p, en, inv_a, inv_n);
           if (w > 0) {
-            e.w += w;
-            e.sum_r += w * Extrapolated(r, e.p, e.n).second;
+            e.w += static_cast<float>(w);
+            e.sum_r += (w * Extrapolated(r, e.p, en).second).cast<float>();
             used = true;
           }
         }
@@ -366,14 +368,22 @@ void IcFrameRenderer::RenderPass(int spp) {
   samples_ = spp;
   first_ = samples_per_pixel();
   const size_t n = static_cast<size_t>(width()) * height() * spp;
-  mixed_.assign(n, Entry());
+  const ScopedTimer gbuffer_timer(nullptr, "");
+  if (mixed_size_ != n) {
+    mixed_ = std::make_unique_for_overwrite<Entry[]>(n);  // untouched: the pass below writes every entry
+    mixed_size_ = n;
+  }
   // G-buffer: the first hits of each camera sample's mixed ray and, where it
   // meets a virtual object, of its real ray (a second pass, into real_).
   std::atomic<int64_t> outside{0};
   auto gbuffer = [&](bool real_pass) {
     ParallelFor(0, height(), [&](int64_t y) {
       for (int x = 0; x < width(); ++x) {
-        if (!sampler().PixelValid(x, static_cast<int>(y))) continue;
+        if (!sampler().PixelValid(x, static_cast<int>(y))) {
+          if (!real_pass)
+            for (int s = 0; s < spp; ++s) mixed_[(static_cast<size_t>(y) * width() + x) * spp + s].Clear();
+          continue;
+        }
         Eigen::Vector3d c[4];
         sampler().CornerDirections(x, static_cast<int>(y), c);
         const double pixel_angle = std::acos(std::clamp(c[0].dot(c[2]), -1.0, 1.0)) / std::sqrt(2.0);
@@ -384,12 +394,13 @@ void IcFrameRenderer::RenderPass(int spp) {
           sampler().Sample(x, static_cast<int>(y), first_ + s, &ray);
           ray.mask = real_pass ? kMaskReal : kMaskAll;
           Entry* e = real_pass ? &real_[real_index_[k]] : &mixed_[k];
+          e->Clear();
           Hit hit;
           if (!embree.Intersect(ray, &hit)) continue;
           const PathVertex v = MakeVertex(scene_, ray, hit);
           e->p = v.p;
-          e->n = v.frame.n;
-          e->footprint = hit.t * pixel_angle;
+          e->n = v.frame.n.cast<float>();
+          e->footprint = static_cast<float>(hit.t * pixel_angle);
           e->valid = true;
           e->is_virtual = hit.is_virtual;
           e->needed = hit.is_virtual || cache_->InInfluence(v.p);
@@ -403,9 +414,12 @@ void IcFrameRenderer::RenderPass(int spp) {
   uint32_t behind = 0;
   for (size_t k = 0; k < n; ++k)
     if (mixed_[k].is_virtual) real_index_[k] = behind++;
-  real_.assign(behind, Entry());
+  real_.resize(behind);
+  for (Entry& e : real_) e.Clear();
   gbuffer(true);
   outside_influence_ = outside.load();
+  gbuffer_s_ += gbuffer_timer.Seconds();
+  const ScopedTimer records_timer(nullptr, "");
 
   // Records no frame has used for evict_after frames go.
   if (st.evict_after > 0) {
@@ -442,8 +456,8 @@ void IcFrameRenderer::RenderPass(int spp) {
   const double cell = [&] {
     double f = 0;
     int64_t c = 0;
-    for (const Entry& e : mixed_)
-      if (e.valid) f += e.footprint, ++c;
+    for (size_t k = 0; k < n; ++k)
+      if (mixed_[k].valid) f += mixed_[k].footprint, ++c;
     return std::max(1e-6, c > 0 ? 2 * st.max_spacing_px * f / c : 1.0);
   }();
   std::unordered_map<int64_t, std::vector<size_t>> grid;
@@ -470,7 +484,7 @@ void IcFrameRenderer::RenderPass(int spp) {
         if (s2 % 2 == 1 && !mixed_[k].is_virtual) continue;
         IcRecord r;
         r.p = e.p;
-        r.n = e.n;
+        r.n = e.n.cast<double>();
         r.on_virtual = e.is_virtual;
         // The clamps bound the influence radius (accuracy x R_i) in pixels.
         r.r_min = st.min_spacing_px * e.footprint / st.accuracy;
@@ -524,10 +538,13 @@ void IcFrameRenderer::RenderPass(int spp) {
   cache_->passes_ += miss_passes_;
   cache_->record_rays_ += (new_records_ + reevaluated_) * st.rays;
 
+  records_s_ += records_timer.Seconds();
+  const ScopedTimer shade_timer(nullptr, "");
   interpolated_.assign(static_cast<size_t>(width()) * height(), NAN);
   positions_.assign(static_cast<size_t>(width()) * height(), Eigen::Vector3f::Constant(NAN));
   if (st.glossy_cache && scene_.has_glossy()) BuildGrid();  // else no glossy ray looks records up
   ShadePixels(spp);
+  shade_s_ += shade_timer.Seconds();
   // Splatted or looked up with weight > 0.
   for (size_t i = 0; i < used_.size(); ++i)
     if (used_[i]) cache_->records_[i].used_frame = frame_;
@@ -731,19 +748,20 @@ void IcFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pi, in
     Hit rh;
     ++row_rays;
     if (embree.Intersect(rr, &rh)) {
-      const Eigen::Vector3d er = re && re->w > 0 ? Eigen::Vector3d(re->sum_r / re->w) : Eigen::Vector3d::Zero();
+      const Eigen::Vector3d er =
+          re && re->w > 0 ? Eigen::Vector3d((re->sum_r / re->w).cast<double>()) : Eigen::Vector3d::Zero();
       shade(rr, rh, false, true, Eigen::Vector3d::Zero(), er, real_rng);
     } else {
       real += Escaped(scene_, rr, 0, kRealLights);
     }
-    const Eigen::Vector3d em = me.w > 0 ? Eigen::Vector3d(me.sum_m / me.w) : Eigen::Vector3d::Zero();
+    const Eigen::Vector3d em = me.w > 0 ? Eigen::Vector3d((me.sum_m / me.w).cast<double>()) : Eigen::Vector3d::Zero();
     shade(ray, hit, true, false, em, Eigen::Vector3d::Zero(), rng);
     if (sample == first_) interpolated_[pi] = static_cast<float>(Luminance(em));
   } else {
     // A real point: E_m and E_r interpolated with the same weights, so
     // that their difference is the interpolated differential irradiance.
-    const double inv = me.w > 0 ? 1 / me.w : 0;
-    const Eigen::Vector3d em = me.sum_m * inv, er = me.sum_r * inv;
+    const double inv = me.w > 0 ? 1 / static_cast<double>(me.w) : 0;
+    const Eigen::Vector3d em = me.sum_m.cast<double>() * inv, er = me.sum_r.cast<double>() * inv;
     shade(ray, hit, true, true, em, er, rng);
     if (sample == first_) interpolated_[pi] = static_cast<float>(Luminance(em - er));
   }
@@ -765,6 +783,9 @@ void IcFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "pixel_rays", rays_traced());
   report->SetMetric(k + "glossy_lookups", lookups_.load());
   report->SetMetric(k + "glossy_lookup_misses", lookup_misses_.load());
+  report->SetMetric(k + "seconds_gbuffer", gbuffer_s_);
+  report->SetMetric(k + "seconds_records", records_s_);
+  report->SetMetric(k + "seconds_shade", shade_s_);
   if (reevaluated_ == 0 && frame > 0)
     report->Skip(fmt::format("frame {}: record re-evaluation", frame),
                  "no record is t_max frames old: the records of earlier frames are reused as they are");

@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -144,12 +145,23 @@ class IcFrameRenderer : public PixelLoopMethod {
   void Describe(Report* report, int frame) const;
 
  private:
-  struct Entry {  // one G-buffer sample: the first hit of a mixed or a real camera ray
-    Eigen::Vector3d p, n;
-    double footprint = 0;  // world size of a pixel there
-    bool valid = false, is_virtual = false, needed = false;
-    double w = 0;
-    Eigen::Vector3d sum_m = Eigen::Vector3d::Zero(), sum_r = Eigen::Vector3d::Zero();  // sums of w E_m, w E_r
+  // One G-buffer sample: the first hit of a mixed or a real camera ray.  No
+  // member initialisers, so that an array of them can be allocated without
+  // touching it: the G-buffer pass writes every entry (Clear), in parallel.
+  // The sums in single precision: a pixel's few hundred records at most add
+  // in float's 1e-7.
+  struct Entry {
+    Eigen::Vector3d p;
+    Eigen::Vector3f n;
+    float footprint;  // world size of a pixel there
+    float w;
+    Eigen::Vector3f sum_m, sum_r;  // sums of w E_m, w E_r
+    bool valid, is_virtual, needed;
+    void Clear() {  // invalid, no weight
+      p.setZero(), n.setZero(), sum_m.setZero(), sum_r.setZero();
+      footprint = w = 0;
+      valid = is_virtual = needed = false;
+    }
   };
   void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   void Splat(size_t record, int64_t first_row, int64_t last_row);
@@ -178,9 +190,13 @@ class IcFrameRenderer : public PixelLoopMethod {
   DifferentialPathTracer glossy_tracer_;
   int frame_;
   int64_t new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0, outside_influence_ = 0, evicted_ = 0;
+  // Seconds of the frame's parts: G-buffer, records (re-evaluation, splats, miss
+  // passes), shading.
+  double gbuffer_s_ = 0, records_s_ = 0, shade_s_ = 0;
   std::vector<uint8_t> used_;    // per record: splatted with weight > 0 this frame (set through atomic_ref)
   int samples_ = 0, first_ = 0;  // G-buffer samples per pixel, and the first one's index
-  std::vector<Entry> mixed_;     // [pixel * samples_ + s]
+  std::unique_ptr<Entry[]> mixed_;  // [pixel * samples_ + s]
+  size_t mixed_size_ = 0;
   // The real entries, only where the mixed one is virtual (a few percent):
   // real_[real_index_[k]], kNoEntry where there is none.
   static constexpr uint32_t kNoEntry = UINT32_MAX;

@@ -2,7 +2,9 @@
 // geometry of the samples, exactly.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "gi_scenes.h"
 #include "render/camera_sampler.h"
@@ -29,6 +31,52 @@ TEST(CameraExposure, NoneIsThePinhole) {
     EXPECT_EQ(ra.direction, rb.direction);
   }
   EXPECT_FALSE(CameraExposure{}.any());
+}
+
+// The corner rays, found by Newton from the neighbours' rays, are the
+// general solve's (CameraModel::Unproject) to 1e-8 rad, and the corners
+// outside a lens' domain are left out the same: OpenCV8, an OpenCV4 lens
+// whose domain ends inside the image, and a splined fish-eye past 180
+// degrees.
+TEST(CameraSampler, CornerRaysAreTheGeneralSolves) {
+  std::vector<double> splined = {300, 300, 319.5, 239.5};
+  for (int i = 0; i < 2 * 16 * 12; ++i) splined.push_back(0.004 * std::sin(1.7 * i));
+  const CameraModel lenses[] = {
+      CameraModel("LENSMODEL_OPENCV8", {500, 510, 319.5, 239.5, 0.3, 0.02, 1e-3, -1e-3, 0.001, 0.6, 0.05, 0.002}, 640,
+                  480),
+      // Barrel distortion that folds back at 195 px from the centre: the
+      // image's outer part is outside the domain.
+      CameraModel("LENSMODEL_OPENCV4", {300, 300, 319.5, 239.5, -0.35, 0, 1e-3, -1e-3}, 640, 480),
+      CameraModel("LENSMODEL_SPLINED_STEREOGRAPHIC_order=3_Nx=16_Ny=12_fov_x_deg=220", splined, 640, 480)};
+  for (const CameraModel& m : lenses) {
+    const CameraSampler cs(m, Rigid3(), 1, 0);
+    int valid = 0, invalid = 0;
+    double worst = 0;
+    for (int y = 0; y < 480; y += 7)
+      for (int x = 0; x < 640; x += 5) {
+        Eigen::Vector3d c[4], d;
+        cs.CornerDirections(x, y, c);
+        const bool ok = m.Unproject(Eigen::Vector2d(x - 0.5, y - 0.5), &d);
+        bool all = true;
+        for (int dy = 0; dy < 2; ++dy)
+          for (int dx = 0; dx < 2; ++dx) {
+            Eigen::Vector3d e;
+            all = m.Unproject(Eigen::Vector2d(x + dx - 0.5, y + dy - 0.5), &e) && all;
+          }
+        EXPECT_EQ(cs.PixelValid(x, y), all) << m.lensmodel() << " at " << x << ", " << y;
+        if (!ok) {
+          ++invalid;
+          continue;
+        }
+        ++valid;
+        worst = std::max(worst, (c[0] - d).norm());
+      }
+    EXPECT_GT(valid, 1000) << m.lensmodel();
+    if (m.lensmodel() == "LENSMODEL_OPENCV4") EXPECT_GT(invalid, 1000);
+    // Both stop at 1e-8 px of reprojection error; near the OpenCV4 lens' fold
+    // (dq/dtheta -> 0) that is 1.2e-9 rad; elsewhere 5e-11.
+    EXPECT_LT(worst, 1e-8) << m.lensmodel();
+  }
 }
 
 // Thin lens: every sample of a pixel passes through the one point where its

@@ -369,10 +369,7 @@ void IcFrameRenderer::RenderPass(int spp) {
   first_ = samples_per_pixel();
   const size_t n = static_cast<size_t>(width()) * height() * spp;
   const ScopedTimer gbuffer_timer(nullptr, "");
-  if (mixed_size_ != n) {
-    mixed_ = std::make_unique_for_overwrite<Entry[]>(n);  // untouched: the pass below writes every entry
-    mixed_size_ = n;
-  }
+  mixed_.Reserve(n);  // untouched: the pass below writes every entry
   // G-buffer: the first hits of each camera sample's mixed ray and, where it
   // meets a virtual object, of its real ray (a second pass, into real_).
   std::atomic<int64_t> outside{0};
@@ -583,27 +580,31 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
   const IcSettings& st = cache_->settings();
   const int glossy_depth = st.glossy_depth < 0 ? st.max_depth : std::min(st.glossy_depth, st.max_depth);
   if (depth >= glossy_depth) return done();  // next-event light only from here
-  BsdfSample bs;
-  const double ul = g.NextDouble();
-  const auto [u0, u1] = g.Next2D();
-  if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) return done();
-  const Eigen::Vector3d b = bs.f * (bs.wi.z() / bs.pdf);
-  const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
-  if (xv && !want_r) {  // the mixed path from a virtual surface: the plate where it sees
-    int nr = 0;
-    mixed += glossy_tracer_.MixedRadianceFromVirtual(next, b, bs.pdf, depth + 1, g, &nr);
-    rays += nr;
-  } else if (st.glossy_cache) {
-    rays += Continue(next, want_m, want_r, depth + 1, b, bs.pdf, g, &mixed, &real);
-  } else if (want_r && !want_m) {
-    int nr = 0;
-    real += glossy_tracer_.RealRadiance(next, b, bs.pdf, depth + 1, g, &nr);
-    rays += nr;
-  } else {
-    PathSample ps = glossy_tracer_.TraceFrom(next, b, bs.pdf, depth + 1, g);
-    rays += ps.rays;
-    mixed += ps.mixed;
-    if (want_r) real += ps.real;
+  // The lobe's rays: glossy_rays at a camera point (splitting), one deeper.
+  const int n = depth == 0 ? std::max(1, st.glossy_rays) : 1;
+  for (int k = 0; k < n; ++k) {
+    BsdfSample bs;
+    const double ul = g.NextDouble();
+    const auto [u0, u1] = g.Next2D();
+    if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) continue;
+    const Eigen::Vector3d b = bs.f * (bs.wi.z() / (bs.pdf * n));
+    const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
+    if (xv && !want_r) {  // the mixed path from a virtual surface: the plate where it sees
+      int nr = 0;
+      mixed += glossy_tracer_.MixedRadianceFromVirtual(next, b, bs.pdf, depth + 1, g, &nr);
+      rays += nr;
+    } else if (st.glossy_cache) {
+      rays += Continue(next, want_m, want_r, depth + 1, b, bs.pdf, g, &mixed, &real);
+    } else if (want_r && !want_m) {
+      int nr = 0;
+      real += glossy_tracer_.RealRadiance(next, b, bs.pdf, depth + 1, g, &nr);
+      rays += nr;
+    } else {
+      PathSample ps = glossy_tracer_.TraceFrom(next, b, bs.pdf, depth + 1, g);
+      rays += ps.rays;
+      mixed += ps.mixed;
+      if (want_r) real += ps.real;
+    }
   }
   return done();
 }
@@ -823,8 +824,8 @@ namespace {
 
 IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "evict_after", "tile",
-                   "influence_threshold", "glossy_depth", "glossy_cache", "miss_rays", "plate_reflections", "gradients",
-                   "normal_deg"});
+                   "influence_threshold", "glossy_depth", "glossy_cache", "miss_rays", "glossy_rays",
+                   "plate_reflections", "gradients", "normal_deg"});
   IcSettings o;
   if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
   if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
@@ -837,6 +838,7 @@ IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
   if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(-1, 64));
   if (v.Has("glossy_cache")) o.glossy_cache = v.Child("glossy_cache").Bool();
   if (v.Has("miss_rays")) o.miss_rays = static_cast<int>(v.Child("miss_rays").Integer(1, 1 << 16));
+  if (v.Has("glossy_rays")) o.glossy_rays = static_cast<int>(v.Child("glossy_rays").Integer(1, 1024));
   if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
   if (v.Has("gradients")) o.gradients = v.Child("gradients").Bool();
   if (v.Has("normal_deg")) o.normal_deg = v.Child("normal_deg").Number(1, 90);

@@ -51,8 +51,8 @@ struct IcSettings {
   // Rays of the glossy lobe at each camera sample's point (splitting; the
   // points they meet take one each): the lobe's variance, which the records
   // do not touch, falls as 1/glossy_rays at a fraction of a camera sample's
-  // cost (docs/benchmarks.md: 2 takes a quarter off the glossy bunny's
-  // error for 2% more time).
+  // cost (docs/methods.md, "ic": 2 takes 12-26% off the glossy bunny's
+  // error for 2-9% more time).
   int glossy_rays = 2;
   // Glossy paths from virtual surfaces take the plate's radiance where it
   // sees the real point they meet (render/path_tracer.h, PlateView).

@@ -97,13 +97,17 @@ class DifferentialPathTracer {
                                            Sampler& rng, int* rays) const {
     return TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, rays, 0, true);
   }
-  // At real vertex `v`, met by a mixed ray leaving a virtual surface: adds
-  // beta times the plate's radiance there and the objects' shadows on it
-  // (their next-event estimate) to *L and returns true where a plate sees
-  // it (PlateView; the path ends there); false, adding nothing, where the
-  // room must be rendered (no plate, a glossy surface, unseen or clipped).
-  // Counted either way.
-  bool PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, Sampler& rng, int* rays,
+  // At real vertex `v`, met at bounce `depth` by a mixed ray leaving a
+  // virtual surface: adds to *L beta times the plate's radiance there plus
+  // the difference the virtual objects make to the point's light, which the
+  // plate cannot show (their shadows and lights, by its next-event
+  // estimate; their occlusion of its indirect light and their bounce light,
+  // by one shared differential path on from it while depth < max_depth,
+  // whose two solutions cancel where it meets no object), and returns true
+  // where a plate sees it (PlateView; the plate's path ends there); false,
+  // adding nothing, where the room must be rendered (no plate, a glossy
+  // surface, unseen or clipped).  Counted either way.
+  bool PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, int depth, Sampler& rng, int* rays,
                         Eigen::Vector3d* L) const;
 
  private:

@@ -389,7 +389,7 @@ class VplShader {
     }
     if (plate_ && from_virtual && want_m && !want_r && !hit.is_virtual) {
       int rays = 0;
-      const bool taken = plate_->PlateAtRealPoint(MakeVertex(scene_, ray, hit), beta, rng, &rays, &acc->mixed);
+      const bool taken = plate_->PlateAtRealPoint(MakeVertex(scene_, ray, hit), beta, depth, rng, &rays, &acc->mixed);
       acc->c.shadow_rays += rays;
       if (taken) return;
     }
@@ -464,7 +464,7 @@ class VplShader {
     const PathVertex y = MakeVertex(scene_, ray, hit);
     if (plate_ && !hit.is_virtual) {
       int rays = 0;
-      const bool taken = plate_->PlateAtRealPoint(y, b, rng, &rays, &acc->mixed);
+      const bool taken = plate_->PlateAtRealPoint(y, b, 1, rng, &rays, &acc->mixed);
       acc->c.shadow_rays += rays;
       if (taken) return;
     }
@@ -840,6 +840,7 @@ class VplShader {
 
 PathTracerSettings PlateTracerSettings(const VplSettings& s, const PlateViews& plates) {
   PathTracerSettings p;
+  p.max_depth = s.max_depth;  // the difference path on from a plate's point (PlateAtRealPoint)
   p.plate_reflections = s.plate_reflections;
   p.plates = plates;
   return p;

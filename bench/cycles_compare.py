@@ -33,9 +33,13 @@ processes (start-up, loading, writing).  The truth's own noise is stated
 (relMSE of its two halves / 4, in the region).
 
 Usage: bench/cycles_compare.py BIN_DIR OUT_DIR [--quick] [--scenes bunny-room,table-top]
-         [--mesh PLY] [--threads N] [--renderers mr,mr-fast,cycles]
+         [--mesh PLY] [--threads N] [--renderers mr,mr-fast,cycles] [--spps 4,16,64,256]
+         [--seeds K]
 Writes OUT_DIR/SCENE/results.csv and OUT_DIR/results.csv (every scene's rows),
-and prints each row as it is measured.  A scene's plate and truth are kept
+and prints each row as it is measured.  --seeds K renders every setting with
+K render seeds (mr's render.seed 1..K, Cycles' 5..K+4: a heavy-tailed error
+needs the mean of several) and prints each setting's mean error; the rows
+carry their seed.  A scene's plate and truth are kept
 and reused by later runs into the same OUT_DIR.
 """
 import argparse
@@ -232,6 +236,8 @@ def main():
     ap.add_argument("--scenes", default="bunny-room,table-top")
     ap.add_argument("--mesh", default=os.path.join(HERE, "..", "..", "shared", "data", "meshes", "bun_zipper_res2.ply"))
     ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--spps", help="pt's and Cycles' samples per pixel (default 4,16,64,256; --quick 4,16)")
+    ap.add_argument("--seeds", type=int, default=1, help="render seeds per setting (their mean error is printed)")
     ap.add_argument("--renderers", default="mr,mr-fast,cycles",
                     help="which to run: mr (pt), mr-fast (ic, vpl, vct), cycles; the rows of those left out are "
                          "kept from OUT's earlier results")
@@ -241,7 +247,8 @@ def main():
     if not os.path.isfile(a.mesh):
         raise SystemExit("cycles_compare: no bunny mesh at %s (--mesh)" % a.mesh)
     os.makedirs(out, exist_ok=True)
-    spps = [4, 16] if a.quick else [4, 16, 64, 256]
+    spps = [int(v) for v in a.spps.split(",")] if a.spps else [4, 16] if a.quick else [4, 16, 64, 256]
+    seeds = range(max(1, a.seeds))
     fast = ([("ic", {"rays": 32}, 4), ("vpl", {"paths": 64}, 2), ("vct", {}, 4)] if a.quick else
             [("ic", {"rays": 32}, 4), ("ic", {"rays": 64}, 8), ("ic", {"rays": 128}, 16),
              ("vpl", {"paths": 64}, 2), ("vpl", {"paths": 128}, 4), ("vpl", {"paths": 256}, 8),
@@ -318,20 +325,22 @@ def main():
         print("%s: truth and plate in %.0f s; region %d pixels; the truth's own noise %.2g (region relMSE)"
               % (name, time.perf_counter() - t0, int(region.sum()), noise), flush=True)
 
-        def add(renderer, setting, spp, render_s, wall_s, composite):
+        def add(renderer, setting, spp, render_s, wall_s, composite, seed):
             e = region_relmse(bin_dir, composite, truth_path, region_png, composite + ".cmp.json")
-            rows.append({"scene": name, "renderer": renderer, "setting": setting, "spp": spp,
+            rows.append({"scene": name, "renderer": renderer, "setting": setting, "spp": spp, "seed": seed,
                          "render_seconds": round(render_s, 3), "wall_seconds": round(wall_s, 3),
                          "region_relmse": "%.4g" % e, "truth_noise": "%.2g" % noise})
-            print("  %-15s %-12s %5d spp  %8.2f s (wall %7.2f s)  region relMSE %.3g"
-                  % (renderer, setting, spp, render_s, wall_s, e), flush=True)
+            print("  %-15s %-12s %5d spp seed %d  %8.2f s (wall %7.2f s)  region relMSE %.3g"
+                  % (renderer, setting, spp, seed, render_s, wall_s, e), flush=True)
 
         # mr: one mr-render per setting (its report's per-frame seconds).
         s = json.load(open(scene_path))
         s.pop("reference", None)
         s["output"] = {"dir": "render", "png": False, "layers": ["composite", "mask"]}
         todo = ([("pt", {}, n) for n in spps] if "mr" in renderers else []) + (fast if "mr-fast" in renderers else [])
-        for method, block, spp in todo:
+        base_seed = int(s["render"].get("seed", 1))
+        for (method, block, spp), k in ((t, k) for t in todo for k in seeds):
+            s["render"]["seed"] = base_seed + k
             s["render"]["method"] = method
             s["render"]["spp"] = spp
             for m in ("ic", "vpl", "vct"):
@@ -341,12 +350,12 @@ def main():
             setting = ",".join("%s=%s" % kv for kv in block.items()) or "-"
             sp = os.path.join(os.path.dirname(scene_path), "cmp-%s.json" % method)
             json.dump(s, open(sp, "w"), indent=1)
-            rdir = os.path.join(work, "mr-%s-%s-%d" % (method, setting.replace("=", ""), spp))
+            rdir = os.path.join(work, "mr-%s-%s-%d%s" % (method, setting.replace("=", ""), spp, "-s%d" % k if k else ""))
             wall = run([os.path.join(bin_dir, "mr-render"), sp, "--out", rdir, "--report", rdir + ".json", "-q",
                         "--threads", str(a.threads)])
             rep = json.load(open(rdir + ".json"))
             add("mr " + method, setting, spp, rep["metrics"]["frames"][0]["seconds"], wall,
-                os.path.join(rdir, "00000.exr"))
+                os.path.join(rdir, "00000.exr"), base_seed + k)
         # Cycles: the coverage once (shared by every cycles-diff setting,
         # counted in each), then per spp the two renders differenced and the
         # shadow catcher.
@@ -354,18 +363,28 @@ def main():
             continue
         mask_path, mask_s, mask_wall = bl.render(spec, "c-mask", mode="mask", spp=64)
         M = read_alpha(mask_path)[:, :, None]
-        for spp in spps:
-            f, fs, fw = bl.render(spec, "c-full-%d" % spp, mode="full", spp=spp, seed=5)
-            r, rs, rw = bl.render(spec, "c-real-%d" % spp, mode="real", spp=spp, seed=5)
+        for spp, k in ((n, k) for n in spps for k in seeds):
+            tag = "%d%s" % (spp, "-s%d" % k if k else "")
+            f, fs, fw = bl.render(spec, "c-full-%s" % tag, mode="full", spp=spp, seed=5 + k)
+            r, rs, rw = bl.render(spec, "c-real-%s" % tag, mode="real", spp=spp, seed=5 + k)
             I_m, I_r = read_rgb(f), read_rgb(r)
             comp = np.maximum(0.0, M * I_m + (1 - M) * (plate + I_m - I_r))
-            cp = os.path.join(work, "cycles-diff-%d.exr" % spp)
+            cp = os.path.join(work, "cycles-diff-%s.exr" % tag)
             write_rgb(cp, comp)
-            add("cycles-diff", "-", spp, fs + rs + mask_s, fw + rw + mask_wall, cp)
-            c, cs, cw = bl.render(spec, "c-catcher-%d" % spp, mode="catcher", spp=spp, seed=5, plate=plate_path)
-            cp = os.path.join(work, "cycles-catcher-%d.exr" % spp)
+            add("cycles-diff", "-", spp, fs + rs + mask_s, fw + rw + mask_wall, cp, 5 + k)
+            c, cs, cw = bl.render(spec, "c-catcher-%s" % tag, mode="catcher", spp=spp, seed=5 + k, plate=plate_path)
+            cp = os.path.join(work, "cycles-catcher-%s.exr" % tag)
             write_rgb(cp, read_rgb(c))
-            add("cycles-catcher", "-", spp, cs, cw, cp)
+            add("cycles-catcher", "-", spp, cs, cw, cp, 5 + k)
+    if len(seeds) > 1:
+        print("means over %d seeds:" % len(seeds))
+        means = {}
+        for r in rows:
+            means.setdefault((r["scene"], r["renderer"], r["setting"], r["spp"]), []).append(r)
+        for (scene, renderer, setting, spp), rs in means.items():
+            print("  %-10s %-15s %-12s %5d spp  %8.2f s  region relMSE %.3g (%s)"
+                  % (scene, renderer, setting, spp, sum(r["render_seconds"] for r in rs) / len(rs),
+                     sum(float(r["region_relmse"]) for r in rs) / len(rs), ", ".join(r["region_relmse"] for r in rs)))
     # Per scene, then every scene's table in OUT (a scene run again replaces its rows).
     fields = list(rows[0].keys())
 

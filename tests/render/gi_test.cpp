@@ -446,6 +446,17 @@ TEST(Vpl, ReusedCutsAgreeWithFreshOnes) {
   std::printf("reuse: %.9f vs %.9f\n", Mean(reused.Mixed()), Mean(fresh.Mixed()));
 }
 
+// A 4 m glossy floor (albedo, specular, roughness) and a white (0.8) wall 1 m
+// before the camera's target.
+void GlossyFloorBeforeWall(RenderScene* s, double albedo, double specular, double roughness) {
+  Material floor;
+  floor.albedo = Eigen::Vector3d::Constant(albedo);
+  floor.specular = Eigen::Vector3d::Constant(specular);
+  floor.roughness = roughness;
+  s->AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), floor);
+  s->AddReal(Quad({-2, 0, 1}, {2, 0, 1}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.8));
+}
+
 // With glossy_cache the points glossy rays meet take their indirect light
 // from the records, where a glossy path of glossy_depth bounces cut it.  A
 // glossy floor reflects a back wall under a uniform sky, no photograph (so
@@ -455,12 +466,7 @@ TEST(Vpl, ReusedCutsAgreeWithFreshOnes) {
 // floor's and the ceiling's bounce (measured -10.5%).
 TEST(Ic, GlossyRaysTakeTheRecordsIndirectLight) {
   RenderScene s;
-  Material floor;
-  floor.albedo = Eigen::Vector3d::Constant(0.5);
-  floor.specular = Eigen::Vector3d::Constant(0.4);
-  floor.roughness = 0.1;
-  s.AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), floor);
-  s.AddReal(Quad({-2, 0, 1}, {2, 0, 1}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.8));
+  GlossyFloorBeforeWall(&s, 0.5, 0.4, 0.1);
   s.AddReal(Quad({-2, 2, -2}, {2, 2, -2}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.8));  // a ceiling
   s.SetEnvironment(Sky(1));
   s.Commit();
@@ -503,12 +509,7 @@ TEST(Ic, GlossyRaysTakeTheRecordsIndirectLight) {
 // direct light and records, stays).
 TEST(Ic, GlossyRaysSplitTheLobe) {
   RenderScene s;
-  Material floor;
-  floor.albedo = Eigen::Vector3d::Constant(0.2);
-  floor.specular = Eigen::Vector3d::Constant(0.6);
-  floor.roughness = 0.3;
-  s.AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), floor);
-  s.AddReal(Quad({-2, 0, 1}, {2, 0, 1}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.8));
+  GlossyFloorBeforeWall(&s, 0.2, 0.6, 0.3);
   // Black stripes on the wall: the reflection's contrast, the lobe's variance.
   for (float x0 : {-1.5f, -0.7f, 0.1f, 0.9f})
     s.AddReal(Quad({x0, 0.05, 0.95}, {x0 + 0.4f, 0.05f, 0.95f}, {x0 + 0.4f, 1.5f, 0.95f}, {x0, 1.5, 0.95}), Diffuse(0));

@@ -457,6 +457,16 @@ void GlossyFloorBeforeWall(RenderScene* s, double albedo, double specular, doubl
   s->AddReal(Quad({-2, 0, 1}, {2, 0, 1}, {2, 2, 1}, {-2, 2, 1}), Diffuse(0.8));
 }
 
+// ic's settings for those scenes: 256 rays a record, 8 bounces, no
+// photograph (records wherever the camera looks).
+IcSettings GlossyFloorIc() {
+  IcSettings is;
+  is.rays = 256;
+  is.max_depth = 8;
+  is.photograph = false;
+  return is;
+}
+
 // With glossy_cache the points glossy rays meet take their indirect light
 // from the records, where a glossy path of glossy_depth bounces cut it.  A
 // glossy floor reflects a back wall under a uniform sky, no photograph (so
@@ -484,10 +494,7 @@ TEST(Ic, GlossyRaysTakeTheRecordsIndirectLight) {
   pt.RenderPass(1024);
   const double ref = floor_mean(pt.Mixed());
   auto ic = [&](bool cache) {
-    IcSettings is;
-    is.rays = 256;
-    is.max_depth = 8;
-    is.photograph = false;
+    IcSettings is = GlossyFloorIc();
     is.glossy_cache = cache;
     IrradianceCache c(s, is);
     IcFrameRenderer r(s, &c, cam, pose, 0, 0);
@@ -518,10 +525,7 @@ TEST(Ic, GlossyRaysSplitTheLobe) {
   const CameraModel cam = Pinhole(32, 24, 16);
   const Rigid3 pose = LookAt({0, 0.5, -1.8}, {0, 0.2, 1});
   auto render = [&](int glossy_rays, uint64_t seed) {
-    IcSettings is;
-    is.rays = 256;
-    is.max_depth = 8;
-    is.photograph = false;
+    IcSettings is = GlossyFloorIc();
     is.glossy_rays = glossy_rays;
     IrradianceCache c(s, is);
     IcFrameRenderer r(s, &c, cam, pose, seed, 0);

@@ -74,6 +74,8 @@ TEST(MethodRegistry, EachMethodChecksItsOwnBlock) {
             "scene.json: render.ic.min_spacing_px: is larger than max_spacing_px");
   EXPECT_EQ(CheckError({{"ic", {{"glossy_depth", -2}}}}),
             "scene.json: render.ic.glossy_depth: expected an integer in [-1, 64], got -2");
+  EXPECT_EQ(CheckError({{"ic", {{"glossy_rays", 0}}}}),
+            "scene.json: render.ic.glossy_rays: expected an integer in [1, 1024], got 0");
   EXPECT_EQ(CheckError({{"prt", {{"spp", 4}}}}).rfind("scene.json: render.prt.spp: unknown key", 0), 0u);
 }
 

@@ -19,6 +19,7 @@ struct BsdfSample {
 
 class Bsdf {
  public:
+  Bsdf() = default;  // black: reflects nothing
   explicit Bsdf(const Material& m);
   // wo and wi in the local frame (z = normal), both pointing away from the surface.
   Eigen::Vector3d Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
@@ -38,9 +39,9 @@ class Bsdf {
  private:
   double D(const Eigen::Vector3d& h) const;
   double Lambda(const Eigen::Vector3d& w) const;
-  Eigen::Vector3d albedo_, specular_;
-  double alpha_;
-  double diffuse_weight_, glossy_weight_;  // lobe selection probabilities
+  Eigen::Vector3d albedo_ = Eigen::Vector3d::Zero(), specular_ = Eigen::Vector3d::Zero();
+  double alpha_ = 1;
+  double diffuse_weight_ = 0, glossy_weight_ = 0;  // lobe selection probabilities
 };
 
 }  // namespace mr

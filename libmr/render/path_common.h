@@ -20,7 +20,8 @@ inline double PowerHeuristic(double a, double b) {
 }
 
 struct ShadingFrame {
-  Eigen::Vector3d t, b, n;
+  Eigen::Vector3d t = Eigen::Vector3d::UnitX(), b = Eigen::Vector3d::UnitY(), n = Eigen::Vector3d::UnitZ();
+  ShadingFrame() = default;  // the world's axes
   explicit ShadingFrame(const Eigen::Vector3d& normal) : n(normal) { CoordinateSystem(n, &t, &b); }
   Eigen::Vector3d ToLocal(const Eigen::Vector3d& v) const { return {v.dot(t), v.dot(b), v.dot(n)}; }
   Eigen::Vector3d ToWorld(const Eigen::Vector3d& v) const { return v.x() * t + v.y() * b + v.z() * n; }
@@ -52,8 +53,8 @@ inline Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, ui
 struct PathVertex {
   Eigen::Vector3d p, wo_world;
   double offset = 0;  // along the normal, for rays leaving p
-  ShadingFrame frame{Eigen::Vector3d::UnitZ()};
-  Bsdf bsdf{Material()};
+  ShadingFrame frame;
+  Bsdf bsdf;                                         // black until MakeVertex sets it
   Eigen::Vector3d albedo = Eigen::Vector3d::Zero();  // the diffuse albedo here
   bool vertex_albedo = false;                        // albedo varies over the surface
   const Material* material = nullptr;

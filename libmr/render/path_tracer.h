@@ -67,6 +67,7 @@ class DifferentialPathTracer {
   DifferentialPathTracer(const RenderScene& scene, const PathTracerSettings& settings)
       : scene_(scene), settings_(settings), plate_counters_(std::make_shared<PlateCounters>()) {}
   const PlateCounters& plate_counters() const { return *plate_counters_; }
+  const RenderScene& scene() const { return scene_; }
   PathSample Trace(const Ray& primary, Sampler& rng) const {
     return TraceFrom(primary, Eigen::Vector3d::Ones(), 0, 0, rng);
   }

@@ -1,6 +1,7 @@
 #include "render/pt.h"
 
 #include <algorithm>
+#include <cmath>
 
 #include <spdlog/spdlog.h>
 
@@ -51,41 +52,51 @@ PtFrameRenderer::PtFrameRenderer(const RenderScene& scene, const CameraModel& ca
                                  const PathTracerSettings& settings, const CameraExposure& exposure)
     : PixelLoopMethod(camera, world_from_cam, settings.seed, settings.frame, exposure), tracer_(scene, settings) {
   const size_t n = static_cast<size_t>(width()) * height();
-  const CameraSampler& cs = sampler();
   // Pixels whose camera rays provably meet no geometry see only the
   // environment, identically in I_m and I_r: their difference is exactly
   // zero, and after the first pass they are not sampled further.
-  skip_.assign(n, 0);
   bool virtual_disc = false;  // a virtual sun seen directly differs between I_m and I_r
   for (const LightSource& l : scene.lights()) virtual_disc = virtual_disc || (l.is_virtual() && !l.light().IsDelta());
   // (One apex and fixed corners: not with a moving camera or a lens.)
-  if (settings.skip_environment_pixels && scene.has_virtual() && !virtual_disc && !exposure.any()) {
-    const Eigen::Vector3d o = world_from_cam.translation;
-    double far = 1;
-    for (const auto& b : scene.geometry_bounds())
-      for (int k = 0; k < 8; ++k)
-        far = std::max(far, (b.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)) - o).norm());
-    far = 2 * far + 1;  // the hull of the apex and the far corners covers the pyramid out to far/2
-    ParallelFor(0, height(), [&](int64_t y) {
-      for (int x = 0; x < width(); ++x) {
-        if (!cs.PixelValid(x, static_cast<int>(y))) continue;
-        Eigen::Vector3d c[4];
-        cs.CornerDirections(x, static_cast<int>(y), c);
-        const Eigen::Vector3d axis = (c[0] + c[1] + c[2] + c[3]).normalized();
-        bool narrow = true;
-        for (const auto& ci : c) narrow = narrow && ci.dot(axis) > 0.9;
-        if (!narrow) continue;
-        bool misses = true;
-        for (const auto& b : scene.geometry_bounds()) misses = misses && PyramidMissesBox(o, c, far, b);
-        skip_[static_cast<size_t>(y) * width() + x] = misses;
-      }
-    });
-    for (char k : skip_) skipped_pixels_ += k;
-  }
+  skip_possible_ = settings.skip_environment_pixels && scene.has_virtual() && !virtual_disc && !exposure.any();
+  if (!skip_possible_) return;
+  eye_ = world_from_cam.translation;
+  for (const auto& b : scene.geometry_bounds())
+    for (int k = 0; k < 8; ++k)
+      far_ = std::max(far_, (b.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)) - eye_).norm());
+  far_ = 2 * far_ + 1;  // the hull of the apex and the far corners covers the pyramid out to far/2
+  escaped_.assign(n, 0);
+  skip_.assign(n, kUntested);
 }
 
-void PtFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t, int, PathSample* out) {
+bool PtFrameRenderer::ProvablyEnvironment(size_t pixel) const {
+  const int x = static_cast<int>(pixel % static_cast<size_t>(width())), y = static_cast<int>(pixel / width());
+  const CameraSampler& cs = sampler();
+  if (!cs.PixelValid(x, y)) return false;
+  Eigen::Vector3d c[4];
+  cs.CornerDirections(x, y, c);
+  const Eigen::Vector3d axis = (c[0] + c[1] + c[2] + c[3]).normalized();
+  for (const auto& ci : c)
+    if (!(ci.dot(axis) > 0.9)) return false;  // too wide for the pyramid's proof
+  for (const auto& b : tracer_.scene().geometry_bounds())
+    if (!PyramidMissesBox(eye_, c, far_, b)) return false;
+  return true;
+}
+
+bool PtFrameRenderer::PixelDone(size_t pixel) const {
+  if (!only_.empty() && !only_[pixel]) return true;
+  if (!skip_possible_ || !escaped_[pixel] || accumulator().count(pixel) == 0) return false;
+  if (skip_[pixel] == kUntested) skip_[pixel] = ProvablyEnvironment(pixel) ? kSkip : kKeep;
+  return skip_[pixel] == kSkip;
+}
+
+int64_t PtFrameRenderer::skipped_pixels() const {
+  return std::count(skip_.begin(), skip_.end(), static_cast<char>(kSkip));
+}
+
+void PtFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pixel, int sample, PathSample* out) {
   *out = tracer_.Trace(ray, rng);
+  if (sample == 0 && skip_possible_) escaped_[pixel] = !std::isfinite(out->first_t);
 }
 
 namespace {

@@ -18,8 +18,9 @@ class PtFrameRenderer : public PixelLoopMethod {
  public:
   PtFrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
                   const PathTracerSettings& settings, const CameraExposure& exposure = {});
-  // Pixels sampled in the first pass only, their difference provably zero.
-  int64_t skipped_pixels() const override { return skipped_pixels_; }
+  // Pixels sampled in the first pass only, their difference provably zero
+  // (found from the second pass on).
+  int64_t skipped_pixels() const override;
   // Real points met from virtual surfaces: from the plate or rendered.
   const PlateCounters& plate_counters() const { return tracer_.plate_counters(); }
   // Later passes sample only the pixels whose `only` is non-zero (one per
@@ -30,13 +31,21 @@ class PtFrameRenderer : public PixelLoopMethod {
 
  private:
   void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
-  bool PixelDone(size_t pixel) const override {
-    return (skip_[pixel] && accumulator().count(pixel) > 0) || (!only_.empty() && !only_[pixel]);
-  }
+  bool PixelDone(size_t pixel) const override;
+  // Whether every ray through the pixel provably meets no geometry.
+  bool ProvablyEnvironment(size_t pixel) const;
   std::vector<char> only_;
   DifferentialPathTracer tracer_;
-  std::vector<char> skip_;  // provably zero difference
-  int64_t skipped_pixels_ = 0;
+  // Pixels whose difference is provably zero are found after their first
+  // sample, among those whose first camera ray met nothing (`escaped_`):
+  // the proof is tried only where it can hold.  Each pixel's entries are
+  // touched by the one thread that shades it.
+  enum : char { kUntested, kSkip, kKeep };
+  bool skip_possible_ = false;
+  Eigen::Vector3d eye_ = Eigen::Vector3d::Zero();
+  double far_ = 1;
+  std::vector<char> escaped_;
+  mutable std::vector<char> skip_;
 };
 
 // The registry's `pt` (render.pt: {skip_environment_pixels}).

@@ -372,19 +372,29 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
   }
   for (int f = resumed_end; f < end; ++f) {
     const Rigid3& pose = poses[static_cast<size_t>(f)];
-    const auto t0 = std::chrono::steady_clock::now();
+    // The method's own time on this frame: its world update, its frame
+    // renderer's set-up and its passes; not loading, the error checkpoints,
+    // compositing or writing (the frame's `seconds`, its error curve's).
+    double method_seconds = 0;
+    auto timed = [&method_seconds](auto&& work) {
+      const auto start = std::chrono::steady_clock::now();
+      work();
+      method_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
     Json world_json;
     if (world.dynamic()) {
       const WorldChange wc = world.Advance(f, &rs);
       std::vector<std::string> rebuilt;
       if (wc.any() && f > resumed_end) {
         ScopedTimer t(report, "world update");
-        if (scene.render.world_update == "rebuild") {
-          method->Prepare(job_at(f));
-          rebuilt = {"everything (render.world_update is rebuild)"};
-        } else {
-          rebuilt = method->WorldChanged(job_at(f), wc);
-        }
+        timed([&] {
+          if (scene.render.world_update == "rebuild") {
+            method->Prepare(job_at(f));
+            rebuilt = {"everything (render.world_update is rebuild)"};
+          } else {
+            rebuilt = method->WorldChanged(job_at(f), wc);
+          }
+        });
         spdlog::info("frame {}: {} changed: {}", f, wc.Describe(),
                      rebuilt.empty() ? std::string("nothing to rebuild") : fmt::format("{}", fmt::join(rebuilt, ", ")));
       }
@@ -450,7 +460,10 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
                           exposure,
                           plates};
     std::unique_ptr<FrameMethod> fr;
-    if (!frame_copy) fr = method->NewFrame(fc);
+    if (!frame_copy) {
+      ScopedTimer t(report, "render");
+      timed([&] { fr = method->NewFrame(fc); });
+    }
     const AdaptiveSampling adaptive{scene.render.adaptive_threshold, scene.render.adaptive_min_spp};
     if (fr && adaptive.on() && !fr->SetAdaptive(adaptive) && f == resumed_end)
       report->Skip("adaptive sampling",
@@ -465,11 +478,11 @@ void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
       const int n = info.one_pass ? spp : std::min(done == 0 ? 1 : done, spp - done);
       {
         ScopedTimer t(report, "render");
-        fr->RenderPass(n);
+        timed([&] { fr->RenderPass(n); });
       }
       done += n;
       progress.Update(done);
-      seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      seconds = method_seconds;
       if (ref)
         errors.Checkpoint(seconds, done,
                           MeasureFrame(dec.Compose(*fr, photo_ptr).composite, *ref, region ? &*region : nullptr));

@@ -69,12 +69,12 @@ struct VplSettings {
 enum VplSets : uint8_t { kLightsReal = 1, kLightsMixed = 2, kLightsBoth = 3 };
 
 struct Vpl {
-  Eigen::Vector3d p;                             // on the surface, offset along n
-  ShadingFrame frame{Eigen::Vector3d::UnitZ()};  // n faces the side the light arrived on
-  Eigen::Vector3d wi_local;                      // towards where the light came from, in frame
-  Eigen::Vector3d flux;                          // arriving flux (W)
-  Bsdf bsdf{Material()};                         // the surface's, with its albedo there
-  uint8_t sets = kLightsBoth;                    // which solutions it lights
+  Eigen::Vector3d p;           // on the surface, offset along n
+  ShadingFrame frame;          // n faces the side the light arrived on
+  Eigen::Vector3d wi_local;    // towards where the light came from, in frame
+  Eigen::Vector3d flux;        // arriving flux (W)
+  Bsdf bsdf;                   // the surface's, with its albedo there
+  uint8_t sets = kLightsBoth;  // which solutions it lights
   bool on_virtual = false;
   int depth = 0;  // surfaces met along its path before (0: lit by the emitter)
 };

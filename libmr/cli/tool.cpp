@@ -1,5 +1,7 @@
 #include "cli/tool.h"
 
+#include <malloc.h>
+
 #include <cmath>
 #include <csignal>
 #include <cstdio>
@@ -123,6 +125,12 @@ int RunTool(const std::string& tool, CLI::App& app, int argc, char** argv, const
   // A file-size limit (ulimit -f) then fails the write with EFBIG, which the
   // checked writes report and clean up after, instead of killing the tool.
   std::signal(SIGXFSZ, SIG_IGN);
+  // Freed memory stays with the process for the next frame: a frame's
+  // images (4-22 MB at 640x480) would otherwise be mapped afresh and
+  // faulted in page by page each time, a third of a 1-spp frame's wall time
+  // (docs/benchmarks.md).  32 MiB is glibc's largest mmap threshold.
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

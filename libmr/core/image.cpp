@@ -81,6 +81,28 @@ void Image::AppendLayer(const std::string& layer, const Image& img) {
   data_ = std::move(data);
 }
 
+Image Image::Stack(const std::vector<std::pair<std::string, const Image*>>& layers) {
+  MR_CHECK(!layers.empty());
+  Image out;
+  out.width_ = layers.front().second->width();
+  out.height_ = layers.front().second->height();
+  for (const auto& [layer, img] : layers) {
+    MR_CHECK(img->width() == out.width_ && img->height() == out.height_);
+    for (const auto& n : img->channel_names()) out.names_.push_back(layer.empty() ? n : layer + "." + n);
+  }
+  const size_t nc = out.names_.size();
+  out.data_.resize(static_cast<size_t>(out.width_) * out.height_ * nc);
+  size_t first = 0;
+  for (const auto& [layer, img] : layers) {
+    const size_t c = static_cast<size_t>(img->channels());
+    const float* src = img->data();
+    float* dst = out.data_.data() + first;
+    for (int64_t p = 0; p < out.pixel_count(); ++p, src += c, dst += nc) std::copy(src, src + c, dst);
+    first += c;
+  }
+  return out;
+}
+
 std::vector<ChannelStats> ComputeStats(const Image& img) {
   std::vector<ChannelStats> stats(static_cast<size_t>(img.channels()));
   const int nc = img.channels();

@@ -46,6 +46,9 @@ class Image {
   Image Layer(const std::string& layer) const;
   // Appends `img`'s channels as `layer`.C (img must have the same size).
   void AppendLayer(const std::string& layer, const Image& img);
+  // The layers' channels side by side, `name`.C, in order (all of one size,
+  // at least one): AppendLayer of each, in one pass over the pixels.
+  static Image Stack(const std::vector<std::pair<std::string, const Image*>>& layers);
 
  private:
   size_t Index(int x, int y, int c) const {

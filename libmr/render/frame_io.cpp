@@ -231,12 +231,13 @@ void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, c
   auto wanted = [&](const char* name) {
     return std::find(output.layers.begin(), output.layers.end(), name) != output.layers.end();
   };
-  Image layers;
+  std::vector<std::pair<std::string, const Image*>> chosen;
   const std::pair<const char*, const Image*> all[] = {
       {"composite", l.composite},   {"mixed", l.mixed},       {"real", l.real},       {"mask", l.mask},
       {"difference", l.difference}, {"variance", l.variance}, {"samples", l.samples}, {"photo", l.photo}};
   for (const auto& [name, img] : all)
-    if (img && (wanted(name) || std::string(name) == "composite")) layers.AppendLayer(name, *img);
+    if (img && (wanted(name) || std::string(name) == "composite")) chosen.emplace_back(name, img);
+  const Image layers = Image::Stack(chosen);
   ImageWriteOptions wo;
   wo.tool = tool;
   // A frame's provenance is what decides its pixels, not how the job was

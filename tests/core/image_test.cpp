@@ -27,6 +27,19 @@ Image Ramp(int w, int h, std::vector<std::string> names, float scale = 1.0f) {
   return img;
 }
 
+TEST(Image, StackIsAppendLayerOfEach) {
+  const Image a = Ramp(7, 5, {"R", "G", "B"}, 2.0f), b = Image::Gray(7, 5, 0.25f), c = Ramp(7, 5, {"X", "Y"}, -3.0f);
+  Image appended;
+  appended.AppendLayer("a", a);
+  appended.AppendLayer("b", b);
+  appended.AppendLayer("", c);
+  const Image stacked = Image::Stack({{"a", &a}, {"b", &b}, {"", &c}});
+  EXPECT_EQ(stacked.channel_names(), appended.channel_names());
+  EXPECT_EQ(stacked.values(), appended.values());
+  EXPECT_EQ(stacked.width(), 7);
+  EXPECT_EQ(stacked.height(), 5);
+}
+
 TEST(Image, ExrFloatRoundTripWithLayersAndProvenance) {
   TempDir dir;
   Image img = Ramp(7, 5, {"R", "G", "B"}, 1e6f);  // beyond half range: float32 keeps it

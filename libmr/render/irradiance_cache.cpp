@@ -6,6 +6,7 @@
 #include <cmath>
 #include <unordered_map>
 
+#include "core/hash.h"
 #include "core/parallel.h"
 #include "render/path_common.h"
 #include "render/world.h"
@@ -463,7 +464,31 @@ void IcFrameRenderer::RenderPass(int spp) {
     return (static_cast<int64_t>(g.x()) * 73856093) ^ (static_cast<int64_t>(g.y()) * 19349663) ^
            (static_cast<int64_t>(g.z()) * 83492791);
   };
-  for (size_t i = 0; i < cache_->records_.size(); ++i) grid[key(cache_->records_[i].p)].push_back(i);
+  // A grid 8 times finer, for a record whose clamping ball is small: only a
+  // record j closer than min(R_i, r_max) can change the clamped radius
+  // (0.5 r_hit_j + |x_i - x_j| is at least the distance), and on dense
+  // records (a reconstructed room's noisy surfaces) the coarse cells around
+  // hold thousands each.  The same records decide: the same radii.
+  const double fine = cell / 8;
+  struct CellKey {
+    int64_t x, y, z;
+    bool operator==(const CellKey&) const = default;
+  };
+  struct CellHash {
+    size_t operator()(const CellKey& k) const {
+      return static_cast<size_t>(
+          HashCombine(HashCombine(static_cast<uint64_t>(k.x), static_cast<uint64_t>(k.y)), static_cast<uint64_t>(k.z)));
+    }
+  };
+  std::unordered_map<CellKey, std::vector<size_t>, CellHash> fine_grid;
+  auto fine_key = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d g = (p / fine).array().floor();
+    return CellKey{static_cast<int64_t>(g.x()), static_cast<int64_t>(g.y()), static_cast<int64_t>(g.z())};
+  };
+  for (size_t i = 0; i < cache_->records_.size(); ++i) {
+    grid[key(cache_->records_[i].p)].push_back(i);
+    fine_grid[fine_key(cache_->records_[i].p)].push_back(i);
+  }
   for (;;) {
     std::vector<IcRecord> fresh(resume.size());
     std::vector<char> made(resume.size(), 0);
@@ -509,24 +534,37 @@ void IcFrameRenderer::RenderPass(int spp) {
     for (size_t i : added) {
       IcRecord& r = cache_->records_[i];
       double ri = 0.5 * r.r_hit;
-      // Neighbours within 2 cells (a far record, with a wide footprint, is
-      // clamped by its near neighbours only: the search stays bounded).
-      const int reach = static_cast<int>(std::min(2.0, std::ceil(std::min(ri, r.r_max) / cell)));
-      const Eigen::Vector3d g = (r.p / cell).array().floor();
-      for (int dz = -reach; dz <= reach; ++dz)
-        for (int dy = -reach; dy <= reach; ++dy)
-          for (int dx = -reach; dx <= reach; ++dx) {
-            const Eigen::Vector3d q = (g + Eigen::Vector3d(dx, dy, dz)) * cell + Eigen::Vector3d::Constant(0.5 * cell);
-            auto it = grid.find(key(q));
-            if (it == grid.end()) continue;
-            for (size_t j : it->second) {
-              const IcRecord& o = cache_->records_[j];
-              if (o.on_virtual == r.on_virtual) ri = std::min(ri, 0.5 * o.r_hit + (o.p - r.p).norm());
+      const double ball = std::min(ri, r.r_max);  // the records that can clamp r lie closer
+      auto clamp_by = [&](const std::vector<size_t>& records) {
+        for (size_t j : records) {
+          const IcRecord& o = cache_->records_[j];
+          if (o.on_virtual == r.on_virtual) ri = std::min(ri, 0.5 * o.r_hit + (o.p - r.p).norm());
+        }
+      };
+      if (ball <= 2 * fine) {  // within one coarse cell's reach: the fine cells the ball meets
+        const CellKey lo = fine_key(r.p - Eigen::Vector3d::Constant(ball));
+        const CellKey hi = fine_key(r.p + Eigen::Vector3d::Constant(ball));
+        for (int64_t z = lo.z; z <= hi.z; ++z)
+          for (int64_t y = lo.y; y <= hi.y; ++y)
+            for (int64_t x = lo.x; x <= hi.x; ++x)
+              if (auto it = fine_grid.find(CellKey{x, y, z}); it != fine_grid.end()) clamp_by(it->second);
+      } else {
+        // Neighbours within 2 cells (a far record, with a wide footprint, is
+        // clamped by its near neighbours only: the search stays bounded).
+        const int reach = static_cast<int>(std::min(2.0, std::ceil(ball / cell)));
+        const Eigen::Vector3d g = (r.p / cell).array().floor();
+        for (int dz = -reach; dz <= reach; ++dz)
+          for (int dy = -reach; dy <= reach; ++dy)
+            for (int dx = -reach; dx <= reach; ++dx) {
+              const Eigen::Vector3d q =
+                  (g + Eigen::Vector3d(dx, dy, dz)) * cell + Eigen::Vector3d::Constant(0.5 * cell);
+              if (auto it = grid.find(key(q)); it != grid.end()) clamp_by(it->second);
             }
-          }
+      }
       r.r = std::clamp(ri, r.r_min, r.r_max);
       cache_->ClampGradients(&r);
       grid[key(r.p)].push_back(i);
+      fine_grid[fine_key(r.p)].push_back(i);
     }
     new_records_ += static_cast<int64_t>(added.size());
     SplatAll(added);

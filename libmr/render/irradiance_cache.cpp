@@ -458,7 +458,18 @@ void IcFrameRenderer::RenderPass(int spp) {
       if (mixed_[k].valid) f += mixed_[k].footprint, ++c;
     return std::max(1e-6, c > 0 ? 2 * st.max_spacing_px * f / c : 1.0);
   }();
-  std::unordered_map<int64_t, std::vector<size_t>> grid;
+  // The grids hold what the clamp reads of each record, side by side in
+  // memory (a record is 400 bytes).
+  struct Near {
+    Eigen::Vector3d p;
+    double r_hit;
+    bool on_virtual;
+  };
+  auto near = [&](size_t i) {
+    const IcRecord& o = cache_->records_[i];
+    return Near{o.p, o.r_hit, o.on_virtual};
+  };
+  std::unordered_map<int64_t, std::vector<Near>> grid;
   auto key = [&](const Eigen::Vector3d& p) {
     const Eigen::Vector3d g = (p / cell).array().floor();
     return (static_cast<int64_t>(g.x()) * 73856093) ^ (static_cast<int64_t>(g.y()) * 19349663) ^
@@ -480,14 +491,14 @@ void IcFrameRenderer::RenderPass(int spp) {
           HashCombine(HashCombine(static_cast<uint64_t>(k.x), static_cast<uint64_t>(k.y)), static_cast<uint64_t>(k.z)));
     }
   };
-  std::unordered_map<CellKey, std::vector<size_t>, CellHash> fine_grid;
+  std::unordered_map<CellKey, std::vector<Near>, CellHash> fine_grid;
   auto fine_key = [&](const Eigen::Vector3d& p) {
     const Eigen::Vector3d g = (p / fine).array().floor();
     return CellKey{static_cast<int64_t>(g.x()), static_cast<int64_t>(g.y()), static_cast<int64_t>(g.z())};
   };
   for (size_t i = 0; i < cache_->records_.size(); ++i) {
-    grid[key(cache_->records_[i].p)].push_back(i);
-    fine_grid[fine_key(cache_->records_[i].p)].push_back(i);
+    grid[key(cache_->records_[i].p)].push_back(near(i));
+    fine_grid[fine_key(cache_->records_[i].p)].push_back(near(i));
   }
   for (;;) {
     std::vector<IcRecord> fresh(resume.size());
@@ -535,11 +546,9 @@ void IcFrameRenderer::RenderPass(int spp) {
       IcRecord& r = cache_->records_[i];
       double ri = 0.5 * r.r_hit;
       const double ball = std::min(ri, r.r_max);  // the records that can clamp r lie closer
-      auto clamp_by = [&](const std::vector<size_t>& records) {
-        for (size_t j : records) {
-          const IcRecord& o = cache_->records_[j];
+      auto clamp_by = [&](const std::vector<Near>& records) {
+        for (const Near& o : records)
           if (o.on_virtual == r.on_virtual) ri = std::min(ri, 0.5 * o.r_hit + (o.p - r.p).norm());
-        }
       };
       if (ball <= 2 * fine) {  // within one coarse cell's reach: the fine cells the ball meets
         const CellKey lo = fine_key(r.p - Eigen::Vector3d::Constant(ball));
@@ -563,8 +572,8 @@ void IcFrameRenderer::RenderPass(int spp) {
       }
       r.r = std::clamp(ri, r.r_min, r.r_max);
       cache_->ClampGradients(&r);
-      grid[key(r.p)].push_back(i);
-      fine_grid[fine_key(r.p)].push_back(i);
+      grid[key(r.p)].push_back(near(i));
+      fine_grid[fine_key(r.p)].push_back(near(i));
     }
     new_records_ += static_cast<int64_t>(added.size());
     SplatAll(added);

@@ -2,6 +2,7 @@
 // against pt on purpose-built scenes.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <memory>
 
 #include "core/image_metrics.h"
@@ -135,6 +136,38 @@ TEST(Gi, NothingVirtualMeansExactlyNoDifference) {
     for (float x : d.values()) ASSERT_EQ(x, 0.0f);
     EXPECT_GT(Mean(r->Mixed()), 0);
   }
+}
+
+// A new record's radius is clamped by the records made before it, R_i <=
+// R_j + |x_i - x_j| (R = half the least hit distance), found in a grid
+// (a finer one where the ball that can clamp it, min(R_i, r_max), is small).
+// Against the search over every earlier record: the same double for every
+// record (in a scene this small no ball reaches past the coarse search's two
+// cells).  Searching only the fine cell a record lies in, or skipping the
+// fine grid, fails here.
+TEST(Ic, NeighbourClampFindsEveryRecordThatCounts) {
+  RenderScene s;
+  OpenCorner(&s, 1e3);
+  IcSettings is;
+  is.rays = 16;
+  is.min_spacing_px = 0.25;  // radii below the pixel floor: the clamp decides them, not the floor
+  IrradianceCache cache(s, is);
+  IcFrameRenderer ic(s, &cache, Pinhole(96, 72, 80), kCornerCamera, 0, 0);
+  ic.RenderPass(1);
+  const std::vector<IcRecord>& recs = cache.records();  // in the order they were made
+  ASSERT_GT(recs.size(), 1000u);
+  int clamped_by_neighbour = 0;
+  for (size_t i = 0; i < recs.size(); ++i) {
+    const IcRecord& r = recs[i];
+    double ri = 0.5 * r.r_hit;
+    for (size_t j = 0; j < i; ++j) {
+      const IcRecord& o = recs[j];
+      if (o.on_virtual == r.on_virtual) ri = std::min(ri, 0.5 * o.r_hit + (o.p - r.p).norm());
+    }
+    clamped_by_neighbour += ri < 0.5 * r.r_hit;
+    ASSERT_EQ(r.r, std::clamp(ri, r.r_min, r.r_max)) << "record " << i;
+  }
+  EXPECT_GT(clamped_by_neighbour, static_cast<int>(recs.size() / 20));  // the clamp is at work
 }
 
 // Shadow, contact shadow and bounce light of a sphere resting on the floor

@@ -108,6 +108,19 @@ BENCHMARK_CAPTURE(BM_BareIntersect, room, std::string("room"))->Unit(benchmark::
 // The efficiency ratio over the same rays: one single-threaded pass of `pt`
 // records every ray it traces; the bare loop replays them through
 // rtcIntersect1 / rtcOccluded1 on one thread.
+// Replays logged rays one by one through rtcIntersect1 / rtcOccluded1 (the
+// bare loop of the efficiency ratios); returns the hits, to be kept.
+int64_t ReplaySingle(const mr::EmbreeScene& embree, const std::vector<mr::Ray>& closest,
+                     const std::vector<mr::Ray>& occlusion) {
+  int64_t hits = 0;
+  for (const auto& r : closest) {
+    mr::Hit h;
+    hits += embree.Intersect(r, &h);
+  }
+  for (const auto& r : occlusion) hits += embree.Occluded(r);
+  return hits;
+}
+
 void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
   Capture& c = Get(preset);
   mr::SetThreadCount(1);
@@ -130,11 +143,7 @@ void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
     auto t0 = std::chrono::steady_clock::now();
     fr.RenderPass(1);
     auto t1 = std::chrono::steady_clock::now();
-    for (const auto& r : log.closest) {
-      mr::Hit h;
-      hits += c.scene.embree().Intersect(r, &h);
-    }
-    for (const auto& r : log.occlusion) hits += c.scene.embree().Occluded(r);
+    hits += ReplaySingle(c.scene.embree(), log.closest, log.occlusion);
     auto t2 = std::chrono::steady_clock::now();
     render_s += std::chrono::duration<double>(t1 - t0).count();
     bare_s += std::chrono::duration<double>(t2 - t1).count();
@@ -213,10 +222,7 @@ void BM_MinimalTracerEfficiency(benchmark::State& state, const std::string& pres
     auto t0 = std::chrono::steady_clock::now();
     sum += pass(nullptr);
     auto t1 = std::chrono::steady_clock::now();
-    for (const auto& r : log) {
-      mr::Hit h;
-      hits += embree.Intersect(r, &h);
-    }
+    hits += ReplaySingle(embree, log, {});
     auto t2 = std::chrono::steady_clock::now();
     render_s += std::chrono::duration<double>(t1 - t0).count();
     bare_s += std::chrono::duration<double>(t2 - t1).count();
@@ -258,11 +264,7 @@ void BM_StreamReplay(benchmark::State& state, const std::string& preset) {
   int64_t found = 0;
   for (auto _ : state) {
     auto t0 = std::chrono::steady_clock::now();
-    for (const auto& r : log.closest) {
-      mr::Hit h;
-      found += embree.Intersect(r, &h);
-    }
-    for (const auto& r : log.occlusion) found += embree.Occluded(r);
+    found += ReplaySingle(embree, log.closest, log.occlusion);
     auto t1 = std::chrono::steady_clock::now();
     for (size_t i = 0; i < log.closest.size(); i += kBatch) {
       const size_t m = std::min(kBatch, log.closest.size() - i);

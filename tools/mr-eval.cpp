@@ -179,7 +179,7 @@ int main(int argc, char** argv) {
   plate->add_flag("--images", po_plate.images,
                   "Write OUT/NNNNN-rerender.png per fitted frame: plate | room rendered at the gain | difference |\n"
                   "pixels compared");
-  mr::MergeOptions mo;
+  mr::ShardMergeOptions mo;
   std::vector<std::string> merge_reports;
   std::string merge_video;
   CLI::App* merge = app.add_subcommand(

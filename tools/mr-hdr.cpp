@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> images;
   std::string exposures_file, out, response_in, response_out, method = "debevec";
   bool align = false, linear = false, half = false;
-  mr::MergeOptions mo;
+  mr::ExposureMergeOptions mo;
   mr::ResponseOptions ro;
   mr::ConfigureApp(
       app, "mr-hdr",

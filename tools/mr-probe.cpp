@@ -4,7 +4,7 @@
 #include <Eigen/Geometry>
 
 #include "camera/camera_model.h"
-#include "cli/probe_sequence.h"
+#include "jobs/probe_sequence.h"
 #include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"

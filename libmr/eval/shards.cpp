@@ -40,7 +40,7 @@ Shard ReadShard(const fs::path& file) {
 
 }  // namespace
 
-void MergeRenderReports(const MergeOptions& o, Report* report) {
+void MergeRenderReports(const ShardMergeOptions& o, Report* report) {
   if (o.reports.empty()) throw UsageError("no shard reports to merge");
   std::vector<Shard> shards;
   for (const fs::path& f : o.reports) shards.push_back(ReadShard(f));

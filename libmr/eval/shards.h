@@ -11,7 +11,7 @@
 
 namespace mr {
 
-struct MergeOptions {
+struct ShardMergeOptions {
   std::vector<fs::path> reports;  // one per shard, any order
   std::optional<fs::path> video;  // write the composites, in frame order, as this video
   double fps = 0;                 // 0: the plate's (the shards' plate_fps), else 30
@@ -25,6 +25,6 @@ struct MergeOptions {
 // of every shard; timings summed; metrics.frames in frame order; rmse,
 // relmse, region_relmse and the error-vs-time curve averaged over frames as
 // one run computes them.  Throws mr::Error naming the report at fault.
-void MergeRenderReports(const MergeOptions& options, Report* report);
+void MergeRenderReports(const ShardMergeOptions& options, Report* report);
 
 }  // namespace mr

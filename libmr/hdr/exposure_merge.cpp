@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/photo.hpp>
 
+#include "core/check.h"
 #include "core/error.h"
 #include "core/math.h"
 #include "core/parallel.h"
@@ -53,7 +54,7 @@ struct ExposureModel {
 
 }  // namespace
 
-void MergeOptions::Check() const {
+void ExposureMergeOptions::Check() const {
   if (!(low >= 0 && low < high && high <= 1))
     throw UsageError(fmt::format("need 0 <= low < high <= 1, got low {} high {}", low, high));
   if (!(read_noise > 0) || !(shot_noise >= 0)) throw UsageError("noise sigmas must be positive");
@@ -275,7 +276,7 @@ bool FitCensoredRegion(const Image& rad, const std::vector<uint8_t>& usable, con
 
 }  // namespace
 
-Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& response, const MergeOptions& o,
+Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& response, const ExposureMergeOptions& o,
                      MergeReport* report) {
   o.Check();
   MergeReport rep;
@@ -549,7 +550,7 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
     rep.censored_added_fraction = total > 0 ? (est - lb) / total : 0;
   }
   for (float v : out.values())
-    if (!std::isfinite(v)) ThrowError("the merge produced a non-finite value (a bug: please report)");
+    MR_CHECK_MSG(std::isfinite(v), "the merge produced a non-finite value");
   if (report) *report = rep;
   return out;
 }

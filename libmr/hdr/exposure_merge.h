@@ -13,7 +13,7 @@
 
 namespace mr {
 
-struct MergeOptions {
+struct ExposureMergeOptions {
   double low = 0.02;         // normalised codes at or below: too dark to use
   double high = 0.97;        // at or above: saturated
   double read_noise = 3e-4;  // sigma of the linear signal s at black (fraction of saturation)
@@ -50,7 +50,7 @@ struct MergeReport {
 // Output layers: R G B (radiance, response units per second), variance.R/G/B,
 // saturated.Y (1 where censored in any channel), ghost.Y.  Exposures may
 // come in any order; a photograph given twice is used once (warned).
-Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& response, const MergeOptions& options,
+Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& response, const ExposureMergeOptions& options,
                      MergeReport* report = nullptr);
 
 // Aligns hand-held brackets (median threshold bitmaps, OpenCV's AlignMTB,

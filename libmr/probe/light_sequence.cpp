@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/color.h"
+#include "core/check.h"
 #include "core/error.h"
 #include "core/spherical.h"
 #include "probe/light_extraction.h"
@@ -84,7 +85,7 @@ bool Finite4(const float* p) {
 
 Image LightFilter::Add(const Image& map, double t, double exposure, LightFrameReport* report) {
   LightFrameReport r;
-  if (map.channels() != 4) ThrowError("a light map needs R G B and confidence");
+  MR_CHECK_EQ(map.channels(), 4);  // R G B and confidence, as the unwrapping makes it
   if (!(exposure > 0) || !std::isfinite(exposure)) ThrowError("exposure {} must be finite and positive", exposure);
   const int w = map.width(), h = map.height();
   std::vector<double> sa(static_cast<size_t>(h));
@@ -263,7 +264,7 @@ LightMapError CompareLightMaps(const Image& estimate, const Image& reference) {
 }
 
 double LightFlicker(const LightMapError& a, const LightMapError& b) {
-  if (a.e_est.size() != b.e_est.size() || a.e_ref.size() != b.e_ref.size()) ThrowError("irradiances differ in size");
+  MR_CHECK(a.e_est.size() == b.e_est.size() && a.e_ref.size() == b.e_ref.size());
   double d2 = 0, r2 = 0;
   for (size_t i = 0; i < b.e_ref.size(); ++i) {
     const double d = (b.e_est[i] - a.e_est[i]) - (b.e_ref[i] - a.e_ref[i]);

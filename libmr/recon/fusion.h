@@ -32,11 +32,10 @@ struct FuseOptions {
   double skip_translation_m = 0.0;        // 0: fuse every tracked frame
   double skip_rotation_deg = 0.0;
   double skip_new_block_fraction = 0.02;  // "no new surface": new blocks / blocks in view
-  int max_lost = 10;
+  int max_lost = 10;  // consecutive lost frames before the run stops (keeping what it fused)
   // Loss relative to the recording's recent good frames (see TrackIcp for
   // the absolute limits).
-  double loss_rms_factor = 2.0,
-         loss_inlier_factor = 0.5;  // consecutive lost frames before the run stops (keeping what it fused)
+  double loss_rms_factor = 2.0, loss_inlier_factor = 0.5;
   bool use_color = true;
   // The model is raycast at this pyramid level (0: full resolution; 1: half,
   // a quarter of the rays, for speed), but never below 320 pixels across.

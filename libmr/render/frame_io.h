@@ -121,10 +121,6 @@ class FrameReader {
 // A reference (ground-truth) frame, checked against the camera's size.
 Image ReadReferenceFrame(const fs::path& path, int width, int height);
 
-// True when frame `frame`'s files (EXR, and PNG when the scene writes it) are
-// in `out_dir` and the EXR was written with `provenance` (WriteFrameFiles'
-// "mr:render" attribute).  Files are written atomically, so present means
-// complete.
 // OUT/NNNNN-review.png, what a user looks at first: the plate | the
 // composite | the difference the composite made to the plate (code values,
 // signed, mid-grey = unchanged, scaled to fill the range with what the
@@ -134,6 +130,10 @@ Image ReadReferenceFrame(const fs::path& path, int width, int height);
 fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate_codes, const Image& composite_codes,
                           const Image& mask, bool photograph, const std::string& tool, Report* report);
 
+// True when frame `frame`'s files (EXR, and PNG when the scene writes it) are
+// in `out_dir` and the EXR was written with `provenance` (WriteFrameFiles'
+// "mr:render" attribute).  Files are written atomically, so present means
+// complete.
 bool FrameComplete(const fs::path& out_dir, int frame, const SceneOutput& output, const std::string& provenance);
 
 // Every layer a frame file can hold, in the order they are written.

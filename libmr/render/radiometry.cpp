@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/color.h"
+#include "core/check.h"
 #include "core/error.h"
 #include "core/json.h"
 #include "core/json_node.h"
@@ -25,11 +26,12 @@ double Median(std::vector<double> v) {
 GainFit FitPlateGain(const Image& plate, const Image& rendered, const Image& room, const Image* codes,
                      const GainFitOptions& o) {
   const int w = plate.width(), h = plate.height();
+  // The caller's images, checked against the camera before they are made.
   for (const Image* img : {&rendered, &room, codes})
-    if (img && (img->width() != w || img->height() != h))
-      ThrowError("gain fit: images of different sizes ({}x{} and {}x{})", w, h, img->width(), img->height());
-  if (plate.channels() < 3 || rendered.channels() < 3 || (codes && codes->channels() < 3) || room.channels() < 1)
-    ThrowError("gain fit: the plate and the render must be RGB, the room mask one channel");
+    if (img) MR_CHECK_MSG(img->width() == w && img->height() == h, "gain fit: {}x{} and {}x{}", w, h, img->width(),
+                          img->height());
+  MR_CHECK(plate.channels() >= 3 && rendered.channels() >= 3 && (!codes || codes->channels() >= 3) &&
+           room.channels() >= 1);
   GainFit fit;
   // Usable pixels summed into cells of kCell x kCell: the outlier test is
   // made on cells, whose ratios carry a kCell-th of a pixel's noise, so that
@@ -158,14 +160,14 @@ GainFit FitPlateGain(const Image& plate, const Image& rendered, const Image& roo
 
 std::vector<FrameGain> SmoothGains(const std::vector<int>& frames, const std::vector<GainFit>& fits,
                                    const GainSmoothing& sm) {
-  if (frames.size() != fits.size()) ThrowError("SmoothGains: {} frames and {} fits", frames.size(), fits.size());
+  MR_CHECK_EQ(frames.size(), fits.size());
   const size_t n = frames.size();
   std::vector<FrameGain> out(n);
   std::vector<size_t> fitted;
   for (size_t i = 0; i < n; ++i) {
     out[i].frame = frames[i];
     out[i].pixels = fits[i].pixels;
-    if (i > 0 && frames[i] <= frames[i - 1]) ThrowError("SmoothGains: frames not ascending");
+    if (i > 0) MR_CHECK_GT(frames[i], frames[i - 1]);  // ascending
     if (!fits[i].ok) continue;
     out[i].fitted = true;
     out[i].fit = fits[i].gain;

@@ -27,8 +27,6 @@ namespace mr {
 
 namespace {
 
-// The content of everything a scene's frames are made from that is not per
-// frame (see RunRenderJob's provenance).
 // A JSON file as parsed, its comment left out (tools write their command
 // line there: two runs of one scene from different folders are the same
 // frames).
@@ -48,6 +46,8 @@ std::string InputsKeyOf(const fs::path& out_dir, int f) {
   return t;
 }
 
+// The content of everything a scene's frames are made from that is not per
+// frame (see RunRenderJob's provenance).
 uint64_t SceneInputsKey(const Scene& scene) {
   uint64_t k = JsonContentKey(scene.file);
   auto add = [&](const std::optional<fs::path>& p) {
@@ -135,490 +135,659 @@ JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, Rend
   return in;
 }
 
-void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
-  const std::string method_name = o.method.empty() ? scene.render.method : o.method;
-  const MethodInfo& info = FindRenderMethod(method_name);
-  std::unique_ptr<RenderMethod> method = CreateRenderMethod(scene, method_name);
-  const int spp = o.spp > 0 ? o.spp : scene.render.spp;
-  const double budget = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
-  const fs::path out_dir = o.out_dir.empty() ? scene.output.dir : o.out_dir;
+namespace {
 
-  RenderScene rs;
-  const JobInputs in = LoadJobInputs(scene, o.frame_begin, o.frame_end, &rs, report);
-  const CameraModel& camera = in.camera;
-  const std::vector<Rigid3>& poses = in.poses;
-  const int n_frames = static_cast<int>(poses.size());
-  const int begin = in.begin, end = in.end;
-  const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
-  for (int f = begin; f < end; ++f) (void)decoding.ForFrame(f);  // a gain for every frame, before the first
-  // The output folder only once every input is known to be sound: a refused
-  // run leaves nothing behind, not even an empty folder.
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  if (!fs::is_directory(out_dir))
-    ThrowErrorAt(FileLoc{out_dir.string()}, "cannot create the output folder{}", ec ? ": " + ec.message() : "");
-  const std::optional<fs::path> reference = o.reference ? o.reference : scene.reference;
-  const bool shard = begin > 0 || end < n_frames;
-  report->SetMetric("shard", Json{{"begin", begin}, {"end", end}, {"scene_frames", n_frames}});
-  const std::string frame_provenance =
-      fmt::format("scene {} method {} spp {} time_budget {} seed {}", scene.file.filename().string(), method_name, spp,
-                  budget, scene.render.seed);
-  if (const int stale = RemoveStaleTemporaries(out_dir); stale > 0)
-    report->Warn(fmt::format("removed {} temporary files that killed runs left in {}", stale, out_dir.string()));
-  // --resume: frames an earlier run of the same settings completed are kept,
-  // and rendering starts at the first missing one (as a shard starting
-  // there would: byte-identical frames).
-  // A frame's provenance: the job's settings, the frame and its plate gain
-  // (a refitted gains file re-renders the frames whose gain changed).
-  // And what it is made from, by content: the scene file, the camera
-  // model, poses, response, gains, meshes and textures, and the frame's
-  // own photograph, environment map and lights file.  --resume keeps frames
-  // from the first on while theirs match, so a changed input re-renders its
-  // frame and every frame after it (which may carry over state from it:
-  // ic's records, vct's grid).  The key does not depend on where a shard
-  // begins: shards write the frames one run writes.
-  const uint64_t global_key = SceneInputsKey(scene);
-  auto inputs_key = [&](int f) {
-    uint64_t k = global_key;
-    if (scene.camera.frames && !scene.camera.frames_are_video) {
-      const fs::path photo = FramePath(*scene.camera.frames, f);
-      k = HashCombine(k, fs::exists(photo) ? ContentHash(photo) : 0);
-    }
-    k = HashCombine(k, EnvironmentKey(scene, f));
-    const std::optional<fs::path> lights = LightsAt(scene, f);
-    k = HashCombine(k, lights ? ContentHash(*lights) : 0);
-    return k;
-  };
-  auto provenance = [&](int f) {
-    std::string p = frame_provenance + fmt::format(" frame {}", f);
-    if (scene.output.grain != "off") p += " grain " + scene.output.grain;
-    if (scene.render.adaptive_threshold > 0)
-      p += fmt::format(" adaptive {:.9g} min_spp {}", scene.render.adaptive_threshold, scene.render.adaptive_min_spp);
-    if (!decoding.frame_gains.empty()) {
-      const Rgb g = decoding.ForFrame(f).gain;
-      p += fmt::format(" gain {:.9g},{:.9g},{:.9g}", g[0], g[1], g[2]);
-    }
-    return p;
-  };
-  int resumed_end = begin;
-  if (o.resume) {
-    while (resumed_end < end && FrameComplete(out_dir, resumed_end, scene.output, provenance(resumed_end)) &&
-           InputsKeyOf(out_dir, resumed_end) == fmt::format("{:016x}", inputs_key(resumed_end)))
-      ++resumed_end;
-    if (resumed_end > begin)
-      report->Skip(fmt::format("frames {}:{}", begin, resumed_end),
-                   "--resume: complete in the output folder from an earlier run with the same settings");
+// One mr-render job: the state its frames share, and its steps in the order
+// RunRenderJob takes them.  Each step is one part of the job a maintainer
+// can read on its own; what a step decides for the later ones is a member.
+class RenderJob {
+ public:
+  RenderJob(const Scene& scene, const RenderOptions& o, Report* report);
+  void FindResumedFrames();
+  void EstimateGrain();
+  void OpenVideo();
+  void PrepareWorldAndMethod();
+  void SetUpNeighbourPlates();
+  void ReplayResumedFrames();
+  void RenderFrames() {
+    for (int f = resumed_end_; f < in_.end; ++f) RenderFrame(f);
   }
-  FrameReader frames(scene, camera, decoding);
-  // The plate's grain, measured on up to 8 frames spread over the whole
-  // scene (not the shard: every shard adds the same grain).
-  std::optional<NoiseProfile> grain;
-  if (scene.output.grain == "off") {
-    report->Skip("grain", "output.grain is \"off\"");
-  } else if (!decoding.photograph) {
-    report->Skip("grain", "no plate: a synthetic composite has no sensor noise to match");
-  } else if (!rs.has_virtual()) {
-    report->Skip("grain", "no virtual object: nothing rendered shows in the composite");
-  } else {
-    ScopedTimer t(report, "grain estimate");
-    FrameReader sample_frames(scene, camera, decoding);
-    std::vector<Image> codes;
-    bool has_codes = true;
-    const int n = std::min(8, n_frames);
-    for (int k = 0; k < n && has_codes; ++k) {
-      const int f = static_cast<int>(static_cast<int64_t>(k) * n_frames / n);
-      PhotoEncoding enc;
-      const Image photo = *sample_frames.Photo(f, &enc);
-      has_codes = enc.has_codes;
-      codes.push_back(decoding.ToCodes(decoding.ToRadiance(photo), enc));
-    }
-    if (!has_codes && scene.output.grain == "auto") {
-      report->Skip("grain",
-                   "output.grain is \"auto\" and the plate is float (no code values, no sensor noise to "
-                   "match); \"on\" measures it anyway");
-    } else {
-      grain = EstimateNoise(codes);
-      report->SetMetric("grain", grain->ToJson());
-      report->SetMetric("grain.frames", n);
-      spdlog::info("grain: plate noise {:.2f}/255 at mid-grey (G), from {} patches of {} frames",
-                   255 * grain->At(1, 0.5), grain->patches_used, n);
-    }
-  }
-  std::unique_ptr<VideoWriter> video_out;
-  const fs::path video_path = out_dir / ("composite." + scene.output.video);
-  // A video's frames are 8-bit sRGB code values (FrameReader).
-  const PhotoEncoding video_encoding{true, Transfer::kSrgb, PixelType::kUint8};
-  if (frames.is_video() && scene.output.video == "none") {
-    report->Skip("composite video", "output.video is \"none\"");
-  } else if (frames.is_video() && shard) {
-    report->Skip("composite video", fmt::format("frames {}:{} are a shard of {}: `mr-eval merge` writes the video "
-                                                "from every shard's frames",
-                                                begin, end, n_frames));
-  } else if (frames.is_video()) {
-    // The input's frame rate and size; a frame per frame rendered.
-    video_out = std::make_unique<VideoWriter>(video_path, camera.width(), camera.height(), frames.fps());
-  }
-  if (frames.is_video()) report->SetMetric("plate_fps", frames.fps());  // mr-eval merge's video
-  if (!decoding.photograph)
-    report->Skip("photograph",
-                 "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
-  // With no virtual object nothing can differ from the photograph: frames are
-  // copied through without rendering (I_m - I_r = 0 exactly; tested).
-  // The world where it changes during the video (render/world.h): brought
-  // to the first frame rendered.
-  WorldTracker world(scene, rs, begin);
-  if (resumed_end > begin && resumed_end < end) world.Advance(resumed_end, &rs);
-  const bool copy_through = !world.dynamic() && !rs.has_virtual() && decoding.photograph;
-  if (!world.dynamic() && !rs.has_virtual())
-    report->Skip("virtual objects", "the scene has none: the composite is the photograph");
-  if (copy_through)
-    report->Skip("rendering", "no virtual object can change any frame: frames are copied through from the photographs");
-  auto job_at = [&](int f) { return JobContext{scene, rs, camera, spp, resumed_end, decoding.photograph, report, f}; };
-  if (!copy_through) {
-    const JobContext job = job_at(resumed_end);
-    if (info.prepare_timing.empty()) {
-      method->Prepare(job);
-    } else {
-      ScopedTimer t(report, info.prepare_timing);
-      method->Prepare(job);
-    }
-  }
-  int world_kept = 0, world_changed = 0;
-  // An object passing through a real surface renders, but is rarely meant.
-  auto check_crossings = [&](int f, const std::vector<std::string>* moved) {
-    for (size_t i = 0; i < scene.virtuals.size(); ++i) {
-      const std::string& name = scene.virtuals[i].name;
-      if (moved && std::find(moved->begin(), moved->end(), name) == moved->end()) continue;
-      if (const int64_t n = rs.RealCrossings(i); n > 0) {
-        const std::string w = fmt::format(
-            "frame {}: virtual object \"{}\" passes through real geometry ({} of its edges cross a real surface)", f,
-            name, n);
-        spdlog::warn("{}", w);
-        report->Warn(w);
-      }
-    }
-  };
-  if (!copy_through) check_crossings(resumed_end, nullptr);
+  void Summarize();
 
-  // Neighbouring frames' plates for reflections the frame's own does not
-  // see (the frames f +- k step), read in increasing order by their own
-  // reader and kept while in reach.
-  const int neighbours = scene.render.plate_neighbours, step = scene.render.plate_neighbour_step;
-  const bool use_neighbours =
-      !copy_through && decoding.photograph && method->TakesPlateReflections() && neighbours > 0 && n_frames > 1;
-  if (!copy_through && decoding.photograph && method->TakesPlateReflections() && !use_neighbours)
-    report->Skip("plate neighbours", neighbours == 0 ? "render.plate_neighbours is 0: reflections take the frame's "
-                                                       "own plate only"
-                                                     : "the scene has one frame");
-  std::optional<FrameReader> neighbour_frames;
-  if (use_neighbours) neighbour_frames.emplace(scene, camera, decoding);
-  std::map<int, DecodedPlate> neighbour_plates;
-  int64_t neighbours_still = 0, neighbours_without_gain = 0;
-  if (scene.camera.shutter <= 0) report->Skip("motion blur", "camera.shutter is 0 (or not given)");
-  if (scene.camera.aperture_radius <= 0) report->Skip("depth of field", "camera.lens is not given: a pinhole");
-  int still_frames = 0;  // with a shutter, over which the camera does not move
-  Json frames_json = Json::array();
-  fs::path review_sheet;  // the last one written
-  ErrorCurve errors;
+ private:
+  // A frame's error against the reference and its flicker.
   struct PreviousFrame {
     int frame;
     Image composite, reference;
     std::optional<Image> region;
   };
-  std::optional<PreviousFrame> previous;  // for the flicker
-  double flicker_sum = 0;
-  int flicker_frames = 0;
-  int64_t clamped = 0, nonfinite = 0;
-  // A frame's error against the reference (over the region the objects
-  // change, where the plate is known) and its flicker against the frame
-  // before, into fj.
-  auto measure = [&](int f, const Image& composite, const Image& ref, const std::optional<Image>& region, Json* fj) {
-    const FrameError e = MeasureFrame(composite, ref, region ? &*region : nullptr);
-    (*fj)["rmse"] = e.rmse;
-    (*fj)["relmse"] = e.relmse;
-    (*fj)["region_relmse"] = e.region_relmse;
-    if (previous && previous->frame == f - 1) {
-      std::optional<Image> both;
-      if (region && previous->region) {
-        both = *region;
-        for (size_t i = 0; i < both->values().size(); ++i)
-          both->values()[i] = std::max(both->values()[i], previous->region->values()[i]);
-      }
-      const double flicker =
-          MeasureFlicker(composite, previous->composite, ref, previous->reference, both ? &*both : nullptr);
-      (*fj)["flicker"] = flicker;
-      flicker_sum += flicker;
-      ++flicker_frames;
-    }
-    previous = PreviousFrame{f, composite, ref, region};
-    return e;
-  };
-  for (int f = begin; f < resumed_end; ++f) {  // kept by --resume
-    Json fj = {{"frame", f}, {"resumed", true}};
-    if (video_out || reference) {
-      const Image composite = ReadImage(out_dir / fmt::format("{:05d}.exr", f)).Layer("composite");
-      if (video_out) video_out->WriteCodes(decoding.ToCodes(composite, video_encoding));
-      if (reference) {
-        const Image ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
-        // The plate, read in order (a video reads forwards), for the region.
-        PhotoEncoding encoding;
-        const std::optional<Image> photo = frames.Photo(f, &encoding);
-        std::optional<Image> region;
-        if (photo) region = ChangedRegion(ref, *photo);
-        measure(f, composite, ref, region, &fj);
-      }
-    }
-    frames_json.push_back(fj);
-  }
-  for (int f = resumed_end; f < end; ++f) {
-    const Rigid3& pose = poses[static_cast<size_t>(f)];
-    // The method's own time on this frame: its world update, its frame
-    // renderer's set-up and its passes; not loading, the error checkpoints,
-    // compositing or writing (the frame's `seconds`, its error curve's).
-    double method_seconds = 0;
-    auto timed = [&method_seconds](auto&& work) {
-      const auto start = std::chrono::steady_clock::now();
-      work();
-      method_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    };
-    Json world_json;
-    if (world.dynamic()) {
-      const WorldChange wc = world.Advance(f, &rs);
-      std::vector<std::string> rebuilt;
-      if (wc.any() && f > resumed_end) {
-        ScopedTimer t(report, "world update");
-        timed([&] {
-          if (scene.render.world_update == "rebuild") {
-            method->Prepare(job_at(f));
-            rebuilt = {"everything (render.world_update is rebuild)"};
-          } else {
-            rebuilt = method->WorldChanged(job_at(f), wc);
-          }
-        });
-        spdlog::info("frame {}: {} changed: {}", f, wc.Describe(),
-                     rebuilt.empty() ? std::string("nothing to rebuild") : fmt::format("{}", fmt::join(rebuilt, ", ")));
-      }
-      (wc.any() ? world_changed : world_kept) += f > resumed_end;
-      if (!wc.moved.empty() && f > resumed_end) check_crossings(f, &wc.moved);
-      world_json = wc.ToJson();
-      world_json["rebuilt"] = rebuilt;
-      for (const std::string& n : wc.notes) report->Warn(n);
-    }
-    std::string enclosed;
-    const bool no_virtual = !rs.has_virtual();
-    const bool frame_copy = copy_through || (decoding.photograph &&
-                                             (no_virtual || rs.VirtualEnclosedAwayFrom(pose.translation, &enclosed)));
-    if (frame_copy && !copy_through)
-      report->Skip(fmt::format("rendering frame {}", f),
-                   (no_virtual ? std::string("no virtual object or light in this frame's world") : enclosed) +
-                       ": I_m - I_r = 0 exactly, the photograph is copied through");
-    const FrameDecoding dec = decoding.ForFrame(f);
+  // What one frame is rendered from and what its passes made.
+  struct Frame {
+    int f = 0;
+    bool copy = false;  // copied through: nothing rendered
     PhotoEncoding encoding;
-    const std::optional<Image> photo = frames.Photo(f, &encoding);
-    std::optional<Image> ref;
-    if (reference) ref = ReadReferenceFrame(FramePath(*reference, f), camera.width(), camera.height());
+    std::optional<Image> photo, ref, region;
     std::optional<DecodedPlate> plate;  // prt's background; pt's and ic's reflections
-    if (photo && !frame_copy) plate = DecodePlate(dec, *photo, encoding);
     PlateViews plates;
-    if (plate && method->TakesPlateReflections()) plates.push_back(ViewOf(*plate, camera, pose));
-    if (plate && use_neighbours) {
-      std::vector<int> wanted;  // nearest first; a camera that did not move sees nothing new
-      for (int k = 1; k <= neighbours; ++k)
-        for (const int g : {f + k * step, f - k * step}) {
-          if (g < 0 || g >= n_frames) continue;
-          if (SamePose(poses[static_cast<size_t>(g)], pose)) {
-            ++neighbours_still;
-            continue;
-          }
-          if (!decoding.HasGain(g)) {
-            ++neighbours_without_gain;  // its units are unknown
-            continue;
-          }
-          wanted.push_back(g);
-        }
-      std::erase_if(neighbour_plates, [&](const auto& kv) { return kv.first < f - neighbours * step; });
-      std::vector<int> missing;
-      for (int g : wanted)
-        if (!neighbour_plates.count(g)) missing.push_back(g);
-      std::sort(missing.begin(), missing.end());  // a video reads forwards
-      for (int g : missing) {
-        PhotoEncoding e;
-        const std::optional<Image> p = neighbour_frames->Photo(g, &e);
-        neighbour_plates.emplace(g, DecodePlate(decoding.ForFrame(g), *p, e));
-      }
-      for (int g : wanted) plates.push_back(ViewOf(neighbour_plates.at(g), camera, poses[static_cast<size_t>(g)]));
-    }
-    const CameraExposure exposure = FrameExposure(scene, poses, f);
-    if (scene.camera.shutter > 0 && !exposure.moves && !frame_copy) ++still_frames;
-    const FrameContext fc{rs,
-                          camera,
-                          pose,
-                          scene.render.seed,
-                          f,
-                          plate ? &plate->radiance : nullptr,
-                          plate && plate->clipped ? &*plate->clipped : nullptr,
-                          exposure,
-                          plates};
-    std::unique_ptr<FrameMethod> fr;
-    if (!frame_copy) {
-      ScopedTimer t(report, "render");
-      timed([&] { fr = method->NewFrame(fc); });
-    }
-    const AdaptiveSampling adaptive{scene.render.adaptive_threshold, scene.render.adaptive_min_spp};
-    if (fr && adaptive.on() && !fr->SetAdaptive(adaptive) && f == resumed_end)
-      report->Skip("adaptive sampling",
-                   fmt::format("render.method {} has no per-pixel sample loop to stop", scene.render.method));
-    std::optional<Image> region;
-    if (ref && photo) region = ChangedRegion(*ref, *photo);
-    const Image* photo_ptr = photo ? &*photo : nullptr;
-    Progress progress(fmt::format("frame {}", f), spp);
-    int done = 0;
-    double seconds = 0;
-    while (fr && done < spp) {
-      const int n = info.one_pass ? spp : std::min(done == 0 ? 1 : done, spp - done);
-      {
-        ScopedTimer t(report, "render");
-        timed([&] { fr->RenderPass(n); });
-      }
-      done += n;
-      progress.Update(done);
-      seconds = method_seconds;
-      if (ref)
-        errors.Checkpoint(seconds, done,
-                          MeasureFrame(dec.Compose(*fr, photo_ptr).composite, *ref, region ? &*region : nullptr));
-      if (budget > 0 && seconds >= budget) {
-        report->Warn(fmt::format("frame {}: time budget {} s reached at {} spp", f, budget, done));
-        break;
-      }
-    }
-    progress.Done();
+    double seconds = 0;  // the method's own time on the frame
+    int done = 0;        // samples per pixel rendered
+  };
+  // The images a frame writes.
+  struct FrameImages {
     CompositeResult cr;
     Image mixed, real, mask, variance, samples;
     int64_t clipped_kept = 0, clipped_changed = 0;
-    if (fr) {
-      ScopedTimer t(report, "composite");
-      cr = dec.Compose(*fr, photo_ptr);
-      mixed = fr->Mixed();
-      real = fr->Real();
-      mask = fr->Mask();
-      if (plate && plate->clipped_rgb) {
-        // Clipped plate channels keep their codes under a change their
-        // unknown excess hides (composite.h).
-        const ClippedChannels k = KeepClippedChannels(dec.ToRadiance(*photo), *plate->clipped_rgb, mask, &cr.composite);
-        clipped_kept = k.kept;
-        clipped_changed = k.changed;
-      }
-      variance = fr->DifferenceVariance();
-      samples = fr->SampleCount();
-      if (grain) {
-        // The plate's noise where the composite shows the render, added to
-        // the codes and brought back to radiance: pixels the object does not
-        // cover keep their values exactly.
-        const Image codes0 = dec.ToCodes(cr.composite, encoding);
-        Image noisy = codes0;
-        AddGrain(*grain, mask, scene.render.seed, f, &noisy);
-        const Image r0 = dec.FromCodes(codes0, encoding), r1 = dec.FromCodes(noisy, encoding);
-        for (int y = 0; y < mask.height(); ++y)
-          for (int x = 0; x < mask.width(); ++x)
-            if (mask.at(x, y, 0) > 0)
-              for (int c = 0; c < 3; ++c)
-                cr.composite.at(x, y, c) = std::max(0.0f, cr.composite.at(x, y, c) + r1.at(x, y, c) - r0.at(x, y, c));
-      }
-    } else {  // copied through
-      cr.composite = decoding.ToRadiance(*photo);
-      cr.difference = Image::Rgb(camera.width(), camera.height());
-      mixed = real = *photo;
-      mask = variance = samples = Image::Gray(camera.width(), camera.height());
+  };
+
+  JobContext JobAt(int f) const {
+    return JobContext{scene_, rs_, in_.camera, spp_, resumed_end_, decoding_.photograph, report_, f};
+  }
+  uint64_t InputsKey(int f) const;
+  std::string Provenance(int f) const;
+  void CheckCrossings(int f, const std::vector<std::string>* moved);
+  FrameError Measure(int f, const Image& composite, const Image& ref, const std::optional<Image>& region, Json* fj);
+  template <class Work>
+  void Timed(Frame* fr, Work&& work) {
+    const auto start = std::chrono::steady_clock::now();
+    work();
+    fr->seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+
+  void RenderFrame(int f);
+  Json AdvanceWorld(Frame* fr);
+  void LoadPlates(Frame* fr);
+  void AddNeighbourPlates(Frame* fr);
+  std::unique_ptr<FrameMethod> RunPasses(Frame* fr, const FrameContext& fc, const FrameDecoding& dec);
+  FrameImages Compose(const Frame& fr, FrameMethod* fm, const FrameDecoding& dec);
+  void WriteFrame(const Frame& fr, FrameImages* im);
+
+  const Scene& scene_;
+  const RenderOptions& o_;
+  Report* report_;
+  std::string method_name_;
+  const MethodInfo& info_;
+  std::unique_ptr<RenderMethod> method_;
+  int spp_ = 0;
+  double budget_ = 0;
+  fs::path out_dir_;
+  RenderScene rs_;
+  JobInputs in_;
+  int n_frames_ = 0;
+  FrameDecoding decoding_;
+  std::optional<fs::path> reference_;
+  bool shard_ = false;
+  std::string frame_provenance_;
+  uint64_t global_key_ = 0;
+  int resumed_end_ = 0;
+  std::optional<FrameReader> frames_;
+  std::optional<NoiseProfile> grain_;
+  std::unique_ptr<VideoWriter> video_out_;
+  fs::path video_path_;
+  std::optional<WorldTracker> world_;
+  bool copy_through_ = false;
+  int world_kept_ = 0, world_changed_ = 0;
+  // Neighbouring frames' plates for reflections the frame's own does not see.
+  int neighbours_ = 0, step_ = 0;
+  bool use_neighbours_ = false;
+  std::optional<FrameReader> neighbour_frames_;
+  std::map<int, DecodedPlate> neighbour_plates_;
+  int64_t neighbours_still_ = 0, neighbours_without_gain_ = 0;
+  int still_frames_ = 0;  // with a shutter, over which the camera does not move
+  Json frames_json_ = Json::array();
+  fs::path review_sheet_;  // the last one written
+  ErrorCurve errors_;
+  std::optional<PreviousFrame> previous_;  // for the flicker
+  double flicker_sum_ = 0;
+  int flicker_frames_ = 0;
+  int64_t clamped_ = 0, nonfinite_ = 0;
+};
+
+// The method, the inputs (checked), the frames' decoding and the output
+// folder, in that order: a refused run leaves nothing behind.
+RenderJob::RenderJob(const Scene& scene, const RenderOptions& o, Report* report)
+    : scene_(scene),
+      o_(o),
+      report_(report),
+      method_name_(o.method.empty() ? scene.render.method : o.method),
+      info_(FindRenderMethod(method_name_)) {
+  method_ = CreateRenderMethod(scene, method_name_);
+  spp_ = o.spp > 0 ? o.spp : scene.render.spp;
+  budget_ = o.time_budget_s >= 0 ? o.time_budget_s : scene.render.time_budget_s;
+  out_dir_ = o.out_dir.empty() ? scene.output.dir : o.out_dir;
+  in_ = LoadJobInputs(scene, o.frame_begin, o.frame_end, &rs_, report);
+  n_frames_ = static_cast<int>(in_.poses.size());
+  decoding_ = FrameDecoding::FromScene(scene, report);
+  for (int f = in_.begin; f < in_.end; ++f) (void)decoding_.ForFrame(f);  // a gain for every frame, before the first
+  // The output folder only once every input is known to be sound: a refused
+  // run leaves nothing behind, not even an empty folder.
+  std::error_code ec;
+  fs::create_directories(out_dir_, ec);
+  if (!fs::is_directory(out_dir_))
+    ThrowErrorAt(FileLoc{out_dir_.string()}, "cannot create the output folder{}", ec ? ": " + ec.message() : "");
+  reference_ = o.reference ? o.reference : scene.reference;
+  shard_ = in_.begin > 0 || in_.end < n_frames_;
+  report->SetMetric("shard", Json{{"begin", in_.begin}, {"end", in_.end}, {"scene_frames", n_frames_}});
+  frame_provenance_ = fmt::format("scene {} method {} spp {} time_budget {} seed {}", scene.file.filename().string(),
+                                  method_name_, spp_, budget_, scene.render.seed);
+  if (const int stale = RemoveStaleTemporaries(out_dir_); stale > 0)
+    report->Warn(fmt::format("removed {} temporary files that killed runs left in {}", stale, out_dir_.string()));
+  global_key_ = SceneInputsKey(scene);
+  resumed_end_ = in_.begin;
+}
+
+// A frame's inputs key: what it is made from, by content: the scene file,
+// the camera model, poses, response, gains, meshes and textures
+// (SceneInputsKey), and the frame's own photograph, environment map and
+// lights file.  --resume keeps frames from the first on while theirs match,
+// so a changed input re-renders its frame and every frame after it (which
+// may carry over state from it: ic's records, vct's grid).  The key does not
+// depend on where a shard begins: shards write the frames one run writes.
+uint64_t RenderJob::InputsKey(int f) const {
+  uint64_t k = global_key_;
+  if (scene_.camera.frames && !scene_.camera.frames_are_video) {
+    const fs::path photo = FramePath(*scene_.camera.frames, f);
+    k = HashCombine(k, fs::exists(photo) ? ContentHash(photo) : 0);
+  }
+  k = HashCombine(k, EnvironmentKey(scene_, f));
+  const std::optional<fs::path> lights = LightsAt(scene_, f);
+  k = HashCombine(k, lights ? ContentHash(*lights) : 0);
+  return k;
+}
+
+// A frame's provenance: the job's settings, the frame and its plate gain (a
+// refitted gains file re-renders the frames whose gain changed).
+std::string RenderJob::Provenance(int f) const {
+  std::string p = frame_provenance_ + fmt::format(" frame {}", f);
+  if (scene_.output.grain != "off") p += " grain " + scene_.output.grain;
+  if (scene_.render.adaptive_threshold > 0)
+    p += fmt::format(" adaptive {:.9g} min_spp {}", scene_.render.adaptive_threshold, scene_.render.adaptive_min_spp);
+  if (!decoding_.frame_gains.empty()) {
+    const Rgb g = decoding_.ForFrame(f).gain;
+    p += fmt::format(" gain {:.9g},{:.9g},{:.9g}", g[0], g[1], g[2]);
+  }
+  return p;
+}
+
+// --resume: frames an earlier run of the same settings completed are kept,
+// and rendering starts at the first missing one (as a shard starting there
+// would: byte-identical frames).
+void RenderJob::FindResumedFrames() {
+  if (!o_.resume) return;
+  while (resumed_end_ < in_.end && FrameComplete(out_dir_, resumed_end_, scene_.output, Provenance(resumed_end_)) &&
+         InputsKeyOf(out_dir_, resumed_end_) == fmt::format("{:016x}", InputsKey(resumed_end_)))
+    ++resumed_end_;
+  if (resumed_end_ > in_.begin)
+    report_->Skip(fmt::format("frames {}:{}", in_.begin, resumed_end_),
+                  "--resume: complete in the output folder from an earlier run with the same settings");
+}
+
+// The plate's grain, measured on up to 8 frames spread over the whole scene
+// (not the shard: every shard adds the same grain).
+void RenderJob::EstimateGrain() {
+  frames_.emplace(scene_, in_.camera, decoding_);
+  if (scene_.output.grain == "off") {
+    report_->Skip("grain", "output.grain is \"off\"");
+    return;
+  }
+  if (!decoding_.photograph) {
+    report_->Skip("grain", "no plate: a synthetic composite has no sensor noise to match");
+    return;
+  }
+  if (!rs_.has_virtual()) {
+    report_->Skip("grain", "no virtual object: nothing rendered shows in the composite");
+    return;
+  }
+  ScopedTimer t(report_, "grain estimate");
+  FrameReader sample_frames(scene_, in_.camera, decoding_);
+  std::vector<Image> codes;
+  bool has_codes = true;
+  const int n = std::min(8, n_frames_);
+  for (int k = 0; k < n && has_codes; ++k) {
+    const int f = static_cast<int>(static_cast<int64_t>(k) * n_frames_ / n);
+    PhotoEncoding enc;
+    const Image photo = *sample_frames.Photo(f, &enc);
+    has_codes = enc.has_codes;
+    codes.push_back(decoding_.ToCodes(decoding_.ToRadiance(photo), enc));
+  }
+  if (!has_codes && scene_.output.grain == "auto") {
+    report_->Skip("grain",
+                  "output.grain is \"auto\" and the plate is float (no code values, no sensor noise to "
+                  "match); \"on\" measures it anyway");
+    return;
+  }
+  grain_ = EstimateNoise(codes);
+  report_->SetMetric("grain", grain_->ToJson());
+  report_->SetMetric("grain.frames", n);
+  spdlog::info("grain: plate noise {:.2f}/255 at mid-grey (G), from {} patches of {} frames", 255 * grain_->At(1, 0.5),
+               grain_->patches_used, n);
+}
+
+// A video plate's composite video: the input's frame rate and size, a frame
+// per frame rendered (8-bit sRGB code values, as FrameReader reads them).
+void RenderJob::OpenVideo() {
+  video_path_ = out_dir_ / ("composite." + scene_.output.video);
+  if (frames_->is_video() && scene_.output.video == "none") {
+    report_->Skip("composite video", "output.video is \"none\"");
+  } else if (frames_->is_video() && shard_) {
+    report_->Skip("composite video", fmt::format("frames {}:{} are a shard of {}: `mr-eval merge` writes the video "
+                                                 "from every shard's frames",
+                                                 in_.begin, in_.end, n_frames_));
+  } else if (frames_->is_video()) {
+    video_out_ = std::make_unique<VideoWriter>(video_path_, in_.camera.width(), in_.camera.height(), frames_->fps());
+  }
+  if (frames_->is_video()) report_->SetMetric("plate_fps", frames_->fps());  // mr-eval merge's video
+  if (!decoding_.photograph)
+    report_->Skip("photograph",
+                  "the scene names no camera frames: I_c is the rendered real scene I_r (synthetic composite)");
+}
+
+// The world where it changes during the video (render/world.h), brought to
+// the first frame rendered, and the method's view-independent work.  With no
+// virtual object nothing can differ from the photograph: frames are copied
+// through without rendering (I_m - I_r = 0 exactly; tested).
+void RenderJob::PrepareWorldAndMethod() {
+  world_.emplace(scene_, rs_, in_.begin);
+  if (resumed_end_ > in_.begin && resumed_end_ < in_.end) world_->Advance(resumed_end_, &rs_);
+  copy_through_ = !world_->dynamic() && !rs_.has_virtual() && decoding_.photograph;
+  if (!world_->dynamic() && !rs_.has_virtual())
+    report_->Skip("virtual objects", "the scene has none: the composite is the photograph");
+  if (copy_through_) {
+    report_->Skip("rendering",
+                  "no virtual object can change any frame: frames are copied through from the photographs");
+    return;
+  }
+  const JobContext job = JobAt(resumed_end_);
+  if (info_.prepare_timing.empty()) {
+    method_->Prepare(job);
+  } else {
+    ScopedTimer t(report_, info_.prepare_timing);
+    method_->Prepare(job);
+  }
+  CheckCrossings(resumed_end_, nullptr);
+}
+
+// An object passing through a real surface renders, but is rarely meant.
+void RenderJob::CheckCrossings(int f, const std::vector<std::string>* moved) {
+  for (size_t i = 0; i < scene_.virtuals.size(); ++i) {
+    const std::string& name = scene_.virtuals[i].name;
+    if (moved && std::find(moved->begin(), moved->end(), name) == moved->end()) continue;
+    if (const int64_t n = rs_.RealCrossings(i); n > 0) {
+      const std::string w = fmt::format(
+          "frame {}: virtual object \"{}\" passes through real geometry ({} of its edges cross a real surface)", f,
+          name, n);
+      spdlog::warn("{}", w);
+      report_->Warn(w);
     }
-    clamped += cr.clamped_negative;
-    const int64_t frame_nonfinite = fr ? fr->nonfinite_samples() : 0;
-    nonfinite += frame_nonfinite;
-    const int64_t env_pixels = fr ? fr->skipped_pixels() : 0;
-    Json fj = {{"frame", f},
-               {"gain", dec.gain},
-               {"spp", done},
-               {"seconds", seconds},
-               {"clamped_negative", cr.clamped_negative},
-               {"clipped_kept", clipped_kept},
-               {"clipped_changed", clipped_changed},
-               {"nonfinite_samples", frame_nonfinite},
-               {"copied_through", !fr},
-               {"environment_pixels_sampled_once", env_pixels}};
-    if (!world_json.is_null()) fj["world"] = world_json;
-    if (fr && adaptive.on()) {
-      double total = 0;
-      for (float c : samples.values()) total += c;
-      fj["adaptive"] = {{"stopped_pixels", fr->adaptive_stopped()},
-                        {"mean_spp", total / std::max<size_t>(1, samples.values().size())}};
+  }
+}
+
+// Neighbouring frames' plates for reflections the frame's own does not see
+// (the frames f +- k step), read in increasing order by their own reader and
+// kept while in reach; and what the camera's shutter and lens leave out.
+void RenderJob::SetUpNeighbourPlates() {
+  neighbours_ = scene_.render.plate_neighbours;
+  step_ = scene_.render.plate_neighbour_step;
+  const bool takes = !copy_through_ && decoding_.photograph && method_->TakesPlateReflections();
+  use_neighbours_ = takes && neighbours_ > 0 && n_frames_ > 1;
+  if (takes && !use_neighbours_)
+    report_->Skip("plate neighbours", neighbours_ == 0 ? "render.plate_neighbours is 0: reflections take the frame's "
+                                                         "own plate only"
+                                                       : "the scene has one frame");
+  if (use_neighbours_) neighbour_frames_.emplace(scene_, in_.camera, decoding_);
+  if (scene_.camera.shutter <= 0) report_->Skip("motion blur", "camera.shutter is 0 (or not given)");
+  if (scene_.camera.aperture_radius <= 0) report_->Skip("depth of field", "camera.lens is not given: a pinhole");
+}
+
+// A frame's error against the reference (over the region the objects
+// change, where the plate is known) and its flicker against the frame
+// before, into fj.
+FrameError RenderJob::Measure(int f, const Image& composite, const Image& ref, const std::optional<Image>& region,
+                              Json* fj) {
+  const FrameError e = MeasureFrame(composite, ref, region ? &*region : nullptr);
+  (*fj)["rmse"] = e.rmse;
+  (*fj)["relmse"] = e.relmse;
+  (*fj)["region_relmse"] = e.region_relmse;
+  if (previous_ && previous_->frame == f - 1) {
+    std::optional<Image> both;
+    if (region && previous_->region) {
+      both = *region;
+      for (size_t i = 0; i < both->values().size(); ++i)
+        both->values()[i] = std::max(both->values()[i], previous_->region->values()[i]);
     }
-    if (env_pixels > 0 && done > 1)
-      report->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
-                   "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");
-    if (ref) fj["curve"] = errors.EndFrame(measure(f, cr.composite, *ref, region, &fj));
-    if (fr) method->FrameDone(*fr, fc, report, &fj);
-    frames_json.push_back(fj);
+    const double flicker =
+        MeasureFlicker(composite, previous_->composite, ref, previous_->reference, both ? &*both : nullptr);
+    (*fj)["flicker"] = flicker;
+    flicker_sum_ += flicker;
+    ++flicker_frames_;
+  }
+  previous_ = PreviousFrame{f, composite, ref, region};
+  return e;
+}
+
+// The frames --resume kept: into the video and the error figures as if
+// rendered now.
+void RenderJob::ReplayResumedFrames() {
+  const PhotoEncoding video_encoding{true, Transfer::kSrgb, PixelType::kUint8};
+  for (int f = in_.begin; f < resumed_end_; ++f) {
+    Json fj = {{"frame", f}, {"resumed", true}};
+    if (video_out_ || reference_) {
+      const Image composite = ReadImage(out_dir_ / fmt::format("{:05d}.exr", f)).Layer("composite");
+      if (video_out_) video_out_->WriteCodes(decoding_.ToCodes(composite, video_encoding));
+      if (reference_) {
+        const Image ref = ReadReferenceFrame(FramePath(*reference_, f), in_.camera.width(), in_.camera.height());
+        // The plate, read in order (a video reads forwards), for the region.
+        PhotoEncoding encoding;
+        const std::optional<Image> photo = frames_->Photo(f, &encoding);
+        std::optional<Image> region;
+        if (photo) region = ChangedRegion(ref, *photo);
+        Measure(f, composite, ref, region, &fj);
+      }
+    }
+    frames_json_.push_back(fj);
+  }
+}
+
+// The frame's world (light and objects) and what the method rebuilt for it;
+// JSON null when the world never changes.
+Json RenderJob::AdvanceWorld(Frame* fr) {
+  if (!world_->dynamic()) return Json();
+  const int f = fr->f;
+  const WorldChange wc = world_->Advance(f, &rs_);
+  std::vector<std::string> rebuilt;
+  if (wc.any() && f > resumed_end_) {
+    ScopedTimer t(report_, "world update");
+    Timed(fr, [&] {
+      if (scene_.render.world_update == "rebuild") {
+        method_->Prepare(JobAt(f));
+        rebuilt = {"everything (render.world_update is rebuild)"};
+      } else {
+        rebuilt = method_->WorldChanged(JobAt(f), wc);
+      }
+    });
+    spdlog::info("frame {}: {} changed: {}", f, wc.Describe(),
+                 rebuilt.empty() ? std::string("nothing to rebuild") : fmt::format("{}", fmt::join(rebuilt, ", ")));
+  }
+  (wc.any() ? world_changed_ : world_kept_) += f > resumed_end_;
+  if (!wc.moved.empty() && f > resumed_end_) CheckCrossings(f, &wc.moved);
+  Json world_json = wc.ToJson();
+  world_json["rebuilt"] = rebuilt;
+  for (const std::string& n : wc.notes) report_->Warn(n);
+  return world_json;
+}
+
+// The frame's photograph, reference and changed region, and the plates its
+// reflections take the room from.
+void RenderJob::LoadPlates(Frame* fr) {
+  const int f = fr->f;
+  fr->photo = frames_->Photo(f, &fr->encoding);
+  if (reference_) fr->ref = ReadReferenceFrame(FramePath(*reference_, f), in_.camera.width(), in_.camera.height());
+  if (fr->photo && !fr->copy) fr->plate = DecodePlate(decoding_.ForFrame(f), *fr->photo, fr->encoding);
+  if (fr->plate && method_->TakesPlateReflections())
+    fr->plates.push_back(ViewOf(*fr->plate, in_.camera, in_.poses[static_cast<size_t>(f)]));
+  if (fr->plate && use_neighbours_) AddNeighbourPlates(fr);
+  if (fr->ref && fr->photo) fr->region = ChangedRegion(*fr->ref, *fr->photo);
+}
+
+// The neighbours' plates, nearest first; a camera that did not move sees
+// nothing new, and a plate without a gain has unknown units.
+void RenderJob::AddNeighbourPlates(Frame* fr) {
+  const int f = fr->f;
+  const Rigid3& pose = in_.poses[static_cast<size_t>(f)];
+  std::vector<int> wanted;
+  for (int k = 1; k <= neighbours_; ++k)
+    for (const int g : {f + k * step_, f - k * step_}) {
+      if (g < 0 || g >= n_frames_) continue;
+      if (SamePose(in_.poses[static_cast<size_t>(g)], pose)) {
+        ++neighbours_still_;
+        continue;
+      }
+      if (!decoding_.HasGain(g)) {
+        ++neighbours_without_gain_;
+        continue;
+      }
+      wanted.push_back(g);
+    }
+  std::erase_if(neighbour_plates_, [&](const auto& kv) { return kv.first < f - neighbours_ * step_; });
+  std::vector<int> missing;
+  for (int g : wanted)
+    if (!neighbour_plates_.count(g)) missing.push_back(g);
+  std::sort(missing.begin(), missing.end());  // a video reads forwards
+  for (int g : missing) {
+    PhotoEncoding e;
+    const std::optional<Image> p = neighbour_frames_->Photo(g, &e);
+    neighbour_plates_.emplace(g, DecodePlate(decoding_.ForFrame(g), *p, e));
+  }
+  for (int g : wanted)
+    fr->plates.push_back(ViewOf(neighbour_plates_.at(g), in_.camera, in_.poses[static_cast<size_t>(g)]));
+}
+
+// The frame's renderer and its passes: all samples in one (one_pass), or 1,
+// 1, 2, 4, ... with an error checkpoint after each, until spp or the time
+// budget.  Null when the frame is copied through.
+std::unique_ptr<FrameMethod> RenderJob::RunPasses(Frame* fr, const FrameContext& fc, const FrameDecoding& dec) {
+  std::unique_ptr<FrameMethod> fm;
+  if (!fr->copy) {
+    ScopedTimer t(report_, "render");
+    Timed(fr, [&] { fm = method_->NewFrame(fc); });
+  }
+  const AdaptiveSampling adaptive{scene_.render.adaptive_threshold, scene_.render.adaptive_min_spp};
+  if (fm && adaptive.on() && !fm->SetAdaptive(adaptive) && fr->f == resumed_end_)
+    report_->Skip("adaptive sampling",
+                  fmt::format("render.method {} has no per-pixel sample loop to stop", scene_.render.method));
+  const Image* photo_ptr = fr->photo ? &*fr->photo : nullptr;
+  Progress progress(fmt::format("frame {}", fr->f), spp_);
+  double seconds = 0;
+  while (fm && fr->done < spp_) {
+    const int n = info_.one_pass ? spp_ : std::min(fr->done == 0 ? 1 : fr->done, spp_ - fr->done);
     {
-      ScopedTimer t(report, "write");
-      // The 8-bit outputs through the inverse of the frames' decoding: a
-      // pixel the object does not change keeps the plate's code value.
-      const Image codes = decoding.ToCodes(cr.composite, encoding);
-      FrameLayers layers{&cr.composite, &codes, &mixed, &real, &mask, &cr.difference, &variance, &samples, photo_ptr};
-      WriteFrameFiles(out_dir, f, layers, encoding, decoding.CodesColorSpace(encoding), scene.output, o.tool,
-                      provenance(f), report);
-      // The frame's inputs key beside it (not in it: inputs that differ
-      // only in their comments or paths still give the same frame's bytes).
-      std::error_code key_ec;
-      fs::create_directories(out_dir / ".mr-render", key_ec);
-      WriteTextFile(out_dir / ".mr-render" / fmt::format("{:05d}.inputs", f), fmt::format("{:016x}\n", inputs_key(f)));
-      if (video_out) video_out->WriteCodes(codes);
-      if (scene.output.review) {
-        const Image plate_codes = decoding.ToCodes(photo ? decoding.ToRadiance(*photo) : real, encoding);
-        review_sheet = WriteReviewSheet(out_dir, f, plate_codes, codes, mask, photo.has_value(), o.tool, report);
-      }
+      ScopedTimer t(report_, "render");
+      Timed(fr, [&] { fm->RenderPass(n); });
     }
-    spdlog::info("frame {}: {} spp in {:.2f} s{}", f, done, seconds,
-                 ref ? fmt::format(", relMSE {:.3g}", fj["relmse"].get<double>()) : std::string());
+    fr->done += n;
+    progress.Update(fr->done);
+    seconds = fr->seconds;
+    if (fr->ref)
+      errors_.Checkpoint(seconds, fr->done,
+                         MeasureFrame(dec.Compose(*fm, photo_ptr).composite, *fr->ref,
+                                      fr->region ? &*fr->region : nullptr));
+    if (budget_ > 0 && seconds >= budget_) {
+      report_->Warn(fmt::format("frame {}: time budget {} s reached at {} spp", fr->f, budget_, fr->done));
+      break;
+    }
   }
-  if (still_frames > 0)
-    report->Skip(fmt::format("motion blur in {} frames", still_frames),
-                 "the camera does not move over their shutter intervals: the blur is exactly none");
-  if (world.dynamic()) {
-    report->SetMetric("world", Json{{"frames_changed", world_changed}, {"frames_kept", world_kept}});
-    if (world_kept > 0)
-      report->Skip(fmt::format("rebuilding in {} frames", world_kept),
-                   "their light (by content) and objects are the previous frame's: every cache, volume and VPL set "
-                   "kept");
+  progress.Done();
+  fr->seconds = seconds;  // the method's time up to its last pass
+  return fm;
+}
+
+// The composite and the layers beside it; a copied frame's are the
+// photograph's.
+RenderJob::FrameImages RenderJob::Compose(const Frame& fr, FrameMethod* fm, const FrameDecoding& dec) {
+  FrameImages im;
+  if (!fm) {
+    im.cr.composite = decoding_.ToRadiance(*fr.photo);
+    im.cr.difference = Image::Rgb(in_.camera.width(), in_.camera.height());
+    im.mixed = im.real = *fr.photo;
+    im.mask = im.variance = im.samples = Image::Gray(in_.camera.width(), in_.camera.height());
+    return im;
   }
-  if (use_neighbours) {
-    report->SetMetric("plate_neighbours", Json{{"count", neighbours}, {"step", step}});
-    if (neighbours_still > 0)
-      report->Skip(fmt::format("{} neighbouring plates", neighbours_still),
-                   "taken from the frame's own pose: they see nothing the frame's plate does not");
-    if (neighbours_without_gain > 0)
-      report->Skip(fmt::format("{} neighbouring plates without a gain", neighbours_without_gain),
-                   "camera.gains has no entry for them: their units are unknown");
+  ScopedTimer t(report_, "composite");
+  im.cr = dec.Compose(*fm, fr.photo ? &*fr.photo : nullptr);
+  im.mixed = fm->Mixed();
+  im.real = fm->Real();
+  im.mask = fm->Mask();
+  if (fr.plate && fr.plate->clipped_rgb) {
+    // Clipped plate channels keep their codes under a change their unknown
+    // excess hides (composite.h).
+    const ClippedChannels k =
+        KeepClippedChannels(dec.ToRadiance(*fr.photo), *fr.plate->clipped_rgb, im.mask, &im.cr.composite);
+    im.clipped_kept = k.kept;
+    im.clipped_changed = k.changed;
   }
-  method->Finish(report);
-  if (video_out) {
-    video_out->Close();
-    report->AddOutput(video_path.string());
+  im.variance = fm->DifferenceVariance();
+  im.samples = fm->SampleCount();
+  if (grain_) {
+    // The plate's noise where the composite shows the render, added to the
+    // codes and brought back to radiance: pixels the object does not cover
+    // keep their values exactly.
+    const Image codes0 = dec.ToCodes(im.cr.composite, fr.encoding);
+    Image noisy = codes0;
+    AddGrain(*grain_, im.mask, scene_.render.seed, fr.f, &noisy);
+    const Image r0 = dec.FromCodes(codes0, fr.encoding), r1 = dec.FromCodes(noisy, fr.encoding);
+    for (int y = 0; y < im.mask.height(); ++y)
+      for (int x = 0; x < im.mask.width(); ++x)
+        if (im.mask.at(x, y, 0) > 0)
+          for (int c = 0; c < 3; ++c)
+            im.cr.composite.at(x, y, c) = std::max(0.0f, im.cr.composite.at(x, y, c) + r1.at(x, y, c) - r0.at(x, y, c));
   }
-  if (!review_sheet.empty()) {
-    report->SetMetric("review_sheet", review_sheet.string());
-    spdlog::info("review sheet: {}", review_sheet.string());
+  return im;
+}
+
+// The frame's files, its inputs key, its video frame and review sheet.  The
+// 8-bit outputs go through the inverse of the frames' decoding: a pixel the
+// object does not change keeps the plate's code value.
+void RenderJob::WriteFrame(const Frame& fr, FrameImages* im) {
+  ScopedTimer t(report_, "write");
+  const Image codes = decoding_.ToCodes(im->cr.composite, fr.encoding);
+  const Image* photo_ptr = fr.photo ? &*fr.photo : nullptr;
+  FrameLayers layers{&im->cr.composite, &codes,     &im->mixed,   &im->real, &im->mask, &im->cr.difference,
+                     &im->variance,     &im->samples, photo_ptr};
+  WriteFrameFiles(out_dir_, fr.f, layers, fr.encoding, decoding_.CodesColorSpace(fr.encoding), scene_.output, o_.tool,
+                  Provenance(fr.f), report_);
+  // The frame's inputs key beside it (not in it: inputs that differ only in
+  // their comments or paths still give the same frame's bytes).
+  std::error_code key_ec;
+  fs::create_directories(out_dir_ / ".mr-render", key_ec);
+  WriteTextFile(out_dir_ / ".mr-render" / fmt::format("{:05d}.inputs", fr.f), fmt::format("{:016x}\n", InputsKey(fr.f)));
+  if (video_out_) video_out_->WriteCodes(codes);
+  if (scene_.output.review) {
+    const Image plate_codes =
+        decoding_.ToCodes(fr.photo ? decoding_.ToRadiance(*fr.photo) : im->real, fr.encoding);
+    review_sheet_ =
+        WriteReviewSheet(out_dir_, fr.f, plate_codes, codes, im->mask, fr.photo.has_value(), o_.tool, report_);
   }
-  report->SetMetric("method", method_name);
-  report->SetMetric("frames", frames_json);
-  report->SetMetric("clamped_negative", clamped);
-  report->SetMetric("nonfinite_samples", nonfinite);
-  if (clamped > 0) report->Warn(fmt::format("{} negative composite values clamped to 0", clamped));
-  if (errors.frames() > 0) {
-    report->SetMetric("rmse", errors.mean_rmse());
-    report->SetMetric("relmse", errors.mean_relmse());
-    report->SetMetric("region_relmse", errors.mean_region_relmse());
-    report->SetMetric("curve", errors.MeanCurve());
+}
+
+// One frame: its world, its plates, the passes, the composite, its figures
+// and its files.  A frame whose objects cannot show (none, or enclosed away
+// from the camera) is the photograph, copied through.
+void RenderJob::RenderFrame(int f) {
+  Frame fr;
+  fr.f = f;
+  const Rigid3& pose = in_.poses[static_cast<size_t>(f)];
+  const Json world_json = AdvanceWorld(&fr);
+  std::string enclosed;
+  const bool no_virtual = !rs_.has_virtual();
+  fr.copy = copy_through_ ||
+            (decoding_.photograph && (no_virtual || rs_.VirtualEnclosedAwayFrom(pose.translation, &enclosed)));
+  if (fr.copy && !copy_through_)
+    report_->Skip(fmt::format("rendering frame {}", f),
+                  (no_virtual ? std::string("no virtual object or light in this frame's world") : enclosed) +
+                      ": I_m - I_r = 0 exactly, the photograph is copied through");
+  const FrameDecoding dec = decoding_.ForFrame(f);
+  LoadPlates(&fr);
+  const CameraExposure exposure = FrameExposure(scene_, in_.poses, f);
+  if (scene_.camera.shutter > 0 && !exposure.moves && !fr.copy) ++still_frames_;
+  const FrameContext fc{.rs = rs_,
+                        .camera = in_.camera,
+                        .world_from_cam = pose,
+                        .seed = scene_.render.seed,
+                        .frame = f,
+                        .photo_radiance = fr.plate ? &fr.plate->radiance : nullptr,
+                        .photo_clipped = fr.plate && fr.plate->clipped ? &*fr.plate->clipped : nullptr,
+                        .exposure = exposure,
+                        .plates = fr.plates};
+  std::unique_ptr<FrameMethod> fm = RunPasses(&fr, fc, dec);
+  FrameImages im = Compose(fr, fm.get(), dec);
+  clamped_ += im.cr.clamped_negative;
+  const int64_t frame_nonfinite = fm ? fm->nonfinite_samples() : 0;
+  nonfinite_ += frame_nonfinite;
+  const int64_t env_pixels = fm ? fm->skipped_pixels() : 0;
+  Json fj = {{"frame", f},
+             {"gain", dec.gain},
+             {"spp", fr.done},
+             {"seconds", fr.seconds},
+             {"clamped_negative", im.cr.clamped_negative},
+             {"clipped_kept", im.clipped_kept},
+             {"clipped_changed", im.clipped_changed},
+             {"nonfinite_samples", frame_nonfinite},
+             {"copied_through", !fm},
+             {"environment_pixels_sampled_once", env_pixels}};
+  if (!world_json.is_null()) fj["world"] = world_json;
+  if (fm && scene_.render.adaptive_threshold > 0) {
+    double total = 0;
+    for (float c : im.samples.values()) total += c;
+    fj["adaptive"] = {{"stopped_pixels", fm->adaptive_stopped()},
+                      {"mean_spp", total / std::max<size_t>(1, im.samples.values().size())}};
   }
-  if (flicker_frames > 0) report->SetMetric("flicker", flicker_sum / flicker_frames);  // kept frames too
+  if (env_pixels > 0 && fr.done > 1)
+    report_->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
+                  "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");
+  if (fr.ref) fj["curve"] = errors_.EndFrame(Measure(f, im.cr.composite, *fr.ref, fr.region, &fj));
+  if (fm) method_->FrameDone(*fm, fc, report_, &fj);
+  frames_json_.push_back(fj);
+  WriteFrame(fr, &im);
+  spdlog::info("frame {}: {} spp in {:.2f} s{}", f, fr.done, fr.seconds,
+               fr.ref ? fmt::format(", relMSE {:.3g}", fj["relmse"].get<double>()) : std::string());
+}
+
+// What the job skipped over all frames, the method's own summary, and the
+// job's figures.
+void RenderJob::Summarize() {
+  if (still_frames_ > 0)
+    report_->Skip(fmt::format("motion blur in {} frames", still_frames_),
+                  "the camera does not move over their shutter intervals: the blur is exactly none");
+  if (world_->dynamic()) {
+    report_->SetMetric("world", Json{{"frames_changed", world_changed_}, {"frames_kept", world_kept_}});
+    if (world_kept_ > 0)
+      report_->Skip(fmt::format("rebuilding in {} frames", world_kept_),
+                    "their light (by content) and objects are the previous frame's: every cache, volume and VPL set "
+                    "kept");
+  }
+  if (use_neighbours_) {
+    report_->SetMetric("plate_neighbours", Json{{"count", neighbours_}, {"step", step_}});
+    if (neighbours_still_ > 0)
+      report_->Skip(fmt::format("{} neighbouring plates", neighbours_still_),
+                    "taken from the frame's own pose: they see nothing the frame's plate does not");
+    if (neighbours_without_gain_ > 0)
+      report_->Skip(fmt::format("{} neighbouring plates without a gain", neighbours_without_gain_),
+                    "camera.gains has no entry for them: their units are unknown");
+  }
+  method_->Finish(report_);
+  if (video_out_) {
+    video_out_->Close();
+    report_->AddOutput(video_path_.string());
+  }
+  if (!review_sheet_.empty()) {
+    report_->SetMetric("review_sheet", review_sheet_.string());
+    spdlog::info("review sheet: {}", review_sheet_.string());
+  }
+  report_->SetMetric("method", method_name_);
+  report_->SetMetric("frames", frames_json_);
+  report_->SetMetric("clamped_negative", clamped_);
+  report_->SetMetric("nonfinite_samples", nonfinite_);
+  if (clamped_ > 0) report_->Warn(fmt::format("{} negative composite values clamped to 0", clamped_));
+  if (errors_.frames() > 0) {
+    report_->SetMetric("rmse", errors_.mean_rmse());
+    report_->SetMetric("relmse", errors_.mean_relmse());
+    report_->SetMetric("region_relmse", errors_.mean_region_relmse());
+    report_->SetMetric("curve", errors_.MeanCurve());
+  }
+  if (flicker_frames_ > 0) report_->SetMetric("flicker", flicker_sum_ / flicker_frames_);  // kept frames too
+}
+
+}  // namespace
+
+void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
+  RenderJob job(scene, o, report);
+  job.FindResumedFrames();
+  job.EstimateGrain();
+  job.OpenVideo();
+  job.PrepareWorldAndMethod();
+  job.SetUpNeighbourPlates();
+  job.ReplayResumedFrames();
+  job.RenderFrames();
+  job.Summarize();
 }
 
 }  // namespace mr

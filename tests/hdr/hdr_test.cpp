@@ -189,7 +189,7 @@ TEST(Merge, SunSaturatedInEveryExposure) {
     Image blurred_sky = sky;
     GaussianBlur(&blurred_sky, blur);
     for (const bool fit : {false, true}) {
-      MergeOptions mo;
+      ExposureMergeOptions mo;
       mo.fit_censored = fit;
       MergeReport rep;
       const Image hdr = MergeExposures(bracket, TrueResponse(8), mo, &rep);

@@ -1,4 +1,4 @@
-#include "cli/probe_sequence.h"
+#include "jobs/probe_sequence.h"
 
 #include <gtest/gtest.h>
 

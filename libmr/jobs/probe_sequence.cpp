@@ -1,4 +1,4 @@
-#include "cli/probe_sequence.h"
+#include "jobs/probe_sequence.h"
 
 #include <spdlog/spdlog.h>
 
@@ -16,7 +16,6 @@
 #include "core/video.h"
 #include "hdr/exposure_merge.h"
 #include "hdr/exposures_file.h"
-#include "pipeline/pipeline.h"
 #include "render/frame_io.h"
 #include "scene/frames.h"
 #include "scene/scene.h"

@@ -1,0 +1,830 @@
+// mr-pipeline's planner: a table of stages (Stages() at the end of this
+// file), each one plan function over the shared plan state.  A stage
+// function reads the part of the pipeline file its stage needs, in the
+// order of the table (so that errors come in the file's order: the camera,
+// the lighting, the room, the video, ...), fills its PipelineStage (tool,
+// arguments, inputs, outputs, what it does, or why it is skipped) and
+// leaves in the state what later stages take from it (the camera model, the
+// maps, the poses, the fused room, the plate's gains, the scene).
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <optional>
+
+#include "core/error.h"
+#include "core/json_node.h"
+#include "core/video.h"
+#include "pipeline/pipeline.h"
+#include "render/method.h"
+#include "scene/frames.h"
+#include "scene/scene.h"
+
+namespace mr {
+
+namespace {
+
+using Node = JsonNode;
+
+struct Planner {
+  Pipeline* p;
+  const std::string* name;
+
+  fs::path Path(const Node& n, const char* what) const {
+    fs::path f = n.String();
+    if (f.empty()) n.Fail("empty path");
+    if (f.is_relative()) f = p->base / f;
+    std::error_code ec;
+    if (!fs::exists(f, ec)) n.Fail(fmt::format("{} {} does not exist", what, f.string()));
+    return f.lexically_normal();
+  }
+  // A path that a stage may write, or a frame pattern (printf-style): only
+  // its folder has to exist.
+  fs::path Pattern(const Node& n, const char* what) const {
+    fs::path f = n.String();
+    if (f.empty()) n.Fail("empty path");
+    if (f.is_relative()) f = p->base / f;
+    std::error_code ec;
+    if (f.string().find('%') == std::string::npos) return Path(n, what);
+    if (!fs::is_directory(f.parent_path(), ec)) n.Fail(fmt::format("the folder of {} does not exist", f.string()));
+    return f.lexically_normal();
+  }
+  // One path, or a list of paths; '*' and '?' in a file name match files of
+  // its folder (sorted).  An empty match is an error.
+  std::vector<fs::path> Files(const Node& n, const char* what) const {
+    std::vector<fs::path> out;
+    auto one = [&](const Node& e) {
+      fs::path f = e.String();
+      if (f.is_relative()) f = p->base / f;
+      const std::string pattern = f.filename().string();
+      if (pattern.find_first_of("*?[") == std::string::npos) {
+        out.push_back(Path(e, what));
+        return;
+      }
+      std::vector<fs::path> m;
+      std::error_code ec;
+      if (fs::is_directory(f.parent_path(), ec))
+        for (const auto& d : fs::directory_iterator(f.parent_path()))
+          if (d.is_regular_file() && fnmatch(pattern.c_str(), d.path().filename().c_str(), 0) == 0)
+            m.push_back(d.path().lexically_normal());
+      if (m.empty()) e.Fail(fmt::format("no {} match {}", what, f.string()));
+      std::sort(m.begin(), m.end());
+      out.insert(out.end(), m.begin(), m.end());
+    };
+    if (n.json().is_array()) {
+      if (n.json().empty()) n.Fail(fmt::format("an empty list of {}", what));
+      for (size_t i = 0; i < n.json().size(); ++i) one(n.Index(i));
+    } else {
+      one(n);
+    }
+    return out;
+  }
+  // "options": {"albedo-rays": 64, "no-albedo": true} -> --albedo-rays 64 --no-albedo.
+  // The tool checks them (unknown flags are its usage errors).
+  std::vector<std::string> Options(const Node& parent, const char* key = "options") const {
+    std::vector<std::string> a;
+    if (!parent.Has(key)) return a;
+    const Node n = parent.Child(key);
+    if (!n.json().is_object()) n.Fail("expected an object of tool options, e.g. {\"width\": 256}");
+    for (auto& [k, v] : n.json().items()) {
+      if (k.empty() || k[0] == '-') n.Child(k).Fail("option names go without the leading --");
+      if (v.is_boolean()) {
+        if (v.get<bool>()) a.push_back("--" + k);
+      } else if (v.is_string()) {
+        a.insert(a.end(), {"--" + k, v.get<std::string>()});
+      } else if (v.is_number()) {
+        a.insert(a.end(), {"--" + k, v.dump()});
+      } else if (v.is_array()) {
+        std::string list;
+        for (const auto& e : v) list += (list.empty() ? "" : ",") + (e.is_string() ? e.get<std::string>() : e.dump());
+        a.insert(a.end(), {"--" + k, list});
+      } else {
+        n.Child(k).Fail("expected a string, number, true/false or a list");
+      }
+    }
+    return a;
+  }
+  std::string Rel(const fs::path& f) const { return f.lexically_relative(p->work).generic_string(); }
+};
+
+void Append(std::vector<std::string>* a, const std::vector<std::string>& b) { a->insert(a->end(), b.begin(), b.end()); }
+void Append(std::vector<fs::path>* a, const std::vector<fs::path>& b) { a->insert(a->end(), b.begin(), b.end()); }
+void AppendPaths(std::vector<std::string>* a, const std::vector<fs::path>& b) {
+  for (const auto& f : b) a->push_back(f.string());
+}
+
+// A scene entry ("real" or "virtual") with its paths rebased to the work folder.
+Json Rebase(const Planner& pl, const Node& n, const std::vector<std::string>& path_keys) {
+  Json out = n.json();
+  if (!out.is_object()) n.Fail("expected an object");
+  for (const std::string& k : path_keys)
+    if (n.Has(k.c_str()) && n.Child(k).json().is_string()) out[k] = pl.Rel(pl.Path(n.Child(k), k.c_str()));
+  return out;
+}
+
+
+// What the stages decide for the stages after them.
+struct Plan {
+  Plan(Pipeline* pipeline, const fs::path& f)
+      : p(pipeline), file(f), name(f.string()), root(pipeline->json, "", &name), pl{pipeline, &name} {}
+  Pipeline* p;
+  fs::path file;
+  std::string name;  // the pipeline file, for messages
+  Node root;
+  Planner pl;
+  fs::path w;  // the work folder
+  Json scene = {{"version", 1}};
+  // The scene camera (calibrate).
+  fs::path camera_model;
+  // The lighting (sphere, hdr, probe, plate_probe, lights).
+  std::optional<Node> light, probe, light_video, plate_sphere;
+  std::string no_probe;  // why the photograph stages have nothing to do
+  fs::path env, probe_json, probe_raw;
+  Json lighting;
+  // The room (fuse).
+  std::optional<Node> room;
+  fs::path fused_mesh, fused_trajectory;
+  // The video, its camera section and the plate's gains (register).
+  std::optional<Node> video;
+  Json camera;
+  fs::path gains_dir, fitted_gains;
+  std::string gains_skip;
+  std::vector<std::string> gains_options;
+  bool use_gains = false;
+  fs::path poses;
+  // The virtual objects and the render (formfactor, scene).
+  std::string method;
+  Json virtuals = Json::array();
+  fs::path scene_file;
+  // The per-frame light the scene names by pattern: its folders' content
+  // decides the renders (scene.json itself does not change with it).
+  std::vector<fs::path> per_frame;
+  Json outputs;
+  std::optional<Node> outs;
+};
+
+// ---------------------------------------------------------------------------
+// The scene camera: a model, or calibrated from board photographs.
+
+void PlanCalibrate(Plan& st, PipelineStage& s) {
+  const Node cam = st.root.Required("camera");
+  cam.RequireObject({"model", "boards"});
+  if (cam.Has("model") == cam.Has("boards")) cam.Fail("give either camera.model or camera.boards");
+  if (cam.Has("model")) {
+    st.camera_model = st.pl.Path(cam.Child("model"), "camera model");
+    s.skip = "camera.model is given: " + st.camera_model.string();
+    return;
+  }
+  const Node b = cam.Child("boards");
+  b.RequireObject({"photos", "board", "lensmodel", "options"});
+  const auto photos = st.pl.Files(b.Required("photos"), "board photographs");
+  const fs::path board = st.pl.Path(b.Required("board"), "board definition");
+  st.camera_model = st.w / "camera.cameramodel";
+  s.args = {"camera", "--board", board.string(), "--out", st.camera_model.string()};
+  if (b.Has("lensmodel")) Append(&s.args, {"--lensmodel", b.Child("lensmodel").String()});
+  Append(&s.args, st.pl.Options(b));
+  AppendPaths(&s.args, photos);
+  s.inputs = photos;
+  s.inputs.push_back(board);
+  s.outputs = {st.camera_model};
+  s.does = fmt::format("the scene camera's intrinsics from {} board photographs (mrcal)", photos.size());
+}
+
+// ---------------------------------------------------------------------------
+// The lighting: a map, or a probe (photographs -> HDR -> unwrapped map), a
+// light camera's video, or the mirror sphere in the plate; and optionally
+// lights extracted from it.
+
+// The lighting section, read by its first stage.
+void ReadLighting(Plan& st) {
+  st.light.emplace(st.root.Required("lighting"));
+  const Node& light = *st.light;
+  light.RequireObject({"environment", "probe", "light_video", "sphere_in_plate", "lights", "environment_up",
+                       "environment_rotation_deg", "environment_scale"});
+  if (light.Has("environment") + light.Has("probe") + light.Has("light_video") + light.Has("sphere_in_plate") != 1)
+    light.Fail("give one of lighting.environment, lighting.probe, lighting.light_video and lighting.sphere_in_plate");
+  if (light.Has("sphere_in_plate")) {
+    st.plate_sphere.emplace(light.Child("sphere_in_plate"));
+    st.plate_sphere->RequireObject({"centre", "radius", "reflectance", "options"});
+    // Unwrapped after the plate's poses are known (the plate_probe stage).
+    st.env = st.w / "env" / "%05d.exr";
+  }
+  if (light.Has("light_video")) {
+    st.light_video.emplace(light.Child("light_video"));
+    st.light_video->RequireObject({"frames", "fisheye", "exposures", "plate_times", "options"});
+  }
+  st.no_probe = st.light_video    ? "the light is a light camera's video (lighting.light_video)"
+                : st.plate_sphere ? "the light is the mirror sphere in the plate (lighting.sphere_in_plate)"
+                                  : "lighting.environment is given";
+  if (light.Has("probe")) {
+    st.probe.emplace(light.Child("probe"));
+    st.probe->RequireObject({"photos", "exposures", "probe", "sphere", "fisheye", "hdr", "unwrap"});
+  }
+}
+
+void PlanSphere(Plan& st, PipelineStage& s) {
+  ReadLighting(st);
+  const std::optional<Node>& probe = st.probe;
+  if (!probe) {
+    s.skip = st.no_probe + ": no probe to locate";
+  } else if (probe->Has("fisheye")) {
+    s.skip = "the probe is a fish-eye view: no mirror sphere to locate";
+  } else if (probe->Has("probe")) {
+    st.probe_json = st.pl.Path(probe->Child("probe"), "probe.json");
+    s.skip = "lighting.probe.probe is given: " + st.probe_json.string();
+  } else {
+    if (!probe->Has("sphere"))
+      probe->Fail("a mirror-sphere probe needs \"probe\" (probe.json) or \"sphere\" (its photographs)");
+    const Node sp = probe->Child("sphere");
+    sp.RequireObject({"camera", "photos", "radius", "options"});
+    const fs::path light_cam = st.pl.Path(sp.Required("camera"), "light camera model");
+    const auto photos = st.pl.Files(sp.Required("photos"), "sphere photographs");
+    const double radius = sp.Required("radius").Number(1e-4, 10);
+    st.probe_json = st.w / "probe.json";
+    s.args = {"sphere", "--camera", light_cam.string(), "--radius", fmt::format("{}", radius),
+              "--out",  st.probe_json.string()};
+    Append(&s.args, st.pl.Options(sp));
+    AppendPaths(&s.args, photos);
+    s.inputs = photos;
+    s.inputs.push_back(light_cam);
+    s.outputs = {st.probe_json};
+    s.does = "the mirror sphere's centre in the light camera (probe.json)";
+  }
+}
+
+void PlanHdr(Plan& st, PipelineStage& s) {
+  const std::optional<Node>& probe = st.probe;
+  if (!probe) {
+    s.skip = st.no_probe + ": no photographs to merge";
+    return;
+  }
+  const auto photos = st.pl.Files(probe->Required("photos"), "probe photographs");
+  const std::string ext = LowerExtension(photos.front());
+  if (photos.size() == 1 && (ext == ".exr" || ext == ".hdr")) {
+    st.probe_raw = photos.front();
+    s.skip = "one HDR photograph of the probe: nothing to merge";
+    return;
+  }
+  st.probe_raw = st.w / "probe-raw.exr";
+  s.args = {"--out", st.probe_raw.string(), "--save-response", (st.w / "probe-response.json").string()};
+  s.inputs = photos;
+  if (probe->Has("exposures")) {
+    const fs::path e = st.pl.Path(probe->Child("exposures"), "exposure list");
+    Append(&s.args, {"--exposures", e.string()});
+    s.inputs.push_back(e);
+  }
+  Append(&s.args, st.pl.Options(*probe, "hdr"));
+  AppendPaths(&s.args, photos);
+  s.outputs = {st.probe_raw, st.w / "probe-response.json"};
+  s.does = fmt::format("{} bracketed photographs of the probe merged into radiance", photos.size());
+}
+
+// One map per plate frame from the light camera's frames, matched by
+// timestamp to the plate's poses; mr-probe keeps the maps whose light frames
+// did not change.
+void PlanLightVideo(Plan& st, PipelineStage& s) {
+  const Node& lv = *st.light_video;
+  const fs::path frames = st.pl.Pattern(lv.Required("frames"), "light video frames");
+  const fs::path fe = st.pl.Path(lv.Required("fisheye"), "light camera model");
+  st.env = st.w / "env" / "%05d.exr";
+  s.args = {"--light", frames.string(), "--fisheye", fe.string(), "--out", st.env.string()};
+  s.inputs = {
+      frames.string().find('%') != std::string::npos || LowerExtension(frames) == ".txt" ? frames.parent_path() : frames,
+      fe};
+  std::optional<fs::path> times;
+  if (lv.Has("plate_times")) {
+    times = st.pl.Path(lv.Child("plate_times"), "plate trajectory");
+  } else if (st.root.Has("video") && st.root.Child("video").Has("poses") &&
+             st.root.Child("video").Child("poses").Has("tum")) {
+    times = st.pl.Path(st.root.Child("video").Child("poses").Child("tum"), "trajectory");
+  }
+  if (times) {
+    Append(&s.args, {"--plate-times", times->string()});
+    s.inputs.push_back(*times);
+  }
+  if (lv.Has("exposures")) {
+    const fs::path e = st.pl.Path(lv.Child("exposures"), "light frames' exposure times");
+    Append(&s.args, {"--exposures", e.string()});
+    s.inputs.push_back(e);
+  }
+  Append(&s.args, st.pl.Options(lv));
+  s.outputs = {st.w / "env"};
+  s.does = times ? "the light camera's frames unwrapped, one map per plate frame matched by timestamp"
+                 : "the light camera's frames unwrapped, one map per frame (no plate times: frame i is i)";
+}
+
+void PlanProbe(Plan& st, PipelineStage& s) {
+  const std::optional<Node>& probe = st.probe;
+  if (st.light_video) {
+    PlanLightVideo(st, s);
+  } else if (st.plate_sphere) {
+    s.skip = "the light is the mirror sphere in the plate: unwrapped by plate_probe, once the plate's poses are known";
+  } else if (!probe) {
+    st.env = st.pl.Pattern(st.light->Child("environment"), "environment map");  // a map, one per frame, or a video
+    s.skip = "lighting.environment is given: " + st.env.string();
+  } else {
+    st.env = st.w / "env.exr";
+    s.args = {st.probe_raw.string(), "--out", st.env.string()};
+    s.inputs = {st.probe_raw};
+    if (probe->Has("fisheye")) {
+      const fs::path fe = st.pl.Path(probe->Child("fisheye"), "fish-eye camera model");
+      Append(&s.args, {"--fisheye", fe.string()});
+      s.inputs.push_back(fe);
+      s.does = "the fish-eye view unwrapped into a world-aligned lat-long map";
+    } else {
+      Append(&s.args, {"--probe", st.probe_json.string()});
+      s.inputs.push_back(st.probe_json);
+      s.does = "the mirror sphere unwrapped into a world-aligned lat-long map";
+    }
+    Append(&s.args, st.pl.Options(*probe, "unwrap"));
+    s.outputs = {st.env};
+  }
+}
+
+// ---------------------------------------------------------------------------
+// The room: meshes given, or fused from an RGB-D recording.
+
+// mr-fuse de-lights the albedo by the captured light (a map per frame: the
+// first frame's) unless room.options says otherwise.
+void AddDelightingMap(Plan& st, const std::vector<std::string>& opts, PipelineStage& s) {
+  const Node& room = *st.room;
+  if (std::find(opts.begin(), opts.end(), "--no-albedo") != opts.end() ||
+      std::find(opts.begin(), opts.end(), "--env") != opts.end())
+    return;
+  if (st.plate_sphere)
+    room.Fail(
+        "the room's albedo is de-lit by the captured light, and the sphere in the plate gives it only once the "
+        "plate's poses are known, after the room: give room.options \"env\" (a map) or \"no-albedo\"");
+  if (IsVideoFile(st.env))
+    room.Fail(
+        "the room's albedo is de-lit by a map, and lighting.environment is a video: give room.options "
+        "\"env\" (a map) or \"no-albedo\"");
+  const fs::path delight = st.env.string().find('%') != std::string::npos ? FramePath(st.env, 0) : st.env;
+  std::error_code ec;
+  // A given map must exist; the probe's and a light video's are made by their stage.
+  if (st.light->Has("environment") && !fs::is_regular_file(delight, ec))
+    st.light->Child("environment").Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
+  Append(&s.args, {"--env", delight.string()});
+  s.inputs.push_back(delight);
+}
+
+void PlanFuse(Plan& st, PipelineStage& s) {
+  st.room.emplace(st.root.Required("room"));
+  const Node& room = *st.room;
+  room.RequireObject({"real", "rgbd", "options"});
+  if (room.Has("real") == room.Has("rgbd"))
+    room.Fail("give either room.real (meshes) or room.rgbd (a recording to fuse)");
+  if (room.Has("real")) {
+    const Node r = room.Child("real");
+    Json reals = Json::array();
+    auto rebase = [&](const Node& one) {
+      Json e = Rebase(st.pl, one, {"mesh"});
+      if (one.Has("material")) e["material"] = Rebase(st.pl, one.Child("material"), {"albedo_texture"});
+      return e;
+    };
+    if (r.json().is_array()) {
+      for (size_t i = 0; i < r.json().size(); ++i) reals.push_back(rebase(r.Index(i)));
+    } else {
+      reals.push_back(rebase(r));
+    }
+    st.scene["real"] = reals;
+    s.skip = fmt::format("room.real gives {} mesh{}: no RGB-D recording to fuse", reals.size(),
+                         reals.size() == 1 ? "" : "es");
+    return;
+  }
+  const fs::path rgbd = st.pl.Path(room.Child("rgbd"), "RGB-D recording");
+  st.fused_mesh = st.w / "room" / "room.ply";
+  st.fused_trajectory = st.w / "room" / "trajectory.txt";
+  s.args = {rgbd.string(), "--out", (st.w / "room").string()};
+  s.inputs = {rgbd};
+  const auto opts = st.pl.Options(room);
+  AddDelightingMap(st, opts, s);
+  Append(&s.args, opts);
+  s.outputs = {st.fused_mesh, st.fused_trajectory};
+  s.does = "the room reconstructed from RGB-D (tracking, TSDF, mesh with de-lit albedo)";
+}
+
+// ---------------------------------------------------------------------------
+// The video to augment, its poses and the plate's radiometric gains.
+
+// The plate's gains: fitted (mr-eval plate) unless the video has none, they
+// are given, turned off, or an exposure is hand-set for a display-space
+// plate (where the two would say the same thing twice).  Linear plates are
+// radiance, taken to be in the captured light's units: their gains are
+// fitted as a check of the chain, not applied, unless asked ({"apply":
+// true}).
+void ReadGains(Plan& st) {
+  const Node& video = *st.video;
+  st.gains_dir = st.w / "radiometry";
+  st.fitted_gains = st.gains_dir / "gains.json";
+  const bool linear = video.Has("frames_transfer") && video.Child("frames_transfer").String() == "linear";
+  bool apply_gains = !linear;
+  const bool display = video.Has("frames_transfer") && video.Child("frames_transfer").String() == "display";
+  if (!video.Has("frames")) {
+    st.gains_skip = "the video names no frames (a synthetic composite): there is no plate to fit";
+  } else if (video.Has("gains")) {
+    const Node g = video.Child("gains");
+    if (g.json().is_string()) {
+      st.camera["gains"] = st.pl.Rel(st.pl.Path(g, "plate gains"));
+      st.gains_skip = "video.gains names them: " + g.String();
+    } else if (g.json().is_boolean()) {
+      if (g.Bool()) g.Fail("expected false, a gains file, or {\"options\": {...}} (fitting is the default)");
+      st.gains_skip = "video.gains is false";
+    } else if (g.json().is_object()) {
+      g.RequireObject({"options", "scale", "apply"});
+      st.gains_options = st.pl.Options(g);
+      if (g.Has("apply")) apply_gains = g.Child("apply").Bool();
+      if (g.Has("scale")) st.camera["gains_scale"] = g.Child("scale").OneOf({"render", "room"});
+    } else {
+      g.Fail("expected false, a gains file, or {\"options\": {...}}");
+    }
+    if (display && video.Has("exposure") && !st.gains_skip.empty() && g.json().is_string())
+      video.Child("exposure").Fail("with video.gains the gains scale the render: give one of the two");
+    if (display && video.Has("exposure") && st.gains_skip.empty())
+      video.Child("exposure").Fail("a hand-set exposure and fitted gains both scale the render: give one of the two");
+  } else if (display && video.Has("exposure")) {
+    st.gains_skip = "video.exposure is hand-set for the display-space plate";
+  }
+  st.use_gains = st.gains_skip.empty() && apply_gains;
+  if (st.use_gains) st.camera["gains"] = st.pl.Rel(st.fitted_gains);
+}
+
+// The video section: the scene's camera (model, frames, exposure,
+// response) and the gains.
+void ReadVideo(Plan& st) {
+  st.video.emplace(st.root.Required("video"));
+  const Node& video = *st.video;
+  video.RequireObject({"frames", "frames_transfer", "exposure", "response", "gains", "poses"});
+  st.camera = {{"model", st.pl.Rel(st.camera_model)}};
+  if (video.Has("frames")) st.camera["frames"] = st.pl.Rel(st.pl.Pattern(video.Child("frames"), "video frames"));
+  if (video.Has("frames_transfer")) st.camera["frames_transfer"] = video.Child("frames_transfer").String();
+  if (video.Has("exposure")) st.camera["exposure"] = video.Child("exposure").json();
+  if (video.Has("response"))
+    st.camera["response"] = st.pl.Rel(st.pl.Path(video.Child("response"), "camera response"));
+  ReadGains(st);
+}
+
+// mr-register's aligning: to the fused trajectory (and, asked, refined
+// against the fused mesh); with room meshes, to the meshes from a given
+// start.
+void AddAlignment(const Plan& st, const Node& ps, PipelineStage& s) {
+  if (!st.fused_trajectory.empty()) {
+    Append(&s.args, {"--trajectory", st.fused_trajectory.string()});
+    s.inputs.push_back(st.fused_trajectory);
+    if (ps.Has("refine_mesh") && ps.Child("refine_mesh").Bool()) {
+      Append(&s.args, {"--mesh", st.fused_mesh.string()});
+      s.inputs.push_back(st.fused_mesh);
+    }
+    return;
+  }
+  if (!ps.Has("initial"))
+    ps.Fail(
+        "aligning COLMAP's poses to room meshes needs \"initial\": a rough similarity, 16 numbers "
+        "(row-major [s*R t; 0 0 0 1], COLMAP's frame to the room's)");
+  std::string list;
+  for (double v : ps.Child("initial").Numbers(16, -1e30, 1e30)) {
+    if (!list.empty()) list += ',';
+    list += fmt::format("{}", v);
+  }
+  Append(&s.args, {"--initial", list});
+  for (const auto& r : st.scene["real"]) {
+    const fs::path m = (st.w / r["mesh"].get<std::string>()).lexically_normal();
+    Append(&s.args, {"--mesh", m.string()});
+    s.inputs.push_back(m);
+  }
+}
+
+void PlanRegister(Plan& st, PipelineStage& s) {
+  ReadVideo(st);
+  const Node& video = *st.video;
+  const Node ps = video.Required("poses");
+  ps.RequireObject({"tum", "fuse", "colmap", "register", "initial", "refine_mesh", "options"});
+  const int given = ps.Has("tum") + ps.Has("fuse") + ps.Has("colmap") + ps.Has("register");
+  if (given != 1)
+    ps.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
+  if (ps.Has("tum")) {
+    st.poses = st.pl.Path(ps.Child("tum"), "trajectory");
+    s.skip = "video.poses.tum is given: " + st.poses.string();
+  } else if (ps.Has("fuse")) {
+    if (st.fused_trajectory.empty())
+      ps.Child("fuse").Fail("the room is not fused (room.rgbd): there is no fused trajectory");
+    st.poses = st.fused_trajectory;
+    s.skip = "the video is the RGB-D recording's colour: its poses are mr-fuse's trajectory";
+  } else {
+    st.poses = st.w / "video" / "poses.txt";
+    const fs::path model_out = st.w / "video" / "colmap.cameramodel";
+    if (ps.Has("colmap")) {
+      const fs::path m = st.pl.Path(ps.Child("colmap"), "COLMAP model");
+      s.args = {"align", m.string()};
+      s.inputs = {m};
+      s.does = "the COLMAP model aligned to the room (similarity to mr-fuse's trajectory, Ceres)";
+    } else {
+      if (!video.Has("frames")) ps.Fail("registration needs video.frames");
+      const fs::path frames = st.pl.Pattern(video.Child("frames"), "video frames");
+      s.args = {"colmap",   frames.string(),         "--workspace", (st.w / "video" / "colmap").string(),
+                "--camera", st.camera_model.string()};
+      s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, st.camera_model};
+      if (ps.Child("register").json().is_object()) {
+        const Node r = ps.Child("register");
+        r.RequireObject({"matcher", "overlap"});
+        if (r.Has("matcher")) Append(&s.args, {"--matcher", r.Child("matcher").OneOf({"sequential", "exhaustive"})});
+        if (r.Has("overlap")) Append(&s.args, {"--overlap", std::to_string(r.Child("overlap").Integer(1, 1000))});
+      } else if (!ps.Child("register").Bool()) {
+        ps.Child("register").Fail("expected true or {matcher, overlap}");
+      }
+      s.does =
+          "the video's frames registered by COLMAP and aligned to the room (similarity to mr-fuse's trajectory, "
+          "Ceres)";
+    }
+    AddAlignment(st, ps, s);
+    Append(&s.args, {"--out", st.poses.string(), "--camera-out", model_out.string()});
+    Append(&s.args, st.pl.Options(ps));
+    s.outputs = {st.poses, model_out};
+  }
+  if (!st.poses.empty()) st.camera["poses"] = {{"format", "tum"}, {"path", st.pl.Rel(st.poses)}};
+  st.scene["camera"] = st.camera;
+}
+
+// The mirror sphere in the plate: each frame's sphere pixels unwrapped from
+// the frame's pose into a map (mr-probe --sphere-in-plate), on the plate's
+// own scene (its camera section alone, written first).
+void PlanPlateProbe(Plan& st, PipelineStage& s) {
+  if (!st.plate_sphere) {
+    s.skip = "lighting.sphere_in_plate is not given";
+    return;
+  }
+  const Node& sp = *st.plate_sphere;
+  const Node& video = *st.video;
+  if (!video.Has("frames")) sp.Fail("the sphere in the plate needs the plate (video.frames)");
+  const std::vector<double> c = sp.Required("centre").Numbers(3, -1e6, 1e6);
+  const double radius = sp.Required("radius").Number(1e-4, 100);
+  const fs::path plate_scene = st.w / "plate.json";
+  Json plate_camera = st.camera;
+  if (st.use_gains) plate_camera.erase("gains");  // fitted by the radiometry stage, after this one
+  s.writes_first = plate_scene;
+  // The room's meshes too: a scene has geometry (mr-probe reads none of it).
+  const Json reals =
+      st.scene.contains("real") ? st.scene["real"] : Json::array({{{"mesh", st.pl.Rel(st.fused_mesh)}}});
+  s.writes_first_json = {
+      {"version", 1},
+      {"comment",
+       fmt::format("the plate and the room, for mr-probe (written by mr-pipeline from {})", st.file.string())},
+      {"camera", plate_camera},
+      {"real", reals}};
+  s.args = {"--sphere-in-plate", plate_scene.string(), "--sphere", fmt::format("{},{},{},{}", c[0], c[1], c[2], radius),
+            "--out",             st.env.string()};
+  if (sp.Has("reflectance"))
+    Append(&s.args, {"--reflectance", fmt::format("{}", sp.Child("reflectance").Number(1e-3, 1))});
+  Append(&s.args, st.pl.Options(sp));
+  const fs::path frames = st.pl.Pattern(video.Child("frames"), "video frames");
+  s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, st.camera_model};
+  if (!st.poses.empty()) s.inputs.push_back(st.poses);
+  if (video.Has("response")) s.inputs.push_back(st.pl.Path(video.Child("response"), "camera response"));
+  if (st.camera.contains("gains") && !st.use_gains) s.inputs.push_back(st.w / st.camera["gains"].get<std::string>());
+  s.outputs = {st.w / "env"};
+  s.does = "the mirror sphere in each plate frame unwrapped from the frame's pose into a map";
+}
+
+// Lights extracted from the map (or a map per frame), and the scene's
+// lighting section.
+void PlanLights(Plan& st, PipelineStage& s) {
+  const Node& light = *st.light;
+  st.lighting = {{"environment", st.pl.Rel(st.env)}};
+  if (!light.Has("lights")) {
+    s.skip = "lighting.lights is not asked for: the scene is lit by the environment map alone";
+  } else if (light.Child("lights").json().is_string()) {
+    const fs::path l = st.pl.Pattern(light.Child("lights"), "lights.json");  // a file, or one per frame
+    st.lighting["lights"] = st.pl.Rel(l);
+    s.skip = "lighting.lights is given: " + l.string();
+  } else {
+    const Node l = light.Child("lights");
+    l.RequireObject({"options"});
+    if (IsVideoFile(st.env))
+      l.Fail(
+          "mr-lights extracts lights from maps, and lighting.environment is a video: give the maps as a "
+          "pattern (env/%05d.exr)");
+    const bool per_frame = st.env.string().find('%') != std::string::npos;
+    // A map per frame: lights per frame, each keeping its name while it moves.
+    const fs::path out = per_frame ? st.w / "lights" / "%05d.json" : st.w / "lights.json";
+    const fs::path residual = per_frame ? st.w / "env-residual" / "%05d.exr" : st.w / "env-residual.exr";
+    s.args = {st.env.string(), "--out", out.string(), "--residual", residual.string()};
+    Append(&s.args, st.pl.Options(l));
+    s.inputs = {per_frame ? st.env.parent_path() : st.env};
+    s.outputs =
+        per_frame ? std::vector<fs::path>{st.w / "lights", st.w / "env-residual"} : std::vector<fs::path>{out, residual};
+    s.does = per_frame ? "lights extracted from each frame's map (a light keeps its name across frames); the scene "
+                         "is lit by them and each frame's residual map"
+                       : "lights extracted from the map; the scene is lit by them and the residual map";
+    st.lighting = {{"environment", st.pl.Rel(residual)}, {"lights", st.pl.Rel(out)}};
+  }
+  for (const char* k : {"environment_up", "environment_rotation_deg", "environment_scale"})
+    if (light.Has(k)) st.lighting[k] = light.Child(k).json();
+  st.scene["lighting"] = st.lighting;
+}
+
+// ---------------------------------------------------------------------------
+// Virtual objects, with form factors where prt needs them; the scene.
+
+void PlanFormfactor(Plan& st, PipelineStage& s) {
+  const Json render = st.root.Has("render") ? st.root.Child("render").json() : Json::object();
+  st.method = render.value("method", "pt");
+  bool uses_ffc = false;
+  std::string ffc_methods;
+  for (const MethodInfo& m : RenderMethodRegistry())
+    if (m.uses_formfactors) {
+      ffc_methods += (ffc_methods.empty() ? "" : ", ") + m.name;
+      uses_ffc = uses_ffc || m.name == st.method;
+    }
+  const Node v = st.root.Required("virtual");
+  if (!v.json().is_array()) v.Fail("expected a list of virtual objects");
+  const auto opts = st.root.Has("formfactor") ? st.pl.Options(st.root, "formfactor") : std::vector<std::string>();
+  for (size_t i = 0; i < v.json().size(); ++i) {
+    const Node o = v.Index(i);
+    if (o.Has("light")) {  // a virtual light: passed through
+      st.virtuals.push_back(o.json());
+      continue;
+    }
+    Json e = Rebase(st.pl, o, {"mesh", "formfactors"});
+    if (o.Has("material"))  // its texture, like the mesh, relative to the work folder
+      e["material"] = Rebase(st.pl, o.Child("material"), {"albedo_texture"});
+    const bool named_ffc = o.Has("formfactors") && o.Child("formfactors").json().is_string();
+    const bool asked_ffc =
+        o.Has("formfactors") && o.Child("formfactors").json().is_boolean() && o.Child("formfactors").Bool();
+    const bool wants = uses_ffc ? !named_ffc : asked_ffc;
+    if (o.Has("formfactors") && o.Child("formfactors").json().is_boolean() && !o.Child("formfactors").Bool())
+      e.erase("formfactors");
+    if (wants) {
+      if (!s.args.empty()) o.Fail("form factors for more than one object: give each its own ffc file");
+      const fs::path mesh = st.pl.Path(o.Required("mesh"), "mesh");
+      const std::string nm = o.Has("name") ? o.Child("name").String() : fmt::format("object{}", i);
+      const fs::path ffc = st.w / (nm + ".ffc");
+      s.args = {mesh.string(), "--out", ffc.string()};
+      Append(&s.args, opts);
+      s.inputs = {mesh};
+      s.outputs = {ffc};
+      s.does = fmt::format("per-vertex form factors of {}", nm);
+      e["formfactors"] = st.pl.Rel(ffc);
+    }
+    st.virtuals.push_back(e);
+  }
+  if (s.args.empty())
+    s.skip = uses_ffc ? "every virtual object names its form factors"
+                      : fmt::format("render.method is {}: form factors are only used by {}", st.method, ffc_methods);
+  st.scene["virtual"] = st.virtuals;
+  st.scene["render"] = render;
+  Json output = st.root.Has("output") ? st.root.Child("output").json() : Json::object();
+  output["dir"] = "render";
+  st.scene["output"] = output;
+  if (st.root.Has("reference"))
+    st.scene["reference"] = st.pl.Rel(st.pl.Pattern(st.root.Child("reference"), "reference frames"));
+  st.scene["comment"] = fmt::format("written by mr-pipeline from {}", st.file.string());
+}
+
+// scene.json, written by mr-pipeline itself (RunPipeline), checked now as
+// mr-render would check it (files that stages make need not exist yet).
+void PlanScene(Plan& st, PipelineStage& s) {
+  st.scene_file = st.w / "scene.json";
+  s.inputs = {st.file, st.camera_model, st.env};
+  if (st.lighting.contains("lights")) s.inputs.push_back(st.w / st.lighting["lights"].get<std::string>());
+  if (!st.fused_mesh.empty()) s.inputs.push_back(st.fused_mesh);
+  if (!st.poses.empty()) s.inputs.push_back(st.poses);
+  for (const auto& v : st.virtuals)
+    if (v.contains("formfactors")) s.inputs.push_back(st.w / v["formfactors"].get<std::string>());
+  s.outputs = {st.scene_file};
+  s.does = st.fused_mesh.empty() ? "scene.json naming every input"
+                                 : "scene.json naming every input (the fused room's per-vertex albedo)";
+  if (!st.fused_mesh.empty()) {
+    // The albedo is the fused mesh's mean, filled in when the scene stage runs.
+    st.scene["real"] =
+        Json::array({{{"mesh", st.pl.Rel(st.fused_mesh)}, {"material", {{"albedo", {0.5, 0.5, 0.5}}}}}});
+    st.p->fused_room = st.fused_mesh;
+  }
+  CheckRenderSettings(ParseScene(st.scene, st.w, (st.w / "scene.json").string(), false));
+  for (const char* k : {"environment", "lights"})
+    if (st.lighting.contains(k) && st.lighting[k].get<std::string>().find('%') != std::string::npos)
+      st.per_frame.push_back((st.w / st.lighting[k].get<std::string>()).lexically_normal().parent_path());
+  st.outputs = st.root.Has("outputs") ? st.root.Child("outputs").json() : Json{{"render", true}};
+  st.outs.emplace(st.outputs, "outputs", &st.name);
+  st.outs->RequireObject({"render", "sweep"});
+}
+
+// ---------------------------------------------------------------------------
+// What is made from the scene: the plate's gains, the render, the sweep.
+
+void PlanRadiometry(Plan& st, PipelineStage& s) {
+  if (!st.gains_skip.empty()) {
+    s.skip = st.gains_skip;
+    return;
+  }
+  s.args = {"plate", st.scene_file.string(), "--out", st.gains_dir.string()};
+  Append(&s.args, st.gains_options);
+  s.inputs = {st.scene_file};
+  Append(&s.inputs, st.per_frame);
+  s.outputs = {st.gains_dir};
+  s.does = st.use_gains ? "the plate's gains fitted against the rendered room, and the capture chain's re-rendering error"
+                        : "the capture chain's re-rendering error and the plate's gains, as a check (a linear plate "
+                          "is not rescaled: video.gains {\"apply\": true} applies them)";
+}
+
+void PlanRender(Plan& st, PipelineStage& s) {
+  if (st.outs->Has("render") && !st.outs->Child("render").Bool()) {
+    s.skip = "outputs.render is false";
+    return;
+  }
+  // --resume: the frames whose inputs (by content) and settings are those of
+  // an earlier run are kept, from the first frame to the first changed.
+  s.args = {st.scene_file.string(), "--out", (st.w / "render").string(), "--resume"};
+  s.inputs = {st.scene_file};
+  Append(&s.inputs, st.per_frame);
+  if (st.use_gains) s.inputs.push_back(st.fitted_gains);
+  s.outputs = {st.w / "render"};
+  s.does = fmt::format("the virtual objects rendered into every frame ({}) and composited", st.method);
+}
+
+void PlanSweep(Plan& st, PipelineStage& s) {
+  if (!st.outs->Has("sweep")) {
+    s.skip = "outputs.sweep is not asked for";
+    return;
+  }
+  if (!st.root.Has("reference")) {
+    s.skip = "no reference frames (reference): there is nothing to measure error against";
+    return;
+  }
+  const Node sw = st.outs->Child("sweep");
+  if (sw.json().is_boolean() && !sw.Bool()) {
+    s.skip = "outputs.sweep is false";
+    return;
+  }
+  s.args = {"sweep", st.scene_file.string(), "--out", (st.w / "sweep").string()};
+  if (sw.json().is_object()) {
+    sw.RequireObject({"options"});
+    Append(&s.args, st.pl.Options(sw));
+  }
+  s.inputs = {st.scene_file};
+  Append(&s.inputs, st.per_frame);
+  if (st.use_gains) s.inputs.push_back(st.fitted_gains);
+  s.outputs = {st.w / "sweep"};
+  s.does = "error against run time of the rendering methods against the reference";
+}
+
+// ---------------------------------------------------------------------------
+// The stages, in the order they run: the name (pipeline.json, --until,
+// --force, the report), the tool (empty: mr-pipeline itself) and the plan
+// function.  Adding a stage is one function above and one line here.
+
+struct StageDef {
+  const char* name;
+  const char* tool;
+  void (*plan)(Plan&, PipelineStage&);
+};
+
+const std::vector<StageDef>& Stages() {
+  static const std::vector<StageDef> stages = {
+      {"calibrate", "mr-calibrate", PlanCalibrate},   {"sphere", "mr-calibrate", PlanSphere},
+      {"hdr", "mr-hdr", PlanHdr},                     {"probe", "mr-probe", PlanProbe},
+      {"fuse", "mr-fuse", PlanFuse},                  {"register", "mr-register", PlanRegister},
+      {"plate_probe", "mr-probe", PlanPlateProbe},    {"lights", "mr-lights", PlanLights},
+      {"formfactor", "mr-formfactor", PlanFormfactor}, {"scene", "", PlanScene},
+      {"radiometry", "mr-eval", PlanRadiometry},      {"render", "mr-render", PlanRender},
+      {"sweep", "mr-eval", PlanSweep},
+  };
+  return stages;
+}
+
+}  // namespace
+
+const std::vector<std::string>& PipelineStageNames() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const StageDef& d : Stages()) n.push_back(d.name);
+    return n;
+  }();
+  return names;
+}
+
+Pipeline PlanPipeline(const fs::path& file) {
+  Pipeline p;
+  p.file = file;
+  p.base = file.parent_path().empty() ? fs::path(".") : file.parent_path();
+  p.base = fs::absolute(p.base).lexically_normal();
+  // ParseJsonStrict: every JSON error (a number too large for a double too,
+  // found by fuzz/fuzz_pipeline) as one mr::Error naming the file.
+  p.json = ReadJsonFile(file);
+  Plan st(&p, file);
+  st.root.RequireObject({"version", "comment", "work", "camera", "lighting", "room", "video", "virtual", "render",
+                         "output", "reference", "formfactor", "outputs"});
+  if (st.root.Required("version").Integer(1, 1) != 1) st.root.Fail("version must be 1");
+  p.work = (p.base / (st.root.Has("work") ? st.root.Child("work").String() : std::string("work"))).lexically_normal();
+  st.w = p.work;
+  for (const StageDef& d : Stages()) {
+    p.stages.push_back({});
+    PipelineStage& s = p.stages.back();
+    s.name = d.name;
+    s.tool = d.tool;
+    s.report = p.work / "reports" / (s.name + ".json");
+    d.plan(st, s);
+  }
+  p.scene = st.scene;
+  return p;
+}
+
+}  // namespace mr

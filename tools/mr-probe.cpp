@@ -4,13 +4,13 @@
 #include <Eigen/Geometry>
 
 #include "camera/camera_model.h"
-#include "jobs/probe_sequence.h"
 #include "cli/tool.h"
 #include "core/error.h"
 #include "core/image.h"
 #include "core/math.h"
 #include "core/report.h"
 #include "core/spherical.h"
+#include "jobs/probe_sequence.h"
 #include "probe/unwrap.h"
 #include "scene/frames.h"
 

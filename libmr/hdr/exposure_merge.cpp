@@ -549,8 +549,7 @@ Image MergeExposures(std::vector<Exposure> bracket, const CameraResponse& respon
     rep.censored_lower_bound_fraction = total > 0 ? lb / total : 0;
     rep.censored_added_fraction = total > 0 ? (est - lb) / total : 0;
   }
-  for (float v : out.values())
-    MR_CHECK_MSG(std::isfinite(v), "the merge produced a non-finite value");
+  for (float v : out.values()) MR_CHECK_MSG(std::isfinite(v), "the merge produced a non-finite value");
   if (report) *report = rep;
   return out;
 }

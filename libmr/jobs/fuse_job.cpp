@@ -67,10 +67,9 @@ FuseOptions FuseOptionsOf(const FuseJobOptions& o, Report* report) {
 // the recording's reference) and where tracking starts.
 RgbdSequence OpenRecording(const FuseJobOptions& o, FuseOptions* fo, Report* report) {
   RgbdOpenOptions ro = o.rgbd;
-  if (o.intrinsics.size() == 4) ro.intrinsics = PinholeIntrinsics{.fx = o.intrinsics[0],
-                                                                  .fy = o.intrinsics[1],
-                                                                  .cx = o.intrinsics[2],
-                                                                  .cy = o.intrinsics[3]};
+  if (o.intrinsics.size() == 4)
+    ro.intrinsics =
+        PinholeIntrinsics{.fx = o.intrinsics[0], .fy = o.intrinsics[1], .cx = o.intrinsics[2], .cy = o.intrinsics[3]};
   const RgbdSequence seq = OpenRgbdSequence(o.input, ro);
   report->AddInput(o.input);
   if (seq.unpaired_depth)

@@ -20,15 +20,15 @@ struct FuseJobOptions {
   FuseOptions fuse;
   MeshOptions mesh;
   AlbedoOptions albedo;
-  std::vector<double> intrinsics;   // fx,fy,cx,cy (empty: the recording's)
-  std::vector<double> roi;          // xmin,ymin,zmin,xmax,ymax,zmax (empty: none)
-  std::string roi_scene;            // a scene whose virtual objects bound the region
-  double roi_scale = 2.0;           // their bounding box scaled by this
-  std::vector<double> skip_motion;  // MM,DEG (empty: fuse every tracked frame)
-  double max_depth = 8.0;           // m
-  std::string poses;                // a TUM trajectory, or "reference"; empty: tracking
+  std::vector<double> intrinsics;       // fx,fy,cx,cy (empty: the recording's)
+  std::vector<double> roi;              // xmin,ymin,zmin,xmax,ymax,zmax (empty: none)
+  std::string roi_scene;                // a scene whose virtual objects bound the region
+  double roi_scale = 2.0;               // their bounding box scaled by this
+  std::vector<double> skip_motion;      // MM,DEG (empty: fuse every tracked frame)
+  double max_depth = 8.0;               // m
+  std::string poses;                    // a TUM trajectory, or "reference"; empty: tracking
   std::string first_pose = "identity";  // or "reference"
-  std::string lights, env;          // de-light the albedo by these
+  std::string lights, env;              // de-light the albedo by these
   bool no_color = false, no_bilateral = false, no_albedo = false;
 
   // UsageError naming the flag at fault: --layout, --intrinsics, --roi and

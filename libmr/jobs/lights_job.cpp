@@ -129,8 +129,8 @@ void LightsJob::OverTime() {
   std::vector<int> prev_ids;
   int next_id = 0, f = 0, kept = 0;
   const std::string options =
-      fmt::format("{} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold, eo.max_blob_sr, eo.sh_order,
-                  eo.seed, o_.residual_width, o_.match_deg, o_.residual.empty());
+      fmt::format("{} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold, eo.max_blob_sr, eo.sh_order, eo.seed,
+                  o_.residual_width, o_.match_deg, o_.residual.empty());
   uint64_t key = HashCombine(0x6c6967687473ULL, HashString(options));
   for (;; ++f) {
     const std::string map_file = FramePath(o_.env, f).string();
@@ -218,8 +218,7 @@ void LightsJob::Sweep(const Image& env, const std::vector<double>& ref) {
       const Extraction ex = ExtractLights(env, o);
       const LightsError e = ErrorOf(ex, dirs_, ref);
       csv += fmt::format("{},{},{},{:.6g},{:.6g},{:.6g},{:.6g},{:.6g}\n", m, n, ex.lights.size(), ex.seconds,
-                         e.lights.rms_relative, e.lights.max_relative, e.with_residual.rms_relative,
-                         ex.taken_fraction);
+                         e.lights.rms_relative, e.lights.max_relative, e.with_residual.rms_relative, ex.taken_fraction);
       rows.push_back({{"method", m},
                       {"count", n},
                       {"lights", ex.lights.size()},

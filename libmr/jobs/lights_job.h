@@ -17,8 +17,8 @@ struct LightsJobOptions {
   std::string out;       // lights.json (a pattern with a pattern of maps)
   std::string residual;  // empty: none (a pattern with a pattern of maps)
   int residual_width = 64;
-  int normals = 1024;        // directions for the irradiance error
-  double match_deg = 10;     // over time: a light this near one of the last frame keeps its name
+  int normals = 1024;     // directions for the irradiance error
+  double match_deg = 10;  // over time: a light this near one of the last frame keeps its name
   ExtractOptions extract;
   // The sweep: every method at every count, into a CSV table and an SVG plot.
   bool sweep = false;

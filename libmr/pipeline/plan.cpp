@@ -121,7 +121,6 @@ Json Rebase(const Planner& pl, const Node& n, const std::vector<std::string>& pa
   return out;
 }
 
-
 // What the stages decide for the stages after them.
 struct Plan {
   Plan(Pipeline* pipeline, const fs::path& f)
@@ -240,8 +239,13 @@ void PlanSphere(Plan& st, PipelineStage& s) {
     const auto photos = st.pl.Files(sp.Required("photos"), "sphere photographs");
     const double radius = sp.Required("radius").Number(1e-4, 10);
     st.probe_json = st.w / "probe.json";
-    s.args = {"sphere", "--camera", light_cam.string(), "--radius", fmt::format("{}", radius),
-              "--out",  st.probe_json.string()};
+    s.args = {"sphere",
+              "--camera",
+              light_cam.string(),
+              "--radius",
+              fmt::format("{}", radius),
+              "--out",
+              st.probe_json.string()};
     Append(&s.args, st.pl.Options(sp));
     AppendPaths(&s.args, photos);
     s.inputs = photos;
@@ -287,9 +291,9 @@ void PlanLightVideo(Plan& st, PipelineStage& s) {
   const fs::path fe = st.pl.Path(lv.Required("fisheye"), "light camera model");
   st.env = st.w / "env" / "%05d.exr";
   s.args = {"--light", frames.string(), "--fisheye", fe.string(), "--out", st.env.string()};
-  s.inputs = {
-      frames.string().find('%') != std::string::npos || LowerExtension(frames) == ".txt" ? frames.parent_path() : frames,
-      fe};
+  s.inputs = {frames.string().find('%') != std::string::npos || LowerExtension(frames) == ".txt" ? frames.parent_path()
+                                                                                                 : frames,
+              fe};
   std::optional<fs::path> times;
   if (lv.Has("plate_times")) {
     times = st.pl.Path(lv.Child("plate_times"), "plate trajectory");
@@ -362,7 +366,8 @@ void AddDelightingMap(Plan& st, const std::vector<std::string>& opts, PipelineSt
   std::error_code ec;
   // A given map must exist; the probe's and a light video's are made by their stage.
   if (st.light->Has("environment") && !fs::is_regular_file(delight, ec))
-    st.light->Child("environment").Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
+    st.light->Child("environment")
+        .Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
   Append(&s.args, {"--env", delight.string()});
   s.inputs.push_back(delight);
 }
@@ -458,8 +463,7 @@ void ReadVideo(Plan& st) {
   if (video.Has("frames")) st.camera["frames"] = st.pl.Rel(st.pl.Pattern(video.Child("frames"), "video frames"));
   if (video.Has("frames_transfer")) st.camera["frames_transfer"] = video.Child("frames_transfer").String();
   if (video.Has("exposure")) st.camera["exposure"] = video.Child("exposure").json();
-  if (video.Has("response"))
-    st.camera["response"] = st.pl.Rel(st.pl.Path(video.Child("response"), "camera response"));
+  if (video.Has("response")) st.camera["response"] = st.pl.Rel(st.pl.Path(video.Child("response"), "camera response"));
   ReadGains(st);
 }
 
@@ -562,16 +566,19 @@ void PlanPlateProbe(Plan& st, PipelineStage& s) {
   if (st.use_gains) plate_camera.erase("gains");  // fitted by the radiometry stage, after this one
   s.writes_first = plate_scene;
   // The room's meshes too: a scene has geometry (mr-probe reads none of it).
-  const Json reals =
-      st.scene.contains("real") ? st.scene["real"] : Json::array({{{"mesh", st.pl.Rel(st.fused_mesh)}}});
+  const Json reals = st.scene.contains("real") ? st.scene["real"] : Json::array({{{"mesh", st.pl.Rel(st.fused_mesh)}}});
   s.writes_first_json = {
       {"version", 1},
       {"comment",
        fmt::format("the plate and the room, for mr-probe (written by mr-pipeline from {})", st.file.string())},
       {"camera", plate_camera},
       {"real", reals}};
-  s.args = {"--sphere-in-plate", plate_scene.string(), "--sphere", fmt::format("{},{},{},{}", c[0], c[1], c[2], radius),
-            "--out",             st.env.string()};
+  s.args = {"--sphere-in-plate",
+            plate_scene.string(),
+            "--sphere",
+            fmt::format("{},{},{},{}", c[0], c[1], c[2], radius),
+            "--out",
+            st.env.string()};
   if (sp.Has("reflectance"))
     Append(&s.args, {"--reflectance", fmt::format("{}", sp.Child("reflectance").Number(1e-3, 1))});
   Append(&s.args, st.pl.Options(sp));
@@ -609,8 +616,8 @@ void PlanLights(Plan& st, PipelineStage& s) {
     s.args = {st.env.string(), "--out", out.string(), "--residual", residual.string()};
     Append(&s.args, st.pl.Options(l));
     s.inputs = {per_frame ? st.env.parent_path() : st.env};
-    s.outputs =
-        per_frame ? std::vector<fs::path>{st.w / "lights", st.w / "env-residual"} : std::vector<fs::path>{out, residual};
+    s.outputs = per_frame ? std::vector<fs::path>{st.w / "lights", st.w / "env-residual"}
+                          : std::vector<fs::path>{out, residual};
     s.does = per_frame ? "lights extracted from each frame's map (a light keeps its name across frames); the scene "
                          "is lit by them and each frame's residual map"
                        : "lights extracted from the map; the scene is lit by them and the residual map";
@@ -694,8 +701,7 @@ void PlanScene(Plan& st, PipelineStage& s) {
                                  : "scene.json naming every input (the fused room's per-vertex albedo)";
   if (!st.fused_mesh.empty()) {
     // The albedo is the fused mesh's mean, filled in when the scene stage runs.
-    st.scene["real"] =
-        Json::array({{{"mesh", st.pl.Rel(st.fused_mesh)}, {"material", {{"albedo", {0.5, 0.5, 0.5}}}}}});
+    st.scene["real"] = Json::array({{{"mesh", st.pl.Rel(st.fused_mesh)}, {"material", {{"albedo", {0.5, 0.5, 0.5}}}}}});
     st.p->fused_room = st.fused_mesh;
   }
   CheckRenderSettings(ParseScene(st.scene, st.w, (st.w / "scene.json").string(), false));
@@ -720,9 +726,10 @@ void PlanRadiometry(Plan& st, PipelineStage& s) {
   s.inputs = {st.scene_file};
   Append(&s.inputs, st.per_frame);
   s.outputs = {st.gains_dir};
-  s.does = st.use_gains ? "the plate's gains fitted against the rendered room, and the capture chain's re-rendering error"
-                        : "the capture chain's re-rendering error and the plate's gains, as a check (a linear plate "
-                          "is not rescaled: video.gains {\"apply\": true} applies them)";
+  s.does = st.use_gains
+               ? "the plate's gains fitted against the rendered room, and the capture chain's re-rendering error"
+               : "the capture chain's re-rendering error and the plate's gains, as a check (a linear plate "
+                 "is not rescaled: video.gains {\"apply\": true} applies them)";
 }
 
 void PlanRender(Plan& st, PipelineStage& s) {
@@ -779,12 +786,18 @@ struct StageDef {
 
 const std::vector<StageDef>& Stages() {
   static const std::vector<StageDef> stages = {
-      {"calibrate", "mr-calibrate", PlanCalibrate},   {"sphere", "mr-calibrate", PlanSphere},
-      {"hdr", "mr-hdr", PlanHdr},                     {"probe", "mr-probe", PlanProbe},
-      {"fuse", "mr-fuse", PlanFuse},                  {"register", "mr-register", PlanRegister},
-      {"plate_probe", "mr-probe", PlanPlateProbe},    {"lights", "mr-lights", PlanLights},
-      {"formfactor", "mr-formfactor", PlanFormfactor}, {"scene", "", PlanScene},
-      {"radiometry", "mr-eval", PlanRadiometry},      {"render", "mr-render", PlanRender},
+      {"calibrate", "mr-calibrate", PlanCalibrate},
+      {"sphere", "mr-calibrate", PlanSphere},
+      {"hdr", "mr-hdr", PlanHdr},
+      {"probe", "mr-probe", PlanProbe},
+      {"fuse", "mr-fuse", PlanFuse},
+      {"register", "mr-register", PlanRegister},
+      {"plate_probe", "mr-probe", PlanPlateProbe},
+      {"lights", "mr-lights", PlanLights},
+      {"formfactor", "mr-formfactor", PlanFormfactor},
+      {"scene", "", PlanScene},
+      {"radiometry", "mr-eval", PlanRadiometry},
+      {"render", "mr-render", PlanRender},
       {"sweep", "mr-eval", PlanSweep},
   };
   return stages;

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/color.h"
 #include "core/check.h"
+#include "core/color.h"
 #include "core/error.h"
 #include "core/spherical.h"
 #include "probe/light_extraction.h"

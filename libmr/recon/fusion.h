@@ -32,7 +32,7 @@ struct FuseOptions {
   double skip_translation_m = 0.0;        // 0: fuse every tracked frame
   double skip_rotation_deg = 0.0;
   double skip_new_block_fraction = 0.02;  // "no new surface": new blocks / blocks in view
-  int max_lost = 10;  // consecutive lost frames before the run stops (keeping what it fused)
+  int max_lost = 10;                      // consecutive lost frames before the run stops (keeping what it fused)
   // Loss relative to the recording's recent good frames (see TrackIcp for
   // the absolute limits).
   double loss_rms_factor = 2.0, loss_inlier_factor = 0.5;

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/color.h"
 #include "core/check.h"
+#include "core/color.h"
 #include "core/error.h"
 #include "core/json.h"
 #include "core/json_node.h"
@@ -28,8 +28,9 @@ GainFit FitPlateGain(const Image& plate, const Image& rendered, const Image& roo
   const int w = plate.width(), h = plate.height();
   // The caller's images, checked against the camera before they are made.
   for (const Image* img : {&rendered, &room, codes})
-    if (img) MR_CHECK_MSG(img->width() == w && img->height() == h, "gain fit: {}x{} and {}x{}", w, h, img->width(),
-                          img->height());
+    if (img)
+      MR_CHECK_MSG(img->width() == w && img->height() == h, "gain fit: {}x{} and {}x{}", w, h, img->width(),
+                   img->height());
   MR_CHECK(plate.channels() >= 3 && rendered.channels() >= 3 && (!codes || codes->channels() >= 3) &&
            room.channels() >= 1);
   GainFit fit;

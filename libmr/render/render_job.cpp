@@ -587,9 +587,9 @@ std::unique_ptr<FrameMethod> RenderJob::RunPasses(Frame* fr, const FrameContext&
     progress.Update(fr->done);
     seconds = fr->seconds;
     if (fr->ref)
-      errors_.Checkpoint(seconds, fr->done,
-                         MeasureFrame(dec.Compose(*fm, photo_ptr).composite, *fr->ref,
-                                      fr->region ? &*fr->region : nullptr));
+      errors_.Checkpoint(
+          seconds, fr->done,
+          MeasureFrame(dec.Compose(*fm, photo_ptr).composite, *fr->ref, fr->region ? &*fr->region : nullptr));
     if (budget_ > 0 && seconds >= budget_) {
       report_->Warn(fmt::format("frame {}: time budget {} s reached at {} spp", fr->f, budget_, fr->done));
       break;
@@ -650,19 +650,19 @@ void RenderJob::WriteFrame(const Frame& fr, FrameImages* im) {
   ScopedTimer t(report_, "write");
   const Image codes = decoding_.ToCodes(im->cr.composite, fr.encoding);
   const Image* photo_ptr = fr.photo ? &*fr.photo : nullptr;
-  FrameLayers layers{&im->cr.composite, &codes,     &im->mixed,   &im->real, &im->mask, &im->cr.difference,
-                     &im->variance,     &im->samples, photo_ptr};
+  FrameLayers layers{&im->cr.composite,  &codes,        &im->mixed,   &im->real, &im->mask,
+                     &im->cr.difference, &im->variance, &im->samples, photo_ptr};
   WriteFrameFiles(out_dir_, fr.f, layers, fr.encoding, decoding_.CodesColorSpace(fr.encoding), scene_.output, o_.tool,
                   Provenance(fr.f), report_);
   // The frame's inputs key beside it (not in it: inputs that differ only in
   // their comments or paths still give the same frame's bytes).
   std::error_code key_ec;
   fs::create_directories(out_dir_ / ".mr-render", key_ec);
-  WriteTextFile(out_dir_ / ".mr-render" / fmt::format("{:05d}.inputs", fr.f), fmt::format("{:016x}\n", InputsKey(fr.f)));
+  WriteTextFile(out_dir_ / ".mr-render" / fmt::format("{:05d}.inputs", fr.f),
+                fmt::format("{:016x}\n", InputsKey(fr.f)));
   if (video_out_) video_out_->WriteCodes(codes);
   if (scene_.output.review) {
-    const Image plate_codes =
-        decoding_.ToCodes(fr.photo ? decoding_.ToRadiance(*fr.photo) : im->real, fr.encoding);
+    const Image plate_codes = decoding_.ToCodes(fr.photo ? decoding_.ToRadiance(*fr.photo) : im->real, fr.encoding);
     review_sheet_ =
         WriteReviewSheet(out_dir_, fr.f, plate_codes, codes, im->mask, fr.photo.has_value(), o_.tool, report_);
   }

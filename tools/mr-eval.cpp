@@ -4,28 +4,21 @@
 #include <fmt/ranges.h>
 
 #include <map>
-#include <optional>
 #include <sstream>
 
 #include "cli/tool.h"
 #include "core/error.h"
-#include "core/image.h"
-#include "core/image_metrics.h"
 #include "eval/plate_check.h"
-#include "eval/plot.h"
 #include "eval/shards.h"
 #include "eval/sweep.h"
-#include "eval/trajectory_error.h"
-#include "geometry/mesh.h"
-#include "probe/light_sequence.h"
+#include "jobs/eval_jobs.h"
 #include "render/method.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
-  std::string a, b, region, diff;
-  double scale = 10;
+  mr::CompareJobOptions co;
   mr::ConfigureApp(app, "mr-eval", "Evaluates renders against references.",
                    "  mr-eval compare render/00000.exr capture/truth/00000.exr --diff diff.png --scale 10 "
                    "--report compare.json");
@@ -36,28 +29,26 @@ int main(int argc, char** argv) {
                          "docs/formats.md), over the image or the pixels where --region is > 0. EXR renders are\n"
                          "compared by their composite layer.");
   cmp->fallthrough();  // --report, --threads ... after the subcommand
-  cmp->add_option("A", a, "Estimate (image, or mr-render EXR)")->required()->check(CLI::ExistingFile);
-  cmp->add_option("B", b, "Reference")->required()->check(CLI::ExistingFile);
-  cmp->add_option("--region", region, "One-channel image: compare where > 0")->check(CLI::ExistingFile);
-  cmp->add_option("--diff", diff, "Write |A - B| x scale (e.g. diff.png or diff.exr)");
-  cmp->add_option("--scale", scale, "Scale of the difference image")->default_val(10)->check(mr::kPositive);
-  std::string csv, x_col, y_col, group_col, plot_out, title;
-  bool linear_x = false, linear_y = false;
+  cmp->add_option("A", co.estimate, "Estimate (image, or mr-render EXR)")->required()->check(CLI::ExistingFile);
+  cmp->add_option("B", co.reference, "Reference")->required()->check(CLI::ExistingFile);
+  cmp->add_option("--region", co.region, "One-channel image: compare where > 0")->check(CLI::ExistingFile);
+  cmp->add_option("--diff", co.diff, "Write |A - B| x scale (e.g. diff.png or diff.exr)");
+  cmp->add_option("--scale", co.scale, "Scale of the difference image")->default_val(10)->check(mr::kPositive);
+  mr::PlotJobOptions pjo;
   CLI::App* plot =
       app.add_subcommand("plot",
                          "Plots columns of a CSV table (mr-lights --sweep, bench/lights_render.sh, ...) as an SVG:\n"
                          "one line per value of --group, log axes unless --linear-x/--linear-y.");
   plot->fallthrough();
-  plot->add_option("table", csv, "CSV with a header line")->required()->check(CLI::ExistingFile);
-  plot->add_option("--x", x_col, "Column on the x axis")->required();
-  plot->add_option("--y", y_col, "Column on the y axis")->required();
-  plot->add_option("--group", group_col, "Column whose values name the lines");
-  plot->add_option("--title", title, "Title");
-  plot->add_option("--out", plot_out, "SVG to write")->required();
-  plot->add_flag("--linear-x", linear_x, "Linear x axis");
-  plot->add_flag("--linear-y", linear_y, "Linear y axis");
-  std::string light_est, light_ref;
-  int light_frames = 0;
+  plot->add_option("table", pjo.table, "CSV with a header line")->required()->check(CLI::ExistingFile);
+  plot->add_option("--x", pjo.x, "Column on the x axis")->required();
+  plot->add_option("--y", pjo.y, "Column on the y axis")->required();
+  plot->add_option("--group", pjo.group, "Column whose values name the lines");
+  plot->add_option("--title", pjo.title, "Title");
+  plot->add_option("--out", pjo.out, "SVG to write")->required();
+  plot->add_flag("--linear-x", pjo.linear_x, "Linear x axis");
+  plot->add_flag("--linear-y", pjo.linear_y, "Linear y axis");
+  mr::LightErrorJobOptions lo;
   CLI::App* light = app.add_subcommand(
       "light",
       "Captured light maps against the true ones, per frame (printf patterns): the relative RMS error of the\n"
@@ -65,13 +56,12 @@ int main(int argc, char** argv) {
       "energy ratio, the share of the reference's energy the capture did not see, and the flicker: the error\n"
       "of the frame-to-frame change of the irradiance against the reference's change.");
   light->fallthrough();
-  light->add_option("ESTIMATE", light_est, "Captured maps (env/%05d.exr)")->required();
-  light->add_option("REFERENCE", light_ref, "True maps (a pattern, or one map for every frame)")->required();
-  light->add_option("--frames", light_frames, "Frames 0 to N-1 (0: while the estimate's exist)")
+  light->add_option("ESTIMATE", lo.estimate, "Captured maps (env/%05d.exr)")->required();
+  light->add_option("REFERENCE", lo.reference, "True maps (a pattern, or one map for every frame)")->required();
+  light->add_option("--frames", lo.frames, "Frames 0 to N-1 (0: while the estimate's exist)")
       ->default_val(0)
       ->check(mr::kNonNegative);
-  std::string est, ref;
-  double max_dt = 0.02, delta = 1.0;
+  mr::TrajectoryJobOptions to;
   CLI::App* traj = app.add_subcommand(
       "traj",
       "Absolute and relative trajectory error of ESTIMATE against REFERENCE, as TUM's evaluate_ate.py\n"
@@ -80,25 +70,25 @@ int main(int argc, char** argv) {
       "--delta apart (translation RMSE in metres per delta, rotation RMSE in degrees). Pose files: TUM\n"
       "text, or a 7-Scenes folder (frame-NNNNNN.pose.txt; timestamps = frame numbers).");
   traj->fallthrough();
-  traj->add_option("ESTIMATE", est, "Estimated trajectory")->required()->check(CLI::ExistingPath);
-  traj->add_option("REFERENCE", ref, "Reference trajectory")->required()->check(CLI::ExistingPath);
-  traj->add_option("--max-dt", max_dt, "Association: largest time difference")->default_val(0.02);
-  traj->add_option("--delta", delta, "RPE time step (timestamp units)")->default_val(1.0);
-  double threshold = 0.01, cutoff = 0.1;
-  int64_t samples = 200000;
-  std::vector<double> box;
+  traj->add_option("ESTIMATE", to.estimate, "Estimated trajectory")->required()->check(CLI::ExistingPath);
+  traj->add_option("REFERENCE", to.reference, "Reference trajectory")->required()->check(CLI::ExistingPath);
+  traj->add_option("--max-dt", to.max_dt, "Association: largest time difference")->default_val(0.02);
+  traj->add_option("--delta", to.delta, "RPE time step (timestamp units)")->default_val(1.0);
+  mr::MeshJobOptions meo;
   CLI::App* mesh = app.add_subcommand(
       "mesh",
       "Surface distances between MESH and REFERENCE from area-uniform samples: accuracy (estimate to\n"
       "reference), completeness (reference to estimate), exact point-to-triangle distances capped at\n"
       "--cutoff; the fractions within --threshold and their F-score.");
   mesh->fallthrough();
-  mesh->add_option("MESH", est, "Estimated mesh")->required()->check(CLI::ExistingFile);
-  mesh->add_option("REFERENCE", ref, "Reference mesh")->required()->check(CLI::ExistingFile);
-  mesh->add_option("--threshold", threshold, "Distance counted as correct (m)")->default_val(0.01);
-  mesh->add_option("--cutoff", cutoff, "Distances are capped here (m)")->default_val(0.1);
-  mesh->add_option("--samples", samples, "Samples per surface")->default_val(200000);
-  mesh->add_option("--region", box, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")->delimiter(',')->expected(6);
+  mesh->add_option("MESH", meo.estimate, "Estimated mesh")->required()->check(CLI::ExistingFile);
+  mesh->add_option("REFERENCE", meo.reference, "Reference mesh")->required()->check(CLI::ExistingFile);
+  mesh->add_option("--threshold", meo.threshold, "Distance counted as correct (m)")->default_val(0.01);
+  mesh->add_option("--cutoff", meo.cutoff, "Distances are capped here (m)")->default_val(0.1);
+  mesh->add_option("--samples", meo.samples, "Samples per surface")->default_val(200000);
+  mesh->add_option("--region", meo.region, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")
+      ->delimiter(',')
+      ->expected(6);
   std::string sweep_scene, methods = fmt::format("{}", fmt::join(mr::DefaultSweepMethods(), ",")), frames;
   mr::SweepOptions so;
   std::string sweep_out;
@@ -246,138 +236,11 @@ int main(int argc, char** argv) {
                     r.region_relmse);
       return mr::kExitOk;
     }
-    if (light->parsed()) {
-      auto& rep = mr::ToolReport();
-      mr::Json per_frame = mr::Json::array();
-      std::optional<mr::LightMapError> prev;
-      double sum_err = 0, sum_flicker = 0;
-      int n = 0;
-      std::printf("frame  irradiance_relrms  energy_ratio  unseen_energy  flicker\n");
-      for (int f = 0; light_frames == 0 || f < light_frames; ++f) {
-        const mr::fs::path pe = mr::FramePath(light_est, f), pr = mr::FramePath(light_ref, f);
-        if (light_frames == 0 && !mr::fs::exists(pe)) break;
-        const mr::LightMapError e = mr::CompareLightMaps(mr::ReadImage(pe), mr::ReadImage(pr));
-        rep.AddInput(pe.string());
-        rep.AddInput(pr.string());
-        const double flicker = prev ? mr::LightFlicker(*prev, e) : 0;
-        per_frame.push_back({{"frame", f},
-                             {"irradiance_relrms", e.irradiance_rel_rms},
-                             {"energy_ratio", e.energy_ratio},
-                             {"unseen_energy_fraction", e.unseen_energy_fraction},
-                             {"flicker", flicker}});
-        std::printf("%5d  %17.4g  %12.4f  %13.4f  %7.4g\n", f, e.irradiance_rel_rms, e.energy_ratio,
-                    e.unseen_energy_fraction, flicker);
-        sum_err += e.irradiance_rel_rms;
-        sum_flicker += flicker;
-        ++n;
-        prev = e;
-      }
-      if (n == 0) mr::ThrowErrorAt(mr::FileLoc{mr::FramePath(light_est, 0).string()}, "no such file");
-      rep.SetMetric("frames", per_frame);
-      rep.SetMetric("mean_irradiance_relrms", sum_err / n);
-      rep.SetMetric("mean_flicker", n > 1 ? sum_flicker / (n - 1) : 0.0);
-      std::printf("mean   %17.4g  flicker %.4g over %d frames\n", sum_err / n, n > 1 ? sum_flicker / (n - 1) : 0.0, n);
-      return mr::kExitOk;
-    }
-    if (traj->parsed()) {
-      auto load = [](const std::string& p) {
-        return mr::fs::is_directory(p) ? mr::Read7ScenesFolder(p) : mr::ReadTum(mr::fs::path(p));
-      };
-      const mr::Trajectory e = load(est), r = load(ref);
-      mr::AteResult ate;
-      mr::RpeResult rpe;
-      try {
-        ate = mr::ComputeAte(e, r, max_dt);
-        rpe = mr::ComputeRpe(e, r, delta, max_dt);
-      } catch (const mr::Error& err) {  // name both files
-        mr::ThrowErrorAt(mr::FileLoc{est}, "against {}: {}", ref, err.message());
-      }
-      auto& rep = mr::ToolReport();
-      rep.AddInput(est);
-      rep.AddInput(ref);
-      rep.SetMetric("ate.pairs", ate.pairs);
-      rep.SetMetric("ate.rmse_m", ate.rmse);
-      rep.SetMetric("ate.mean_m", ate.mean);
-      rep.SetMetric("ate.median_m", ate.median);
-      rep.SetMetric("ate.max_m", ate.max);
-      rep.SetMetric("rpe.delta", delta);
-      rep.SetMetric("rpe.pairs", rpe.pairs);
-      rep.SetMetric("rpe.trans_rmse_m", rpe.trans_rmse);
-      rep.SetMetric("rpe.trans_mean_m", rpe.trans_mean);
-      rep.SetMetric("rpe.rot_rmse_deg", rpe.rot_rmse_deg);
-      std::printf("ATE rmse %.4f m mean %.4f median %.4f max %.4f (%d pairs)\n", ate.rmse, ate.mean, ate.median,
-                  ate.max, ate.pairs);
-      std::printf("RPE (delta %g) trans rmse %.4f m, rot rmse %.3f deg (%d pairs)\n", delta, rpe.trans_rmse,
-                  rpe.rot_rmse_deg, rpe.pairs);
-      return mr::kExitOk;
-    }
-    if (mesh->parsed()) {
-      const mr::Mesh m = mr::ReadMesh(est), r = mr::ReadMesh(ref);
-      std::optional<Eigen::AlignedBox3f> reg;
-      if (box.size() == 6)
-        reg = Eigen::AlignedBox3f(Eigen::Vector3d(box[0], box[1], box[2]).cast<float>(),
-                                  Eigen::Vector3d(box[3], box[4], box[5]).cast<float>());
-      const mr::MeshErrorResult e = mr::CompareMeshes(m, r, threshold, cutoff, samples, 1, reg ? &*reg : nullptr);
-      auto& rep = mr::ToolReport();
-      rep.AddInput(est);
-      rep.AddInput(ref);
-      for (const auto& [name, d] : {std::pair{"accuracy", e.accuracy}, std::pair{"completeness", e.completeness}}) {
-        const std::string k = name;
-        rep.SetMetric(k + ".mean_m", d.mean);
-        rep.SetMetric(k + ".median_m", d.median);
-        rep.SetMetric(k + ".rmse_m", d.rmse);
-        rep.SetMetric(k + ".p90_m", d.p90);
-        rep.SetMetric(k + ".within_threshold", d.within);
-        rep.SetMetric(k + ".samples", d.samples);
-        std::printf("%-12s mean %.4f m median %.4f p90 %.4f, %.1f%% within %.3f m\n", name, d.mean, d.median, d.p90,
-                    100 * d.within, threshold);
-      }
-      rep.SetMetric("threshold_m", threshold);
-      rep.SetMetric("cutoff_m", cutoff);
-      rep.SetMetric("fscore", e.fscore);
-      std::printf("F-score %.4f\n", e.fscore);
-      return mr::kExitOk;
-    }
-    if (plot->parsed()) {
-      const std::vector<mr::PlotSeries> series = mr::ReadPlotSeries(csv, x_col, y_col, group_col);
-      mr::PlotOptions po;
-      po.title = title.empty() ? y_col + " against " + x_col : title;
-      po.x_label = x_col;
-      po.y_label = y_col;
-      po.log_x = !linear_x;
-      po.log_y = !linear_y;
-      mr::WriteSvgPlot(plot_out, series, po);
-      mr::ToolReport().AddInput(csv);
-      mr::ToolReport().AddOutput(plot_out);
-      return mr::kExitOk;
-    }
-    mr::Image ia = mr::ReadRgbForComparison(a), ib = mr::ReadRgbForComparison(b);
-    if (ia.width() != ib.width() || ia.height() != ib.height())
-      mr::ThrowErrorAt(mr::FileLoc{a}, "image is {}x{}, the reference {} is {}x{}", ia.width(), ia.height(), b,
-                       ib.width(), ib.height());
-    std::optional<mr::Image> reg;
-    if (!region.empty()) {
-      mr::Image r = mr::ReadImage(region);
-      if (r.width() != ia.width() || r.height() != ia.height())
-        mr::ThrowErrorAt(mr::FileLoc{region}, "region is {}x{}, the images {}x{}", r.width(), r.height(), ia.width(),
-                         ia.height());
-      reg = r.channels() == 1 ? r : r.Layer(r.LayerNames().front());
-    }
-    mr::ImageMetrics m = mr::CompareImages(ia, ib, reg ? &*reg : nullptr);
-    auto& rep = mr::ToolReport();
-    rep.AddInput(a);
-    rep.AddInput(b);
-    rep.SetMetric("rmse", m.rmse);
-    rep.SetMetric("relmse", m.relmse);
-    rep.SetMetric("psnr", m.psnr);
-    rep.SetMetric("ssim", m.ssim);
-    rep.SetMetric("pixels", m.pixels);
-    std::printf("rmse %.6g relmse %.6g psnr %.4g dB ssim %.6g (%lld pixels)\n", m.rmse, m.relmse, m.psnr, m.ssim,
-                static_cast<long long>(m.pixels));
-    if (!diff.empty()) {
-      mr::WriteImage(diff, mr::ScaledDifference(ia, ib, scale));
-      rep.AddOutput(diff);
-    }
+    if (light->parsed()) mr::RunLightError(lo, &mr::ToolReport());
+    if (traj->parsed()) mr::RunTrajectoryError(to, &mr::ToolReport());
+    if (mesh->parsed()) mr::RunMeshError(meo, &mr::ToolReport());
+    if (plot->parsed()) mr::RunPlot(pjo, &mr::ToolReport());
+    if (cmp->parsed()) mr::RunCompare(co, &mr::ToolReport());
     return mr::kExitOk;
   });
 }

@@ -202,6 +202,7 @@ check "fuse around the scene's object" 0 "" -- "$bin/mr-fuse" "$tmp/rgbd" --out 
 check "roi reported as a skip" 0 "virtual objects' bounds" -- cat "$tmp/f6.json"
 check "preview written" 0 "" -- test -s "$tmp/f6/preview/000010.png"
 check "fuse: bad ROI" 2 "minimum corner" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/f5" --roi 1,1,1,0,0,0
+check "fuse: unknown layout is a usage error" 2 "--layout" -- "$bin/mr-fuse" "$tmp/rgbd" --out "$tmp/f5" --layout kinect
 
 echo "$pass passed, $fail failed"
 [ "$fail" -eq 0 ]

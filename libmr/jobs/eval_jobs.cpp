@@ -23,8 +23,8 @@ void RunCompare(const CompareJobOptions& o, Report* rep) {
   o.Check();
   const Image ia = ReadRgbForComparison(o.estimate), ib = ReadRgbForComparison(o.reference);
   if (ia.width() != ib.width() || ia.height() != ib.height())
-    ThrowErrorAt(FileLoc{o.estimate}, "image is {}x{}, the reference {} is {}x{}", ia.width(), ia.height(),
-                 o.reference, ib.width(), ib.height());
+    ThrowErrorAt(FileLoc{o.estimate}, "image is {}x{}, the reference {} is {}x{}", ia.width(), ia.height(), o.reference,
+                 ib.width(), ib.height());
   std::optional<Image> reg;
   if (!o.region.empty()) {
     Image r = ReadImage(o.region);

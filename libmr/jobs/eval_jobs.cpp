@@ -69,16 +69,14 @@ void RunTrajectoryError(const TrajectoryJobOptions& o, Report* rep) {
   }
   rep->AddInput(o.estimate);
   rep->AddInput(o.reference);
-  rep->SetMetric("ate.pairs", ate.pairs);
-  rep->SetMetric("ate.rmse_m", ate.rmse);
-  rep->SetMetric("ate.mean_m", ate.mean);
-  rep->SetMetric("ate.median_m", ate.median);
-  rep->SetMetric("ate.max_m", ate.max);
-  rep->SetMetric("rpe.delta", o.delta);
-  rep->SetMetric("rpe.pairs", rpe.pairs);
-  rep->SetMetric("rpe.trans_rmse_m", rpe.trans_rmse);
-  rep->SetMetric("rpe.trans_mean_m", rpe.trans_mean);
-  rep->SetMetric("rpe.rot_rmse_deg", rpe.rot_rmse_deg);
+  rep->SetMetric(
+      "ate",
+      {{"pairs", ate.pairs}, {"rmse_m", ate.rmse}, {"mean_m", ate.mean}, {"median_m", ate.median}, {"max_m", ate.max}});
+  rep->SetMetric("rpe", {{"delta", o.delta},
+                         {"pairs", rpe.pairs},
+                         {"trans_rmse_m", rpe.trans_rmse},
+                         {"trans_mean_m", rpe.trans_mean},
+                         {"rot_rmse_deg", rpe.rot_rmse_deg}});
   std::printf("ATE rmse %.4f m mean %.4f median %.4f max %.4f (%d pairs)\n", ate.rmse, ate.mean, ate.median, ate.max,
               ate.pairs);
   std::printf("RPE (delta %g) trans rmse %.4f m, rot rmse %.3f deg (%d pairs)\n", o.delta, rpe.trans_rmse,
@@ -101,13 +99,12 @@ void RunMeshError(const MeshJobOptions& o, Report* rep) {
   rep->AddInput(o.estimate);
   rep->AddInput(o.reference);
   for (const auto& [name, d] : {std::pair{"accuracy", e.accuracy}, std::pair{"completeness", e.completeness}}) {
-    const std::string k = name;
-    rep->SetMetric(k + ".mean_m", d.mean);
-    rep->SetMetric(k + ".median_m", d.median);
-    rep->SetMetric(k + ".rmse_m", d.rmse);
-    rep->SetMetric(k + ".p90_m", d.p90);
-    rep->SetMetric(k + ".within_threshold", d.within);
-    rep->SetMetric(k + ".samples", d.samples);
+    rep->SetMetric(name, {{"mean_m", d.mean},
+                          {"median_m", d.median},
+                          {"rmse_m", d.rmse},
+                          {"p90_m", d.p90},
+                          {"within_threshold", d.within},
+                          {"samples", d.samples}});
     std::printf("%-12s mean %.4f m median %.4f p90 %.4f, %.1f%% within %.3f m\n", name, d.mean, d.median, d.p90,
                 100 * d.within, o.threshold);
   }

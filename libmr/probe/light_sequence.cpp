@@ -85,7 +85,7 @@ bool Finite4(const float* p) {
 
 Image LightFilter::Add(const Image& map, double t, double exposure, LightFrameReport* report) {
   LightFrameReport r;
-  MR_CHECK_EQ(map.channels(), 4);  // R G B and confidence, as the unwrapping makes it
+  if (map.channels() != 4) ThrowError("a light map needs R G B and confidence");
   if (!(exposure > 0) || !std::isfinite(exposure)) ThrowError("exposure {} must be finite and positive", exposure);
   const int w = map.width(), h = map.height();
   std::vector<double> sa(static_cast<size_t>(h));

@@ -3,18 +3,10 @@
 
 #include <fmt/ranges.h>
 
-#include <map>
-#include <sstream>
-
 #include "cli/tool.h"
-#include "core/error.h"
-#include "eval/plate_check.h"
-#include "eval/shards.h"
 #include "eval/sweep.h"
 #include "jobs/eval_jobs.h"
 #include "render/method.h"
-#include "scene/frames.h"
-#include "scene/scene.h"
 
 int main(int argc, char** argv) {
   CLI::App app;
@@ -89,9 +81,9 @@ int main(int argc, char** argv) {
   mesh->add_option("--region", meo.region, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")
       ->delimiter(',')
       ->expected(6);
-  std::string sweep_scene, methods = fmt::format("{}", fmt::join(mr::DefaultSweepMethods(), ",")), frames;
-  mr::SweepOptions so;
-  std::string sweep_out;
+  mr::SweepJobOptions sjo;
+  mr::SweepOptions& so = sjo.sweep;
+  sjo.methods = fmt::format("{}", fmt::join(mr::DefaultSweepMethods(), ","));
   CLI::App* sweep = app.add_subcommand(
       "sweep",
       "Error against run time: renders SCENE with each method over a range of quality settings, compares\n"
@@ -99,21 +91,19 @@ int main(int argc, char** argv) {
       "change), times it, and writes sweep.csv, sweep.json, error-vs-time[-region].svg/.png and\n"
       "diff/METHOD-SETTING.png (|composite - reference| x --diff-scale, first frame) into --out.");
   sweep->fallthrough();
-  sweep->add_option("SCENE", sweep_scene, "scene.json with a reference (mr-synth writes one)")
+  sweep->add_option("SCENE", sjo.scene, "scene.json with a reference (mr-synth writes one)")
       ->required()
       ->check(CLI::ExistingFile);
-  sweep->add_option("--methods", methods, "Comma-separated: " + mr::RenderMethodNames())->default_val(methods);
-  sweep->add_option("--out", sweep_out, "Output folder")->required();
-  std::vector<std::string> sweep_set;
+  sweep->add_option("--methods", sjo.methods, "Comma-separated: " + mr::RenderMethodNames())->default_val(sjo.methods);
+  sweep->add_option("--out", so.out, "Output folder")->required();
   sweep
-      ->add_option("--set", sweep_set,
+      ->add_option("--set", sjo.set,
                    "METHOD.KEY=V1,V2,...: the values KEY takes (spp, or a key of render.METHOD), replacing\n"
                    "the method's default axis; the i-th setting takes the i-th value of each axis (one value:\n"
                    "all). The defaults:\n" +
                        mr::SweepDefaultsText())
       ->take_all();
   // The flags of earlier versions, as --set.
-  std::map<std::string, std::string> alias;
   for (const auto& [flag, key] : std::vector<std::pair<std::string, std::string>>{{"pt-spp", "pt.spp"},
                                                                                   {"ic-rays", "ic.rays"},
                                                                                   {"ic-spp", "ic.spp"},
@@ -122,11 +112,11 @@ int main(int argc, char** argv) {
                                                                                   {"vct-resolution", "vct.resolution"},
                                                                                   {"vct-spp", "vct.spp"},
                                                                                   {"prt-spp", "prt.spp"}})
-    sweep->add_option("--" + flag, alias[key], "= --set " + key + "=L");
-  sweep->add_option("--frames", frames, "Frame range BEGIN:END (default: the scene's)");
+    sweep->add_option("--" + flag, sjo.old_flags[key], "= --set " + key + "=L");
+  sweep->add_option("--frames", sjo.frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
-  mr::PlateCheckOptions po_plate;
-  std::string plate_scene, plate_frames;
+  mr::PlateJobOptions pj;
+  mr::PlateCheckOptions& po_plate = pj.plate;
   CLI::App* plate = app.add_subcommand(
       "plate",
       "The plate's radiometric fit and the capture chain's error on real frames: renders the real room\n"
@@ -137,9 +127,7 @@ int main(int argc, char** argv) {
       "(relMSE, SSIM, and relMSE around the virtual objects). Writes OUT/gains.json, which scene.json's\n"
       "camera.gains names so that mr-render lights the objects in the plate's units (docs/radiometry.md).");
   plate->fallthrough();
-  plate->add_option("SCENE", plate_scene, "scene.json with a plate (camera.frames)")
-      ->required()
-      ->check(CLI::ExistingFile);
+  plate->add_option("SCENE", pj.scene, "scene.json with a plate (camera.frames)")->required()->check(CLI::ExistingFile);
   plate->add_option("--out", po_plate.out, "Output folder")->required();
   plate->add_option("--method", po_plate.method, "Method that renders the room: " + mr::RenderMethodNames())
       ->default_val("pt");
@@ -149,7 +137,7 @@ int main(int argc, char** argv) {
   plate->add_option("--stride", po_plate.stride, "Fit every Nth frame; the others take their neighbours' gains")
       ->default_val(1)
       ->check(CLI::Range(1, 1 << 20));
-  plate->add_option("--frames", plate_frames, "Frame range BEGIN:END (default: the scene's)");
+  plate->add_option("--frames", pj.frames, "Frame range BEGIN:END (default: the scene's)");
   plate
       ->add_option("--smooth", po_plate.smoothing.time_constant,
                    "Time constant of the gains' smoothing in frames (Gaussian; 0: none)")
@@ -169,9 +157,8 @@ int main(int argc, char** argv) {
   plate->add_flag("--images", po_plate.images,
                   "Write OUT/NNNNN-rerender.png per fitted frame: plate | room rendered at the gain | difference |\n"
                   "pixels compared");
-  mr::ShardMergeOptions mo;
-  std::vector<std::string> merge_reports;
-  std::string merge_video;
+  mr::MergeJobOptions mj;
+  mr::ShardMergeOptions& mo = mj.merge;
   CLI::App* merge = app.add_subcommand(
       "merge",
       "Merges the reports of mr-render shards (mr-render --frames A:B, one per machine or job) into one\n"
@@ -180,67 +167,23 @@ int main(int argc, char** argv) {
       "Refuses shards of different scenes or methods and overlapping ranges; a frame range that no shard\n"
       "rendered is an error unless --allow-gaps. See docs/cluster.md.");
   merge->fallthrough();
-  merge->add_option("REPORTS", merge_reports, "Shard reports (mr-render --report)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  merge->add_option("--video", merge_video, "Video to write (.mp4, .avi, or .mkv: FFV1, lossless)");
+  merge->add_option("REPORTS", mj.reports, "Shard reports (mr-render --report)")->required()->check(CLI::ExistingFile);
+  merge->add_option("--video", mj.video, "Video to write (.mp4, .avi, or .mkv: FFV1, lossless)");
   merge->add_option("--fps", mo.fps, "Frames per second of the video (default: the plate's, else 30)")
       ->check(mr::kPositive);
   merge->add_flag("--allow-gaps", mo.allow_gaps, "Merge even when some frames were rendered by no shard");
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
-    if (merge->parsed()) {
-      for (const auto& r : merge_reports) mo.reports.push_back(r);
-      if (!merge_video.empty()) mo.video = merge_video;
-      mr::MergeRenderReports(mo, &mr::ToolReport());
-      const auto& m = mr::ToolReport().metrics();
-      std::printf("merged %d shards: %zu frames%s\n", m["shards"].get<int>(), m["frames"].size(),
-                  m.contains("relmse") ? fmt::format(", relMSE {:.4g}", m["relmse"].get<double>()).c_str() : "");
-      return mr::kExitOk;
-    }
-    if (plate->parsed()) {
-      if (!plate_frames.empty() && !mr::ParseFrameRange(plate_frames, &po_plate.frame_begin, &po_plate.frame_end))
-        throw mr::UsageError(fmt::format("--frames {}: expected BEGIN:END", plate_frames));
-      po_plate.command_line = mr::ToolReport().ToJson().value("command_line", "");
-      const mr::Scene scene = mr::ReadScene(plate_scene);
-      mr::RunPlateCheck(scene, po_plate, &mr::ToolReport());
-      const auto& m = mr::ToolReport().metrics();
-      std::printf("gains: %s\n", m["gains_file"].get<std::string>().c_str());
-      if (m.contains("relmse"))
-        std::printf("re-rendering error after the fit: relMSE %.4g, SSIM %.4f%s\n", m["relmse"].get<double>(),
-                    m["ssim"].get<double>(),
-                    m.contains("region_relmse")
-                        ? fmt::format(", around the objects relMSE {:.4g}", m["region_relmse"].get<double>()).c_str()
-                        : "");
-      return mr::kExitOk;
-    }
-    if (sweep->parsed()) {
-      so.methods.clear();
-      std::stringstream ss(methods);
-      for (std::string m; std::getline(ss, m, ',');)
-        if (!m.empty()) so.methods.push_back(m);
-      if (!frames.empty() && !mr::ParseFrameRange(frames, &so.frame_begin, &so.frame_end))
-        throw mr::UsageError(fmt::format("--frames {}: expected BEGIN:END", frames));
-      for (const auto& [key, values] : alias) {
-        if (values.empty()) continue;
-        mr::AddSweepAxis(key + "=" + values, &so);
-      }
-      for (const auto& spec : sweep_set) mr::AddSweepAxis(spec, &so);
-      so.out = sweep_out;
-      so.command_line = mr::ToolReport().ToJson().value("command_line", "");
-      const mr::Scene scene = mr::ReadScene(sweep_scene);
-      mr::ToolReport().AddInput(sweep_scene);
-      const auto rows = mr::RunSweep(scene, so, &mr::ToolReport());
-      std::printf("%-5s %-36s %10s %12s %14s\n", "method", "setting", "s/frame", "relMSE", "region relMSE");
-      for (const auto& r : rows)
-        std::printf("%-5s %-36s %10.3f %12.4g %14.4g\n", r.method.c_str(), r.setting.c_str(), r.seconds, r.relmse,
-                    r.region_relmse);
-      return mr::kExitOk;
-    }
-    if (light->parsed()) mr::RunLightError(lo, &mr::ToolReport());
-    if (traj->parsed()) mr::RunTrajectoryError(to, &mr::ToolReport());
-    if (mesh->parsed()) mr::RunMeshError(meo, &mr::ToolReport());
-    if (plot->parsed()) mr::RunPlot(pjo, &mr::ToolReport());
-    if (cmp->parsed()) mr::RunCompare(co, &mr::ToolReport());
+    mr::Report* report = &mr::ToolReport();
+    const std::string command_line = report->ToJson().value("command_line", "");
+    sjo.command_line = pj.command_line = command_line;
+    if (merge->parsed()) mr::RunMerge(mj, report);
+    if (plate->parsed()) mr::RunPlate(pj, report);
+    if (sweep->parsed()) mr::RunSweepJob(sjo, report);
+    if (light->parsed()) mr::RunLightError(lo, report);
+    if (traj->parsed()) mr::RunTrajectoryError(to, report);
+    if (mesh->parsed()) mr::RunMeshError(meo, report);
+    if (plot->parsed()) mr::RunPlot(pjo, report);
+    if (cmp->parsed()) mr::RunCompare(co, report);
     return mr::kExitOk;
   });
 }

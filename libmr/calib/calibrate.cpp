@@ -33,6 +33,17 @@ mrcal_lensmodel_t Lensmodel(const std::string& name) {
   return m;
 }
 
+}  // namespace
+
+void CalibrationOptions::Check() const {
+  Lensmodel(lensmodel);
+  if (!(focal_px >= 0))
+    throw UsageError(fmt::format("--focal {} must be positive (0: half the image width)", focal_px));
+  if (min_views < 1) throw UsageError(fmt::format("min_views {} must be at least 1", min_views));
+}
+
+namespace {
+
 // A problem in mrcal's terms: Ncams cameras sharing one lens model, camera 0
 // at the reference (extrinsics for cameras 1..), one frame per instant the
 // board was seen, one observation per camera and frame.
@@ -422,6 +433,7 @@ double ProjectionUncertainty::StdevPx(const Eigen::Vector2d& q, const CameraMode
 
 CalibrationResult CalibrateCamera(const BoardSpec& board, std::vector<CornerDetection> detections, int width,
                                   int height, const CalibrationOptions& o) {
+  o.Check();
   const mrcal_lensmodel_t target = Lensmodel(o.lensmodel);
   mrcal_lensmodel_t stereo;
   mrcal_lensmodel_from_name(&stereo, "LENSMODEL_STEREOGRAPHIC");

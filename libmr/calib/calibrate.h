@@ -28,6 +28,10 @@ struct CalibrationOptions {
   std::string lensmodel = "LENSMODEL_OPENCV8";  // any mrcal model with an intrinsics core
   double focal_px = 0;                          // seed; 0: half the image width
   int min_views = 3;                            // refuse with fewer usable views
+
+  // UsageError naming the flag: an unknown --lensmodel or one without an
+  // intrinsics core, a negative --focal, --min-views below 1.
+  void Check() const;
 };
 
 // The projection uncertainty of a solved camera, as mrcal computes it: the

@@ -292,9 +292,16 @@ Eigen::Vector3d FirstCircle(const LuminanceImage& lum, const CameraModel& camera
 
 }  // namespace
 
+void SphereOptions::Check() const {
+  if (!(radius_m > 0)) throw UsageError("the sphere's radius must be positive");
+  if (!(min_visible >= 0 && min_visible <= 1))
+    throw UsageError(fmt::format("--min-visible {} is outside [0, 1]", min_visible));
+  if (samples < 1) throw UsageError(fmt::format("{} edge samples: at least 1", samples));
+}
+
 SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const SphereOptions& o,
                           const std::string& name) {
-  if (!(o.radius_m > 0)) throw UsageError("the sphere's radius must be positive");
+  o.Check();
   if (photo.width() != camera.width() || photo.height() != camera.height())
     ThrowErrorAt(FileLoc{name}, "is {}x{}; the camera model is for {}x{}", photo.width(), photo.height(),
                  camera.width(), camera.height());

@@ -19,6 +19,10 @@ struct SphereOptions {
   std::optional<Eigen::Vector3d> circle;  // a first circle (x, y, r px) instead of the Hough transform
   double min_visible = 0.5;               // of the silhouette, inside the image
   int samples = 360;                      // edge points searched around the silhouette
+
+  // UsageError naming the flag: --radius not positive, --min-visible
+  // outside [0, 1], no edge samples.
+  void Check() const;
 };
 
 struct SphereFit {

@@ -1,5 +1,7 @@
 #include "camera/register.h"
 
+#include "core/check.h"
+
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
 #include <spdlog/spdlog.h>
@@ -281,7 +283,17 @@ Trajectory ReadPoses(const fs::path& p) { return fs::is_directory(p) ? Read7Scen
 
 }  // namespace
 
+void RegisterOptions::Check() const {
+  if (match != "auto" && match != "timestamp" && match != "index")
+    throw UsageError(fmt::format("--match \"{}\": timestamp, index or auto", match));
+  if (mesh && !trajectory && !initial)
+    throw UsageError("aligning to a mesh needs a start: --trajectory, or --initial (a rough similarity)");
+  if (!(max_rotation_rmse_deg > 0) || !(max_centre_median_fraction > 0))
+    throw UsageError("the alignment's limits must be positive");
+}
+
 void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report* report) {
+  o.Check();
   if (model.images.empty()) throw Error(FileLoc{}, "the COLMAP model has no registered images");
   // Registered frames: frame number -> world_from_cam in COLMAP's frame.
   std::map<int, Rigid3> colmap_poses;
@@ -351,11 +363,8 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
     report->AddInput(o.trajectory->string());
   } else if (o.initial) {
     world_from_colmap = *o.initial;
-  } else if (o.mesh) {
-    throw UsageError(
-        "aligning to a mesh needs a start: --trajectory, or "
-        "--initial (a rough similarity)");
   } else {
+    MR_CHECK(!o.mesh);  // RegisterOptions::Check
     report->Skip("alignment",
                  "no trajectory given: the poses stay in COLMAP's "
                  "frame (arbitrary scale)");
@@ -445,10 +454,16 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
 
 // ---------------------------------------------------------------------------
 
+void ColmapRunOptions::Check() const {
+  if (matcher != "sequential" && matcher != "exhaustive")
+    throw UsageError(fmt::format("matcher \"{}\": sequential or exhaustive", matcher));
+  if (overlap < 1) throw UsageError(fmt::format("--overlap {} must be at least 1", overlap));
+  if (!(timeout_s >= 0)) throw UsageError("--colmap-timeout must be 0 (none) or positive");
+}
+
 ColmapModel RunColmap(const std::vector<fs::path>& images, const ColmapRunOptions& o, Report* report) {
   if (images.size() < 3) throw Error(FileLoc{}, fmt::format("COLMAP needs at least 3 frames, got {}", images.size()));
-  if (o.matcher != "sequential" && o.matcher != "exhaustive")
-    throw UsageError(fmt::format("matcher \"{}\": sequential or exhaustive", o.matcher));
+  o.Check();
   const fs::path ws = o.workspace;
   std::error_code ec;
   fs::remove_all(ws / "sparse", ec);

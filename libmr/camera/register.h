@@ -113,6 +113,10 @@ struct RegisterOptions {
   double max_centre_median_fraction = 0.1;  // of the trajectory's extent (bounding-box diagonal)
   fs::path out_poses, out_camera;
   std::string note;  // provenance for the written camera model
+
+  // UsageError naming the flag: an unknown --match, --mesh without --trajectory
+  // or --initial, alignment limits that are not positive.
+  void Check() const;
 };
 
 // A COLMAP model that does not fit the trajectory (mr-register colmap
@@ -137,6 +141,9 @@ struct ColmapRunOptions {
   std::string colmap = "colmap";       // the executable
   int seed = 1;                        // COLMAP's --random_seed
   double timeout_s = 0;                // a colmap step running longer is ended and is an error (0: no limit)
+
+  // UsageError naming the flag: --matcher, --overlap, --timeout.
+  void Check() const;
 };
 
 // Registers `images` (a folder's image files, or a printf pattern's frames)

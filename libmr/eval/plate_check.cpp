@@ -85,12 +85,20 @@ Image AroundObjects(const Image& mask) {
   return out;
 }
 
+void PlateCheckOptions::Check() const {
+  if (out.empty()) throw UsageError("--out is required");
+  if (spp < 1 || stride < 1) throw UsageError("--spp and --stride must be at least 1");
+  FindRenderMethod(method);
+  if (!(at_gain >= 0)) throw UsageError(fmt::format("--at-gain {} must be positive", at_gain));
+  if (!(smoothing.time_constant >= 0)) throw UsageError("--smooth must be 0 or positive");
+  if (!(smoothing.jump_ratio > 1)) throw UsageError("--jump-ratio must be above 1");
+}
+
 void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* report) {
   if (!scene_in.camera.frames)
     throw UsageError(fmt::format("{}: the scene names no plate (camera.frames): there is nothing to fit or check",
                                  scene_in.file.string()));
-  if (o.out.empty()) throw UsageError("--out is required");
-  if (o.spp < 1 || o.stride < 1) throw UsageError("--spp and --stride must be at least 1");
+  o.Check();
   // The gains are what this fits: a gains file the scene names (an earlier
   // fit) is not read.
   Scene scene = scene_in;

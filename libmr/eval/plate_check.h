@@ -34,6 +34,10 @@ struct PlateCheckOptions {
   // fitted gains are still written.
   double at_gain = 0;
   std::string tool = "mr-eval", command_line;
+
+  // UsageError naming the flag: --out missing, --spp or --stride below 1, an
+  // unknown --method, a negative --at-gain or --smooth, --jump-ratio <= 1.
+  void Check() const;
 };
 
 // The pixels where the region around the virtual objects is measured: those

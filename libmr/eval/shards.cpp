@@ -40,8 +40,13 @@ Shard ReadShard(const fs::path& file) {
 
 }  // namespace
 
+void ShardMergeOptions::Check() const {
+  if (reports.empty()) throw UsageError("no shard reports to merge");
+  if (!(fps >= 0)) throw UsageError("--fps must be positive");
+}
+
 void MergeRenderReports(const ShardMergeOptions& o, Report* report) {
-  if (o.reports.empty()) throw UsageError("no shard reports to merge");
+  o.Check();
   std::vector<Shard> shards;
   for (const fs::path& f : o.reports) shards.push_back(ReadShard(f));
   std::sort(shards.begin(), shards.end(), [](const Shard& a, const Shard& b) { return a.begin < b.begin; });

@@ -17,6 +17,9 @@ struct ShardMergeOptions {
   double fps = 0;                 // 0: the plate's (the shards' plate_fps), else 30
   // A range that no shard rendered is an error unless allowed (a partial merge).
   bool allow_gaps = false;
+
+  // UsageError: no reports, a negative --fps.
+  void Check() const;
 };
 
 // Checks that the shards belong to one job (same tool, method and scene; no

@@ -130,10 +130,16 @@ void AddSweepAxis(const std::string& spec, SweepOptions* o) {
   o->set[spec.substr(0, eq)] = values;
 }
 
+void SweepOptions::Check() const {
+  if (out.empty()) throw UsageError("--out is required");
+  for (const std::string& m : methods) FindRenderMethod(m);
+  if (!(diff_scale > 0)) throw UsageError("--diff-scale must be positive");
+}
+
 std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report* report) {
   if (!scene.reference)
     throw UsageError(fmt::format("{} names no reference: a sweep needs ground truth", scene.file.string()));
-  if (o.out.empty()) throw UsageError("--out is required");
+  o.Check();
   std::error_code ec;
   fs::create_directories(o.out / "diff", ec);
   if (!fs::is_directory(o.out / "diff")) ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the output folder");

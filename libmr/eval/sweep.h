@@ -26,6 +26,10 @@ struct SweepOptions {
   double diff_scale = 5;
   fs::path out;
   std::string command_line;
+
+  // UsageError naming the flag: --out missing, an unknown method, a
+  // --diff-scale that is not positive.
+  void Check() const;
 };
 
 // The methods' default axes, a line each: "pt.spp=1,4,16,64,256\nic.rays=... ic.spp=...".

@@ -1,6 +1,7 @@
 #include "jobs/eval_jobs.h"
 
 #include <cstdio>
+#include <sstream>
 
 #include "camera/trajectory.h"
 #include "core/error.h"
@@ -10,7 +11,9 @@
 #include "eval/trajectory_error.h"
 #include "geometry/mesh.h"
 #include "probe/light_sequence.h"
+#include "render/method.h"
 #include "scene/frames.h"
+#include "scene/scene.h"
 
 namespace mr {
 
@@ -168,6 +171,83 @@ void RunPlot(const PlotJobOptions& o, Report* rep) {
   WriteSvgPlot(o.out, series, po);
   rep->AddInput(o.table);
   rep->AddOutput(o.out);
+}
+
+namespace {
+
+// BEGIN:END into [*begin, *end); a UsageError naming `flag` otherwise.
+void FrameRange(const std::string& range, const char* flag, int* begin, int* end) {
+  if (!range.empty() && !ParseFrameRange(range, begin, end))
+    throw UsageError(fmt::format("{} {}: expected BEGIN:END", flag, range));
+}
+
+SweepOptions SweepOf(const SweepJobOptions& o) {
+  SweepOptions so = o.sweep;
+  so.methods.clear();
+  std::stringstream ss(o.methods);
+  for (std::string m; std::getline(ss, m, ',');)
+    if (!m.empty()) so.methods.push_back(m);
+  FrameRange(o.frames, "--frames", &so.frame_begin, &so.frame_end);
+  for (const auto& [key, values] : o.old_flags)
+    if (!values.empty()) AddSweepAxis(key + "=" + values, &so);
+  for (const auto& spec : o.set) AddSweepAxis(spec, &so);
+  so.command_line = o.command_line;
+  return so;
+}
+
+}  // namespace
+
+void SweepJobOptions::Check() const { SweepOf(*this).Check(); }
+
+void RunSweepJob(const SweepJobOptions& o, Report* rep) {
+  const SweepOptions so = SweepOf(o);
+  so.Check();
+  const Scene scene = ReadScene(o.scene);
+  rep->AddInput(o.scene);
+  const auto rows = RunSweep(scene, so, rep);
+  std::printf("%-5s %-36s %10s %12s %14s\n", "method", "setting", "s/frame", "relMSE", "region relMSE");
+  for (const auto& r : rows)
+    std::printf("%-5s %-36s %10.3f %12.4g %14.4g\n", r.method.c_str(), r.setting.c_str(), r.seconds, r.relmse,
+                r.region_relmse);
+}
+
+void PlateJobOptions::Check() const {
+  PlateCheckOptions po = plate;
+  FrameRange(frames, "--frames", &po.frame_begin, &po.frame_end);
+  po.Check();
+}
+
+void RunPlate(const PlateJobOptions& o, Report* rep) {
+  o.Check();
+  PlateCheckOptions po = o.plate;
+  FrameRange(o.frames, "--frames", &po.frame_begin, &po.frame_end);
+  po.command_line = o.command_line;
+  const Scene scene = ReadScene(o.scene);
+  RunPlateCheck(scene, po, rep);
+  const auto& m = rep->metrics();
+  std::printf("gains: %s\n", m["gains_file"].get<std::string>().c_str());
+  if (m.contains("relmse"))
+    std::printf("re-rendering error after the fit: relMSE %.4g, SSIM %.4f%s\n", m["relmse"].get<double>(),
+                m["ssim"].get<double>(),
+                m.contains("region_relmse")
+                    ? fmt::format(", around the objects relMSE {:.4g}", m["region_relmse"].get<double>()).c_str()
+                    : "");
+}
+
+void MergeJobOptions::Check() const {
+  ShardMergeOptions mo = merge;
+  mo.reports.assign(reports.begin(), reports.end());
+  mo.Check();
+}
+
+void RunMerge(const MergeJobOptions& o, Report* rep) {
+  ShardMergeOptions mo = o.merge;
+  mo.reports.assign(o.reports.begin(), o.reports.end());
+  if (!o.video.empty()) mo.video = o.video;
+  MergeRenderReports(mo, rep);
+  const auto& m = rep->metrics();
+  std::printf("merged %d shards: %zu frames%s\n", m["shards"].get<int>(), m["frames"].size(),
+              m.contains("relmse") ? fmt::format(", relMSE {:.4g}", m["relmse"].get<double>()).c_str() : "");
 }
 
 }  // namespace mr

@@ -84,14 +84,19 @@ void WriteSceneJson(const Pipeline& p) {
 
 }  // namespace
 
-void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report) {
+void PipelineRunOptions::Check() const {
   const auto& names = PipelineStageNames();
   auto known = [&](const std::string& s, const char* flag) {
     if (std::find(names.begin(), names.end(), s) == names.end())
       throw UsageError(fmt::format("{} {}: no such stage (stages: {})", flag, s, fmt::join(names, ", ")));
   };
-  if (!o.until.empty()) known(o.until, "--until");
-  for (const auto& f : o.force) known(f, "--force");
+  if (!until.empty()) known(until, "--until");
+  for (const auto& f : force) known(f, "--force");
+  if (threads < 0) throw UsageError(fmt::format("--threads {} must not be negative", threads));
+}
+
+void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report) {
+  o.Check();
   report->AddInput(p.file.string());
   std::error_code ec;
   if (!o.dry_run) {

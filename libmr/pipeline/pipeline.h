@@ -62,6 +62,10 @@ struct PipelineRunOptions {
   fs::path bin_dir;                // where the mr tools are; empty: beside mr-pipeline, else PATH
   bool quiet = false;
   int threads = 0;  // > 0: passed to every tool (not part of the up-to-date key: results do not depend on it)
+
+  // UsageError naming the flag: --until or --force naming no stage, a
+  // negative --threads.
+  void Check() const;
 };
 
 // Runs (or, dry_run, describes) the plan; fills `report`: one entry per

@@ -869,27 +869,24 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
 
 namespace {
 
-IcSettings ParseIcSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject({"rays", "accuracy", "min_spacing_px", "max_spacing_px", "t_max", "evict_after", "tile",
-                   "influence_threshold", "glossy_depth", "glossy_cache", "miss_rays", "glossy_rays",
-                   "plate_reflections", "gradients", "normal_deg"});
+IcSettings ParseIcSettings(JsonSettings& s, const Scene& scene) {
   IcSettings o;
-  if (v.Has("rays")) o.rays = static_cast<int>(v.Child("rays").Integer(1, 1 << 24));
-  if (v.Has("accuracy")) o.accuracy = v.Child("accuracy").Number(1e-3, 10);
-  if (v.Has("min_spacing_px")) o.min_spacing_px = v.Child("min_spacing_px").Number(0.1, 1e4);
-  if (v.Has("max_spacing_px")) o.max_spacing_px = v.Child("max_spacing_px").Number(0.1, 1e5);
-  if (v.Has("t_max")) o.t_max = static_cast<int>(v.Child("t_max").Integer(1, 1 << 20));
-  if (v.Has("evict_after")) o.evict_after = static_cast<int>(v.Child("evict_after").Integer(0, 1 << 20));
-  if (v.Has("tile")) o.tile = static_cast<int>(v.Child("tile").Integer(1, 1024));
-  if (v.Has("influence_threshold")) o.influence_threshold = v.Child("influence_threshold").Number(0, 1);
-  if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(-1, 64));
-  if (v.Has("glossy_cache")) o.glossy_cache = v.Child("glossy_cache").Bool();
-  if (v.Has("miss_rays")) o.miss_rays = static_cast<int>(v.Child("miss_rays").Integer(1, 1 << 16));
-  if (v.Has("glossy_rays")) o.glossy_rays = static_cast<int>(v.Child("glossy_rays").Integer(1, 1024));
-  if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
-  if (v.Has("gradients")) o.gradients = v.Child("gradients").Bool();
-  if (v.Has("normal_deg")) o.normal_deg = v.Child("normal_deg").Number(1, 90);
-  if (o.min_spacing_px > o.max_spacing_px) v.Child("min_spacing_px").Fail("is larger than max_spacing_px");
+  s.Integer("rays", &o.rays, 1, 1 << 24);
+  s.Number("accuracy", &o.accuracy, 1e-3, 10);
+  s.Number("min_spacing_px", &o.min_spacing_px, 0.1, 1e4);
+  s.Number("max_spacing_px", &o.max_spacing_px, 0.1, 1e5);
+  s.Integer("t_max", &o.t_max, 1, 1 << 20);
+  s.Integer("evict_after", &o.evict_after, 0, 1 << 20);
+  s.Integer("tile", &o.tile, 1, 1024);
+  s.Number("influence_threshold", &o.influence_threshold, 0, 1);
+  s.Integer("glossy_depth", &o.glossy_depth, -1, 64);
+  s.Bool("glossy_cache", &o.glossy_cache);
+  s.Integer("miss_rays", &o.miss_rays, 1, 1 << 16);
+  s.Integer("glossy_rays", &o.glossy_rays, 1, 1024);
+  s.Bool("plate_reflections", &o.plate_reflections);
+  s.Bool("gradients", &o.gradients);
+  s.Number("normal_deg", &o.normal_deg, 1, 90);
+  if (o.min_spacing_px > o.max_spacing_px) s.Node("min_spacing_px").Fail("is larger than max_spacing_px");
   return WithSceneRender(o, scene);
 }
 
@@ -946,7 +943,7 @@ class IcMethod : public SettingsMethod<IcSettings> {
 
 }  // namespace
 
-std::unique_ptr<RenderMethod> MakeIcMethod(const JsonNode& block, const Scene& scene) {
+std::unique_ptr<RenderMethod> MakeIcMethod(JsonSettings& block, const Scene& scene) {
   return std::make_unique<IcMethod>(ParseIcSettings(block, scene));
 }
 

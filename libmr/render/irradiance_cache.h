@@ -230,6 +230,6 @@ double TemporalChange(const CameraModel& camera, const Rigid3& prev_pose, const 
                       const std::vector<float>& now);
 
 // The registry's `ic` (render.ic: IcSettings' fields).
-std::unique_ptr<RenderMethod> MakeIcMethod(const JsonNode& block, const Scene& scene);
+std::unique_ptr<RenderMethod> MakeIcMethod(JsonSettings& block, const Scene& scene);
 
 }  // namespace mr

@@ -69,10 +69,25 @@ std::unique_ptr<RenderMethod> Create(const MethodInfo& m, const Scene& scene, co
   static const Json kEmpty = Json::object();
   const auto it = scene.render.method_settings.find(m.name);
   const Json& block = it == scene.render.method_settings.end() ? kEmpty : it->second;
-  return m.create(JsonNode(block, "render." + m.name, &file), scene);
+  return CreateRenderMethod(m, JsonNode(block, "render." + m.name, &file), scene);
 }
 
 }  // namespace
+
+std::unique_ptr<RenderMethod> CreateRenderMethod(const MethodInfo& m, const JsonNode& block, const Scene& scene) {
+  JsonSettings settings(block);
+  std::unique_ptr<RenderMethod> method = m.create(settings, scene);
+  settings.Done();
+  return method;
+}
+
+std::vector<SettingDecl> RenderMethodSettings(const MethodInfo& m) {
+  static const Json kEmpty = Json::object();
+  static const std::string kFile = "(defaults)";
+  JsonSettings settings(JsonNode(kEmpty, "render." + m.name, &kFile));
+  m.create(settings, Scene{});
+  return settings.declared();
+}
 
 void CheckRenderSettings(const Scene& scene) {
   const std::string file = scene.file.string();

@@ -22,6 +22,7 @@
 #include "core/image.h"
 #include "core/json.h"
 #include "core/json_node.h"
+#include "core/json_settings.h"
 #include "core/report.h"
 #include "render/camera_sampler.h"
 #include "render/pixel_accumulator.h"
@@ -154,10 +155,11 @@ struct MethodInfo {
   // the i-th value of each (one value: the same for all); "spp" is the
   // render's samples per pixel, other keys are render.<name> keys.
   std::vector<std::pair<std::string, std::vector<Json>>> sweep;
-  // Parses the method's settings from `block` (the scene's render.<name>
-  // object, or an empty one), rejecting unknown keys and bad values with the
-  // key path, and makes the job's method.
-  std::function<std::unique_ptr<RenderMethod>(const JsonNode& block, const Scene& scene)> create;
+  // Reads the method's settings from `block` (the scene's render.<name>
+  // object, or an empty one), each key once (JsonSettings: bad values fail
+  // with the key path), and makes the job's method. Called through
+  // CreateRenderMethod, which then rejects the keys nothing read.
+  std::function<std::unique_ptr<RenderMethod>(JsonSettings& block, const Scene& scene)> create;
 };
 
 // Every method, in the order docs and --help list them.
@@ -173,5 +175,11 @@ const MethodInfo& FindRenderMethod(std::string_view name);
 void CheckRenderSettings(const Scene& scene);
 // The job's method `name` (empty: the scene's), settings from the scene.
 std::unique_ptr<RenderMethod> CreateRenderMethod(const Scene& scene, const std::string& name);
+// Method `m` with its settings read from `block` (render.<name> of `scene`):
+// unknown keys and bad values fail naming the block's file and key path.
+std::unique_ptr<RenderMethod> CreateRenderMethod(const MethodInfo& m, const JsonNode& block, const Scene& scene);
+// The settings method `m` declares in its render.<name> block, with their
+// defaults and ranges, in the order it reads them (docs/formats.md lists them).
+std::vector<SettingDecl> RenderMethodSettings(const MethodInfo& m);
 
 }  // namespace mr

@@ -234,9 +234,6 @@ class PrtMethod : public RenderMethod {
 
 }  // namespace
 
-std::unique_ptr<RenderMethod> MakePrtMethod(const JsonNode& block, const Scene&) {
-  block.RequireObject({});
-  return std::make_unique<PrtMethod>();
-}
+std::unique_ptr<RenderMethod> MakePrtMethod(JsonSettings&, const Scene&) { return std::make_unique<PrtMethod>(); }
 
 }  // namespace mr

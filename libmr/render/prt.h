@@ -66,6 +66,6 @@ class PrtFrameRenderer : public FrameMethod {
 };
 
 // The registry's `prt` (render.prt: no settings; the transfer's are the .ffc's).
-std::unique_ptr<RenderMethod> MakePrtMethod(const JsonNode& block, const Scene& scene);
+std::unique_ptr<RenderMethod> MakePrtMethod(JsonSettings& block, const Scene& scene);
 
 }  // namespace mr

@@ -101,11 +101,10 @@ void PtFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pixel,
 
 namespace {
 
-PathTracerSettings ParsePtSettings(const JsonNode& block, const Scene& scene) {
-  block.RequireObject({"skip_environment_pixels", "plate_reflections"});
+PathTracerSettings ParsePtSettings(JsonSettings& s, const Scene& scene) {
   PathTracerSettings st;
-  if (block.Has("skip_environment_pixels")) st.skip_environment_pixels = block.Child("skip_environment_pixels").Bool();
-  if (block.Has("plate_reflections")) st.plate_reflections = block.Child("plate_reflections").Bool();
+  s.Bool("skip_environment_pixels", &st.skip_environment_pixels);
+  s.Bool("plate_reflections", &st.plate_reflections);
   return WithSceneRender(st, scene);
 }
 
@@ -144,7 +143,7 @@ class PtMethod : public SettingsMethod<PathTracerSettings> {
 
 }  // namespace
 
-std::unique_ptr<RenderMethod> MakePtMethod(const JsonNode& block, const Scene& scene) {
+std::unique_ptr<RenderMethod> MakePtMethod(JsonSettings& block, const Scene& scene) {
   return std::make_unique<PtMethod>(ParsePtSettings(block, scene));
 }
 

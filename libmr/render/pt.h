@@ -48,7 +48,7 @@ class PtFrameRenderer : public PixelLoopMethod {
   mutable std::vector<char> skip_;
 };
 
-// The registry's `pt` (render.pt: {skip_environment_pixels}).
-std::unique_ptr<RenderMethod> MakePtMethod(const JsonNode& block, const Scene& scene);
+// The registry's `pt`, its settings read from render.pt.
+std::unique_ptr<RenderMethod> MakePtMethod(JsonSettings& block, const Scene& scene);
 
 }  // namespace mr

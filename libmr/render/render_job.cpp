@@ -778,7 +778,15 @@ void RenderJob::Summarize() {
 
 }  // namespace
 
+void RenderOptions::Check() const {
+  if (!method.empty()) FindRenderMethod(method);
+  if (spp < 0) throw UsageError(fmt::format("--spp {} must be positive", spp));
+  if (frame_begin < -1 || frame_end < -1 || (frame_begin >= 0 && frame_end >= 0 && frame_begin >= frame_end))
+    throw UsageError("--frames must be A:B with 0 <= A < B");
+}
+
 void RunRenderJob(const Scene& scene, const RenderOptions& o, Report* report) {
+  o.Check();
   RenderJob job(scene, o, report);
   job.FindResumedFrames();
   job.EstimateGrain();

@@ -31,6 +31,10 @@ struct RenderOptions {
   // such a shard; its report warns).
   bool resume = false;
   std::string tool = "mr-render", command_line;
+
+  // UsageError naming the flag: an unknown --method, negative --spp, a
+  // frame range that is not 0 <= A < B.
+  void Check() const;
 };
 
 // Renders; fills `report`.  Throws mr::Error / mr::UsageError.

@@ -797,24 +797,19 @@ void VctFrameRenderer::Describe(Report* report, int frame) const {
 
 namespace {
 
-VctSettings ParseVctSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject({"resolution", "directions", "injection_spacing", "shadow_aperture_deg", "min_specular_aperture_deg",
-                   "cone_offset", "accumulation", "relight", "far_field_width", "far_field_samples", "final_gather"});
+VctSettings ParseVctSettings(JsonSettings& s, const Scene& scene) {
   VctSettings o;
-  if (v.Has("resolution")) o.resolution = static_cast<int>(v.Child("resolution").Integer(2, 1024));
-  if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 16));
-  if (v.Has("injection_spacing")) o.injection_spacing = v.Child("injection_spacing").Number(0.05, 8);
-  if (v.Has("shadow_aperture_deg")) o.shadow_aperture_deg = v.Child("shadow_aperture_deg").Number(0, 90);
-  if (v.Has("min_specular_aperture_deg"))
-    o.min_specular_aperture_deg = v.Child("min_specular_aperture_deg").Number(0, 90);
-  if (v.Has("cone_offset")) o.cone_offset = v.Child("cone_offset").Number(0, 16);
-  if (v.Has("accumulation"))
-    o.paper_accumulation = v.Child("accumulation").OneOf({"front_to_back", "paper"}) == "paper";
-  if (v.Has("relight")) o.split_relighting = v.Child("relight").OneOf({"delta", "split"}) == "split";
-  if (v.Has("far_field_width")) o.far_field_width = static_cast<int>(v.Child("far_field_width").Integer(8, 1024));
-  if (v.Has("far_field_samples"))
-    o.far_field_samples = static_cast<int>(v.Child("far_field_samples").Integer(1, 1 << 16));
-  if (v.Has("final_gather")) o.final_gather = v.Child("final_gather").Bool();
+  s.Integer("resolution", &o.resolution, 2, 1024);
+  s.Integer("directions", &o.directions, 1, 1 << 16);
+  s.Number("injection_spacing", &o.injection_spacing, 0.05, 8);
+  s.Number("shadow_aperture_deg", &o.shadow_aperture_deg, 0, 90);
+  s.Number("min_specular_aperture_deg", &o.min_specular_aperture_deg, 0, 90);
+  s.Number("cone_offset", &o.cone_offset, 0, 16);
+  s.Choice("accumulation", &o.paper_accumulation, {{"front_to_back", false}, {"paper", true}});
+  s.Choice("relight", &o.split_relighting, {{"delta", false}, {"split", true}});
+  s.Integer("far_field_width", &o.far_field_width, 8, 1024);
+  s.Integer("far_field_samples", &o.far_field_samples, 1, 1 << 16);
+  s.Bool("final_gather", &o.final_gather);
   return WithSceneRender(o, scene);
 }
 
@@ -850,7 +845,7 @@ class VctMethod : public SettingsMethod<VctSettings> {
 
 }  // namespace
 
-std::unique_ptr<RenderMethod> MakeVctMethod(const JsonNode& block, const Scene& scene) {
+std::unique_ptr<RenderMethod> MakeVctMethod(JsonSettings& block, const Scene& scene) {
   return std::make_unique<VctMethod>(ParseVctSettings(block, scene));
 }
 

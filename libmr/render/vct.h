@@ -148,6 +148,6 @@ class VctFrameRenderer : public PixelLoopMethod {
 
 // The registry's `vct` (render.vct: VctSettings' fields; accumulation
 // "front_to_back" or "paper", relight "split" or "delta").
-std::unique_ptr<RenderMethod> MakeVctMethod(const JsonNode& block, const Scene& scene);
+std::unique_ptr<RenderMethod> MakeVctMethod(JsonSettings& block, const Scene& scene);
 
 }  // namespace mr

@@ -935,24 +935,21 @@ void VplFrameRenderer::Describe(Report* report, int frame) const {
 
 namespace {
 
-VplSettings ParseVplSettings(const JsonNode& v, const Scene& scene) {
-  v.RequireObject({"paths", "directions", "fixed_directions", "glossy_depth", "clamp_distance", "drop_threshold",
-                   "compensate", "plate_reflections", "final_gather", "cut_error", "max_cut", "cut_min_vpls",
-                   "reuse_cuts"});
+VplSettings ParseVplSettings(JsonSettings& s, const Scene& scene) {
   VplSettings o;
-  if (v.Has("paths")) o.paths = static_cast<int>(v.Child("paths").Integer(0, 1 << 26));
-  if (v.Has("directions")) o.directions = static_cast<int>(v.Child("directions").Integer(1, 1 << 20));
-  if (v.Has("glossy_depth")) o.glossy_depth = static_cast<int>(v.Child("glossy_depth").Integer(0, 64));
-  if (v.Has("clamp_distance")) o.clamp_distance = v.Child("clamp_distance").Number(0, 1e9);
-  if (v.Has("drop_threshold")) o.drop_threshold = v.Child("drop_threshold").Number(0, 1);
-  if (v.Has("compensate")) o.compensate = v.Child("compensate").Bool();
-  if (v.Has("plate_reflections")) o.plate_reflections = v.Child("plate_reflections").Bool();
-  if (v.Has("final_gather")) o.final_gather = v.Child("final_gather").Bool();
-  if (v.Has("fixed_directions")) o.fixed_directions = v.Child("fixed_directions").Bool();
-  if (v.Has("cut_error")) o.cut_error = v.Child("cut_error").Number(0, 1);
-  if (v.Has("max_cut")) o.max_cut = static_cast<int>(v.Child("max_cut").Integer(1, 1 << 24));
-  if (v.Has("reuse_cuts")) o.reuse_cuts = v.Child("reuse_cuts").Bool();
-  if (v.Has("cut_min_vpls")) o.cut_min_vpls = static_cast<int>(v.Child("cut_min_vpls").Integer(0, 1 << 30));
+  s.Integer("paths", &o.paths, 0, 1 << 26);
+  s.Integer("directions", &o.directions, 1, 1 << 20);
+  s.Bool("fixed_directions", &o.fixed_directions);
+  s.Integer("glossy_depth", &o.glossy_depth, 0, 64);
+  s.Number("clamp_distance", &o.clamp_distance, 0, 1e9);
+  s.Number("drop_threshold", &o.drop_threshold, 0, 1);
+  s.Bool("compensate", &o.compensate);
+  s.Bool("plate_reflections", &o.plate_reflections);
+  s.Bool("final_gather", &o.final_gather);
+  s.Number("cut_error", &o.cut_error, 0, 1);
+  s.Integer("max_cut", &o.max_cut, 1, 1 << 24);
+  s.Integer("cut_min_vpls", &o.cut_min_vpls, 0, 1 << 30);
+  s.Bool("reuse_cuts", &o.reuse_cuts);
   return WithSceneRender(o, scene);
 }
 
@@ -1002,7 +999,7 @@ class VplMethod : public SettingsMethod<VplSettings> {
 
 }  // namespace
 
-std::unique_ptr<RenderMethod> MakeVplMethod(const JsonNode& block, const Scene& scene) {
+std::unique_ptr<RenderMethod> MakeVplMethod(JsonSettings& block, const Scene& scene) {
   return std::make_unique<VplMethod>(ParseVplSettings(block, scene));
 }
 

@@ -162,6 +162,6 @@ class VplFrameRenderer : public PixelLoopMethod {
 };
 
 // The registry's `vpl` (render.vpl: VplSettings' fields).
-std::unique_ptr<RenderMethod> MakeVplMethod(const JsonNode& block, const Scene& scene);
+std::unique_ptr<RenderMethod> MakeVplMethod(JsonSettings& block, const Scene& scene);
 
 }  // namespace mr

@@ -224,8 +224,7 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   p = GetSynthPreset(o.preset);
   if (o.frames > 0) p.frames = o.frames;
   c.truth_spp = o.truth_spp > 0 ? o.truth_spp : p.truth_spp;
-  if (o.table_top != "glossy" && o.table_top != "diffuse")
-    throw UsageError(fmt::format("unknown table top \"{}\" (glossy, diffuse)", o.table_top));
+  o.Check();
   c.parts = SynthRoom(o.table_top == "glossy");
   if (o.plate_sphere) {
     // Facets of 1.9 degrees: a pixel of the medium preset's plate spans
@@ -544,8 +543,21 @@ std::vector<char> PilotRegion(const RenderScene& rs, const CameraModel& camera, 
 
 }  // namespace
 
+void SynthOptions::Check() const {
+  if (out.empty()) throw UsageError("--out is required");
+  GetSynthPreset(preset);
+  if (table_top != "glossy" && table_top != "diffuse")
+    throw UsageError(fmt::format("unknown table top \"{}\" (glossy, diffuse)", table_top));
+  if (object_material != "diffuse" && object_material != "glossy" && object_material != "mirror")
+    throw UsageError(fmt::format("unknown object material \"{}\" (diffuse, glossy, mirror)", object_material));
+  if (lens != "opencv4" && lens != "pinhole")
+    throw UsageError(fmt::format("unknown lens \"{}\" (opencv4, pinhole)", lens));
+  if (truth_spp < 0 || truth_region_spp < 0 || frames < 0)
+    throw UsageError("--truth-spp, --truth-region-spp and --frames must not be negative");
+}
+
 void RunSynth(const SynthOptions& o, Report* report) {
-  if (o.out.empty()) throw UsageError("--out is required");
+  o.Check();
   const SynthCapture c = MakeSynthCapture(o);
   const SynthPreset& p = c.preset;
   const int truth_spp = c.truth_spp;
@@ -743,7 +755,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
 namespace mr {
 
 void RunSynthRgbd(const SynthOptions& o, const RgbdSynthSize& size, Report* report) {
-  if (o.out.empty()) throw UsageError("--out is required");
+  o.Check();
   const SynthPreset p = GetSynthPreset(o.preset);
   const bool small = o.preset == "small";
   const int w = size.width > 0 ? size.width : (small ? 160 : 640);

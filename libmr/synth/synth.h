@@ -64,6 +64,10 @@ struct SynthOptions {
   bool plate_sphere = false;
   bool probe = true;  // write probe/ (the light probe's photographs); tests that need none leave it out
   std::string tool = "mr-synth", command_line;
+
+  // UsageError naming the flag: --out missing, an unknown --preset, --object-material,
+  // --table-top or --lens, negative sample counts or frames.
+  void Check() const;
 };
 
 struct SynthPreset {

@@ -160,20 +160,22 @@ Quadrature MakeQuadrature(const TransferOptions& o) {
   return q;
 }
 
-void CheckOptions(const TransferOptions& o) {
-  if (o.resolution < 1 || o.resolution > 256)
-    throw UsageError(fmt::format("--resolution {} is outside 1..256", o.resolution));
-  if (o.order < 1 || o.order > kMaxShOrder)
-    throw UsageError(fmt::format("--order {} is outside 1..{}", o.order, kMaxShOrder));
-  if (o.supersample < 1 || o.supersample > 16)
-    throw UsageError(fmt::format("--supersample {} is outside 1..16", o.supersample));
-  if (o.bounces < 0 || o.bounces > 16) throw UsageError(fmt::format("--bounces {} is outside 0..16", o.bounces));
-  if (!(o.albedo >= 0 && o.albedo < 1)) throw UsageError(fmt::format("--albedo {} is outside [0, 1)", o.albedo));
-}
-
 }  // namespace
 
+void TransferOptions::Check() const {
+  if (resolution < 1 || resolution > 256)
+    throw UsageError(fmt::format("--resolution {} is outside 1..256", resolution));
+  if (order < 1 || order > kMaxShOrder)
+    throw UsageError(fmt::format("--order {} is outside 1..{}", order, kMaxShOrder));
+  if (supersample < 1 || supersample > 16)
+    throw UsageError(fmt::format("--supersample {} is outside 1..16", supersample));
+  if (bounces < 0 || bounces > 16) throw UsageError(fmt::format("--bounces {} is outside 0..16", bounces));
+  if (!(albedo >= 0 && albedo < 1)) throw UsageError(fmt::format("--albedo {} is outside [0, 1)", albedo));
+  if (chunk < 1) throw UsageError(fmt::format("chunk {} must be at least 1", chunk));
+}
+
 namespace {
+
 using ChunkSink = std::function<void(const float* data, int64_t vertices)>;
 
 // With a sink and no bounces, the vertices are computed o.chunk at a time
@@ -181,7 +183,7 @@ using ChunkSink = std::function<void(const float* data, int64_t vertices)>;
 // by the chunk, not the mesh.
 VertexTransfer ComputeTransferImpl(const Mesh& mesh, const TransferOptions& o, TransferStats* stats,
                                    const std::vector<char>* needed, const ChunkSink* sink) {
-  CheckOptions(o);
+  o.Check();
   mesh.Validate("mesh");
   VertexTransfer out;
   TransferHeader& h = out.header;

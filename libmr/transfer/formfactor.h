@@ -48,6 +48,10 @@ struct TransferOptions {
   // Benchmarks only: every bounce-0 ray, for replay through a bare Embree
   // loop (single-threaded runs: the log is not synchronised).
   std::vector<Ray>* ray_log = nullptr;
+
+  // UsageError naming the flag: --resolution, --order, --supersample,
+  // --bounces, --albedo or --chunk out of range.
+  void Check() const;
 };
 
 // What ComputeTransfer found and did; nothing is changed without a count.

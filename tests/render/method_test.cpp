@@ -104,7 +104,8 @@ TEST(MethodRegistry, IcGlossyDepthChangesTheResult) {
   auto render = [&](const Json& block) {
     const Scene scene = SceneWithRender({{"method", "ic"}, {"ic", block}});
     const std::string file = "scene.json";
-    std::unique_ptr<RenderMethod> m = FindRenderMethod("ic").create(JsonNode(block, "render.ic", &file), scene);
+    std::unique_ptr<RenderMethod> m =
+        CreateRenderMethod(FindRenderMethod("ic"), JsonNode(block, "render.ic", &file), scene);
     Report report("mr-render", "test");
     m->Prepare(JobContext{scene, rs, cam, 4, 0, false, &report});
     std::unique_ptr<FrameMethod> f = m->NewFrame(FrameContext{rs, cam, pose, 0, 0, nullptr});

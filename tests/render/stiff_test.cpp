@@ -39,7 +39,7 @@ Rendered Render(const std::string& name, const Json& block, const RenderScene& r
   const Scene scene = ParseScene(j, ".", "scene.json", false);
   const std::string file = "scene.json";
   Rendered r;
-  r.method = FindRenderMethod(name).create(JsonNode(block, "render." + name, &file), scene);
+  r.method = CreateRenderMethod(FindRenderMethod(name), JsonNode(block, "render." + name, &file), scene);
   Report report("mr-render", "test");
   r.method->Prepare(JobContext{scene, rs, cam, spp, 0, false, &report});
   r.frame = r.method->NewFrame(FrameContext{rs, cam, pose, 0, 0, nullptr});

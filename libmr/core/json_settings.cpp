@@ -1,0 +1,42 @@
+#include "core/json_settings.h"
+
+#include "core/check.h"
+
+namespace mr {
+
+JsonSettings::JsonSettings(const JsonNode& block) : block_(block) {
+  if (!block.json().is_object()) block.Fail(fmt::format("expected an object, got {}", block.TypeName()));
+}
+
+void JsonSettings::Declare(SettingDecl d) {
+  for (const SettingDecl& e : decl_) MR_CHECK(e.key != d.key);  // one name, one setting
+  decl_.push_back(std::move(d));
+}
+
+void JsonSettings::Integer(const char* key, int* v, int64_t lo, int64_t hi) {
+  Declare({.key = key, .type = "integer", .default_value = *v, .lo = double(lo), .hi = double(hi)});
+  if (block_.Has(key)) *v = static_cast<int>(block_.Child(key).Integer(lo, hi));
+}
+
+void JsonSettings::Number(const char* key, double* v, double lo, double hi) {
+  Declare({.key = key, .type = "number", .default_value = *v, .lo = lo, .hi = hi});
+  if (block_.Has(key)) *v = block_.Child(key).Number(lo, hi);
+}
+
+void JsonSettings::Bool(const char* key, bool* v) {
+  Declare({.key = key, .type = "bool", .default_value = *v});
+  if (block_.Has(key)) *v = block_.Child(key).Bool();
+}
+
+void JsonSettings::Done() const {
+  for (const auto& [k, v] : block_.json().items()) {
+    bool read = false;
+    for (const SettingDecl& d : decl_) read = read || d.key == k;
+    if (read) continue;
+    std::string list;
+    for (const SettingDecl& d : decl_) list += (list.empty() ? "" : ", ") + d.key;
+    block_.Child(k).Fail(fmt::format("unknown key (allowed here: {})", list));
+  }
+}
+
+}  // namespace mr

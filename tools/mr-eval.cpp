@@ -8,13 +8,9 @@
 #include "jobs/eval_jobs.h"
 #include "render/method.h"
 
-int main(int argc, char** argv) {
-  CLI::App app;
-  mr::CompareJobOptions co;
-  mr::ConfigureApp(app, "mr-eval", "Evaluates renders against references.",
-                   "  mr-eval compare render/00000.exr capture/truth/00000.exr --diff diff.png --scale 10 "
-                   "--report compare.json");
-  app.require_subcommand(1);
+namespace {
+
+CLI::App* AddCompare(CLI::App& app, mr::CompareJobOptions& co) {
   CLI::App* cmp =
       app.add_subcommand("compare",
                          "RMSE, relative MSE, PSNR and SSIM of A against the reference B (metric definitions in\n"
@@ -26,7 +22,10 @@ int main(int argc, char** argv) {
   cmp->add_option("--region", co.region, "One-channel image: compare where > 0")->check(CLI::ExistingFile);
   cmp->add_option("--diff", co.diff, "Write |A - B| x scale (e.g. diff.png or diff.exr)");
   cmp->add_option("--scale", co.scale, "Scale of the difference image")->default_val(10)->check(mr::kPositive);
-  mr::PlotJobOptions pjo;
+  return cmp;
+}
+
+CLI::App* AddPlot(CLI::App& app, mr::PlotJobOptions& pjo) {
   CLI::App* plot =
       app.add_subcommand("plot",
                          "Plots columns of a CSV table (mr-lights --sweep, bench/lights_render.sh, ...) as an SVG:\n"
@@ -40,7 +39,10 @@ int main(int argc, char** argv) {
   plot->add_option("--out", pjo.out, "SVG to write")->required();
   plot->add_flag("--linear-x", pjo.linear_x, "Linear x axis");
   plot->add_flag("--linear-y", pjo.linear_y, "Linear y axis");
-  mr::LightErrorJobOptions lo;
+  return plot;
+}
+
+CLI::App* AddLightError(CLI::App& app, mr::LightErrorJobOptions& lo) {
   CLI::App* light = app.add_subcommand(
       "light",
       "Captured light maps against the true ones, per frame (printf patterns): the relative RMS error of the\n"
@@ -53,7 +55,10 @@ int main(int argc, char** argv) {
   light->add_option("--frames", lo.frames, "Frames 0 to N-1 (0: while the estimate's exist)")
       ->default_val(0)
       ->check(mr::kNonNegative);
-  mr::TrajectoryJobOptions to;
+  return light;
+}
+
+CLI::App* AddTrajectory(CLI::App& app, mr::TrajectoryJobOptions& to) {
   CLI::App* traj = app.add_subcommand(
       "traj",
       "Absolute and relative trajectory error of ESTIMATE against REFERENCE, as TUM's evaluate_ate.py\n"
@@ -66,7 +71,10 @@ int main(int argc, char** argv) {
   traj->add_option("REFERENCE", to.reference, "Reference trajectory")->required()->check(CLI::ExistingPath);
   traj->add_option("--max-dt", to.max_dt, "Association: largest time difference")->default_val(0.02);
   traj->add_option("--delta", to.delta, "RPE time step (timestamp units)")->default_val(1.0);
-  mr::MeshJobOptions meo;
+  return traj;
+}
+
+CLI::App* AddMesh(CLI::App& app, mr::MeshJobOptions& meo) {
   CLI::App* mesh = app.add_subcommand(
       "mesh",
       "Surface distances between MESH and REFERENCE from area-uniform samples: accuracy (estimate to\n"
@@ -81,7 +89,10 @@ int main(int argc, char** argv) {
   mesh->add_option("--region", meo.region, "Only samples inside xmin,ymin,zmin,xmax,ymax,zmax")
       ->delimiter(',')
       ->expected(6);
-  mr::SweepJobOptions sjo;
+  return mesh;
+}
+
+CLI::App* AddSweep(CLI::App& app, mr::SweepJobOptions& sjo) {
   mr::SweepOptions& so = sjo.sweep;
   sjo.methods = fmt::format("{}", fmt::join(mr::DefaultSweepMethods(), ","));
   CLI::App* sweep = app.add_subcommand(
@@ -115,7 +126,10 @@ int main(int argc, char** argv) {
     sweep->add_option("--" + flag, sjo.old_flags[key], "= --set " + key + "=L");
   sweep->add_option("--frames", sjo.frames, "Frame range BEGIN:END (default: the scene's)");
   sweep->add_option("--diff-scale", so.diff_scale, "Scale of the difference images")->default_val(5);
-  mr::PlateJobOptions pj;
+  return sweep;
+}
+
+CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
   mr::PlateCheckOptions& po_plate = pj.plate;
   CLI::App* plate = app.add_subcommand(
       "plate",
@@ -157,7 +171,10 @@ int main(int argc, char** argv) {
   plate->add_flag("--images", po_plate.images,
                   "Write OUT/NNNNN-rerender.png per fitted frame: plate | room rendered at the gain | difference |\n"
                   "pixels compared");
-  mr::MergeJobOptions mj;
+  return plate;
+}
+
+CLI::App* AddMerge(CLI::App& app, mr::MergeJobOptions& mj) {
   mr::ShardMergeOptions& mo = mj.merge;
   CLI::App* merge = app.add_subcommand(
       "merge",
@@ -172,6 +189,33 @@ int main(int argc, char** argv) {
   merge->add_option("--fps", mo.fps, "Frames per second of the video (default: the plate's, else 30)")
       ->check(mr::kPositive);
   merge->add_flag("--allow-gaps", mo.allow_gaps, "Merge even when some frames were rendered by no shard");
+  return merge;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app;
+  mr::ConfigureApp(app, "mr-eval", "Evaluates renders against references.",
+                   "  mr-eval compare render/00000.exr capture/truth/00000.exr --diff diff.png --scale 10 "
+                   "--report compare.json");
+  app.require_subcommand(1);
+  mr::CompareJobOptions co;
+  mr::PlotJobOptions pjo;
+  mr::LightErrorJobOptions lo;
+  mr::TrajectoryJobOptions to;
+  mr::MeshJobOptions meo;
+  mr::SweepJobOptions sjo;
+  mr::PlateJobOptions pj;
+  mr::MergeJobOptions mj;
+  CLI::App* cmp = AddCompare(app, co);
+  CLI::App* plot = AddPlot(app, pjo);
+  CLI::App* light = AddLightError(app, lo);
+  CLI::App* traj = AddTrajectory(app, to);
+  CLI::App* mesh = AddMesh(app, meo);
+  CLI::App* sweep = AddSweep(app, sjo);
+  CLI::App* plate = AddPlate(app, pj);
+  CLI::App* merge = AddMerge(app, mj);
   return mr::RunTool("mr-eval", app, argc, argv, [&] {
     mr::Report* report = &mr::ToolReport();
     const std::string command_line = report->ToJson().value("command_line", "");

@@ -283,6 +283,94 @@ Trajectory ReadPoses(const fs::path& p) { return fs::is_directory(p) ? Read7Scen
 
 }  // namespace
 
+namespace {
+
+// The alignment refined by COLMAP's well-observed 3D points against the
+// room's mesh, from `start`.
+Similarity3 RefineByMesh(const ColmapModel& model, const RegisterOptions& o, const Similarity3& start, Report* report) {
+  Similarity3 world_from_colmap = start;
+  std::vector<Eigen::Vector3d> pts;
+  for (const auto& [id, p] : model.points3d)
+    if (static_cast<int>(p.track.size()) >= o.mesh_fit.min_track && p.error <= o.mesh_fit.max_error_px)
+      pts.push_back(p.xyz);
+  if (pts.size() < 6)
+    throw Error(FileLoc{}, fmt::format("the COLMAP model has {} well-observed 3D points "
+                                       "(points3D.txt; track >= {}, "
+                                       "error <= {} px): too few to align to the mesh",
+                                       pts.size(), o.mesh_fit.min_track, o.mesh_fit.max_error_px));
+  const MeshFit mf = RefineSimilarityToMesh(pts, *o.mesh, world_from_colmap, o.mesh_fit);
+  world_from_colmap = mf.b_from_a;
+  report->SetMetric("alignment.mesh.points", mf.points);
+  report->SetMetric("alignment.mesh.inliers", mf.inliers);
+  report->SetMetric("alignment.mesh.median_m", mf.median_m);
+  report->SetMetric("alignment.mesh.rmse_m", mf.rmse_m);
+  report->SetMetric("alignment.mesh.within_5cm", mf.within_5cm);
+  report->SetMetric("alignment.mesh.iterations", mf.iterations);
+  report->SetMetric("alignment.mesh.start_median_m", mf.start_median_m);
+  report->SetMetric("alignment.mesh.start_inliers", mf.start_inliers);
+  report->SetMetric("alignment.scale", mf.b_from_a.scale);
+  return world_from_colmap;
+}
+
+// Every frame's pose: registered ones moved, the rest interpolated.
+Trajectory EveryFramePose(const std::map<int, Rigid3>& colmap_poses, const Similarity3& world_from_colmap,
+                          int frames_wanted, Report* report) {
+  const int last = colmap_poses.rbegin()->first;
+  const int frames = frames_wanted > 0 ? frames_wanted : last + 1;
+  Trajectory out;
+  std::vector<int> filled;
+  for (int f = 0; f < frames; ++f) {
+    Rigid3 pose;
+    auto hi = colmap_poses.lower_bound(f);
+    if (hi != colmap_poses.end() && hi->first == f) {
+      pose = hi->second;
+    } else {
+      filled.push_back(f);
+      if (hi == colmap_poses.begin())
+        pose = hi->second;
+      else if (hi == colmap_poses.end())
+        pose = std::prev(hi)->second;
+      else {
+        const auto lo = std::prev(hi);
+        pose = Interpolate(lo->second, hi->second, static_cast<double>(f - lo->first) / (hi->first - lo->first));
+      }
+    }
+    out.poses.push_back({static_cast<double>(f), world_from_colmap.Apply(pose)});
+  }
+  report->SetMetric("frames", frames);
+  report->SetMetric("registered", static_cast<int>(colmap_poses.size()));
+  if (!filled.empty()) {
+    report->Warn(
+        fmt::format("{} of {} frames were not registered by COLMAP; "
+                    "their poses are interpolated",
+                    filled.size(), frames));
+    report->SetMetric("interpolated_frames", filled);
+  }
+  return out;
+}
+
+// The poses' error against the truth's (same timestamps).
+void ReportPoseError(const Trajectory& out, const fs::path& truth_file, Report* report) {
+  const Trajectory truth = ReadPoses(truth_file);
+  double se = 0, sr = 0;
+  int n = 0;
+  for (const auto& p : out.poses)
+    for (const auto& tp : truth.poses)
+      if (std::abs(tp.timestamp - p.timestamp) < 1e-6) {
+        se += (p.world_from_cam.translation - tp.world_from_cam.translation).squaredNorm();
+        const double a = p.world_from_cam.rotation.angularDistance(tp.world_from_cam.rotation) / kDegToRad;
+        sr += a * a;
+        ++n;
+      }
+  if (n == 0) ThrowErrorAt(FileLoc{truth_file.string()}, "no pose with a frame number's timestamp");
+  report->SetMetric("pose_error.frames", n);
+  report->SetMetric("pose_error.centre_rmse_m", std::sqrt(se / n));
+  report->SetMetric("pose_error.rotation_rmse_deg", std::sqrt(sr / n));
+  report->AddInput(truth_file.string());
+}
+
+}  // namespace
+
 void RegisterOptions::Check() const {
   if (match != "auto" && match != "timestamp" && match != "index")
     throw UsageError(fmt::format("--match \"{}\": timestamp, index or auto", match));
@@ -369,78 +457,9 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
                  "no trajectory given: the poses stay in COLMAP's "
                  "frame (arbitrary scale)");
   }
-  if (o.mesh) {
-    std::vector<Eigen::Vector3d> pts;
-    for (const auto& [id, p] : model.points3d)
-      if (static_cast<int>(p.track.size()) >= o.mesh_fit.min_track && p.error <= o.mesh_fit.max_error_px)
-        pts.push_back(p.xyz);
-    if (pts.size() < 6)
-      throw Error(FileLoc{}, fmt::format("the COLMAP model has {} well-observed 3D points "
-                                         "(points3D.txt; track >= {}, "
-                                         "error <= {} px): too few to align to the mesh",
-                                         pts.size(), o.mesh_fit.min_track, o.mesh_fit.max_error_px));
-    const MeshFit mf = RefineSimilarityToMesh(pts, *o.mesh, world_from_colmap, o.mesh_fit);
-    world_from_colmap = mf.b_from_a;
-    report->SetMetric("alignment.mesh.points", mf.points);
-    report->SetMetric("alignment.mesh.inliers", mf.inliers);
-    report->SetMetric("alignment.mesh.median_m", mf.median_m);
-    report->SetMetric("alignment.mesh.rmse_m", mf.rmse_m);
-    report->SetMetric("alignment.mesh.within_5cm", mf.within_5cm);
-    report->SetMetric("alignment.mesh.iterations", mf.iterations);
-    report->SetMetric("alignment.mesh.start_median_m", mf.start_median_m);
-    report->SetMetric("alignment.mesh.start_inliers", mf.start_inliers);
-    report->SetMetric("alignment.scale", mf.b_from_a.scale);
-  }
-  // Every frame's pose: registered ones moved, the rest interpolated.
-  const int last = colmap_poses.rbegin()->first;
-  const int frames = o.frames > 0 ? o.frames : last + 1;
-  Trajectory out;
-  std::vector<int> filled;
-  for (int f = 0; f < frames; ++f) {
-    Rigid3 pose;
-    auto hi = colmap_poses.lower_bound(f);
-    if (hi != colmap_poses.end() && hi->first == f) {
-      pose = hi->second;
-    } else {
-      filled.push_back(f);
-      if (hi == colmap_poses.begin())
-        pose = hi->second;
-      else if (hi == colmap_poses.end())
-        pose = std::prev(hi)->second;
-      else {
-        const auto lo = std::prev(hi);
-        pose = Interpolate(lo->second, hi->second, static_cast<double>(f - lo->first) / (hi->first - lo->first));
-      }
-    }
-    out.poses.push_back({static_cast<double>(f), world_from_colmap.Apply(pose)});
-  }
-  report->SetMetric("frames", frames);
-  report->SetMetric("registered", static_cast<int>(colmap_poses.size()));
-  if (!filled.empty()) {
-    report->Warn(
-        fmt::format("{} of {} frames were not registered by COLMAP; "
-                    "their poses are interpolated",
-                    filled.size(), frames));
-    report->SetMetric("interpolated_frames", filled);
-  }
-  if (o.truth) {
-    const Trajectory truth = ReadPoses(*o.truth);
-    double se = 0, sr = 0;
-    int n = 0;
-    for (const auto& p : out.poses)
-      for (const auto& tp : truth.poses)
-        if (std::abs(tp.timestamp - p.timestamp) < 1e-6) {
-          se += (p.world_from_cam.translation - tp.world_from_cam.translation).squaredNorm();
-          const double a = p.world_from_cam.rotation.angularDistance(tp.world_from_cam.rotation) / kDegToRad;
-          sr += a * a;
-          ++n;
-        }
-    if (n == 0) ThrowErrorAt(FileLoc{o.truth->string()}, "no pose with a frame number's timestamp");
-    report->SetMetric("pose_error.frames", n);
-    report->SetMetric("pose_error.centre_rmse_m", std::sqrt(se / n));
-    report->SetMetric("pose_error.rotation_rmse_deg", std::sqrt(sr / n));
-    report->AddInput(o.truth->string());
-  }
+  if (o.mesh) world_from_colmap = RefineByMesh(model, o, world_from_colmap, report);
+  const Trajectory out = EveryFramePose(colmap_poses, world_from_colmap, o.frames, report);
+  if (o.truth) ReportPoseError(out, *o.truth, report);
   std::error_code ec;
   for (const fs::path& f : {o.out_poses, o.out_camera})
     if (!f.empty() && !f.parent_path().empty()) fs::create_directories(f.parent_path(), ec);

@@ -26,9 +26,9 @@ namespace mr {
 // One setting as the code declares it.
 struct SettingDecl {
   std::string key;
-  std::string type;            // "integer", "number", "bool" or "string"
-  Json default_value;          // the settings struct's value before reading
-  double lo = 0, hi = 0;       // integer and number: the accepted range
+  std::string type;                  // "integer", "number", "bool" or "string"
+  Json default_value;                // the settings struct's value before reading
+  double lo = 0, hi = 0;             // integer and number: the accepted range
   std::vector<std::string> choices;  // string: the accepted values
 };
 

@@ -85,177 +85,86 @@ Image AroundObjects(const Image& mask) {
   return out;
 }
 
-void PlateCheckOptions::Check() const {
-  if (out.empty()) throw UsageError("--out is required");
-  if (spp < 1 || stride < 1) throw UsageError("--spp and --stride must be at least 1");
-  FindRenderMethod(method);
-  if (!(at_gain >= 0)) throw UsageError(fmt::format("--at-gain {} must be positive", at_gain));
-  if (!(smoothing.time_constant >= 0)) throw UsageError("--smooth must be 0 or positive");
-  if (!(smoothing.jump_ratio > 1)) throw UsageError("--jump-ratio must be above 1");
+namespace {
+
+// Per rendered frame: the sums that give the error at any per-channel
+// gain g exactly (sum of (g I - P)^2 / (P^2 + eps) is quadratic in g), so
+// that the error at the smoothed gain needs no image kept.
+struct ErrorSums {
+  Rgb a{0, 0, 0}, b{0, 0, 0}, c{0, 0, 0};     // relMSE: I^2 w, I P w, P^2 w with w = 1 / (P^2 + eps)
+  Rgb ii{0, 0, 0}, ip{0, 0, 0}, pp{0, 0, 0};  // RMSE
+  int64_t n = 0;
+  void Add(const Image& real, const Image& plate, const Image& where) {
+    for (int y = 0; y < real.height(); ++y)
+      for (int x = 0; x < real.width(); ++x) {
+        if (!(where.at(x, y, 0) > 0)) continue;
+        bool finite = true;
+        for (int ch = 0; ch < 3; ++ch)
+          finite = finite && std::isfinite(real.at(x, y, ch)) && std::isfinite(plate.at(x, y, ch));
+        if (!finite) continue;
+        ++n;
+        for (int ch = 0; ch < 3; ++ch) {
+          const double i = real.at(x, y, ch), p = plate.at(x, y, ch), w = 1 / (p * p + kRelMseEpsilon);
+          a[ch] += i * i * w, b[ch] += i * p * w, c[ch] += p * p * w;
+          ii[ch] += i * i, ip[ch] += i * p, pp[ch] += p * p;
+        }
+      }
+  }
+  double RelMse(const Rgb& g) const {
+    double s = 0;
+    for (int ch = 0; ch < 3; ++ch) s += g[ch] * g[ch] * a[ch] - 2 * g[ch] * b[ch] + c[ch];
+    return std::max(0.0, s) / (3.0 * static_cast<double>(n));
+  }
+  double Rmse(const Rgb& g) const {
+    double s = 0;
+    for (int ch = 0; ch < 3; ++ch) s += g[ch] * g[ch] * ii[ch] - 2 * g[ch] * ip[ch] + pp[ch];
+    return std::sqrt(std::max(0.0, s) / (3.0 * static_cast<double>(n)));
+  }
+};
+struct Measured {
+  ErrorSums room, region;
+  double ssim = 0;  // at the frame's own fitted gain
+};
+
+// OUT/NNNNN-rerender.png: the plate | the room rendered at the fitted gain |
+// their difference | the pixels compared.
+void WriteRerenderSheet(const PlateCheckOptions& o, const FrameDecoding& decoding, const PhotoEncoding& enc,
+                        const Image& plate, const Image& fitted, const Image& room, const GainFit& fit, int f,
+                        Report* report) {
+  // Shown as the plate's own code values: through the response (or the
+  // linear transfer) the frames were decoded with; display-space plates
+  // and float ones through sRGB.
+  auto srgb = [&](Image img) {
+    if (enc.has_codes && !decoding.display_space) return decoding.ToCodes(img, enc);
+    for (float& v : img.values()) v = LinearToSrgb(std::clamp(v, 0.0f, 1.0f));
+    return img;
+  };
+  const Image plate_srgb = srgb(plate), fitted_srgb = srgb(fitted);
+  Image diff = fitted_srgb;
+  for (size_t p = 0; p < diff.values().size(); ++p) diff.values()[p] -= plate_srgb.values()[p];
+  const Image diff_panel = SignedDifferencePanel(diff, 0.25);
+  const Rgb g = fit.ok ? fit.gain : Rgb{1, 1, 1};
+  const Image sheet =
+      ContactSheet({{&plate_srgb, fmt::format("plate, frame {}", f)},
+                    {&fitted_srgb, fmt::format("room rendered, x ({:.3g}, {:.3g}, {:.3g})", g[0], g[1], g[2])},
+                    {&diff_panel, "rendered - plate (codes), +-0.25"},
+                    {&room, "pixels compared (the room)"}},
+                   2);
+  ImageWriteOptions wo;
+  wo.tool = o.tool;
+  wo.command_line = o.command_line;
+  wo.pixel_type = PixelType::kUint8;
+  wo.ldr_transfer = Transfer::kLinear;  // already display values
+  wo.attributes["oiio:ColorSpace"] = "sRGB";
+  const fs::path path = o.out / fmt::format("{:05d}-rerender.png", f);
+  WriteImage(path, sheet, wo);
+  report->AddOutput(path.string());
 }
 
-void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* report) {
-  if (!scene_in.camera.frames)
-    throw UsageError(fmt::format("{}: the scene names no plate (camera.frames): there is nothing to fit or check",
-                                 scene_in.file.string()));
-  o.Check();
-  // The gains are what this fits: a gains file the scene names (an earlier
-  // fit) is not read.
-  Scene scene = scene_in;
-  if (scene.camera.gains) {
-    report->Skip("camera.gains " + scene.camera.gains->string(), "mr-eval plate fits the gains the file holds");
-    scene.camera.gains.reset();
-  }
-  const MethodInfo& info = FindRenderMethod(o.method);
-  std::unique_ptr<RenderMethod> method = CreateRenderMethod(scene, o.method);
-  RenderScene rs;
-  const JobInputs in = LoadJobInputs(scene, o.frame_begin, o.frame_end, &rs, report);
-  const CameraModel& camera = in.camera;
-  const std::vector<Rigid3>& poses = in.poses;
-  const int begin = in.begin, end = in.end;
-  std::error_code ec;
-  fs::create_directories(o.out, ec);
-  if (!fs::is_directory(o.out))
-    ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the output folder{}", ec ? ": " + ec.message() : "");
-  const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
-  FrameReader frames(scene, camera, decoding);
-  {
-    ScopedTimer t(report, info.prepare_timing.empty() ? "prepare" : info.prepare_timing);
-    method->Prepare(JobContext{scene, rs, camera, o.spp, begin, true, report, begin});
-  }
-  WorldTracker world(scene, rs, begin);  // a light that changes per frame lights each frame's room
-  if (o.stride > 1)
-    report->Skip(fmt::format("fits of frames between every {}th", o.stride),
-                 "--stride: they take the gains of the fitted frames around them");
-
-  // Per rendered frame: the sums that give the error at any per-channel
-  // gain g exactly (sum of (g I - P)^2 / (P^2 + eps) is quadratic in g), so
-  // that the error at the smoothed gain needs no image kept.
-  struct ErrorSums {
-    Rgb a{0, 0, 0}, b{0, 0, 0}, c{0, 0, 0};     // relMSE: I^2 w, I P w, P^2 w with w = 1 / (P^2 + eps)
-    Rgb ii{0, 0, 0}, ip{0, 0, 0}, pp{0, 0, 0};  // RMSE
-    int64_t n = 0;
-    void Add(const Image& real, const Image& plate, const Image& where) {
-      for (int y = 0; y < real.height(); ++y)
-        for (int x = 0; x < real.width(); ++x) {
-          if (!(where.at(x, y, 0) > 0)) continue;
-          bool finite = true;
-          for (int ch = 0; ch < 3; ++ch)
-            finite = finite && std::isfinite(real.at(x, y, ch)) && std::isfinite(plate.at(x, y, ch));
-          if (!finite) continue;
-          ++n;
-          for (int ch = 0; ch < 3; ++ch) {
-            const double i = real.at(x, y, ch), p = plate.at(x, y, ch), w = 1 / (p * p + kRelMseEpsilon);
-            a[ch] += i * i * w, b[ch] += i * p * w, c[ch] += p * p * w;
-            ii[ch] += i * i, ip[ch] += i * p, pp[ch] += p * p;
-          }
-        }
-    }
-    double RelMse(const Rgb& g) const {
-      double s = 0;
-      for (int ch = 0; ch < 3; ++ch) s += g[ch] * g[ch] * a[ch] - 2 * g[ch] * b[ch] + c[ch];
-      return std::max(0.0, s) / (3.0 * static_cast<double>(n));
-    }
-    double Rmse(const Rgb& g) const {
-      double s = 0;
-      for (int ch = 0; ch < 3; ++ch) s += g[ch] * g[ch] * ii[ch] - 2 * g[ch] * ip[ch] + pp[ch];
-      return std::sqrt(std::max(0.0, s) / (3.0 * static_cast<double>(n)));
-    }
-  };
-  struct Measured {
-    ErrorSums room, region;
-    double ssim = 0;  // at the frame's own fitted gain
-  };
-  std::vector<int> frame_ids;
-  std::vector<GainFit> fits;
-  std::vector<Measured> measured;  // per rendered frame
-  Progress progress("plate fit", end - begin);
-  for (int f = begin; f < end; ++f) {
-    frame_ids.push_back(f);
-    if ((f - begin) % o.stride != 0) {
-      GainFit none;
-      none.why = "--stride";
-      fits.push_back(none);
-      progress.Update(f - begin + 1);
-      continue;
-    }
-    const Rigid3& pose = poses[static_cast<size_t>(f)];
-    if (const WorldChange wc = world.Advance(f, &rs); wc.any())
-      method->WorldChanged(JobContext{scene, rs, camera, o.spp, begin, true, report, f}, wc);
-    PhotoEncoding enc;
-    const Image photo = *frames.Photo(f, &enc);
-    const Image plate = decoding.ToPlateLinear(photo);
-    Image codes;
-    if (enc.has_codes) codes = decoding.ToCodes(decoding.ToRadiance(photo), enc);
-    Image real, mask;
-    {
-      ScopedTimer t(report, "render room");
-      const FrameContext fc{rs, camera, pose, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
-      std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
-      fr->RenderPass(o.spp);
-      real = fr->Real();
-      mask = fr->Mask();
-    }
-    Measured m;
-    Image room;
-    {
-      ScopedTimer t(report, "fit");
-      room = RoomPixels(rs, camera, pose);
-      fits.push_back(FitPlateGain(plate, real, room, enc.has_codes ? &codes : nullptr, o.fit));
-      Image region = AroundObjects(mask);
-      for (size_t p = 0; p < region.values().size(); ++p) region.values()[p] *= room.values()[p];
-      m.room.Add(real, plate, room);
-      m.region.Add(real, plate, region);
-    }
-    const GainFit& fit = fits.back();
-    if (!fit.ok) {
-      spdlog::warn("frame {}: no gain fit: {}", f, fit.why);
-      report->Warn(fmt::format("frame {}: no gain fit: {}", f, fit.why));
-    }
-    const Image fitted = Scaled(real, fit.ok ? fit.gain : Rgb{1, 1, 1});
-    m.ssim = CompareImages(fitted, plate, &room).ssim;
-    if (o.images) {
-      // Shown as the plate's own code values: through the response (or the
-      // linear transfer) the frames were decoded with; display-space plates
-      // and float ones through sRGB.
-      auto srgb = [&](Image img) {
-        if (enc.has_codes && !decoding.display_space) return decoding.ToCodes(img, enc);
-        for (float& v : img.values()) v = LinearToSrgb(std::clamp(v, 0.0f, 1.0f));
-        return img;
-      };
-      const Image plate_srgb = srgb(plate), fitted_srgb = srgb(fitted);
-      Image diff = fitted_srgb;
-      for (size_t p = 0; p < diff.values().size(); ++p) diff.values()[p] -= plate_srgb.values()[p];
-      const Image diff_panel = SignedDifferencePanel(diff, 0.25);
-      const Rgb g = fit.ok ? fit.gain : Rgb{1, 1, 1};
-      const Image sheet =
-          ContactSheet({{&plate_srgb, fmt::format("plate, frame {}", f)},
-                        {&fitted_srgb, fmt::format("room rendered, x ({:.3g}, {:.3g}, {:.3g})", g[0], g[1], g[2])},
-                        {&diff_panel, "rendered - plate (codes), +-0.25"},
-                        {&room, "pixels compared (the room)"}},
-                       2);
-      ImageWriteOptions wo;
-      wo.tool = o.tool;
-      wo.command_line = o.command_line;
-      wo.pixel_type = PixelType::kUint8;
-      wo.ldr_transfer = Transfer::kLinear;  // already display values
-      wo.attributes["oiio:ColorSpace"] = "sRGB";
-      const fs::path path = o.out / fmt::format("{:05d}-rerender.png", f);
-      WriteImage(path, sheet, wo);
-      report->AddOutput(path.string());
-    }
-    measured.push_back(std::move(m));
-    progress.Update(f - begin + 1);
-  }
-  progress.Done();
-  const std::vector<FrameGain> gains = SmoothGains(frame_ids, fits, o.smoothing);
-  const fs::path gains_path = o.out / "gains.json";
-  WritePlateGains(gains_path, gains,
-                  fmt::format("written by {} ({}) from {}: render-to-plate gains per frame, {} at {} spp", o.tool,
-                              o.command_line, scene.file.string(), o.method, o.spp));
-  report->AddOutput(gains_path.string());
-
-  // The error after the fit (at the smoothed gain), per rendered frame.
+// The error after the fit (at the smoothed gain), per rendered frame, and
+// the gains' range, into the report and the log.
+void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gains, const std::vector<GainFit>& fits,
+                  const std::vector<Measured>& measured, int begin, const fs::path& gains_path, Report* report) {
   Json frames_json = Json::array();
   double sum_relmse = 0, sum_ssim = 0, sum_region = 0;
   int n_measured = 0, n_region = 0, jumps = 0;
@@ -319,6 +228,114 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     spdlog::info("re-rendering error after the fit: relMSE {:.4g}, SSIM {:.4f}{}", sum_relmse / n_measured,
                  sum_ssim / n_measured,
                  n_region > 0 ? fmt::format(", around the objects relMSE {:.4g}", sum_region / n_region) : "");
+}
+
+}  // namespace
+
+void PlateCheckOptions::Check() const {
+  if (out.empty()) throw UsageError("--out is required");
+  if (spp < 1 || stride < 1) throw UsageError("--spp and --stride must be at least 1");
+  FindRenderMethod(method);
+  if (!(at_gain >= 0)) throw UsageError(fmt::format("--at-gain {} must be positive", at_gain));
+  if (!(smoothing.time_constant >= 0)) throw UsageError("--smooth must be 0 or positive");
+  if (!(smoothing.jump_ratio > 1)) throw UsageError("--jump-ratio must be above 1");
+}
+
+void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* report) {
+  if (!scene_in.camera.frames)
+    throw UsageError(fmt::format("{}: the scene names no plate (camera.frames): there is nothing to fit or check",
+                                 scene_in.file.string()));
+  o.Check();
+  // The gains are what this fits: a gains file the scene names (an earlier
+  // fit) is not read.
+  Scene scene = scene_in;
+  if (scene.camera.gains) {
+    report->Skip("camera.gains " + scene.camera.gains->string(), "mr-eval plate fits the gains the file holds");
+    scene.camera.gains.reset();
+  }
+  const MethodInfo& info = FindRenderMethod(o.method);
+  std::unique_ptr<RenderMethod> method = CreateRenderMethod(scene, o.method);
+  RenderScene rs;
+  const JobInputs in = LoadJobInputs(scene, o.frame_begin, o.frame_end, &rs, report);
+  const CameraModel& camera = in.camera;
+  const std::vector<Rigid3>& poses = in.poses;
+  const int begin = in.begin, end = in.end;
+  std::error_code ec;
+  fs::create_directories(o.out, ec);
+  if (!fs::is_directory(o.out))
+    ThrowErrorAt(FileLoc{o.out.string()}, "cannot create the output folder{}", ec ? ": " + ec.message() : "");
+  const FrameDecoding decoding = FrameDecoding::FromScene(scene, report);
+  FrameReader frames(scene, camera, decoding);
+  {
+    ScopedTimer t(report, info.prepare_timing.empty() ? "prepare" : info.prepare_timing);
+    method->Prepare(JobContext{scene, rs, camera, o.spp, begin, true, report, begin});
+  }
+  WorldTracker world(scene, rs, begin);  // a light that changes per frame lights each frame's room
+  if (o.stride > 1)
+    report->Skip(fmt::format("fits of frames between every {}th", o.stride),
+                 "--stride: they take the gains of the fitted frames around them");
+
+  std::vector<int> frame_ids;
+  std::vector<GainFit> fits;
+  std::vector<Measured> measured;  // per rendered frame
+  Progress progress("plate fit", end - begin);
+  for (int f = begin; f < end; ++f) {
+    frame_ids.push_back(f);
+    if ((f - begin) % o.stride != 0) {
+      GainFit none;
+      none.why = "--stride";
+      fits.push_back(none);
+      progress.Update(f - begin + 1);
+      continue;
+    }
+    const Rigid3& pose = poses[static_cast<size_t>(f)];
+    if (const WorldChange wc = world.Advance(f, &rs); wc.any())
+      method->WorldChanged(JobContext{scene, rs, camera, o.spp, begin, true, report, f}, wc);
+    PhotoEncoding enc;
+    const Image photo = *frames.Photo(f, &enc);
+    const Image plate = decoding.ToPlateLinear(photo);
+    Image codes;
+    if (enc.has_codes) codes = decoding.ToCodes(decoding.ToRadiance(photo), enc);
+    Image real, mask;
+    {
+      ScopedTimer t(report, "render room");
+      const FrameContext fc{rs, camera, pose, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
+      std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
+      fr->RenderPass(o.spp);
+      real = fr->Real();
+      mask = fr->Mask();
+    }
+    Measured m;
+    Image room;
+    {
+      ScopedTimer t(report, "fit");
+      room = RoomPixels(rs, camera, pose);
+      fits.push_back(FitPlateGain(plate, real, room, enc.has_codes ? &codes : nullptr, o.fit));
+      Image region = AroundObjects(mask);
+      for (size_t p = 0; p < region.values().size(); ++p) region.values()[p] *= room.values()[p];
+      m.room.Add(real, plate, room);
+      m.region.Add(real, plate, region);
+    }
+    const GainFit& fit = fits.back();
+    if (!fit.ok) {
+      spdlog::warn("frame {}: no gain fit: {}", f, fit.why);
+      report->Warn(fmt::format("frame {}: no gain fit: {}", f, fit.why));
+    }
+    const Image fitted = Scaled(real, fit.ok ? fit.gain : Rgb{1, 1, 1});
+    m.ssim = CompareImages(fitted, plate, &room).ssim;
+    if (o.images) WriteRerenderSheet(o, decoding, enc, plate, fitted, room, fit, f, report);
+    measured.push_back(std::move(m));
+    progress.Update(f - begin + 1);
+  }
+  progress.Done();
+  const std::vector<FrameGain> gains = SmoothGains(frame_ids, fits, o.smoothing);
+  const fs::path gains_path = o.out / "gains.json";
+  WritePlateGains(gains_path, gains,
+                  fmt::format("written by {} ({}) from {}: render-to-plate gains per frame, {} at {} spp", o.tool,
+                              o.command_line, scene.file.string(), o.method, o.spp));
+  report->AddOutput(gains_path.string());
+
+  ReportErrors(o, gains, fits, measured, begin, gains_path, report);
   spdlog::info("gains: {}", gains_path.string());
 }
 

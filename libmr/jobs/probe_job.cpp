@@ -121,7 +121,8 @@ void ProbeJobOptions::Check() const {
     return;
   }
   if (photos.empty()) throw UsageError("give photographs, --light FRAMES or --sphere-in-plate SCENE");
-  if (fisheye.empty() && probes.empty()) throw UsageError("give --probe probe.json (mirror sphere) or --fisheye CAMERA");
+  if (fisheye.empty() && probes.empty())
+    throw UsageError("give --probe probe.json (mirror sphere) or --fisheye CAMERA");
   if (!fisheye.empty() && !probes.empty()) throw UsageError("--fisheye and --probe contradict each other");
   if (probes.size() > 1 && probes.size() != photos.size())
     throw UsageError(

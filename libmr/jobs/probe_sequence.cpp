@@ -164,6 +164,62 @@ void Summarise(const std::vector<Json>& frames, Report* report) {
     report->Warn(fmt::format("{} frame(s) have no light frame of their own and reuse the last map", reused));
 }
 
+// Which light frame each output frame takes (-1: none within max_dt): by
+// the plate's timestamps, else one output frame per light frame. *plate
+// gets the plate's times (empty without them).
+std::vector<int> LightOfOutputFrame(const ProbeSequenceOptions& o, const std::vector<double>& light_times,
+                                    std::vector<double>* plate, Report* report) {
+  std::vector<int> light_of;
+  if (o.plate_times) {
+    const Trajectory traj = ReadTum(*o.plate_times);
+    report->AddInput(o.plate_times->string());
+    for (const auto& p : traj.poses) plate->push_back(p.timestamp);
+    const TimeMatch m = MatchLightToPlate(light_times, *plate, o.max_dt, o.light, o.plate_times->string());
+    light_of = m.light_of_plate;
+    report->SetMetric(
+        "time_match",
+        {{"max_dt_s", o.max_dt}, {"largest_dt_s", m.max_dt_seen}, {"unmatched_plate_frames", m.unmatched}});
+  } else {
+    for (size_t i = 0; i < light_times.size(); ++i) light_of.push_back(static_cast<int>(i));
+    report->Skip("matching by timestamp", "no plate times given: one map per light frame");
+  }
+  return light_of;
+}
+
+// Exposure times from --exposures (0 where it has none, and without it:
+// then metadata, else 1, decide).
+std::vector<double> ExposureTimesFromFile(const ProbeSequenceOptions& o, const std::vector<LightFrameFile>& lf,
+                                          Report* report) {
+  if (!o.exposures) return std::vector<double>(lf.size(), 0);
+  std::vector<std::string> names;
+  for (const auto& f : lf) names.push_back(f.path.string());
+  if (lf[0].path.empty())
+    ThrowErrorAt(FileLoc{o.exposures->string()},
+                 "exposure times of a video's frames: give "
+                 "its frames as files");
+  std::vector<double> times = ReadExposures(o.exposures->string(), names);
+  report->AddInput(o.exposures->string());
+  return times;
+}
+
+// The key of every option a light camera's map depends on.
+uint64_t LightOptionsKey(const ProbeSequenceOptions& o, int first) {
+  return HashCombine(ContentHash(o.fisheye),
+                     HashString(fmt::format(
+                         "mr-probe light 1 {} {} {} {} {} {} {} {} {} {} {}", o.unwrap.width, o.unwrap.reflectance,
+                         o.unwrap.camera_cone_deg, fmt::join(o.unwrap.rotate.data(), o.unwrap.rotate.data() + 9, ","),
+                         o.filter.time_constant_s, o.filter.jump_ratio, o.filter.jump_floor,
+                         o.filter.jump_report_fraction, o.filter.recover_exposure, o.filter.confidence_keep, first)));
+}
+
+// An 8-bit frame with a clipped pixel (a lower bound of its light).
+bool AnyClipped(const Image& photo) {
+  for (int64_t i = 0; i < photo.pixel_count(); ++i)
+    for (int c = 0; c < 3; ++c)
+      if (photo.values()[static_cast<size_t>(i * photo.channels() + c)] >= 0.99f) return true;
+  return false;
+}
+
 // The light camera's frames.
 void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
   double video_fps = 0;
@@ -176,21 +232,8 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
   for (const auto& f : lf) light_times.push_back(f.time);
 
   // Which light frame each output frame takes.
-  std::vector<int> light_of;
   std::vector<double> plate;
-  if (o.plate_times) {
-    const Trajectory traj = ReadTum(*o.plate_times);
-    report->AddInput(o.plate_times->string());
-    for (const auto& p : traj.poses) plate.push_back(p.timestamp);
-    const TimeMatch m = MatchLightToPlate(light_times, plate, o.max_dt, o.light, o.plate_times->string());
-    light_of = m.light_of_plate;
-    report->SetMetric(
-        "time_match",
-        {{"max_dt_s", o.max_dt}, {"largest_dt_s", m.max_dt_seen}, {"unmatched_plate_frames", m.unmatched}});
-  } else {
-    for (size_t i = 0; i < lf.size(); ++i) light_of.push_back(static_cast<int>(i));
-    report->Skip("matching by timestamp", "no plate times given: one map per light frame");
-  }
+  const std::vector<int> light_of = LightOfOutputFrame(o, light_times, &plate, report);
   const int n_out = static_cast<int>(light_of.size());
   const int begin = std::min(o.begin, n_out), end = o.end < 0 ? n_out : std::min(o.end, n_out);
   if (begin >= end) ThrowErrorAt(FileLoc{o.light}, "no frame in the range {}:{} ({} frames)", o.begin, o.end, n_out);
@@ -202,18 +245,7 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
     }
   if (first < 0) ThrowErrorAt(FileLoc{o.light}, "no light frame matches the plate frames {} to {}", begin, end - 1);
 
-  // Exposure times: a file, else metadata, else 1.
-  std::vector<double> times(lf.size(), 0);
-  if (o.exposures) {
-    std::vector<std::string> names;
-    for (const auto& f : lf) names.push_back(f.path.string());
-    if (lf[0].path.empty())
-      ThrowErrorAt(FileLoc{o.exposures->string()},
-                   "exposure times of a video's frames: give "
-                   "its frames as files");
-    times = ReadExposures(o.exposures->string(), names);
-    report->AddInput(o.exposures->string());
-  }
+  std::vector<double> times = ExposureTimesFromFile(o, lf, report);
 
   std::unique_ptr<VideoReader> video;
   if (lf[0].path.empty()) video = std::make_unique<VideoReader>(o.light);
@@ -234,13 +266,7 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
   // Each map's key: a chain over the options and every light frame up to
   // it (content, time, exposure), so that a re-run keeps the maps whose
   // inputs did not change and redoes the rest (docs/methods.md).
-  const uint64_t options_key =
-      HashCombine(ContentHash(o.fisheye),
-                  HashString(fmt::format(
-                      "mr-probe light 1 {} {} {} {} {} {} {} {} {} {} {}", o.unwrap.width, o.unwrap.reflectance,
-                      o.unwrap.camera_cone_deg, fmt::join(o.unwrap.rotate.data(), o.unwrap.rotate.data() + 9, ","),
-                      o.filter.time_constant_s, o.filter.jump_ratio, o.filter.jump_floor, o.filter.jump_report_fraction,
-                      o.filter.recover_exposure, o.filter.confidence_keep, first)));
+  const uint64_t options_key = LightOptionsKey(o, first);
   const uint64_t video_key = video ? ContentHash(o.light) : 0;
   uint64_t key = options_key;
   double t0 = 0;
@@ -282,12 +308,7 @@ void RunLightCamera(const ProbeSequenceOptions& o, Report* report) {
         photo = f.path.empty() ? video->Frame(f.video_index) : ReadImage(f.path, {}, &info);
       }
       // 8-bit frames: a clipped pixel is a lower bound; count them.
-      if (f.path.empty() || info.decoded_from_ldr) {
-        int64_t clipped = 0;
-        for (int64_t i = 0; i < photo.pixel_count(); ++i)
-          for (int c = 0; c < 3; ++c) clipped += photo.values()[static_cast<size_t>(i * photo.channels() + c)] >= 0.99f;
-        if (clipped > 0) ++clipped_frames;
-      }
+      if ((f.path.empty() || info.decoded_from_ldr) && AnyClipped(photo)) ++clipped_frames;
       Image map;
       {
         ScopedTimer t(report, "unwrap");

@@ -84,6 +84,142 @@ void WriteSceneJson(const Pipeline& p) {
 
 }  // namespace
 
+namespace {
+
+// The work folder's .mr-pipeline, reports and logs, and no temporaries a
+// killed run left.
+void PrepareWorkFolder(const Pipeline& p, Report* report) {
+  std::error_code ec;
+  fs::create_directories(p.work / ".mr-pipeline", ec);
+  fs::create_directories(p.work / "reports", ec);
+  fs::create_directories(p.work / "logs", ec);
+  if (!fs::is_directory(p.work / "logs"))
+    ThrowErrorAt(FileLoc{p.work.string()}, "cannot create the work folder{}", ec ? ": " + ec.message() : "");
+  // A stage killed before it could clean up (SIGKILL, power loss) leaves
+  // temporaries beside its outputs; its outputs themselves are whole (every
+  // write is atomic) and the stage is not recorded as done, so it runs again.
+  int stale = 0;
+  for (auto it = fs::recursive_directory_iterator(p.work, ec); !ec && it != fs::recursive_directory_iterator();
+       it.increment(ec))
+    if (it->is_directory()) stale += RemoveStaleTemporaries(it->path());
+  stale += RemoveStaleTemporaries(p.work);
+  if (stale > 0)
+    report->Warn(fmt::format("removed {} temporary files that killed runs left in {}", stale, p.work.string()));
+}
+
+// The stage's up-to-date key: mr's version, the stage, the tool's bytes and
+// arguments (or the scene mr-pipeline writes), its inputs' names and
+// contents; *inputs_ready is false when an input does not exist yet.
+std::string StageKey(const Pipeline& p, const PipelineStage& s, const std::vector<std::string>& argv,
+                     bool* inputs_ready) {
+  std::error_code ec;
+  Hasher key;
+  key.String(kVersion);
+  key.String(s.name);
+  *inputs_ready = true;
+  if (!s.tool.empty()) {
+    const fs::path tool = argv[0];
+    if (fs::exists(tool, ec)) HashFile(tool, &key);
+    for (const auto& a : s.args) key.String(a);
+    if (!s.writes_first.empty()) key.String(s.writes_first_json.dump());
+  } else {
+    key.String(p.scene.dump());
+  }
+  for (const auto& in : s.inputs) {
+    key.String(in.string());
+    if (fs::exists(in, ec))
+      key.Word(ContentHash(in));
+    else
+      *inputs_ready = false;
+  }
+  return Hex(key.Final());
+}
+
+// Why the stage must run ("" when it is up to date): --force, inputs an
+// earlier stage makes or re-makes, no record of a run, a changed key, an
+// output missing or changed since.
+std::string WhyRun(const PipelineStage& s, const fs::path& stamp, const std::string& key_hex, bool forced,
+                   bool inputs_ready, const std::string& upstream) {
+  std::error_code ec;
+  std::string why_run;
+  Json old;
+  if (fs::exists(stamp, ec)) {
+    try {
+      old = Json::parse(ReadTextFile(stamp));
+    } catch (const std::exception&) {
+      old = Json();
+    }
+  }
+  if (forced) {
+    why_run = "--force";
+  } else if (!inputs_ready || !upstream.empty()) {
+    why_run = upstream.empty() ? "inputs are made by an earlier stage" : "an input is re-made: " + upstream;
+  } else if (!old.is_object()) {
+    why_run = "not run before";
+  } else if (old.value("key", "") != key_hex) {
+    why_run = "inputs, options or the tool changed";
+  } else {
+    for (const auto& out : s.outputs) {
+      const std::string k = out.string();
+      if (!fs::exists(out, ec)) {
+        why_run = "output missing: " + k;
+        break;
+      }
+      if (!old["outputs"].contains(k) || old["outputs"][k] != Hex(ContentHash(out))) {
+        why_run = "output changed since: " + k;
+        break;
+      }
+    }
+  }
+  return why_run;
+}
+
+// Runs the stage (or writes the scene), checks it wrote its outputs, and
+// records them in its stamp; `sj` gets its time, why it ran and its report.
+// `stages` (the finished ones) goes into the report when it fails.
+double RunStage(const Pipeline& p, const PipelineStage& s, const std::vector<std::string>& argv, const std::string& cmd,
+                const std::string& key_hex, const std::string& why_run, const fs::path& stamp, const Json& stages,
+                Json* sj_out, Report* report) {
+  Json& sj = *sj_out;
+  std::error_code ec;
+  const auto t0 = std::chrono::steady_clock::now();
+  const fs::path log = p.work / "logs" / (s.name + ".log");
+  fs::remove(stamp, ec);
+  if (s.tool.empty()) {
+    WriteSceneJson(p);
+  } else {
+    if (!s.writes_first.empty()) WriteTextFile(s.writes_first, s.writes_first_json.dump(2) + "\n");
+    const int rc = RunProcess(argv, log);
+    if (rc != 0) {
+      report->SetMetric("stages", stages);
+      throw Error(FileLoc{p.file.string(), 0, 0, s.name},
+                  fmt::format("stage {} failed ({} {}):\n  {}\n  full log: {}; finished stages' outputs are kept",
+                              s.name, s.tool, rc < 127 ? fmt::format("exited with {}", rc) : DescribeExitStatus(rc),
+                              ErrorLines(log), log.string()));
+    }
+  }
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  report->AddTiming(s.name, seconds);
+  sj["seconds"] = seconds;
+  sj["why_run"] = why_run;
+  if (fs::exists(s.report, ec)) {
+    sj["report"] = Json::parse(ReadTextFile(s.report));
+    for (const auto& w : sj["report"]["warnings"]) report->Warn(s.name + ": " + w.get<std::string>());
+  }
+  Json stamp_json = {{"key", key_hex}, {"command", cmd}, {"outputs", Json::object()}};
+  for (const auto& out : s.outputs) {
+    if (!fs::exists(out, ec))
+      throw Error(FileLoc{p.file.string(), 0, 0, s.name},
+                  fmt::format("stage {} finished but did not write {}", s.name, out.string()));
+    stamp_json["outputs"][out.string()] = Hex(ContentHash(out));
+    report->AddOutput(out.string());
+  }
+  WriteTextFile(stamp, stamp_json.dump(2) + "\n");
+  return seconds;
+}
+
+}  // namespace
+
 void PipelineRunOptions::Check() const {
   const auto& names = PipelineStageNames();
   auto known = [&](const std::string& s, const char* flag) {
@@ -99,23 +235,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
   o.Check();
   report->AddInput(p.file.string());
   std::error_code ec;
-  if (!o.dry_run) {
-    fs::create_directories(p.work / ".mr-pipeline", ec);
-    fs::create_directories(p.work / "reports", ec);
-    fs::create_directories(p.work / "logs", ec);
-    if (!fs::is_directory(p.work / "logs"))
-      ThrowErrorAt(FileLoc{p.work.string()}, "cannot create the work folder{}", ec ? ": " + ec.message() : "");
-    // A stage killed before it could clean up (SIGKILL, power loss) leaves
-    // temporaries beside its outputs; its outputs themselves are whole (every
-    // write is atomic) and the stage is not recorded as done, so it runs again.
-    int stale = 0;
-    for (auto it = fs::recursive_directory_iterator(p.work, ec); !ec && it != fs::recursive_directory_iterator();
-         it.increment(ec))
-      if (it->is_directory()) stale += RemoveStaleTemporaries(it->path());
-    stale += RemoveStaleTemporaries(p.work);
-    if (stale > 0)
-      report->Warn(fmt::format("removed {} temporary files that killed runs left in {}", stale, p.work.string()));
-  }
+  if (!o.dry_run) PrepareWorkFolder(p, report);
   Json stages = Json::array();
   std::set<std::string> remade;  // outputs of stages that run (or would) in this invocation
   bool past_until = false;
@@ -167,56 +287,9 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
     for (const auto& in : s.inputs)
       if (remade.count(in.string())) upstream = in.string();
     const fs::path stamp = p.work / ".mr-pipeline" / (s.name + ".json");
-    std::string why_run;
-    Hasher key;
-    key.String(kVersion);
-    key.String(s.name);
     bool inputs_ready = true;
-    if (!s.tool.empty()) {
-      const fs::path tool = argv[0];
-      if (fs::exists(tool, ec)) HashFile(tool, &key);
-      for (const auto& a : s.args) key.String(a);
-      if (!s.writes_first.empty()) key.String(s.writes_first_json.dump());
-    } else {
-      key.String(p.scene.dump());
-    }
-    for (const auto& in : s.inputs) {
-      key.String(in.string());
-      if (fs::exists(in, ec))
-        key.Word(ContentHash(in));
-      else
-        inputs_ready = false;
-    }
-    const std::string key_hex = Hex(key.Final());
-    Json old;
-    if (fs::exists(stamp, ec)) {
-      try {
-        old = Json::parse(ReadTextFile(stamp));
-      } catch (const std::exception&) {
-        old = Json();
-      }
-    }
-    if (forced) {
-      why_run = "--force";
-    } else if (!inputs_ready || !upstream.empty()) {
-      why_run = upstream.empty() ? "inputs are made by an earlier stage" : "an input is re-made: " + upstream;
-    } else if (!old.is_object()) {
-      why_run = "not run before";
-    } else if (old.value("key", "") != key_hex) {
-      why_run = "inputs, options or the tool changed";
-    } else {
-      for (const auto& out : s.outputs) {
-        const std::string k = out.string();
-        if (!fs::exists(out, ec)) {
-          why_run = "output missing: " + k;
-          break;
-        }
-        if (!old["outputs"].contains(k) || old["outputs"][k] != Hex(ContentHash(out))) {
-          why_run = "output changed since: " + k;
-          break;
-        }
-      }
-    }
+    const std::string key_hex = StageKey(p, s, argv, &inputs_ready);
+    const std::string why_run = WhyRun(s, stamp, key_hex, forced, inputs_ready, upstream);
     if (why_run.empty()) {
       if (fs::exists(s.report, ec)) {
         try {
@@ -234,39 +307,7 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
       continue;
     }
     if (!o.quiet) spdlog::info("[{}/{}] {}: running ({}): {}", current, p.stages.size(), s.name, why_run, s.does);
-    const auto t0 = std::chrono::steady_clock::now();
-    const fs::path log = p.work / "logs" / (s.name + ".log");
-    fs::remove(stamp, ec);
-    if (s.tool.empty()) {
-      WriteSceneJson(p);
-    } else {
-      if (!s.writes_first.empty()) WriteTextFile(s.writes_first, s.writes_first_json.dump(2) + "\n");
-      const int rc = RunProcess(argv, log);
-      if (rc != 0) {
-        report->SetMetric("stages", stages);
-        throw Error(FileLoc{p.file.string(), 0, 0, s.name},
-                    fmt::format("stage {} failed ({} {}):\n  {}\n  full log: {}; finished stages' outputs are kept",
-                                s.name, s.tool, rc < 127 ? fmt::format("exited with {}", rc) : DescribeExitStatus(rc),
-                                ErrorLines(log), log.string()));
-      }
-    }
-    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    report->AddTiming(s.name, seconds);
-    sj["seconds"] = seconds;
-    sj["why_run"] = why_run;
-    if (fs::exists(s.report, ec)) {
-      sj["report"] = Json::parse(ReadTextFile(s.report));
-      for (const auto& w : sj["report"]["warnings"]) report->Warn(s.name + ": " + w.get<std::string>());
-    }
-    Json stamp_json = {{"key", key_hex}, {"command", cmd}, {"outputs", Json::object()}};
-    for (const auto& out : s.outputs) {
-      if (!fs::exists(out, ec))
-        throw Error(FileLoc{p.file.string(), 0, 0, s.name},
-                    fmt::format("stage {} finished but did not write {}", s.name, out.string()));
-      stamp_json["outputs"][out.string()] = Hex(ContentHash(out));
-      report->AddOutput(out.string());
-    }
-    WriteTextFile(stamp, stamp_json.dump(2) + "\n");
+    const double seconds = RunStage(p, s, argv, cmd, key_hex, why_run, stamp, stages, &sj, report);
     ++ran;
     finish("ran", fmt::format("{:.1f} s", seconds));
   }

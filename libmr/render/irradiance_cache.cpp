@@ -363,16 +363,12 @@ void IcFrameRenderer::SplatAll(const std::vector<size_t>& which) {
   splatted_ += static_cast<int64_t>(which.size());
 }
 
-void IcFrameRenderer::RenderPass(int spp) {
-  const IcSettings& st = cache_->settings_;
+// G-buffer: the first hits of each camera sample's mixed ray and, where it
+// meets a virtual object, of its real ray (a second pass, into real_).
+void IcFrameRenderer::BuildGBuffer(int spp) {
   const EmbreeScene& embree = scene_.embree();
-  samples_ = spp;
-  first_ = samples_per_pixel();
   const size_t n = static_cast<size_t>(width()) * height() * spp;
-  const ScopedTimer gbuffer_timer(nullptr, "");
   mixed_.Reserve(n);  // untouched: the pass below writes every entry
-  // G-buffer: the first hits of each camera sample's mixed ray and, where it
-  // meets a virtual object, of its real ray (a second pass, into real_).
   std::atomic<int64_t> outside{0};
   auto gbuffer = [&](bool real_pass) {
     ParallelFor(0, height(), [&](int64_t y) {
@@ -416,10 +412,13 @@ void IcFrameRenderer::RenderPass(int spp) {
   for (Entry& e : real_) e.Clear();
   gbuffer(true);
   outside_influence_ = outside.load();
-  gbuffer_s_ += gbuffer_timer.Seconds();
-  const ScopedTimer records_timer(nullptr, "");
+}
 
-  // Records no frame has used for evict_after frames go.
+// Records no frame has used for evict_after frames go; records due for
+// re-evaluation (t_max frames old, or the world changed) are evaluated;
+// then every record is splatted.
+void IcFrameRenderer::RefreshRecords() {
+  const IcSettings& st = cache_->settings_;
   if (st.evict_after > 0) {
     const size_t before = cache_->records_.size();
     std::erase_if(cache_->records_, [&](const IcRecord& r) { return frame_ - r.used_frame > st.evict_after; });
@@ -427,8 +426,6 @@ void IcFrameRenderer::RenderPass(int spp) {
     cache_->evicted_ += evicted_;
   }
   used_.assign(cache_->records_.size(), 0);
-  // Records due for re-evaluation (t_max frames old, or the world changed),
-  // then every record splatted.
   {
     std::vector<size_t> due;
     for (size_t i = 0; i < cache_->records_.size(); ++i)
@@ -444,9 +441,13 @@ void IcFrameRenderer::RenderPass(int spp) {
     for (size_t i = 0; i < all.size(); ++i) all[i] = i;
     SplatAll(all);
   }
+}
 
-  // Miss detection: per tile, the first needed sample of zero weight gets a
-  // record; passes repeat until none is left.
+// Miss detection: per tile, the first needed sample of zero weight gets a
+// record; passes repeat until none is left.
+void IcFrameRenderer::AddRecordsWhereMissing() {
+  const IcSettings& st = cache_->settings_;
+  const size_t n = static_cast<size_t>(width()) * height() * samples_;
   const int tile = st.tile;
   const int tiles_x = (width() + tile - 1) / tile, tiles_y = (height() + tile - 1) / tile;
   std::vector<int64_t> resume(static_cast<size_t>(tiles_x) * tiles_y, 0);
@@ -578,6 +579,18 @@ void IcFrameRenderer::RenderPass(int spp) {
     new_records_ += static_cast<int64_t>(added.size());
     SplatAll(added);
   }
+}
+
+void IcFrameRenderer::RenderPass(int spp) {
+  const IcSettings& st = cache_->settings_;
+  samples_ = spp;
+  first_ = samples_per_pixel();
+  const ScopedTimer gbuffer_timer(nullptr, "");
+  BuildGBuffer(spp);
+  gbuffer_s_ += gbuffer_timer.Seconds();
+  const ScopedTimer records_timer(nullptr, "");
+  RefreshRecords();
+  AddRecordsWhereMissing();
   cache_->created_ += new_records_;
   cache_->passes_ += miss_passes_;
   cache_->record_rays_ += (new_records_ + reevaluated_) * st.rays;

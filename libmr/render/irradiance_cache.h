@@ -169,6 +169,11 @@ class IcFrameRenderer : public PixelLoopMethod {
       valid = is_virtual = needed = false;
     }
   };
+  // The parts of a pass: camera samples' first hits, the records kept from
+  // earlier frames brought up to date, new records where no record reaches.
+  void BuildGBuffer(int spp);
+  void RefreshRecords();
+  void AddRecordsWhereMissing();
   void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
   void Splat(size_t record, int64_t first_row, int64_t last_row);
   void SplatAll(const std::vector<size_t>& records);

@@ -71,21 +71,21 @@ std::vector<DirectionalVpl> DirectionalLights(const RenderScene& scene, int dire
   return out;
 }
 
-std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplSettings& st) {
-  const auto t0 = std::chrono::steady_clock::now();
-  auto out = std::make_shared<VplSet>();
-  out->settings_ = st;
-  const Eigen::AlignedBox3d box = scene.bounds().cast<double>();
-  const double diag = box.isEmpty() ? 1.0 : std::max(1e-6, box.diagonal().norm());
-  const Eigen::Vector3d centre =
-      box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
-  const double radius = 0.5 * diag * 1.001;
-  out->clamp_ = st.clamp_distance > 0 ? st.clamp_distance : 0.02 * diag;
+namespace {
+
+// The disc parallel light enters the scene through: the scene's bounding
+// sphere, and the virtual objects' (radius 0: none), a stratum of its own.
+struct PathDisc {
+  Eigen::Vector3d centre;
+  double radius = 0;
+  Eigen::Vector3d object_centre;
+  double object_radius = 0;
+};
+
+// The emitters (the environment, then the lights) with their share of the
+// light paths.
+std::vector<Emitter> Emitters(const RenderScene& scene, const VplSettings& st, double radius) {
   const EnvironmentMap& env = scene.environment();
-
-  if (st.fixed_directions) out->directional_ = DirectionalLights(scene, st.directions, st.seed, centre);
-
-  // Light paths.
   std::vector<Emitter> emitters;
   if (!env.empty() && env.LuminanceIntegral() > 0)
     emitters.push_back({-1, env.LuminanceIntegral() * kPi * radius * radius});
@@ -136,13 +136,122 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
       e.stream = e.light < 0 ? 0x656e76ULL : HashString(scene.lights()[static_cast<size_t>(e.light)].light().name);
     }
   }
+  return emitters;
+}
+
+// Where light path j of emitter `em` starts: its origin, direction, flux and
+// light sets; false when it carries nothing or falls in the other stratum.
+bool StartLightPath(const RenderScene& scene, const VplSettings& st, const Emitter& em, const PathDisc& disc,
+                    Sampler& rng, Eigen::Vector3d* origin_out, Eigen::Vector3d* dir_out, Eigen::Vector3d* flux_out,
+                    uint8_t* sets_out) {
+  const EnvironmentMap& env = scene.environment();
+  const Eigen::Vector3d& centre = disc.centre;
+  const Eigen::Vector3d& object_centre = disc.object_centre;
+  const double radius = disc.radius, object_radius = disc.object_radius;
+  constexpr double kObjectStratum = 0.5;
+  const double p_select = static_cast<double>(em.paths) / st.paths;  // flux / (p_select paths) = / em.paths
+  Eigen::Vector3d& origin = *origin_out;
+  Eigen::Vector3d& dir = *dir_out;
+  Eigen::Vector3d& flux = *flux_out;
+  uint8_t& sets = *sets_out;
+  const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u3 = rng.NextDouble(), u4 = rng.NextDouble();
+  sets = kLightsBoth;
+  // Parallel light (the environment, distant lights) enters through a
+  // disc covering the scene, in two strata: the disc of the virtual
+  // objects' bounding sphere (chosen with probability f) and the rest of
+  // the scene's disc (points inside the objects' disc are dropped there),
+  // so that light paths meet the objects, whose VPLs (mixed-only and ir)
+  // carry the difference, however small they are in the room.
+  const double u5 = rng.NextDouble();
+  bool dropped = false;
+  auto from_disc = [&](const Eigen::Vector3d& towards, const Eigen::Vector3d& irradiance) {
+    Eigen::Vector3d t, b;
+    CoordinateSystem(towards, &t, &b);
+    const bool object_stratum = object_radius > 0 && u5 < kObjectStratum;
+    const double rad = object_stratum ? object_radius : radius;
+    const double p_stratum = object_radius > 0 ? (object_stratum ? kObjectStratum : 1 - kObjectStratum) : 1.0;
+    const Eigen::Vector3d c = object_stratum ? object_centre : centre;
+    const double r = rad * std::sqrt(u3), phi = kTwoPi * u4;
+    origin = c + (radius + (c - centre).norm()) * towards + r * (std::cos(phi) * t + std::sin(phi) * b);
+    dir = -towards;
+    if (!object_stratum && object_radius > 0) {
+      const Eigen::Vector3d q = object_centre - origin;
+      dropped = (q - q.dot(dir) * dir).norm() < object_radius;  // the other stratum's
+    }
+    flux = irradiance * (kPi * rad * rad / (p_select * p_stratum * st.paths));
+  };
+  if (em.light < 0) {
+    double pdf = 0;
+    Eigen::Vector3d w;
+    const Eigen::Vector3d L = env.Sample(u0, u1, &w, &pdf);
+    if (!(pdf > 0)) return false;
+    from_disc(w, L / pdf);
+  } else {
+    const LightSource& ls = scene.lights()[static_cast<size_t>(em.light)];
+    const Light& l = ls.light();
+    sets = l.is_virtual ? kLightsMixed : kLightsBoth;
+    if (l.type == LightType::kDistant) {
+      LightSample s;
+      if (!ls.Sample(centre, u0, u1, &s)) return false;
+      from_disc(s.wi, s.li / s.pdf);
+    } else {
+      double pdf;
+      if (l.type == LightType::kPoint) {
+        const auto d = SampleUniformSphere(u0, u1);
+        dir = Eigen::Vector3d(d[0], d[1], d[2]);
+        pdf = kUniformSpherePdf;
+      } else {  // uniform in the cone
+        const double cos_max = std::cos(l.cone_deg * kDegToRad);
+        const double c = 1 - u0 * (1 - cos_max), s = SafeSqrt(1 - c * c), phi = kTwoPi * u1;
+        Eigen::Vector3d t, b;
+        CoordinateSystem(l.direction, &t, &b);
+        dir = (c * l.direction + s * (std::cos(phi) * t + std::sin(phi) * b)).normalized();
+        pdf = 1 / (kTwoPi * (1 - cos_max));
+      }
+      LightSample s;  // the intensity towards dir, with the spot's falloff (at unit distance)
+      if (!ls.Sample(l.position + dir, 0, 0, &s)) return false;
+      origin = l.position;
+      flux = s.li / (pdf * p_select * st.paths);
+    }
+  }
+  return !dropped;
+}
+
+// Lightcuts' trees, one per light set, over the VPLs that light something.
+void BuildTrees(const std::vector<Vpl>& vpls, const VplSettings& st, double diag, std::vector<VplTree>* trees) {
+  for (const uint8_t sets : {kLightsBoth, kLightsMixed, kLightsReal}) {
+    std::vector<int> idx;
+    for (size_t i = 0; i < vpls.size(); ++i) {
+      const Vpl& v = vpls[i];
+      // A VPL whose every bound is zero (a black surface) lights nothing.
+      if (v.sets == sets && Luminance(v.flux.cwiseProduct(v.bsdf.DiffuseBound() + v.bsdf.GlossyBound(v.wi_local))) > 0)
+        idx.push_back(static_cast<int>(i));
+    }
+    if (!idx.empty()) trees->emplace_back(vpls, std::move(idx), sets, diag, HashCombine(st.seed, sets));
+  }
+}
+
+}  // namespace
+
+std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplSettings& st) {
+  const auto t0 = std::chrono::steady_clock::now();
+  auto out = std::make_shared<VplSet>();
+  out->settings_ = st;
+  const Eigen::AlignedBox3d box = scene.bounds().cast<double>();
+  const double diag = box.isEmpty() ? 1.0 : std::max(1e-6, box.diagonal().norm());
+  const Eigen::Vector3d centre =
+      box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.center());
+  const double radius = 0.5 * diag * 1.001;
+  out->clamp_ = st.clamp_distance > 0 ? st.clamp_distance : 0.02 * diag;
+  if (st.fixed_directions) out->directional_ = DirectionalLights(scene, st.directions, st.seed, centre);
+
+  const std::vector<Emitter> emitters = Emitters(scene, st, radius);
   const int max_vpl_depth = st.max_depth - 2;  // a VPL at depth k ends a path of k + 2 surfaces
   // The virtual objects' bounding sphere (radius 0: none).
   Eigen::AlignedBox3d objects;
   for (const auto& b : scene.virtual_bounds()) objects.extend(b);
-  const Eigen::Vector3d object_centre = objects.isEmpty() ? centre : Eigen::Vector3d(objects.center());
-  const double object_radius = objects.isEmpty() ? 0.0 : 0.5 * objects.diagonal().norm();
-  constexpr double kObjectStratum = 0.5;
+  const PathDisc disc{centre, radius, objects.isEmpty() ? centre : Eigen::Vector3d(objects.center()),
+                      objects.isEmpty() ? 0.0 : 0.5 * objects.diagonal().norm()};
   if (!emitters.empty() && st.paths > 0 && max_vpl_depth >= 0) {
     std::vector<std::vector<Vpl>> per_path(static_cast<size_t>(st.paths));
     std::atomic<int64_t> below{0};
@@ -154,69 +263,9 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
       if (em.paths == 0) return;
       Sampler rng =
           Sampler::Random(HashCombine(HashCombine(st.seed, 0x76706c), em.stream), static_cast<uint64_t>(j - em.first));
-      const double p_select = static_cast<double>(em.paths) / st.paths;  // flux / (p_select paths) = / em.paths
-      const double u0 = rng.NextDouble(), u1 = rng.NextDouble(), u3 = rng.NextDouble(), u4 = rng.NextDouble();
       Eigen::Vector3d origin, dir, flux;
       uint8_t sets = kLightsBoth;
-      // Parallel light (the environment, distant lights) enters through a
-      // disc covering the scene, in two strata: the disc of the virtual
-      // objects' bounding sphere (chosen with probability f) and the rest of
-      // the scene's disc (points inside the objects' disc are dropped there),
-      // so that light paths meet the objects, whose VPLs (mixed-only and ir)
-      // carry the difference, however small they are in the room.
-      const double u5 = rng.NextDouble();
-      bool dropped = false;
-      auto from_disc = [&](const Eigen::Vector3d& towards, const Eigen::Vector3d& irradiance) {
-        Eigen::Vector3d t, b;
-        CoordinateSystem(towards, &t, &b);
-        const bool object_stratum = object_radius > 0 && u5 < kObjectStratum;
-        const double rad = object_stratum ? object_radius : radius;
-        const double p_stratum = object_radius > 0 ? (object_stratum ? kObjectStratum : 1 - kObjectStratum) : 1.0;
-        const Eigen::Vector3d c = object_stratum ? object_centre : centre;
-        const double r = rad * std::sqrt(u3), phi = kTwoPi * u4;
-        origin = c + (radius + (c - centre).norm()) * towards + r * (std::cos(phi) * t + std::sin(phi) * b);
-        dir = -towards;
-        if (!object_stratum && object_radius > 0) {
-          const Eigen::Vector3d q = object_centre - origin;
-          dropped = (q - q.dot(dir) * dir).norm() < object_radius;  // the other stratum's
-        }
-        flux = irradiance * (kPi * rad * rad / (p_select * p_stratum * st.paths));
-      };
-      if (em.light < 0) {
-        double pdf = 0;
-        Eigen::Vector3d w;
-        const Eigen::Vector3d L = env.Sample(u0, u1, &w, &pdf);
-        if (!(pdf > 0)) return;
-        from_disc(w, L / pdf);
-      } else {
-        const LightSource& ls = scene.lights()[static_cast<size_t>(em.light)];
-        const Light& l = ls.light();
-        sets = l.is_virtual ? kLightsMixed : kLightsBoth;
-        if (l.type == LightType::kDistant) {
-          LightSample s;
-          if (!ls.Sample(centre, u0, u1, &s)) return;
-          from_disc(s.wi, s.li / s.pdf);
-        } else {
-          double pdf;
-          if (l.type == LightType::kPoint) {
-            const auto d = SampleUniformSphere(u0, u1);
-            dir = Eigen::Vector3d(d[0], d[1], d[2]);
-            pdf = kUniformSpherePdf;
-          } else {  // uniform in the cone
-            const double cos_max = std::cos(l.cone_deg * kDegToRad);
-            const double c = 1 - u0 * (1 - cos_max), s = SafeSqrt(1 - c * c), phi = kTwoPi * u1;
-            Eigen::Vector3d t, b;
-            CoordinateSystem(l.direction, &t, &b);
-            dir = (c * l.direction + s * (std::cos(phi) * t + std::sin(phi) * b)).normalized();
-            pdf = 1 / (kTwoPi * (1 - cos_max));
-          }
-          LightSample s;  // the intensity towards dir, with the spot's falloff (at unit distance)
-          if (!ls.Sample(l.position + dir, 0, 0, &s)) return;
-          origin = l.position;
-          flux = s.li / (pdf * p_select * st.paths);
-        }
-      }
-      if (dropped) return;
+      if (!StartLightPath(scene, st, em, disc, rng, &origin, &dir, &flux, &sets)) return;
       // Walks a light path, leaving a VPL at each surface; where a shared
       // path meets a virtual object the real-only path goes on behind it.
       std::vector<Vpl>& vs = per_path[static_cast<size_t>(j)];
@@ -264,19 +313,8 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     for (auto& v : per_path) out->vpls_.insert(out->vpls_.end(), v.begin(), v.end());
     out->paths_ended_below_ = below.load();
   }
-  if (st.cut_error > 0 && out->vpls_.size() >= static_cast<size_t>(st.cut_min_vpls)) {
-    for (const uint8_t sets : {kLightsBoth, kLightsMixed, kLightsReal}) {
-      std::vector<int> idx;
-      for (size_t i = 0; i < out->vpls_.size(); ++i) {
-        const Vpl& v = out->vpls_[i];
-        // A VPL whose every bound is zero (a black surface) lights nothing.
-        if (v.sets == sets &&
-            Luminance(v.flux.cwiseProduct(v.bsdf.DiffuseBound() + v.bsdf.GlossyBound(v.wi_local))) > 0)
-          idx.push_back(static_cast<int>(i));
-      }
-      if (!idx.empty()) out->trees_.emplace_back(out->vpls_, std::move(idx), sets, diag, HashCombine(st.seed, sets));
-    }
-  }
+  if (st.cut_error > 0 && out->vpls_.size() >= static_cast<size_t>(st.cut_min_vpls))
+    BuildTrees(out->vpls_, st, diag, &out->trees_);
   out->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

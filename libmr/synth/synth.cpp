@@ -543,6 +543,69 @@ std::vector<char> PilotRegion(const RenderScene& rs, const CameraModel& camera, 
 
 }  // namespace
 
+namespace {
+
+// The pixels of frame `frame` the plate sphere can cover: its projection's
+// box, 2 pixels wider.
+std::vector<char> PlateSpherePixels(const SynthCapture& c, int frame) {
+  const SynthPreset& p = c.preset;
+  const Rigid3& pose = c.trajectory.poses[static_cast<size_t>(frame)].world_from_cam;
+  const Eigen::Vector3d centre = pose.Inverse() * c.plate_sphere->centre;
+  std::vector<char> only(static_cast<size_t>(p.width) * p.height, 0);
+  Eigen::Vector2d q;
+  if (centre.z() > c.plate_sphere->radius && c.camera.Project(centre, &q)) {
+    const double fx = c.camera.intrinsics()[0];
+    const double r = std::min(static_cast<double>(p.width + p.height),
+                              fx * c.plate_sphere->radius / (centre.z() - c.plate_sphere->radius) + 2);
+    // Clamped as doubles first: a point near the camera plane projects far out.
+    auto px = [](double v, int n) { return static_cast<int>(std::clamp(v, 0.0, n - 1.0)); };
+    for (int y = px(q.y() - r, p.height); y <= px(q.y() + r, p.height); ++y)
+      for (int x = px(q.x() - r, p.width); x <= px(q.x() + r, p.width); ++x)
+        only[static_cast<size_t>(y) * p.width + x] = 1;
+  }
+  return only;
+}
+
+// Frame `frame`'s 8-bit photograph through the documented camera response:
+// one exposure for the sequence (frame 0's 99th percentile maps to 0.9, set
+// in *exposure), the sRGB curve, Gaussian noise of sigma 1/255 before
+// quantisation (seeded per pixel).
+Image EightBitPhotograph(const Image& photo, uint64_t seed, int frame, float* exposure) {
+  std::vector<float> lum;
+  for (int y = 0; y < photo.height(); ++y)
+    for (int x = 0; x < photo.width(); ++x)
+      lum.push_back(LuminanceF(photo.at(x, y, 0), photo.at(x, y, 1), photo.at(x, y, 2)));
+  std::nth_element(lum.begin(), lum.begin() + static_cast<long>(lum.size() * 99 / 100), lum.end());
+  if (frame == 0) *exposure = 0.9f / std::max(1e-6f, lum[lum.size() * 99 / 100]);
+  Image ldr = Image::Rgb(photo.width(), photo.height());
+  for (int y = 0; y < photo.height(); ++y)
+    for (int x = 0; x < photo.width(); ++x) {
+      Pcg32 rng(HashCombine(seed, static_cast<uint64_t>(frame)), static_cast<uint64_t>(y) * photo.width() + x);
+      for (int ch = 0; ch < 3; ++ch) {
+        const double u1 = std::max(1e-12, rng.NextDouble()), u2 = rng.NextDouble();
+        const double gauss = std::sqrt(-2 * std::log(u1)) * std::cos(kTwoPi * u2);
+        const float v =
+            LinearToSrgb(Clamp(photo.at(x, y, ch) * *exposure, 0.0f, 1.0f)) + static_cast<float>(gauss / 255.0);
+        ldr.at(x, y, ch) = SrgbToLinear(Clamp(v, 0.0f, 1.0f));  // WriteImage re-encodes sRGB
+      }
+    }
+  return ldr;
+}
+
+// The same capture seen through the 8-bit photographs, response unknown:
+// mr-render composites it in display space with the capture's exposure.
+void WriteLdrScene(const SynthOptions& o, float exposure, Report* report) {
+  Json ldr = ReadJsonFile(o.out / "scene.json");
+  ldr["camera"]["frames"] = "photos/%05d.png";
+  ldr["camera"]["frames_transfer"] = "display";
+  ldr["camera"]["exposure"] = exposure;
+  ldr["output"]["dir"] = "render-ldr";
+  WriteTextFile(o.out / "scene-ldr.json", ldr.dump(2) + "\n");
+  report->AddOutput((o.out / "scene-ldr.json").string());
+}
+
+}  // namespace
+
 void SynthOptions::Check() const {
   if (out.empty()) throw UsageError("--out is required");
   GetSynthPreset(preset);
@@ -554,6 +617,15 @@ void SynthOptions::Check() const {
     throw UsageError(fmt::format("unknown lens \"{}\" (opencv4, pinhole)", lens));
   if (truth_spp < 0 || truth_region_spp < 0 || frames < 0)
     throw UsageError("--truth-spp, --truth-region-spp and --frames must not be negative");
+  const int truth = truth_spp > 0 ? truth_spp : GetSynthPreset(preset).truth_spp;
+  const int region = truth_region_spp > 0 ? truth_region_spp : truth;
+  if (region < truth)
+    throw UsageError(fmt::format("--truth-region-spp {} is below the truth's {} samples per pixel", region, truth));
+  if (region > truth && (truth % 2 || region % 2))
+    throw UsageError(
+        fmt::format("--truth-region-spp {} and the truth's {} samples per pixel must both be even "
+                    "(the truth's two halves estimate its noise)",
+                    region, truth));
 }
 
 void RunSynth(const SynthOptions& o, Report* report) {
@@ -562,14 +634,6 @@ void RunSynth(const SynthOptions& o, Report* report) {
   const SynthPreset& p = c.preset;
   const int truth_spp = c.truth_spp;
   const int region_spp = o.truth_region_spp > 0 ? o.truth_region_spp : truth_spp;
-  if (region_spp < truth_spp)
-    throw UsageError(
-        fmt::format("--truth-region-spp {} is below the truth's {} samples per pixel", region_spp, truth_spp));
-  if (region_spp > truth_spp && (truth_spp % 2 || region_spp % 2))
-    throw UsageError(
-        fmt::format("--truth-region-spp {} and the truth's {} samples per pixel must both be even "
-                    "(the truth's two halves estimate its noise)",
-                    region_spp, truth_spp));
   int64_t region_pixels = 0;
   std::error_code ec;
   for (const char* sub : {"", "meshes", "photos", "truth"}) fs::create_directories(o.out / sub, ec);
@@ -645,21 +709,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
       // 2 pixels wider) get 16 times the samples, photograph and truth alike
       // (the truth's noise estimate, from its first half, overstates theirs).
       ScopedTimer t(report, "render the plate sphere's pixels");
-      const Rigid3& pose = c.trajectory.poses[static_cast<size_t>(i)].world_from_cam;
-      const Eigen::Vector3d centre = pose.Inverse() * c.plate_sphere->centre;
-      std::vector<char> only(static_cast<size_t>(p.width) * p.height, 0);
-      Eigen::Vector2d q;
-      if (centre.z() > c.plate_sphere->radius && c.camera.Project(centre, &q)) {
-        const double fx = c.camera.intrinsics()[0];
-        const double r = std::min(static_cast<double>(p.width + p.height),
-                                  fx * c.plate_sphere->radius / (centre.z() - c.plate_sphere->radius) + 2);
-        // Clamped as doubles first: a point near the camera plane projects far out.
-        auto px = [](double v, int n) { return static_cast<int>(std::clamp(v, 0.0, n - 1.0)); };
-        for (int y = px(q.y() - r, p.height); y <= px(q.y() + r, p.height); ++y)
-          for (int x = px(q.x() - r, p.width); x <= px(q.x() + r, p.width); ++x)
-            only[static_cast<size_t>(y) * p.width + x] = 1;
-      }
-      fr.RestrictTo(std::move(only));
+      fr.RestrictTo(PlateSpherePixels(c, i));
       fr.RenderPass(15 * truth_spp);
     }
     Image photo = fr.Real(), truth = fr.Mixed();
@@ -678,27 +728,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
     const fs::path truth_path = o.out / "truth" / fmt::format("{:05d}.exr", i);
     WriteImage(photo_path, photo, wo);
     WriteImage(truth_path, truth, wo);
-    // 8-bit photographs through the documented camera response: one exposure
-    // for the sequence (frame 0's 99th percentile maps to 0.9), the sRGB
-    // curve, Gaussian noise of sigma 1/255 before quantisation (seeded per pixel).
-    std::vector<float> lum;
-    for (int y = 0; y < photo.height(); ++y)
-      for (int x = 0; x < photo.width(); ++x)
-        lum.push_back(LuminanceF(photo.at(x, y, 0), photo.at(x, y, 1), photo.at(x, y, 2)));
-    std::nth_element(lum.begin(), lum.begin() + static_cast<long>(lum.size() * 99 / 100), lum.end());
-    if (i == 0) exposure = 0.9f / std::max(1e-6f, lum[lum.size() * 99 / 100]);
-    Image ldr = Image::Rgb(photo.width(), photo.height());
-    for (int y = 0; y < photo.height(); ++y)
-      for (int x = 0; x < photo.width(); ++x) {
-        Pcg32 rng(HashCombine(o.seed, static_cast<uint64_t>(i)), static_cast<uint64_t>(y) * photo.width() + x);
-        for (int ch = 0; ch < 3; ++ch) {
-          const double u1 = std::max(1e-12, rng.NextDouble()), u2 = rng.NextDouble();
-          const double gauss = std::sqrt(-2 * std::log(u1)) * std::cos(kTwoPi * u2);
-          const float v =
-              LinearToSrgb(Clamp(photo.at(x, y, ch) * exposure, 0.0f, 1.0f)) + static_cast<float>(gauss / 255.0);
-          ldr.at(x, y, ch) = SrgbToLinear(Clamp(v, 0.0f, 1.0f));  // WriteImage re-encodes sRGB
-        }
-      }
+    const Image ldr = EightBitPhotograph(photo, o.seed, i, &exposure);
     WriteImage(o.out / "photos" / fmt::format("{:05d}.png", i), ldr, wo);
     video.Write(ldr);
     if (c.plate_sphere) {
@@ -713,17 +743,7 @@ void RunSynth(const SynthOptions& o, Report* report) {
     spdlog::info("frame {}: truth at {} spp", i, truth_spp);
   }
   video.Close();
-  // The same capture seen through the 8-bit photographs, response unknown:
-  // mr-render composites it in display space with the capture's exposure.
-  {
-    Json ldr = ReadJsonFile(o.out / "scene.json");
-    ldr["camera"]["frames"] = "photos/%05d.png";
-    ldr["camera"]["frames_transfer"] = "display";
-    ldr["camera"]["exposure"] = exposure;
-    ldr["output"]["dir"] = "render-ldr";
-    WriteTextFile(o.out / "scene-ldr.json", ldr.dump(2) + "\n");
-    report->AddOutput((o.out / "scene-ldr.json").string());
-  }
+  WriteLdrScene(o, exposure, report);
   report->AddOutput((o.out / "photos.mp4").string());
   report->SetMetric("frames", p.frames);
   report->SetMetric("truth_spp", truth_spp);

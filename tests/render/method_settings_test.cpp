@@ -73,8 +73,7 @@ TEST(MethodSettings, DocsTablesMatchTheDeclarations) {
       EXPECT_TRUE(it == tables.end() || it->second.empty()) << "render." << m.name << " declares no settings";
       continue;
     }
-    ASSERT_TRUE(it != tables.end()) << "docs/formats.md has no \"#### `render." << m.name << "`\" table:\n"
-                                    << expected;
+    ASSERT_TRUE(it != tables.end()) << "docs/formats.md has no \"#### `render." << m.name << "`\" table:\n" << expected;
     const auto& rows = it->second;
     ASSERT_EQ(rows.size(), decl.size()) << "expected rows:\n" << expected;
     for (size_t i = 0; i < decl.size(); ++i) {

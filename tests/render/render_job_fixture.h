@@ -3,8 +3,8 @@
 // render_job_world_test.cpp).
 #pragma once
 
-#include "render/render_job.h"
 #include <gtest/gtest.h>
+#include "render/render_job.h"
 
 #include <algorithm>
 #include <fstream>
@@ -65,7 +65,7 @@ inline std::vector<int> VideoCodes(const fs::path& p, int f) {
 // how many there are and how many of them differ between the input and
 // output code values.
 inline std::pair<int64_t, int64_t> UntouchedCodes(const Image& diff, const Image& mask, const std::vector<int>& in,
-                                           const std::vector<int>& out) {
+                                                  const std::vector<int>& out) {
   int64_t kept = 0, moved = 0;
   for (int y = 0; y < diff.height(); ++y)
     for (int x = 0; x < diff.width(); ++x)

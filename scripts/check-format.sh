@@ -10,7 +10,7 @@ if [ -z "$cf" ]; then
   echo "check-format: clang-format is not installed (apt-get install clang-format): skipped"
   exit 77
 fi
-mapfile -t files < <(git ls-files -- 'libmr/*.h' 'libmr/*.cpp' 'tools/*.cpp' 'tests/*.h' 'tests/*.cpp' \
+mapfile -t files < <(git ls-files -- 'libmr/*.h' 'libmr/*.cpp' 'tools/*.cpp' 'tools/*.h' 'tests/*.h' 'tests/*.cpp' \
                                     'bench/*.cpp' 'bench/*.h' 'fuzz/*.cpp' 2>/dev/null ||
                      find libmr tools tests bench fuzz -name '*.h' -o -name '*.cpp')
 if [ "${1:-}" = "--fix" ]; then

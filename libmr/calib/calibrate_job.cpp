@@ -149,6 +149,33 @@ bool InstantLess(const std::string& a, const std::string& b) {
 // mr-calibrate sphere: probe.json (docs/formats.md).
 }  // namespace
 
+void CameraJob::Check() const {
+  if (images.empty()) throw UsageError("give the photographs of the board");
+  if (out.empty()) throw UsageError("--out is required");
+  options.Check();
+}
+
+void RigJob::Check() const {
+  if (cameras.size() < 2) throw UsageError("a rig needs --camera at least twice");
+  std::vector<std::string> names;
+  for (const auto& c : cameras) {
+    const size_t eq = c.find('=');
+    if (eq == std::string::npos || eq == 0)
+      throw UsageError(fmt::format("--camera {}: expected NAME='DIR/PREFIX*SUFFIX'", c));
+    names.push_back(c.substr(0, eq));
+    if (std::count(names.begin(), names.end(), names.back()) > 1)
+      throw UsageError(fmt::format("--camera {}: the name is given twice", names.back()));
+  }
+  options.Check();
+}
+
+void SphereJob::Check() const {
+  if (!world_board.empty() && board.empty()) throw UsageError("--world-board needs --board");
+  if (!circle.empty() && circle.size() != 3) throw UsageError("--circle: give x,y,r");
+  if (images.empty()) throw UsageError("give the photographs of the sphere");
+  options.Check();
+}
+
 void RunSphereCalibration(const SphereJob& job, Report* rep) {
   Report& report = *rep;
   const std::string& camera_file = job.camera;
@@ -158,10 +185,10 @@ void RunSphereCalibration(const SphereJob& job, Report* rep) {
   const std::string& board_file = job.board;
   const std::vector<std::string>& images = job.images;
   const std::string& out = job.out;
+  job.Check();
   const CameraModel camera = CameraModel::Read(camera_file);
   report.AddInput(camera_file);
   if (circle.size() == 3) so.circle = Eigen::Vector3d(circle[0], circle[1], circle[2]);
-  if (!world_board.empty() && board_file.empty()) throw UsageError("--world-board needs --board");
   std::vector<SphereFit> fits;
   Json per_image = Json::array();
   {
@@ -236,6 +263,7 @@ void RunSphereCalibration(const SphereJob& job, Report* rep) {
 }
 
 void RunCameraCalibration(const CameraJob& job, Report* rep) {
+  job.Check();
   Report& report = *rep;
   const BoardSpec board = ReadBoard(job.board);
   report.AddInput(job.board);
@@ -254,6 +282,7 @@ void RunCameraCalibration(const CameraJob& job, Report* rep) {
 }
 
 void RunRigCalibration(const RigJob& job, Report* rep) {
+  job.Check();
   Report& report = *rep;
   const BoardSpec board = ReadBoard(job.board);
   report.AddInput(job.board);
@@ -261,16 +290,11 @@ void RunRigCalibration(const RigJob& job, Report* rep) {
   const std::string& out_dir = job.out_dir;
   const std::string& provenance = job.provenance;
   const CalibrationOptions& o = job.options;
-  if (cameras.size() < 2) throw UsageError("a rig needs --camera at least twice");
   std::vector<std::string> names;
   std::vector<std::map<std::string, std::string>> files;
   for (const auto& c : cameras) {
     const size_t eq = c.find('=');
-    if (eq == std::string::npos || eq == 0)
-      throw UsageError(fmt::format("--camera {}: expected NAME='DIR/PREFIX*SUFFIX'", c));
     names.push_back(c.substr(0, eq));
-    if (std::count(names.begin(), names.end(), names.back()) > 1)
-      throw UsageError(fmt::format("--camera {}: the name is given twice", names.back()));
     files.push_back(Glob(c.substr(eq + 1), names.back()));
   }
   std::vector<std::string> instants;

@@ -19,6 +19,9 @@ struct CameraJob {
   std::string out;                  // the .cameramodel to write
   CalibrationOptions options;
   std::string provenance;  // the command line, into the model's comment
+  // UsageError naming the flag: no photographs, no --out, and
+  // CalibrationOptions::Check's.
+  void Check() const;
 };
 void RunCameraCalibration(const CameraJob& job, Report* report);
 
@@ -33,6 +36,9 @@ struct RigJob {
   std::string out_dir;  // NAME.cameramodel for each camera
   CalibrationOptions options;
   std::string provenance;
+  // UsageError naming the flag: fewer than two --camera, one not
+  // NAME=PATTERN or a name given twice, and CalibrationOptions::Check's.
+  void Check() const;
 };
 void RunRigCalibration(const RigJob& job, Report* report);
 
@@ -47,6 +53,9 @@ struct SphereJob {
   std::vector<std::string> images;
   std::string out;  // probe.json
   std::string provenance;
+  // UsageError naming the flag: --world-board without --board, --circle not
+  // x,y,r, no photographs, and SphereOptions::Check's.
+  void Check() const;
 };
 void RunSphereCalibration(const SphereJob& job, Report* report);
 

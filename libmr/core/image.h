@@ -6,6 +6,8 @@
 // channels + c], row 0 at the top, (0,0) the centre of the top-left pixel.
 #pragma once
 
+#include "core/check.h"
+
 #include <cstdint>
 #include <map>
 #include <string>
@@ -52,6 +54,7 @@ class Image {
 
  private:
   size_t Index(int x, int y, int c) const {
+    MR_DCHECK(x >= 0 && x < width_ && y >= 0 && y < height_ && c >= 0 && static_cast<size_t>(c) < names_.size());
     return (static_cast<size_t>(y) * static_cast<size_t>(width_) + static_cast<size_t>(x)) * names_.size() +
            static_cast<size_t>(c);
   }

@@ -1,4 +1,5 @@
 #include "eval/plate_check.h"
+#include "core/check.h"
 
 #include <spdlog/spdlog.h>
 
@@ -335,6 +336,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
                               o.command_line, scene.file.string(), o.method, o.spp));
   report->AddOutput(gains_path.string());
 
+  MR_CHECK_EQ(gains.size(), fits.size());  // SmoothGains: one gain per frame
   ReportErrors(o, gains, fits, measured, begin, gains_path, report);
   spdlog::info("gains: {}", gains_path.string());
 }

@@ -69,6 +69,16 @@ struct EmbreeScene::Impl {
     if (is_virtual.size() <= id) is_virtual.resize(id + 1, 0);
     is_virtual[id] = v;
   }
+  // Masks, commits and attaches `g` to the top-level scene; its id.
+  uint32_t Attach(RTCGeometry g, bool virt, const char* what) {
+    rtcSetGeometryMask(g, virt ? kMaskVirtual : kMaskReal);
+    rtcCommitGeometry(g);
+    const uint32_t id = rtcAttachGeometry(scene, g);
+    rtcReleaseGeometry(g);
+    Check(what);
+    Record(id, virt);
+    return id;
+  }
   void Fill(const RTCRayHit& rh, Hit* hit) const {
     *hit = Hit();
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return;
@@ -103,14 +113,7 @@ EmbreeScene::~EmbreeScene() {
 
 uint32_t EmbreeScene::AddMesh(const Mesh& mesh, bool is_virtual) {
   MR_CHECK(!impl_->committed);
-  RTCGeometry g = MakeTriangleGeometry(impl_->device, mesh);
-  rtcSetGeometryMask(g, is_virtual ? kMaskVirtual : kMaskReal);
-  rtcCommitGeometry(g);
-  uint32_t id = rtcAttachGeometry(impl_->scene, g);
-  rtcReleaseGeometry(g);
-  impl_->Check("adding a mesh");
-  impl_->Record(id, is_virtual);
-  return id;
+  return impl_->Attach(MakeTriangleGeometry(impl_->device, mesh), is_virtual, "adding a mesh");
 }
 
 uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
@@ -135,13 +138,7 @@ uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& wor
   Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
   // Column-major 3x4.
   rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
-  rtcSetGeometryMask(g, is_virtual ? kMaskVirtual : kMaskReal);
-  rtcCommitGeometry(g);
-  uint32_t id = rtcAttachGeometry(impl_->scene, g);
-  rtcReleaseGeometry(g);
-  impl_->Check("adding an instance");
-  impl_->Record(id, is_virtual);
-  return id;
+  return impl_->Attach(g, is_virtual, "adding an instance");
 }
 
 void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object) {

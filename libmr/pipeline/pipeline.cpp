@@ -1,4 +1,5 @@
 #include "pipeline/pipeline.h"
+#include "core/check.h"
 
 #include <unistd.h>
 
@@ -181,6 +182,7 @@ double RunStage(const Pipeline& p, const PipelineStage& s, const std::vector<std
                 const std::string& key_hex, const std::string& why_run, const fs::path& stamp, const Json& stages,
                 Json* sj_out, Report* report) {
   Json& sj = *sj_out;
+  MR_CHECK(s.tool.empty() ? !s.outputs.empty() : !argv.empty());  // the scene it writes, or a command line
   std::error_code ec;
   const auto t0 = std::chrono::steady_clock::now();
   const fs::path log = p.work / "logs" / (s.name + ".log");

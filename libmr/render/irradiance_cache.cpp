@@ -1,4 +1,5 @@
 #include "render/irradiance_cache.h"
+#include "core/check.h"
 
 #include <spdlog/spdlog.h>
 

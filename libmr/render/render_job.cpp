@@ -1,4 +1,5 @@
 #include "render/render_job.h"
+#include "core/check.h"
 
 #include <fmt/ranges.h>
 #include <spdlog/spdlog.h>
@@ -130,6 +131,7 @@ JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, Rend
   if (end < 0 || end > n_frames) end = n_frames;
   if (begin >= end)
     throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));
+  MR_CHECK(0 <= begin && begin < end && end <= n_frames);
   in.begin = begin;
   in.end = end;
   return in;

@@ -1,4 +1,5 @@
 #include "render/vpl.h"
+#include "core/check.h"
 
 #include <spdlog/spdlog.h>
 
@@ -110,6 +111,7 @@ std::vector<Emitter> Emitters(const RenderScene& scene, const VplSettings& st, d
   // paths (all of its light is difference); the flux divides by the mixture.
   double power = 0;
   for (const auto& e : emitters) power += e.power;
+  MR_CHECK(emitters.empty() || power > 0);  // only emitters with power are listed
   for (auto& e : emitters) e.power = 0.5 * e.power / power + 0.5 / static_cast<double>(emitters.size());
   // Each emitter's share of the paths is fixed (largest remainder, at least
   // one each while paths last), and its paths draw from its own streams,
@@ -136,6 +138,7 @@ std::vector<Emitter> Emitters(const RenderScene& scene, const VplSettings& st, d
       e.stream = e.light < 0 ? 0x656e76ULL : HashString(scene.lights()[static_cast<size_t>(e.light)].light().name);
     }
   }
+  MR_CHECK(emitters.empty() || emitters.back().first + emitters.back().paths == st.paths);  // every path has one
   return emitters;
 }
 

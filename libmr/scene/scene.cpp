@@ -235,7 +235,7 @@ void ParseLighting(const Node& l, const fs::path& base, bool check, SceneLightin
 }
 
 // real: one {mesh, material} or a list of them (a room whose parts differ in material).
-void ParseReals(const Node& r, const fs::path& base, bool check, std::vector<SceneReal>* reals) {
+void ParseReals(const Node& node, const fs::path& base, bool check, std::vector<SceneReal>* reals) {
   auto parse_real = [&](const Node& r) {
     r.RequireObject({"mesh", "material"});
     SceneReal real;
@@ -243,11 +243,11 @@ void ParseReals(const Node& r, const fs::path& base, bool check, std::vector<Sce
     if (r.Has("material")) real.material = ParseMaterial(r.Child("material"), base, check);
     reals->push_back(real);
   };
-  if (r.json().is_array()) {
-    if (r.json().empty()) r.Fail("expected at least one {mesh, material}");
-    for (size_t i = 0; i < r.json().size(); ++i) parse_real(r.Index(i));
+  if (node.json().is_array()) {
+    if (node.json().empty()) node.Fail("expected at least one {mesh, material}");
+    for (size_t i = 0; i < node.json().size(); ++i) parse_real(node.Index(i));
   } else {
-    parse_real(r);
+    parse_real(node);
   }
 }
 

@@ -1,4 +1,5 @@
 #include "synth/synth.h"
+#include "core/check.h"
 #include "synth/bracket.h"
 #include "synth/rgbd_view.h"
 #include "synth/sphere_view.h"
@@ -563,6 +564,7 @@ std::vector<char> PlateSpherePixels(const SynthCapture& c, int frame) {
       for (int x = px(q.x() - r, p.width); x <= px(q.x() + r, p.width); ++x)
         only[static_cast<size_t>(y) * p.width + x] = 1;
   }
+  MR_CHECK_EQ(only.size(), static_cast<size_t>(p.width) * p.height);
   return only;
 }
 

@@ -283,5 +283,22 @@ TEST(PlanPipeline, ErrorsNameTheFileAndKey) {
   EXPECT_THROW(PlanPipeline(dir / "r.json"), Error);
 }
 
+// --until and --force name stages of the table; a misspelt one is a usage
+// error listing them, before any stage runs.
+TEST(PipelineRunOptions, StagesAreCheckedAgainstTheTable) {
+  PipelineRunOptions o;
+  o.until = "render";
+  o.force = {"fuse"};
+  EXPECT_NO_THROW(o.Check());
+  o.force = {"fusion"};
+  try {
+    o.Check();
+    FAIL() << "--force fusion was accepted";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("--force fusion: no such stage (stages: calibrate"), std::string::npos)
+        << e.what();
+  }
+}
+
 }  // namespace
 }  // namespace mr

@@ -28,15 +28,38 @@ void JsonSettings::Bool(const char* key, bool* v) {
   if (block_.Has(key)) *v = block_.Child(key).Bool();
 }
 
-void JsonSettings::Done() const {
+void JsonSettings::OneOf(const char* key, std::string* v, const std::vector<std::string>& options) {
+  Declare({.key = key, .type = "string", .default_value = *v, .choices = options});
+  if (block_.Has(key)) *v = block_.Child(key).OneOf(options);
+}
+
+std::optional<JsonNode> JsonSettings::Take(const char* key) {
+  Declare({.key = key, .type = "node"});
+  if (!block_.Has(key)) return std::nullopt;
+  return block_.Child(key);
+}
+
+JsonNode JsonSettings::Require(const char* key) {
+  Declare({.key = key, .type = "node"});
+  return block_.Required(key);
+}
+
+std::vector<std::string> JsonSettings::Unread() const {
+  std::vector<std::string> unread;
   for (const auto& [k, v] : block_.json().items()) {
     bool read = false;
     for (const SettingDecl& d : decl_) read = read || d.key == k;
-    if (read) continue;
-    std::string list;
-    for (const SettingDecl& d : decl_) list += (list.empty() ? "" : ", ") + d.key;
-    block_.Child(k).Fail(fmt::format("unknown key (allowed here: {})", list));
+    if (!read) unread.push_back(k);
   }
+  return unread;
+}
+
+void JsonSettings::Done() const {
+  const std::vector<std::string> unread = Unread();
+  if (unread.empty()) return;
+  std::string list;
+  for (const SettingDecl& d : decl_) list += (list.empty() ? "" : ", ") + d.key;
+  block_.Child(unread.front()).Fail(fmt::format("unknown key (allowed here: {})", list));
 }
 
 }  // namespace mr

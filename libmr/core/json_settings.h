@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -57,11 +58,22 @@ class JsonSettings {
       if (s == name) *v = value;
   }
 
+  // A string naming one of `options`, kept as the string.
+  void OneOf(const char* key, std::string* v, const std::vector<std::string>& options);
+  // The node of `key` (declared, so not rejected by Done), absent or
+  // present: for values the caller reads itself (a nested block, a path, a
+  // list). Require fails with "missing required key" when it is absent.
+  std::optional<JsonNode> Take(const char* key);
+  JsonNode Require(const char* key);
+
   // The node of a declared key, for checks across keys (Fail names it).
   JsonNode Node(const char* key) const { return block_.Child(key); }
   bool Has(const char* key) const { return block_.Has(key); }
   // Rejects every key of the block no call above declared.
   void Done() const;
+  // The keys no call above declared, in the block's order (for blocks that
+  // hold more than settings: render's method blocks).
+  std::vector<std::string> Unread() const;
   const std::vector<SettingDecl>& declared() const { return decl_; }
 
  private:

@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "core/json_node.h"
+#include "core/json_settings.h"
 #include "core/math.h"
 #include "core/video.h"
 #include "scene/frames.h"
@@ -35,17 +36,18 @@ fs::path ResolveFile(const Node& n, const fs::path& base, bool check, const char
 }
 
 Material ParseMaterial(const Node& n, const fs::path& base, bool check) {
-  n.RequireObject({"albedo", "specular", "roughness", "emission", "albedo_from_vertex_colors", "albedo_texture"});
+  JsonSettings s(n);
   Material m;
-  if (n.Has("albedo")) m.albedo = n.Child("albedo").Vec3(0, 1);
-  if (n.Has("specular")) m.specular = n.Child("specular").Vec3(0, 1);
-  if (n.Has("roughness")) m.roughness = n.Child("roughness").Number(1e-3, 1);
-  if (n.Has("emission")) m.emission = n.Child("emission").Vec3(0, kHuge);
-  if (n.Has("albedo_from_vertex_colors")) m.albedo_from_vertex_colors = n.Child("albedo_from_vertex_colors").Bool();
-  if (n.Has("albedo_texture")) {
-    m.albedo_texture = ResolveFile(n.Child("albedo_texture"), base, check, "albedo texture");
-    if (m.albedo_from_vertex_colors)
-      n.Child("albedo_texture").Fail("give albedo_from_vertex_colors or albedo_texture, not both");
+  if (const auto v = s.Take("albedo")) m.albedo = v->Vec3(0, 1);
+  if (const auto v = s.Take("specular")) m.specular = v->Vec3(0, 1);
+  s.Number("roughness", &m.roughness, 1e-3, 1);
+  if (const auto v = s.Take("emission")) m.emission = v->Vec3(0, kHuge);
+  s.Bool("albedo_from_vertex_colors", &m.albedo_from_vertex_colors);
+  const auto texture = s.Take("albedo_texture");
+  s.Done();
+  if (texture) {
+    m.albedo_texture = ResolveFile(*texture, base, check, "albedo texture");
+    if (m.albedo_from_vertex_colors) texture->Fail("give albedo_from_vertex_colors or albedo_texture, not both");
   }
   for (int c = 0; c < 3; ++c)
     if (m.albedo[c] + m.specular[c] > 1.0)
@@ -55,34 +57,36 @@ Material ParseMaterial(const Node& n, const fs::path& base, bool check) {
 }
 
 Eigen::Affine3d ParseTransform(const Node& n) {
-  n.RequireObject({"matrix", "translation", "rotation_deg", "scale"});
-  if (n.Has("matrix")) {
-    if (n.Has("translation") || n.Has("rotation_deg") || n.Has("scale"))
-      n.Fail("give either matrix or translation/rotation_deg/scale, not both");
-    Node m = n.Child("matrix");
-    auto v = m.Numbers(16, -kHuge, kHuge);
+  JsonSettings s(n);
+  const auto matrix = s.Take("matrix");
+  const auto translation = s.Take("translation");
+  const auto rotation = s.Take("rotation_deg");
+  const auto scale = s.Take("scale");
+  s.Done();
+  if (matrix) {
+    if (translation || rotation || scale) n.Fail("give either matrix or translation/rotation_deg/scale, not both");
+    auto v = matrix->Numbers(16, -kHuge, kHuge);
     Eigen::Matrix4d mat = Eigen::Map<Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(v.data());
     if ((mat.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).norm() > 1e-12)
-      m.Fail("last row of a 4x4 affine matrix must be 0 0 0 1");
-    if (std::abs(mat.topLeftCorner<3, 3>().determinant()) < 1e-12) m.Fail("matrix is singular");
+      matrix->Fail("last row of a 4x4 affine matrix must be 0 0 0 1");
+    if (std::abs(mat.topLeftCorner<3, 3>().determinant()) < 1e-12) matrix->Fail("matrix is singular");
     Eigen::Affine3d a;
     a.matrix() = mat;
     return a;
   }
   Eigen::Affine3d a = Eigen::Affine3d::Identity();
-  if (n.Has("translation")) a.translate(n.Child("translation").Vec3(-kHuge, kHuge));
-  if (n.Has("rotation_deg")) {
+  if (translation) a.translate(translation->Vec3(-kHuge, kHuge));
+  if (rotation) {
     // Rotations about the world x, then y, then z axes: R = Rz * Ry * Rx.
-    Eigen::Vector3d r = n.Child("rotation_deg").Vec3(-360, 360) * kDegToRad;
+    Eigen::Vector3d r = rotation->Vec3(-360, 360) * kDegToRad;
     a.rotate(Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
              Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()));
   }
-  if (n.Has("scale")) {
-    Node s = n.Child("scale");
-    if (s.json().is_number())
-      a.scale(s.Number(1e-9, kHuge));
+  if (scale) {
+    if (scale->json().is_number())
+      a.scale(scale->Number(1e-9, kHuge));
     else
-      a.scale(s.Vec3(1e-9, kHuge));
+      a.scale(scale->Vec3(1e-9, kHuge));
   }
   return a;
 }
@@ -102,23 +106,25 @@ std::vector<ObjectKeyframe> ParseTrajectory(const Node& n) {
     const Node k = n.Index(i);
     if (k.json().is_object() && k.json().contains("matrix"))
       k.Child("matrix").Fail("a keyframe takes translation, rotation_deg and scale: a matrix cannot be interpolated");
-    k.RequireObject({"frame", "translation", "rotation_deg", "scale"});
+    JsonSettings ks(k);
+    const JsonNode frame = ks.Require("frame");
+    const auto translation = ks.Take("translation");
+    const auto rotation = ks.Take("rotation_deg");
+    const auto scale = ks.Take("scale");
+    ks.Done();
     ObjectKeyframe f;
-    f.frame = k.Required("frame").Number(0, 1e9);
+    f.frame = frame.Number(0, 1e9);
     if (!out.empty() && !(f.frame > out.back().frame))
-      k.Child("frame").Fail(
-          fmt::format("keyframes must be in increasing frame order: {} after {}", f.frame, out.back().frame));
-    if (k.Has("translation")) f.translation = k.Child("translation").Vec3(-kHuge, kHuge);
-    if (k.Has("rotation_deg")) {
-      const Eigen::Vector3d r = k.Child("rotation_deg").Vec3(-360, 360) * kDegToRad;
+      frame.Fail(fmt::format("keyframes must be in increasing frame order: {} after {}", f.frame, out.back().frame));
+    if (translation) f.translation = translation->Vec3(-kHuge, kHuge);
+    if (rotation) {
+      const Eigen::Vector3d r = rotation->Vec3(-360, 360) * kDegToRad;
       f.rotation = Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) *
                    Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
                    Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX());
     }
-    if (k.Has("scale")) {
-      const Node sc = k.Child("scale");
-      f.scale = sc.json().is_number() ? Eigen::Vector3d::Constant(sc.Number(0, kHuge)) : sc.Vec3(0, kHuge);
-    }
+    if (scale)
+      f.scale = scale->json().is_number() ? Eigen::Vector3d::Constant(scale->Number(0, kHuge)) : scale->Vec3(0, kHuge);
     out.push_back(f);
   }
   return out;
@@ -151,96 +157,110 @@ fs::path ResolvePattern(const Node& n, const fs::path& base, bool check) {
 namespace {
 
 // camera: the model, the plate and its decoding, the gains, shutter, lens, poses.
-void ParseCamera(const Node& cam, const fs::path& base, bool check, SceneCamera* out) {
+void ParseCamera(const Node& node, const fs::path& base, bool check, SceneCamera* out) {
   SceneCamera& c = *out;
-  cam.RequireObject({"model", "frames", "frames_transfer", "exposure", "response", "gains", "gains_scale", "poses",
-                     "shutter", "lens"});
-  c.model = ResolveFile(cam.Required("model"), base, check, "camera model");
-  if (cam.Has("frames")) {
-    Node f = cam.Child("frames");
-    std::string v = f.String();
-    if (IsFramePattern(v)) {
-      c.frames = ResolvePattern(f, base, check);
+  JsonSettings cam(node);
+  const JsonNode model = cam.Require("model");
+  const auto frames = cam.Take("frames");
+  cam.OneOf("frames_transfer", &c.frames_transfer, {"srgb", "linear", "display", "response"});
+  const auto exposure = cam.Take("exposure");
+  const auto response = cam.Take("response");
+  const auto gains = cam.Take("gains");
+  cam.OneOf("gains_scale", &c.gains_scale, {"render", "room"});
+  const auto poses = cam.Take("poses");
+  cam.Number("shutter", &c.shutter, 0, 1);
+  const auto lens = cam.Take("lens");
+  cam.Done();
+  c.model = ResolveFile(model, base, check, "camera model");
+  if (frames) {
+    if (IsFramePattern(frames->String())) {
+      c.frames = ResolvePattern(*frames, base, check);
     } else {
-      c.frames = ResolveFile(f, base, check, "video");
+      c.frames = ResolveFile(*frames, base, check, "video");
       c.frames_are_video = true;
     }
   }
-  if (cam.Has("frames_transfer"))
-    c.frames_transfer = cam.Child("frames_transfer").OneOf({"srgb", "linear", "display", "response"});
-  if (cam.Has("response")) c.response = ResolveFile(cam.Child("response"), base, check, "camera response");
+  if (response) c.response = ResolveFile(*response, base, check, "camera response");
   if ((c.frames_transfer == "response") != c.response.has_value())
-    (cam.Has("response") ? cam.Child("response") : cam.Child("frames_transfer"))
+    (response ? *response : cam.Node("frames_transfer"))
         .Fail("frames_transfer \"response\" and a response file go together");
-  if (cam.Has("exposure")) c.exposure = cam.Child("exposure").Number(1e-12, 1e12);
-  c.gains_scale = "render";
-  if (cam.Has("gains_scale")) c.gains_scale = cam.Child("gains_scale").OneOf({"render", "room"});
-  if (cam.Has("shutter")) c.shutter = cam.Child("shutter").Number(0, 1);
-  if (cam.Has("lens")) {
-    const Node lens = cam.Child("lens");
-    lens.RequireObject({"aperture_radius", "focus_distance"});
-    c.aperture_radius = lens.Required("aperture_radius").Number(0, 10);
-    c.focus_distance = lens.Required("focus_distance").Number(1e-3, 1e9);
+  if (exposure) c.exposure = exposure->Number(1e-12, 1e12);
+  if (lens) {
+    JsonSettings l(*lens);
+    const JsonNode aperture = l.Require("aperture_radius");
+    const JsonNode focus = l.Require("focus_distance");
+    l.Done();
+    c.aperture_radius = aperture.Number(0, 10);
+    c.focus_distance = focus.Number(1e-3, 1e9);
   }
-  if (cam.Has("gains")) {
+  if (gains) {
     // Not checked here: mr-pipeline's scene names the gains its radiometry
     // stage is yet to fit (mr-render's FrameDecoding reads and checks them).
-    c.gains = ResolveFile(cam.Child("gains"), base, false, "plate gains");
-    if (!cam.Has("frames")) cam.Child("gains").Fail("plate gains need a plate: camera.frames is not given");
-    if (c.frames_transfer == "display" && cam.Has("exposure"))
-      cam.Child("exposure")
-          .Fail("with camera.gains the gains scale the render in \"display\" mode: give one of the two");
+    c.gains = ResolveFile(*gains, base, false, "plate gains");
+    if (!frames) gains->Fail("plate gains need a plate: camera.frames is not given");
+    if (c.frames_transfer == "display" && exposure)
+      exposure->Fail("with camera.gains the gains scale the render in \"display\" mode: give one of the two");
   }
-  if (cam.Has("poses")) {
-    Node p = cam.Child("poses");
-    p.RequireObject({"format", "path"});
-    std::string fmt_name = p.Required("format").OneOf({"tum", "7scenes", "colmap"});
+  if (poses) {
+    JsonSettings p(*poses);
+    const JsonNode format = p.Require("format");
+    const JsonNode path = p.Require("path");
+    p.Done();
+    const std::string fmt_name = format.OneOf({"tum", "7scenes", "colmap"});
     c.pose_format = fmt_name == "tum"       ? PoseFormat::kTum
                     : fmt_name == "7scenes" ? PoseFormat::k7Scenes
                                             : PoseFormat::kColmap;
-    c.poses = ResolveFile(p.Required("path"), base, check, "poses");
+    c.poses = ResolveFile(path, base, check, "poses");
   }
 }
 
 // lighting: the environment (a file, a pattern or a video), its scale and
 // orientation, the lights.
-void ParseLighting(const Node& l, const fs::path& base, bool check, SceneLighting* out) {
+void ParseLighting(const Node& node, const fs::path& base, bool check, SceneLighting* out) {
   SceneLighting& lighting = *out;
-  l.RequireObject({"environment", "environment_scale", "environment_rotation_deg", "environment_up", "lights"});
+  JsonSettings l(node);
+  const auto environment = l.Take("environment");
+  l.Number("environment_scale", &lighting.environment_scale, 0, kHuge);
+  const auto rotation = l.Take("environment_rotation_deg");
+  const auto up = l.Take("environment_up");
+  const auto lights = l.Take("lights");
+  l.Done();
   // A file, or a printf pattern of one per frame.
-  auto file_or_pattern = [&](const char* key, const char* what, std::optional<fs::path>* path, bool* per_frame) {
-    if (!l.Has(key)) return;
-    const Node n = l.Child(key);
-    *per_frame = IsFramePattern(n.String());
-    *path = *per_frame ? ResolvePattern(n, base, check) : ResolveFile(n, base, check, what);
+  auto file_or_pattern = [&](const std::optional<JsonNode>& n, const char* what, std::optional<fs::path>* path,
+                             bool* per_frame) {
+    if (!n) return;
+    *per_frame = IsFramePattern(n->String());
+    *path = *per_frame ? ResolvePattern(*n, base, check) : ResolveFile(*n, base, check, what);
   };
-  file_or_pattern("environment", "environment map", &lighting.environment, &lighting.environment_per_frame);
+  file_or_pattern(environment, "environment map", &lighting.environment, &lighting.environment_per_frame);
   lighting.environment_video =
       lighting.environment && !lighting.environment_per_frame && IsVideoFile(*lighting.environment);
-  if (l.Has("environment_scale")) lighting.environment_scale = l.Child("environment_scale").Number(0, kHuge);
-  if (l.Has("environment_rotation_deg")) {
-    double yaw = l.Child("environment_rotation_deg").Number(-360, 360) * kDegToRad;
+  if (rotation) {
+    double yaw = rotation->Number(-360, 360) * kDegToRad;
     lighting.world_from_env = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitY()).toRotationMatrix();
   }
-  if (l.Has("environment_up")) {
+  if (up) {
     // The world direction of the map's zenith (+y): for rooms whose frame
     // is not +y up (a reconstruction in its first camera's frame).
-    const Eigen::Vector3d up = l.Child("environment_up").Vec3(-kHuge, kHuge);
-    if (!(up.norm() > 1e-9)) l.Child("environment_up").Fail("a zero vector has no direction");
+    const Eigen::Vector3d u = up->Vec3(-kHuge, kHuge);
+    if (!(u.norm() > 1e-9)) up->Fail("a zero vector has no direction");
     lighting.world_from_env =
-        Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), up.normalized()).toRotationMatrix() *
+        Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitY(), u.normalized()).toRotationMatrix() *
         lighting.world_from_env;
   }
-  file_or_pattern("lights", "lights file", &lighting.lights, &lighting.lights_per_frame);
+  file_or_pattern(lights, "lights file", &lighting.lights, &lighting.lights_per_frame);
 }
 
 // real: one {mesh, material} or a list of them (a room whose parts differ in material).
 void ParseReals(const Node& node, const fs::path& base, bool check, std::vector<SceneReal>* reals) {
   auto parse_real = [&](const Node& r) {
-    r.RequireObject({"mesh", "material"});
+    JsonSettings rs(r);
+    const JsonNode mesh = rs.Require("mesh");
+    const auto material = rs.Take("material");
+    rs.Done();
     SceneReal real;
-    real.mesh = ResolveFile(r.Required("mesh"), base, check, "mesh");
-    if (r.Has("material")) real.material = ParseMaterial(r.Child("material"), base, check);
+    real.mesh = ResolveFile(mesh, base, check, "mesh");
+    if (material) real.material = ParseMaterial(*material, base, check);
     reals->push_back(real);
   };
   if (node.json().is_array()) {
@@ -251,146 +271,169 @@ void ParseReals(const Node& node, const fs::path& base, bool check, std::vector<
   }
 }
 
+// A virtual light: a lights.json light in its own frame, posed.
+SceneVirtualLight ParseVirtualLight(const Node& o, size_t i) {
+  JsonSettings os(o);
+  const auto name = os.Take("name");
+  const JsonNode light = os.Require("light");
+  const auto transform = os.Take("transform");
+  const auto trajectory = os.Take("trajectory");
+  os.Done();
+  SceneVirtualLight vl;
+  vl.light = ParseLight(light, fmt::format("light{}", i));
+  vl.light.is_virtual = true;
+  vl.name = name ? name->String() : vl.light.name;
+  vl.light.name = vl.name;
+  if (transform && trajectory) trajectory->Fail("give either transform or trajectory, not both");
+  if (transform) vl.world_from_object = ParseTransform(*transform);
+  if (trajectory) vl.keyframes = ParseTrajectory(*trajectory);
+  vl.world_from_object =
+      PoseAt(vl.keyframes, vl.world_from_object, vl.keyframes.empty() ? 0 : vl.keyframes.front().frame);
+  return vl;
+}
+
+// A virtual object: a mesh placed by a transform or a trajectory; `names`
+// holds the names taken so far.
+SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, bool check,
+                                std::set<std::string>* names) {
+  JsonSettings os(o);
+  const auto name = os.Take("name");
+  const JsonNode mesh = os.Require("mesh");
+  const auto transform = os.Take("transform");
+  const auto trajectory = os.Take("trajectory");
+  const auto material = os.Take("material");
+  const auto formfactors = os.Take("formfactors");
+  os.Done();
+  SceneVirtual sv;
+  sv.name = name ? name->String() : fmt::format("object{}", i);
+  if (!names->insert(sv.name).second) (name ? *name : o).Fail(fmt::format("name \"{}\" is used twice", sv.name));
+  sv.mesh = ResolveFile(mesh, base, check, "mesh");
+  if (transform && trajectory) trajectory->Fail("give either transform or trajectory, not both");
+  if (transform) sv.world_from_object = ParseTransform(*transform);
+  if (trajectory) {
+    sv.keyframes = ParseTrajectory(*trajectory);
+    sv.world_from_object = sv.WorldFromObjectAt(sv.keyframes.front().frame);
+  }
+  if (material) sv.material = ParseMaterial(*material, base, check);
+  if (formfactors) sv.formfactors = ResolveFile(*formfactors, base, check, "form factors");
+  return sv;
+}
+
 // virtual: objects and virtual lights, their names unique.
 void ParseVirtuals(const Node& v, const fs::path& base, bool check, Scene* out) {
   Scene& s = *out;
   if (!v.json().is_array()) v.Fail(fmt::format("expected an array of objects, got {}", v.TypeName()));
   std::set<std::string> names;
   for (size_t i = 0; i < v.json().size(); ++i) {
-    Node o = v.Index(i);
+    const Node o = v.Index(i);
     if (o.json().is_object() && o.json().contains("light")) {
-      // A virtual light: a lights.json light in its own frame, posed.
-      o.RequireObject({"name", "light", "transform", "trajectory"});
-      SceneVirtualLight vl;
-      vl.light = ParseLight(o.Child("light"), fmt::format("light{}", i));
-      vl.light.is_virtual = true;
-      vl.name = o.Has("name") ? o.Child("name").String() : vl.light.name;
-      vl.light.name = vl.name;
+      SceneVirtualLight vl = ParseVirtualLight(o, i);
       if (!names.insert(vl.name).second) o.Fail(fmt::format("name \"{}\" is used twice", vl.name));
-      if (o.Has("transform") && o.Has("trajectory"))
-        o.Child("trajectory").Fail("give either transform or trajectory, not both");
-      if (o.Has("transform")) vl.world_from_object = ParseTransform(o.Child("transform"));
-      if (o.Has("trajectory")) vl.keyframes = ParseTrajectory(o.Child("trajectory"));
-      vl.world_from_object =
-          PoseAt(vl.keyframes, vl.world_from_object, vl.keyframes.empty() ? 0 : vl.keyframes.front().frame);
-      s.virtual_lights.push_back(vl);
-      continue;
+      s.virtual_lights.push_back(std::move(vl));
+    } else {
+      s.virtuals.push_back(ParseVirtualObject(o, i, base, check, &names));
     }
-    o.RequireObject({"name", "mesh", "transform", "trajectory", "material", "formfactors"});
-    SceneVirtual sv;
-    sv.name = o.Has("name") ? o.Child("name").String() : fmt::format("object{}", i);
-    if (!names.insert(sv.name).second) o.Child("name").Fail(fmt::format("name \"{}\" is used twice", sv.name));
-    sv.mesh = ResolveFile(o.Required("mesh"), base, check, "mesh");
-    if (o.Has("transform") && o.Has("trajectory"))
-      o.Child("trajectory").Fail("give either transform or trajectory, not both");
-    if (o.Has("transform")) sv.world_from_object = ParseTransform(o.Child("transform"));
-    if (o.Has("trajectory")) {
-      sv.keyframes = ParseTrajectory(o.Child("trajectory"));
-      sv.world_from_object = sv.WorldFromObjectAt(sv.keyframes.front().frame);
-    }
-    if (o.Has("material")) sv.material = ParseMaterial(o.Child("material"), base, check);
-    if (o.Has("formfactors")) sv.formfactors = ResolveFile(o.Child("formfactors"), base, check, "form factors");
-    s.virtuals.push_back(sv);
   }
 }
 
 // render: the generic settings; any other key holding an object is a
 // method's block (render.vpl, ...), kept as written for the method to parse.
-void ParseRender(const Node& r, SceneRender* out) {
+void ParseRender(const Node& node, SceneRender* out) {
   SceneRender& render = *out;
-  static const std::initializer_list<const char*> generic = {
-      "method",       "spp",           "max_depth",        "seed",
-      "frames",       "time_budget_s", "plate_neighbours", "plate_neighbour_step",
-      "world_update", "adaptive"};
-  if (!r.json().is_object()) r.Fail(fmt::format("expected an object, got {}", r.TypeName()));
-  for (auto& [k, v] : r.json().items()) {
-    bool known = false;
-    for (const char* g : generic) known = known || k == g;
-    if (known) continue;
+  JsonSettings r(node);
+  const auto method = r.Take("method");
+  r.Integer("spp", &render.spp, 1, 1 << 24);
+  r.Integer("max_depth", &render.max_depth, 0, 1000);
+  const auto seed = r.Take("seed");
+  const auto frames = r.Take("frames");
+  r.Number("time_budget_s", &render.time_budget_s, 0, 1e9);
+  r.Integer("plate_neighbours", &render.plate_neighbours, 0, 16);
+  r.Integer("plate_neighbour_step", &render.plate_neighbour_step, 1, 100000);
+  r.OneOf("world_update", &render.world_update, {"incremental", "rebuild"});
+  const auto adaptive = r.Take("adaptive");
+  for (const std::string& k : r.Unread()) {
+    const Json& v = node.json().at(k);
     if (!v.is_object()) {
       std::string list;
-      for (const char* g : generic) list += (list.empty() ? "" : ", ") + std::string(g);
-      r.Child(k).Fail(fmt::format("unknown key (allowed here: {}, or a method's settings object)", list));
+      for (const SettingDecl& d : r.declared()) list += (list.empty() ? "" : ", ") + d.key;
+      node.Child(k).Fail(fmt::format("unknown key (allowed here: {}, or a method's settings object)", list));
     }
     render.method_settings[k] = v;
   }
-  if (r.Has("method")) render.method = r.Child("method").String();
-  if (r.Has("spp")) render.spp = static_cast<int>(r.Child("spp").Integer(1, 1 << 24));
-  if (r.Has("max_depth")) render.max_depth = static_cast<int>(r.Child("max_depth").Integer(0, 1000));
-  if (r.Has("seed")) render.seed = static_cast<uint64_t>(r.Child("seed").Integer(0, INT64_MAX));
-  if (r.Has("frames")) {
-    const Node f = r.Child("frames");
-    const std::string v = f.String();
+  if (method) render.method = method->String();
+  if (seed) render.seed = static_cast<uint64_t>(seed->Integer(0, INT64_MAX));
+  if (frames) {
     std::string why;
-    if (!ParseFrameRange(v, &render.frame_begin, &render.frame_end, &why)) f.Fail(why);
+    if (!ParseFrameRange(frames->String(), &render.frame_begin, &render.frame_end, &why)) frames->Fail(why);
   }
-  if (r.Has("time_budget_s")) render.time_budget_s = r.Child("time_budget_s").Number(0, 1e9);
-  if (r.Has("adaptive")) {
-    const Node a = r.Child("adaptive");
-    a.RequireObject({"threshold", "min_spp"});
-    if (a.Has("threshold")) render.adaptive_threshold = a.Child("threshold").Number(0, 1);
-    if (a.Has("min_spp")) render.adaptive_min_spp = static_cast<int>(a.Child("min_spp").Integer(2, 1 << 24));
+  if (adaptive) {
+    JsonSettings a(*adaptive);
+    a.Number("threshold", &render.adaptive_threshold, 0, 1);
+    a.Integer("min_spp", &render.adaptive_min_spp, 2, 1 << 24);
+    a.Done();
   }
-  if (r.Has("plate_neighbours")) render.plate_neighbours = static_cast<int>(r.Child("plate_neighbours").Integer(0, 16));
-  if (r.Has("world_update")) render.world_update = r.Child("world_update").OneOf({"incremental", "rebuild"});
-  if (r.Has("plate_neighbour_step"))
-    render.plate_neighbour_step = static_cast<int>(r.Child("plate_neighbour_step").Integer(1, 100000));
 }
 
 // output: the folder (default `out` beside the scene), formats and layers.
-void ParseOutput(const Node& o, const fs::path& base, SceneOutput* out) {
+void ParseOutput(const Node& node, const fs::path& base, SceneOutput* out) {
   SceneOutput& output = *out;
-  o.RequireObject({"dir", "png", "half", "video", "review", "grain", "layers"});
-  if (o.Has("dir")) {
-    fs::path d = o.Child("dir").String();
+  JsonSettings o(node);
+  const auto dir = o.Take("dir");
+  o.Bool("png", &output.png);
+  o.Bool("half", &output.half);
+  o.OneOf("video", &output.video, {"mp4", "mkv", "none"});
+  o.Bool("review", &output.review);
+  o.OneOf("grain", &output.grain, {"auto", "on", "off"});
+  const auto layers = o.Take("layers");
+  o.Done();
+  if (dir) {
+    const fs::path d = dir->String();
     output.dir = d.is_relative() ? base / d : d;
   } else {
     output.dir = base / "out";
   }
-  if (o.Has("png")) output.png = o.Child("png").Bool();
-  if (o.Has("half")) output.half = o.Child("half").Bool();
-  if (o.Has("video")) output.video = o.Child("video").OneOf({"mp4", "mkv", "none"});
-  if (o.Has("review")) output.review = o.Child("review").Bool();
-  if (o.Has("grain")) output.grain = o.Child("grain").OneOf({"auto", "on", "off"});
-  if (o.Has("layers")) {
-    Node l = o.Child("layers");
-    if (!l.json().is_array() || l.json().empty()) l.Fail("expected a non-empty array of layer names");
+  if (layers) {
+    if (!layers->json().is_array() || layers->json().empty()) layers->Fail("expected a non-empty array of layer names");
     output.layers.clear();
-    for (size_t i = 0; i < l.json().size(); ++i) output.layers.push_back(l.Index(i).OneOf(OutputLayers()));
+    for (size_t i = 0; i < layers->json().size(); ++i) output.layers.push_back(layers->Index(i).OneOf(OutputLayers()));
     if (std::find(output.layers.begin(), output.layers.end(), "composite") == output.layers.end())
-      l.Fail("must include \"composite\", the render's result");
+      layers->Fail("must include \"composite\", the render's result");
   }
 }
 
 }  // namespace
 
 Scene ParseScene(const Json& j, const fs::path& base, const std::string& name, bool check) {
-  Node root(j, "", &name);
-  root.RequireObject({"version", "camera", "lighting", "real", "virtual", "render", "output", "reference", "comment"});
+  const Node root_node(j, "", &name);
+  JsonSettings root(root_node);
+  const JsonNode version = root.Require("version");
+  const JsonNode camera = root.Require("camera");
+  const auto lighting = root.Take("lighting");
+  const auto real = root.Take("real");
+  const auto virtuals = root.Take("virtual");
+  const auto render = root.Take("render");
+  const auto output = root.Take("output");
+  const auto reference = root.Take("reference");
+  const auto comment = root.Take("comment");
+  root.Done();
   Scene s;
   s.file = name;
-  int64_t version = root.Required("version").Integer(1, 1000);
-  if (version != kSceneVersion)
-    root.Child("version").Fail(
-        fmt::format("this mr reads scene version {}, the file is version {}", kSceneVersion, version));
-  if (root.Has("comment")) root.Child("comment").String();
-
-  ParseCamera(root.Required("camera"), base, check, &s.camera);
-  if (root.Has("lighting")) ParseLighting(root.Child("lighting"), base, check, &s.lighting);
-  if (root.Has("real")) ParseReals(root.Child("real"), base, check, &s.reals);
-  if (root.Has("virtual")) ParseVirtuals(root.Child("virtual"), base, check, &s);
-  if (root.Has("render")) ParseRender(root.Child("render"), &s.render);
-  if (root.Has("output"))
-    ParseOutput(root.Child("output"), base, &s.output);
+  if (const int64_t v = version.Integer(1, 1000); v != kSceneVersion)
+    version.Fail(fmt::format("this mr reads scene version {}, the file is version {}", kSceneVersion, v));
+  if (comment) comment->String();
+  ParseCamera(camera, base, check, &s.camera);
+  if (lighting) ParseLighting(*lighting, base, check, &s.lighting);
+  if (real) ParseReals(*real, base, check, &s.reals);
+  if (virtuals) ParseVirtuals(*virtuals, base, check, &s);
+  if (render) ParseRender(*render, &s.render);
+  if (output)
+    ParseOutput(*output, base, &s.output);
   else
     s.output.dir = base / "out";
-
-  if (root.Has("reference")) {
-    Node r = root.Child("reference");
-    s.reference =
-        IsFramePattern(r.String()) ? ResolvePattern(r, base, check) : ResolveFile(r, base, check, "reference");
-  }
-  if (s.reals.empty() && s.virtuals.empty()) root.Fail("the scene has neither real nor virtual geometry");
+  if (reference)
+    s.reference = IsFramePattern(reference->String()) ? ResolvePattern(*reference, base, check)
+                                                      : ResolveFile(*reference, base, check, "reference");
+  if (s.reals.empty() && s.virtuals.empty()) root_node.Fail("the scene has neither real nor virtual geometry");
   return s;
 }
 

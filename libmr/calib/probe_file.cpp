@@ -2,30 +2,42 @@
 
 #include "core/error.h"
 #include "core/json_node.h"
+#include "core/json_settings.h"
 
 namespace mr {
 
 ProbeGeometry ReadProbe(const fs::path& path) {
   const Json j = ReadJsonFile(path);
   const std::string name = path.string();
-  JsonNode root(j, "", &name);
-  root.RequireObject({"format", "version", "camera", "radius_m", "centre_cam_m", "centre_covariance_m2",
-                      "world_from_cam", "photographs", "consistency_chi2", "provenance"});
-  if (root.Required("format").String() != "mr-probe") root.Child("format").Fail("expected \"mr-probe\"");
-  if (root.Required("version").Integer(1, 1000) != 1) root.Child("version").Fail("this mr reads probe version 1");
+  JsonSettings root(JsonNode(j, "", &name));
+  const JsonNode format = root.Require("format");
+  const JsonNode version = root.Require("version");
+  const JsonNode camera = root.Require("camera");
+  const JsonNode radius = root.Require("radius_m");
+  const JsonNode centre = root.Require("centre_cam_m");
+  root.Take("centre_covariance_m2");  // informational, as the three below
+  const JsonNode world = root.Require("world_from_cam");
+  root.Take("photographs");
+  root.Take("consistency_chi2");
+  root.Take("provenance");
+  root.Done();
+  if (format.String() != "mr-probe") format.Fail("expected \"mr-probe\"");
+  if (version.Integer(1, 1000) != 1) version.Fail("this mr reads probe version 1");
   ProbeGeometry g;
   g.path = path;
-  const fs::path cam = path.parent_path() / root.Required("camera").String();
+  const fs::path cam = path.parent_path() / camera.String();
   g.camera = CameraModel::Read(cam);
-  g.radius_m = root.Required("radius_m").Number(1e-6, 100);
-  g.centre_cam = root.Required("centre_cam_m").Vec3(-1e3, 1e3);
-  if (g.centre_cam.norm() <= g.radius_m) root.Child("centre_cam_m").Fail("the camera is inside the sphere");
-  JsonNode w = root.Required("world_from_cam");
-  w.RequireObject({"quaternion_wxyz", "camera_in_world_m", "source"});
-  const std::vector<double> q = w.Required("quaternion_wxyz").Numbers(4, -1, 1);
+  g.radius_m = radius.Number(1e-6, 100);
+  g.centre_cam = centre.Vec3(-1e3, 1e3);
+  if (g.centre_cam.norm() <= g.radius_m) centre.Fail("the camera is inside the sphere");
+  JsonSettings w(world);
+  const JsonNode quaternion = w.Require("quaternion_wxyz");
+  w.Take("camera_in_world_m");
+  w.Take("source");
+  w.Done();
+  const std::vector<double> q = quaternion.Numbers(4, -1, 1);
   const Eigen::Quaterniond quat(q[0], q[1], q[2], q[3]);
-  if (std::abs(quat.norm() - 1) > 1e-6)
-    w.Child("quaternion_wxyz").Fail(fmt::format("not a unit quaternion (norm {})", quat.norm()));
+  if (std::abs(quat.norm() - 1) > 1e-6) quaternion.Fail(fmt::format("not a unit quaternion (norm {})", quat.norm()));
   g.world_from_cam = quat.normalized().toRotationMatrix();
   return g;
 }

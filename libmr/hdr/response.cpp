@@ -8,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/json_node.h"
+#include "core/json_settings.h"
 
 namespace mr {
 
@@ -314,18 +315,23 @@ Json ResponseToJson(const CameraResponse& r) {
 }
 
 CameraResponse ParseResponse(const Json& j, const std::string& name) {
-  JsonNode root(j, "", &name);
-  root.RequireObject({"format", "version", "method", "levels", "channels", "log_exposure", "comment"});
-  if (root.Required("format").String() != "mr-response") root.Child("format").Fail("expected \"mr-response\"");
-  if (root.Required("version").Integer(1, 1000) != 1) root.Child("version").Fail("this mr reads response version 1");
+  JsonSettings root(JsonNode(j, "", &name));
+  const JsonNode format = root.Require("format");
+  const JsonNode version = root.Require("version");
+  const JsonNode method = root.Require("method");
+  const JsonNode levels_node = root.Require("levels");
+  const JsonNode chs = root.Require("channels");
+  const JsonNode tables = root.Require("log_exposure");
+  root.Take("comment");
+  root.Done();
+  if (format.String() != "mr-response") format.Fail("expected \"mr-response\"");
+  if (version.Integer(1, 1000) != 1) version.Fail("this mr reads response version 1");
   CameraResponse r;
-  r.method = root.Required("method").String();
+  r.method = method.String();
   r.identity = r.method == "linear";
-  const int levels = static_cast<int>(root.Required("levels").Integer(16, 4096));
-  JsonNode chs = root.Required("channels");
+  const int levels = static_cast<int>(levels_node.Integer(16, 4096));
   if (!chs.json().is_array() || chs.json().empty()) chs.Fail("expected a non-empty array of channel names");
   for (size_t i = 0; i < chs.json().size(); ++i) r.channels.push_back(chs.Index(i).String());
-  JsonNode tables = root.Required("log_exposure");
   if (!tables.json().is_object()) tables.Fail("expected an object of tables by channel");
   if (tables.json().size() != r.channels.size()) tables.Fail("expected one table per channel");
   for (const std::string& c : r.channels) {

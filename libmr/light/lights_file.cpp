@@ -1,8 +1,10 @@
 #include "light/lights_file.h"
 
+#include <optional>
 #include <set>
 
 #include "core/json_node.h"
+#include "core/json_settings.h"
 
 namespace mr {
 
@@ -20,79 +22,88 @@ std::vector<double> ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z
 }  // namespace
 
 Light ParseLight(const JsonNode& n, const std::string& default_name) {
-  if (!n.json().is_object()) n.Fail(fmt::format("expected an object, got {}", n.TypeName()));
+  JsonSettings s(n);
   Light l;
-  const std::string type = n.Required("type").OneOf({"point", "spot", "distant"});
-  l.name = n.Has("name") ? n.Child("name").String() : default_name;
-  if (n.Has("virtual")) l.is_virtual = n.Child("virtual").Bool();
+  const std::string type = s.Require("type").OneOf({"point", "spot", "distant"});
+  const auto name = s.Take("name");
+  l.name = name ? name->String() : default_name;
+  s.Bool("virtual", &l.is_virtual);
   if (type == "point" || type == "spot") {
-    if (type == "point")
-      n.RequireObject({"type", "name", "virtual", "position", "intensity"});
-    else
-      n.RequireObject(
-          {"type", "name", "virtual", "position", "intensity", "direction", "cone_deg", "falloff_start_deg"});
     l.type = type == "point" ? LightType::kPoint : LightType::kSpot;
-    l.position = n.Required("position").Vec3(-kHuge, kHuge);
-    l.intensity = n.Required("intensity").Vec3(0, kHuge);
+    const JsonNode position = s.Require("position");
+    const JsonNode intensity = s.Require("intensity");
+    std::optional<JsonNode> direction, cone, falloff;
     if (l.type == LightType::kSpot) {
-      l.direction = UnitDirection(n.Required("direction"));
-      l.cone_deg = n.Required("cone_deg").Number(1e-3, 90);
-      l.falloff_start_deg = n.Has("falloff_start_deg") ? n.Child("falloff_start_deg").Number(0, 90) : l.cone_deg;
-      if (l.falloff_start_deg > l.cone_deg)
-        n.Child("falloff_start_deg").Fail(fmt::format("must not exceed cone_deg ({})", l.cone_deg));
+      direction.emplace(s.Require("direction"));
+      cone.emplace(s.Require("cone_deg"));
+      if (const auto f = s.Take("falloff_start_deg")) falloff.emplace(*f);
+    }
+    s.Done();
+    l.position = position.Vec3(-kHuge, kHuge);
+    l.intensity = intensity.Vec3(0, kHuge);
+    if (l.type == LightType::kSpot) {
+      l.direction = UnitDirection(*direction);
+      l.cone_deg = cone->Number(1e-3, 90);
+      l.falloff_start_deg = falloff ? falloff->Number(0, 90) : l.cone_deg;
+      if (l.falloff_start_deg > l.cone_deg) falloff->Fail(fmt::format("must not exceed cone_deg ({})", l.cone_deg));
     }
   } else {
-    n.RequireObject(
-        {"type", "name", "virtual", "direction", "irradiance", "angular_radius_deg", "solid_angle_sr", "radiance"});
     l.type = LightType::kDistant;
-    l.direction = UnitDirection(n.Required("direction"));
-    l.irradiance = n.Required("irradiance").Vec3(0, kHuge);
-    if (n.Has("angular_radius_deg")) l.angular_radius_deg = n.Child("angular_radius_deg").Number(0, 90);
-    if (n.Has("solid_angle_sr"))
-      l.solid_angle_sr =
-          n.Child("solid_angle_sr").Number(0, 4 * 3.14159265358979324 * (1 + 1e-9));  // sums of pixels round
-    if (n.Has("radiance")) n.Child("radiance").Vec3(0, kHuge);  // informational: irradiance / solid_angle_sr
+    const JsonNode direction = s.Require("direction");
+    const JsonNode irradiance = s.Require("irradiance");
+    s.Number("angular_radius_deg", &l.angular_radius_deg, 0, 90);
+    s.Number("solid_angle_sr", &l.solid_angle_sr, 0, 4 * 3.14159265358979324 * (1 + 1e-9));  // sums of pixels round
+    const auto radiance = s.Take("radiance");  // informational: irradiance / solid_angle_sr
+    s.Done();
+    l.direction = UnitDirection(direction);
+    l.irradiance = irradiance.Vec3(0, kHuge);
+    if (radiance) radiance->Vec3(0, kHuge);
   }
   return l;
 }
 
 std::vector<Light> ParseLights(const Json& j, const std::string& name) {
-  JsonNode root(j, "", &name);
-  root.RequireObject({"version", "lights", "comment", "source", "residual"});
-  if (root.Has("source")) {
-    JsonNode src = root.Child("source");
-    src.RequireObject({"method", "count", "map", "key", "next_id"});
-    if (src.Has("method")) src.Child("method").String();
-    if (src.Has("count")) src.Child("count").Integer(0, 1 << 30);
-    if (src.Has("map")) src.Child("map").String();
-    if (src.Has("key")) src.Child("key").String();  // mr-lights over time: the inputs' key
-    if (src.Has("next_id")) src.Child("next_id").Integer(0, 1 << 30);
+  const JsonNode root_node(j, "", &name);
+  JsonSettings root(root_node);
+  const JsonNode version = root.Require("version");
+  const JsonNode list = root.Require("lights");
+  const auto comment = root.Take("comment");
+  const auto source = root.Take("source");
+  const auto residual = root.Take("residual");
+  root.Done();
+  if (source) {
+    JsonSettings src(*source);
+    if (const auto v = src.Take("method")) v->String();
+    if (const auto v = src.Take("count")) v->Integer(0, 1 << 30);
+    if (const auto v = src.Take("map")) v->String();
+    if (const auto v = src.Take("key")) v->String();  // mr-lights over time: the inputs' key
+    if (const auto v = src.Take("next_id")) v->Integer(0, 1 << 30);
+    src.Done();
   }
-  if (root.Has("residual")) {
-    JsonNode res = root.Child("residual");
-    res.RequireObject({"map", "taken_fraction", "sh_order", "sh"});
-    if (res.Has("map")) res.Child("map").String();
-    if (res.Has("taken_fraction")) res.Child("taken_fraction").Number(0, 1);
-    const int64_t order = res.Has("sh_order") ? res.Child("sh_order").Integer(1, 8) : 0;
-    if (res.Has("sh")) {
-      JsonNode sh = res.Child("sh");
-      if (!sh.json().is_array() || static_cast<int64_t>(sh.json().size()) != order * order)
-        sh.Fail(fmt::format("expected sh_order^2 = {} RGB coefficients", order * order));
-      for (size_t i = 0; i < sh.json().size(); ++i) sh.Index(i).Vec3(-kHuge, kHuge);
+  if (residual) {
+    JsonSettings res(*residual);
+    if (const auto v = res.Take("map")) v->String();
+    if (const auto v = res.Take("taken_fraction")) v->Number(0, 1);
+    const auto order_node = res.Take("sh_order");
+    const int64_t order = order_node ? order_node->Integer(1, 8) : 0;
+    if (const auto sh = res.Take("sh")) {
+      if (!sh->json().is_array() || static_cast<int64_t>(sh->json().size()) != order * order)
+        sh->Fail(fmt::format("expected sh_order^2 = {} RGB coefficients", order * order));
+      for (size_t i = 0; i < sh->json().size(); ++i) sh->Index(i).Vec3(-kHuge, kHuge);
     }
+    res.Done();
   }
-  const int64_t version = root.Required("version").Integer(1, 1000);
-  if (version != 1)
-    root.Child("version").Fail(fmt::format("this mr reads lights version 1, the file is version {}", version));
-  if (root.Has("comment")) root.Child("comment").String();
-  JsonNode list = root.Required("lights");
+  if (const int64_t v = version.Integer(1, 1000); v != 1)
+    version.Fail(fmt::format("this mr reads lights version 1, the file is version {}", v));
+  if (comment) comment->String();
   if (!list.json().is_array()) list.Fail(fmt::format("expected an array of lights, got {}", list.TypeName()));
   std::vector<Light> lights;
   std::set<std::string> names;
   for (size_t i = 0; i < list.json().size(); ++i) {
     JsonNode n = list.Index(i);
     Light l = ParseLight(n, fmt::format("light{}", i));
-    if (!names.insert(l.name).second) n.Child("name").Fail(fmt::format("name \"{}\" is used twice", l.name));
+    if (!names.insert(l.name).second)  // a default name may meet a given one
+      (n.Has("name") ? n.Child("name") : n).Fail(fmt::format("name \"{}\" is used twice", l.name));
     lights.push_back(l);
   }
   return lights;

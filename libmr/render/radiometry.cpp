@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "core/json.h"
 #include "core/json_node.h"
+#include "core/json_settings.h"
 
 namespace mr {
 
@@ -261,32 +262,35 @@ void WritePlateGains(const fs::path& path, const std::vector<FrameGain>& gains, 
 std::vector<FrameGain> ReadPlateGains(const fs::path& path) {
   const Json j = ReadJsonFile(path);
   const std::string name = path.string();
-  const JsonNode root(j, "", &name);
-  root.RequireObject({"version", "kind", "comment", "frames"});
-  if (root.Required("version").Integer(1, 1000) != 1) root.Child("version").Fail("unsupported version (this is 1)");
-  if (root.Required("kind").String() != "mr-plate-gains") root.Child("kind").Fail("expected \"mr-plate-gains\"");
-  const JsonNode fr = root.Required("frames");
+  JsonSettings root(JsonNode(j, "", &name));
+  const JsonNode version = root.Require("version");
+  const JsonNode kind = root.Require("kind");
+  root.Take("comment");
+  const JsonNode fr = root.Require("frames");
+  root.Done();
+  if (version.Integer(1, 1000) != 1) version.Fail("unsupported version (this is 1)");
+  if (kind.String() != "mr-plate-gains") kind.Fail("expected \"mr-plate-gains\"");
   if (!fr.json().is_array() || fr.json().empty()) fr.Fail("expected a non-empty list of frames");
   std::vector<FrameGain> out;
   for (size_t i = 0; i < fr.json().size(); ++i) {
     const JsonNode f = fr.Index(i);
-    f.RequireObject({"frame", "gain", "sigma", "fit", "fit_sigma", "fitted", "jump_before", "pixels"});
+    JsonSettings keys(f);
     FrameGain g;
-    g.frame = static_cast<int>(f.Required("frame").Integer(0, 1 << 30));
-    if (!out.empty() && g.frame <= out.back().frame) f.Child("frame").Fail("frames must be ascending and unique");
-    auto rgb = [&](const char* key, double lo, Rgb* v) {
-      if (!f.Has(key)) return;
-      const std::vector<double> x = f.Child(key).Numbers(3, lo, 1e12);
+    const JsonNode frame = keys.Require("frame");
+    g.frame = static_cast<int>(frame.Integer(0, 1 << 30));
+    if (!out.empty() && g.frame <= out.back().frame) frame.Fail("frames must be ascending and unique");
+    auto rgb = [](const JsonNode& n, double lo, Rgb* v) {
+      const std::vector<double> x = n.Numbers(3, lo, 1e12);
       *v = {x[0], x[1], x[2]};
     };
-    const std::vector<double> x = f.Required("gain").Numbers(3, 1e-12, 1e12);
-    g.gain = {x[0], x[1], x[2]};
-    rgb("sigma", 0, &g.sigma);
-    rgb("fit", 0, &g.fit);
-    rgb("fit_sigma", 0, &g.fit_sigma);
-    if (f.Has("fitted")) g.fitted = f.Child("fitted").Bool();
-    if (f.Has("jump_before")) g.jump_before = f.Child("jump_before").Bool();
-    if (f.Has("pixels")) g.pixels = f.Child("pixels").Integer(0, int64_t{1} << 50);
+    rgb(keys.Require("gain"), 1e-12, &g.gain);
+    if (const auto n = keys.Take("sigma")) rgb(*n, 0, &g.sigma);
+    if (const auto n = keys.Take("fit")) rgb(*n, 0, &g.fit);
+    if (const auto n = keys.Take("fit_sigma")) rgb(*n, 0, &g.fit_sigma);
+    keys.Bool("fitted", &g.fitted);
+    keys.Bool("jump_before", &g.jump_before);
+    if (const auto n = keys.Take("pixels")) g.pixels = n->Integer(0, int64_t{1} << 50);
+    keys.Done();
     out.push_back(g);
   }
   return out;

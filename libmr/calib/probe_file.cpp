@@ -10,8 +10,7 @@ ProbeGeometry ReadProbe(const fs::path& path) {
   const Json j = ReadJsonFile(path);
   const std::string name = path.string();
   JsonSettings root(JsonNode(j, "", &name));
-  const JsonNode format = root.Require("format");
-  const JsonNode version = root.Require("version");
+  root.Header("mr-probe", "probe");
   const JsonNode camera = root.Require("camera");
   const JsonNode radius = root.Require("radius_m");
   const JsonNode centre = root.Require("centre_cam_m");
@@ -21,8 +20,6 @@ ProbeGeometry ReadProbe(const fs::path& path) {
   root.Take("consistency_chi2");
   root.Take("provenance");
   root.Done();
-  if (format.String() != "mr-probe") format.Fail("expected \"mr-probe\"");
-  if (version.Integer(1, 1000) != 1) version.Fail("this mr reads probe version 1");
   ProbeGeometry g;
   g.path = path;
   const fs::path cam = path.parent_path() / camera.String();

@@ -54,6 +54,13 @@ std::vector<std::string> JsonSettings::Unread() const {
   return unread;
 }
 
+void JsonSettings::Header(const char* format, const char* what) {
+  const JsonNode f = Require("format");
+  const JsonNode v = Require("version");
+  if (f.String() != format) f.Fail(fmt::format("expected \"{}\"", format));
+  if (v.Integer(1, 1000) != 1) v.Fail(fmt::format("this mr reads {} version 1", what));
+}
+
 void JsonSettings::Done() const {
   const std::vector<std::string> unread = Unread();
   if (unread.empty()) return;

@@ -66,6 +66,10 @@ class JsonSettings {
   std::optional<JsonNode> Take(const char* key);
   JsonNode Require(const char* key);
 
+  // An mr file's header: "format" must be `format` ("mr-probe") and
+  // "version" 1 ("this mr reads WHAT version 1" otherwise).
+  void Header(const char* format, const char* what);
+
   // The node of a declared key, for checks across keys (Fail names it).
   JsonNode Node(const char* key) const { return block_.Child(key); }
   bool Has(const char* key) const { return block_.Has(key); }

@@ -237,7 +237,8 @@ void PlateCheckOptions::Check() const {
   if (out.empty()) throw UsageError("--out is required");
   if (spp < 1 || stride < 1) throw UsageError("--spp and --stride must be at least 1");
   FindRenderMethod(method);
-  if (!(at_gain >= 0)) throw UsageError(fmt::format("--at-gain {} must be positive", at_gain));
+  if (!(at_gain >= 0))
+    throw UsageError(fmt::format("--at-gain {} must not be negative (0: the fitted gains)", at_gain));
   if (!(smoothing.time_constant >= 0)) throw UsageError("--smooth must be 0 or positive");
   if (!(smoothing.jump_ratio > 1)) throw UsageError("--jump-ratio must be above 1");
 }

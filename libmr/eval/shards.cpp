@@ -42,7 +42,7 @@ Shard ReadShard(const fs::path& file) {
 
 void ShardMergeOptions::Check() const {
   if (reports.empty()) throw UsageError("no shard reports to merge");
-  if (!(fps >= 0)) throw UsageError("--fps must be positive");
+  if (!(fps >= 0)) throw UsageError("--fps must not be negative (0: the plate's rate)");
 }
 
 void MergeRenderReports(const ShardMergeOptions& o, Report* report) {

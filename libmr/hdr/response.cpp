@@ -316,16 +316,13 @@ Json ResponseToJson(const CameraResponse& r) {
 
 CameraResponse ParseResponse(const Json& j, const std::string& name) {
   JsonSettings root(JsonNode(j, "", &name));
-  const JsonNode format = root.Require("format");
-  const JsonNode version = root.Require("version");
+  root.Header("mr-response", "response");
   const JsonNode method = root.Require("method");
   const JsonNode levels_node = root.Require("levels");
   const JsonNode chs = root.Require("channels");
   const JsonNode tables = root.Require("log_exposure");
   root.Take("comment");
   root.Done();
-  if (format.String() != "mr-response") format.Fail("expected \"mr-response\"");
-  if (version.Integer(1, 1000) != 1) version.Fail("this mr reads response version 1");
   CameraResponse r;
   r.method = method.String();
   r.identity = r.method == "linear";

@@ -211,17 +211,22 @@ void RunSweepJob(const SweepJobOptions& o, Report* rep) {
                 r.region_relmse);
 }
 
-void PlateJobOptions::Check() const {
-  PlateCheckOptions po = plate;
-  FrameRange(frames, "--frames", &po.frame_begin, &po.frame_end);
-  po.Check();
-}
+namespace {
 
-void RunPlate(const PlateJobOptions& o, Report* rep) {
-  o.Check();
+PlateCheckOptions PlateOf(const PlateJobOptions& o) {
   PlateCheckOptions po = o.plate;
   FrameRange(o.frames, "--frames", &po.frame_begin, &po.frame_end);
   po.command_line = o.command_line;
+  return po;
+}
+
+}  // namespace
+
+void PlateJobOptions::Check() const { PlateOf(*this).Check(); }
+
+void RunPlate(const PlateJobOptions& o, Report* rep) {
+  const PlateCheckOptions po = PlateOf(o);
+  po.Check();  // before the scene is read; RunPlateCheck checks the scene's plate
   const Scene scene = ReadScene(o.scene);
   RunPlateCheck(scene, po, rep);
   const auto& m = rep->metrics();

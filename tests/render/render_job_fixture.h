@@ -107,6 +107,17 @@ class Capture : public ::testing::Test {
     return o.out_dir;
   }
 
+  // Frame 0 of `s` at `spp` samples per pixel into the temporary folder's
+  // NAME; `r` receives the report. Returns the frame's EXR (every layer).
+  static Image RenderFirstFrame(const Scene& s, int spp, const std::string& name, Report* r) {
+    RenderOptions o;
+    o.spp = spp;
+    o.frame_end = 1;
+    o.out_dir = dir_->path() / name;
+    RunRenderJob(s, o, r);
+    return ReadImage(o.out_dir / "00000.exr");
+  }
+
   Report Render(int spp, const fs::path& out, int threads = 0) {
     Scene s = ReadScene(Cap() / "scene.json");
     RenderOptions o;

@@ -86,13 +86,8 @@ TEST_F(Capture, NoVirtualObjectsGiveThePhotographExactly) {
   j.erase("virtual");
   WriteTextFile(Cap() / "empty.json", j.dump());
   Scene s = ReadScene(Cap() / "empty.json");
-  RenderOptions o;
-  o.spp = 2;
-  o.frame_end = 1;
-  o.out_dir = dir_->path() / "empty";
   Report r("mr-render", "test");
-  RunRenderJob(s, o, &r);
-  Image out = ReadImage(dir_->path() / "empty" / "00000.exr");
+  Image out = RenderFirstFrame(s, 2, "empty", &r);
   Image photo = ReadImage(Cap() / "photos" / "00000.exr");
   EXPECT_EQ(out.Layer("composite").values(), photo.values());
   bool skipped = false;

@@ -1,8 +1,30 @@
 #include "core/json_settings.h"
 
+#include <algorithm>
+
 #include "core/check.h"
 
 namespace mr {
+
+namespace {
+
+// Levenshtein distance: insertions, deletions and substitutions.
+size_t EditDistance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diag = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t up = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diag = up;
+    }
+  }
+  return row[b.size()];
+}
+
+}  // namespace
 
 JsonSettings::JsonSettings(const JsonNode& block) : block_(block) {
   if (!block.json().is_object()) block.Fail(fmt::format("expected an object, got {}", block.TypeName()));
@@ -41,6 +63,12 @@ std::optional<JsonNode> JsonSettings::Take(const char* key) {
 
 JsonNode JsonSettings::Require(const char* key) {
   Declare({.key = key, .type = "node"});
+  // A required key misspelt is named as the unknown key it is (Done, which
+  // would name it, is not reached).
+  if (!block_.Has(key))
+    for (const std::string& k : Unread())
+      if (EditDistance(k, key) <= 2)
+        block_.Child(k).Fail(fmt::format("unknown key (did you mean \"{}\", which is required here?)", key));
   return block_.Required(key);
 }
 

@@ -62,7 +62,9 @@ class JsonSettings {
   void OneOf(const char* key, std::string* v, const std::vector<std::string>& options);
   // The node of `key` (declared, so not rejected by Done), absent or
   // present: for values the caller reads itself (a nested block, a path, a
-  // list). Require fails with "missing required key" when it is absent.
+  // list). Require fails with "missing required key" when it is absent, or,
+  // where the block has an unread key within two edits of it ("camra"),
+  // names that key as unknown and suggests the required one.
   std::optional<JsonNode> Take(const char* key);
   JsonNode Require(const char* key);
 

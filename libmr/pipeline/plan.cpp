@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "core/json_node.h"
+#include "core/json_settings.h"
 #include "core/video.h"
 #include "pipeline/pipeline.h"
 #include "render/method.h"
@@ -24,6 +25,46 @@ namespace mr {
 namespace {
 
 using Node = JsonNode;
+using OptNode = std::optional<Node>;
+
+// The blocks of pipeline.json that several stages read, each taken once by
+// its first stage (JsonSettings: every key named where it is taken, absent
+// ones empty, any other key an error listing these); later stages use the
+// fields.
+struct RootBlock {
+  OptNode version, comment, work, camera, lighting, room, video, virtuals, render, output, reference, formfactor,
+      outputs;
+};
+struct LightingBlock {
+  OptNode environment, probe, light_video, sphere_in_plate, lights, environment_up, environment_rotation_deg,
+      environment_scale;
+};
+struct ProbeBlock {
+  OptNode photos, exposures, probe, sphere, fisheye, hdr, unwrap;
+};
+struct LightVideoBlock {
+  OptNode frames, fisheye, exposures, plate_times, options;
+};
+struct PlateSphereBlock {
+  OptNode centre, radius, reflectance, options;
+};
+struct RoomBlock {
+  OptNode real, rgbd, options;
+};
+struct VideoBlock {
+  OptNode frames, frames_transfer, exposure, response, gains, poses;
+};
+struct OutputsBlock {
+  OptNode render, sweep;
+};
+
+// A key of a block taken earlier, required where a stage first uses it (so
+// that errors come in the order of the stages): "missing required key" at
+// its path when absent.
+const Node& Need(const OptNode& n, const Node& block, const char* key) {
+  if (!n) block.Required(key);  // throws
+  return *n;
+}
 
 struct Planner {
   Pipeline* p;
@@ -80,10 +121,10 @@ struct Planner {
   }
   // "options": {"albedo-rays": 64, "no-albedo": true} -> --albedo-rays 64 --no-albedo.
   // The tool checks them (unknown flags are its usage errors).
-  std::vector<std::string> Options(const Node& parent, const char* key = "options") const {
+  std::vector<std::string> Options(const OptNode& options) const {
     std::vector<std::string> a;
-    if (!parent.Has(key)) return a;
-    const Node n = parent.Child(key);
+    if (!options) return a;
+    const Node& n = *options;
     if (!n.json().is_object()) n.Fail("expected an object of tool options, e.g. {\"width\": 256}");
     for (auto& [k, v] : n.json().items()) {
       if (k.empty() || k[0] == '-') n.Child(k).Fail("option names go without the leading --");
@@ -129,21 +170,25 @@ struct Plan {
   fs::path file;
   std::string name;  // the pipeline file, for messages
   Node root;
+  RootBlock r;
   Planner pl;
   fs::path w;  // the work folder
   Json scene = {{"version", 1}};
   // The scene camera (calibrate).
   fs::path camera_model;
   // The lighting (sphere, hdr, probe, plate_probe, lights).
-  std::optional<Node> light, probe, light_video, plate_sphere;
+  LightingBlock light;
+  std::optional<ProbeBlock> probe;
+  std::optional<LightVideoBlock> light_video;
+  std::optional<PlateSphereBlock> plate_sphere;
   std::string no_probe;  // why the photograph stages have nothing to do
   fs::path env, probe_json, probe_raw;
   Json lighting;
   // The room (fuse).
-  std::optional<Node> room;
+  RoomBlock room;
   fs::path fused_mesh, fused_trajectory;
   // The video, its camera section and the plate's gains (register).
-  std::optional<Node> video;
+  VideoBlock video;
   Json camera;
   fs::path gains_dir, fitted_gains;
   std::string gains_skip;
@@ -158,29 +203,52 @@ struct Plan {
   // decides the renders (scene.json itself does not change with it).
   std::vector<fs::path> per_frame;
   Json outputs;
-  std::optional<Node> outs;
+  OutputsBlock outs;
 };
+
+RootBlock ReadRoot(const Node& root) {
+  JsonSettings s(root);
+  RootBlock r{.version = s.Take("version"),
+              .comment = s.Take("comment"),
+              .work = s.Take("work"),
+              .camera = s.Take("camera"),
+              .lighting = s.Take("lighting"),
+              .room = s.Take("room"),
+              .video = s.Take("video"),
+              .virtuals = s.Take("virtual"),
+              .render = s.Take("render"),
+              .output = s.Take("output"),
+              .reference = s.Take("reference"),
+              .formfactor = s.Take("formfactor"),
+              .outputs = s.Take("outputs")};
+  s.Done();
+  return r;
+}
 
 // ---------------------------------------------------------------------------
 // The scene camera: a model, or calibrated from board photographs.
 
 void PlanCalibrate(Plan& st, PipelineStage& s) {
-  const Node cam = st.root.Required("camera");
-  cam.RequireObject({"model", "boards"});
-  if (cam.Has("model") == cam.Has("boards")) cam.Fail("give either camera.model or camera.boards");
-  if (cam.Has("model")) {
-    st.camera_model = st.pl.Path(cam.Child("model"), "camera model");
+  const Node& camera = Need(st.r.camera, st.root, "camera");
+  JsonSettings cam(camera);
+  const OptNode model = cam.Take("model"), boards = cam.Take("boards");
+  cam.Done();
+  if (model.has_value() == boards.has_value()) camera.Fail("give either camera.model or camera.boards");
+  if (model) {
+    st.camera_model = st.pl.Path(*model, "camera model");
     s.skip = "camera.model is given: " + st.camera_model.string();
     return;
   }
-  const Node b = cam.Child("boards");
-  b.RequireObject({"photos", "board", "lensmodel", "options"});
-  const auto photos = st.pl.Files(b.Required("photos"), "board photographs");
-  const fs::path board = st.pl.Path(b.Required("board"), "board definition");
+  JsonSettings b(*boards);
+  const OptNode photos_node = b.Take("photos"), board_node = b.Take("board"), lensmodel = b.Take("lensmodel"),
+                options = b.Take("options");
+  b.Done();
+  const auto photos = st.pl.Files(Need(photos_node, *boards, "photos"), "board photographs");
+  const fs::path board = st.pl.Path(Need(board_node, *boards, "board"), "board definition");
   st.camera_model = st.w / "camera.cameramodel";
   s.args = {"camera", "--board", board.string(), "--out", st.camera_model.string()};
-  if (b.Has("lensmodel")) Append(&s.args, {"--lensmodel", b.Child("lensmodel").String()});
-  Append(&s.args, st.pl.Options(b));
+  if (lensmodel) Append(&s.args, {"--lensmodel", lensmodel->String()});
+  Append(&s.args, st.pl.Options(options));
   AppendPaths(&s.args, photos);
   s.inputs = photos;
   s.inputs.push_back(board);
@@ -195,49 +263,78 @@ void PlanCalibrate(Plan& st, PipelineStage& s) {
 
 // The lighting section, read by its first stage.
 void ReadLighting(Plan& st) {
-  st.light.emplace(st.root.Required("lighting"));
-  const Node& light = *st.light;
-  light.RequireObject({"environment", "probe", "light_video", "sphere_in_plate", "lights", "environment_up",
-                       "environment_rotation_deg", "environment_scale"});
-  if (light.Has("environment") + light.Has("probe") + light.Has("light_video") + light.Has("sphere_in_plate") != 1)
-    light.Fail("give one of lighting.environment, lighting.probe, lighting.light_video and lighting.sphere_in_plate");
-  if (light.Has("sphere_in_plate")) {
-    st.plate_sphere.emplace(light.Child("sphere_in_plate"));
-    st.plate_sphere->RequireObject({"centre", "radius", "reflectance", "options"});
+  JsonSettings ls(Need(st.r.lighting, st.root, "lighting"));
+  st.light = {.environment = ls.Take("environment"),
+              .probe = ls.Take("probe"),
+              .light_video = ls.Take("light_video"),
+              .sphere_in_plate = ls.Take("sphere_in_plate"),
+              .lights = ls.Take("lights"),
+              .environment_up = ls.Take("environment_up"),
+              .environment_rotation_deg = ls.Take("environment_rotation_deg"),
+              .environment_scale = ls.Take("environment_scale")};
+  ls.Done();
+  const LightingBlock& light = st.light;
+  if (light.environment.has_value() + light.probe.has_value() + light.light_video.has_value() +
+          light.sphere_in_plate.has_value() !=
+      1)
+    st.r.lighting->Fail(
+        "give one of lighting.environment, lighting.probe, lighting.light_video and lighting.sphere_in_plate");
+  if (light.sphere_in_plate) {
+    JsonSettings ps(*light.sphere_in_plate);
+    st.plate_sphere = {.centre = ps.Take("centre"),
+                       .radius = ps.Take("radius"),
+                       .reflectance = ps.Take("reflectance"),
+                       .options = ps.Take("options")};
+    ps.Done();
     // Unwrapped after the plate's poses are known (the plate_probe stage).
     st.env = st.w / "env" / "%05d.exr";
   }
-  if (light.Has("light_video")) {
-    st.light_video.emplace(light.Child("light_video"));
-    st.light_video->RequireObject({"frames", "fisheye", "exposures", "plate_times", "options"});
+  if (light.light_video) {
+    JsonSettings vs(*light.light_video);
+    st.light_video = {.frames = vs.Take("frames"),
+                      .fisheye = vs.Take("fisheye"),
+                      .exposures = vs.Take("exposures"),
+                      .plate_times = vs.Take("plate_times"),
+                      .options = vs.Take("options")};
+    vs.Done();
   }
   st.no_probe = st.light_video    ? "the light is a light camera's video (lighting.light_video)"
                 : st.plate_sphere ? "the light is the mirror sphere in the plate (lighting.sphere_in_plate)"
                                   : "lighting.environment is given";
-  if (light.Has("probe")) {
-    st.probe.emplace(light.Child("probe"));
-    st.probe->RequireObject({"photos", "exposures", "probe", "sphere", "fisheye", "hdr", "unwrap"});
+  if (light.probe) {
+    JsonSettings ps(*light.probe);
+    st.probe = {.photos = ps.Take("photos"),
+                .exposures = ps.Take("exposures"),
+                .probe = ps.Take("probe"),
+                .sphere = ps.Take("sphere"),
+                .fisheye = ps.Take("fisheye"),
+                .hdr = ps.Take("hdr"),
+                .unwrap = ps.Take("unwrap")};
+    ps.Done();
   }
 }
 
 void PlanSphere(Plan& st, PipelineStage& s) {
   ReadLighting(st);
-  const std::optional<Node>& probe = st.probe;
+  const std::optional<ProbeBlock>& probe = st.probe;
   if (!probe) {
     s.skip = st.no_probe + ": no probe to locate";
-  } else if (probe->Has("fisheye")) {
+  } else if (probe->fisheye) {
     s.skip = "the probe is a fish-eye view: no mirror sphere to locate";
-  } else if (probe->Has("probe")) {
-    st.probe_json = st.pl.Path(probe->Child("probe"), "probe.json");
+  } else if (probe->probe) {
+    st.probe_json = st.pl.Path(*probe->probe, "probe.json");
     s.skip = "lighting.probe.probe is given: " + st.probe_json.string();
   } else {
-    if (!probe->Has("sphere"))
-      probe->Fail("a mirror-sphere probe needs \"probe\" (probe.json) or \"sphere\" (its photographs)");
-    const Node sp = probe->Child("sphere");
-    sp.RequireObject({"camera", "photos", "radius", "options"});
-    const fs::path light_cam = st.pl.Path(sp.Required("camera"), "light camera model");
-    const auto photos = st.pl.Files(sp.Required("photos"), "sphere photographs");
-    const double radius = sp.Required("radius").Number(1e-4, 10);
+    if (!probe->sphere)
+      st.light.probe->Fail("a mirror-sphere probe needs \"probe\" (probe.json) or \"sphere\" (its photographs)");
+    const Node& sphere = *probe->sphere;
+    JsonSettings sp(sphere);
+    const OptNode camera = sp.Take("camera"), photos_node = sp.Take("photos"), radius_node = sp.Take("radius"),
+                  options = sp.Take("options");
+    sp.Done();
+    const fs::path light_cam = st.pl.Path(Need(camera, sphere, "camera"), "light camera model");
+    const auto photos = st.pl.Files(Need(photos_node, sphere, "photos"), "sphere photographs");
+    const double radius = Need(radius_node, sphere, "radius").Number(1e-4, 10);
     st.probe_json = st.w / "probe.json";
     s.args = {"sphere",
               "--camera",
@@ -246,7 +343,7 @@ void PlanSphere(Plan& st, PipelineStage& s) {
               fmt::format("{}", radius),
               "--out",
               st.probe_json.string()};
-    Append(&s.args, st.pl.Options(sp));
+    Append(&s.args, st.pl.Options(options));
     AppendPaths(&s.args, photos);
     s.inputs = photos;
     s.inputs.push_back(light_cam);
@@ -256,12 +353,12 @@ void PlanSphere(Plan& st, PipelineStage& s) {
 }
 
 void PlanHdr(Plan& st, PipelineStage& s) {
-  const std::optional<Node>& probe = st.probe;
+  const std::optional<ProbeBlock>& probe = st.probe;
   if (!probe) {
     s.skip = st.no_probe + ": no photographs to merge";
     return;
   }
-  const auto photos = st.pl.Files(probe->Required("photos"), "probe photographs");
+  const auto photos = st.pl.Files(Need(probe->photos, *st.light.probe, "photos"), "probe photographs");
   const std::string ext = LowerExtension(photos.front());
   if (photos.size() == 1 && (ext == ".exr" || ext == ".hdr")) {
     st.probe_raw = photos.front();
@@ -271,12 +368,12 @@ void PlanHdr(Plan& st, PipelineStage& s) {
   st.probe_raw = st.w / "probe-raw.exr";
   s.args = {"--out", st.probe_raw.string(), "--save-response", (st.w / "probe-response.json").string()};
   s.inputs = photos;
-  if (probe->Has("exposures")) {
-    const fs::path e = st.pl.Path(probe->Child("exposures"), "exposure list");
+  if (probe->exposures) {
+    const fs::path e = st.pl.Path(*probe->exposures, "exposure list");
     Append(&s.args, {"--exposures", e.string()});
     s.inputs.push_back(e);
   }
-  Append(&s.args, st.pl.Options(*probe, "hdr"));
+  Append(&s.args, st.pl.Options(probe->hdr));
   AppendPaths(&s.args, photos);
   s.outputs = {st.probe_raw, st.w / "probe-response.json"};
   s.does = fmt::format("{} bracketed photographs of the probe merged into radiance", photos.size());
@@ -286,51 +383,54 @@ void PlanHdr(Plan& st, PipelineStage& s) {
 // timestamp to the plate's poses; mr-probe keeps the maps whose light frames
 // did not change.
 void PlanLightVideo(Plan& st, PipelineStage& s) {
-  const Node& lv = *st.light_video;
-  const fs::path frames = st.pl.Pattern(lv.Required("frames"), "light video frames");
-  const fs::path fe = st.pl.Path(lv.Required("fisheye"), "light camera model");
+  const LightVideoBlock& lv = *st.light_video;
+  const Node& block = *st.light.light_video;
+  const fs::path frames = st.pl.Pattern(Need(lv.frames, block, "frames"), "light video frames");
+  const fs::path fe = st.pl.Path(Need(lv.fisheye, block, "fisheye"), "light camera model");
   st.env = st.w / "env" / "%05d.exr";
   s.args = {"--light", frames.string(), "--fisheye", fe.string(), "--out", st.env.string()};
   s.inputs = {frames.string().find('%') != std::string::npos || LowerExtension(frames) == ".txt" ? frames.parent_path()
                                                                                                  : frames,
               fe};
   std::optional<fs::path> times;
-  if (lv.Has("plate_times")) {
-    times = st.pl.Path(lv.Child("plate_times"), "plate trajectory");
-  } else if (st.root.Has("video") && st.root.Child("video").Has("poses") &&
-             st.root.Child("video").Child("poses").Has("tum")) {
-    times = st.pl.Path(st.root.Child("video").Child("poses").Child("tum"), "trajectory");
+  // Without plate_times, the plate's trajectory if given (video.poses.tum,
+  // read by the register stage: looked up here).
+  const Json video = st.r.video ? st.r.video->json() : Json::object();
+  if (lv.plate_times) {
+    times = st.pl.Path(*lv.plate_times, "plate trajectory");
+  } else if (video.contains("poses") && video["poses"].contains("tum")) {
+    times = st.pl.Path(st.r.video->Child("poses").Child("tum"), "trajectory");
   }
   if (times) {
     Append(&s.args, {"--plate-times", times->string()});
     s.inputs.push_back(*times);
   }
-  if (lv.Has("exposures")) {
-    const fs::path e = st.pl.Path(lv.Child("exposures"), "light frames' exposure times");
+  if (lv.exposures) {
+    const fs::path e = st.pl.Path(*lv.exposures, "light frames' exposure times");
     Append(&s.args, {"--exposures", e.string()});
     s.inputs.push_back(e);
   }
-  Append(&s.args, st.pl.Options(lv));
+  Append(&s.args, st.pl.Options(lv.options));
   s.outputs = {st.w / "env"};
   s.does = times ? "the light camera's frames unwrapped, one map per plate frame matched by timestamp"
                  : "the light camera's frames unwrapped, one map per frame (no plate times: frame i is i)";
 }
 
 void PlanProbe(Plan& st, PipelineStage& s) {
-  const std::optional<Node>& probe = st.probe;
+  const std::optional<ProbeBlock>& probe = st.probe;
   if (st.light_video) {
     PlanLightVideo(st, s);
   } else if (st.plate_sphere) {
     s.skip = "the light is the mirror sphere in the plate: unwrapped by plate_probe, once the plate's poses are known";
   } else if (!probe) {
-    st.env = st.pl.Pattern(st.light->Child("environment"), "environment map");  // a map, one per frame, or a video
+    st.env = st.pl.Pattern(*st.light.environment, "environment map");  // a map, one per frame, or a video
     s.skip = "lighting.environment is given: " + st.env.string();
   } else {
     st.env = st.w / "env.exr";
     s.args = {st.probe_raw.string(), "--out", st.env.string()};
     s.inputs = {st.probe_raw};
-    if (probe->Has("fisheye")) {
-      const fs::path fe = st.pl.Path(probe->Child("fisheye"), "fish-eye camera model");
+    if (probe->fisheye) {
+      const fs::path fe = st.pl.Path(*probe->fisheye, "fish-eye camera model");
       Append(&s.args, {"--fisheye", fe.string()});
       s.inputs.push_back(fe);
       s.does = "the fish-eye view unwrapped into a world-aligned lat-long map";
@@ -339,7 +439,7 @@ void PlanProbe(Plan& st, PipelineStage& s) {
       s.inputs.push_back(st.probe_json);
       s.does = "the mirror sphere unwrapped into a world-aligned lat-long map";
     }
-    Append(&s.args, st.pl.Options(*probe, "unwrap"));
+    Append(&s.args, st.pl.Options(probe->unwrap));
     s.outputs = {st.env};
   }
 }
@@ -350,7 +450,7 @@ void PlanProbe(Plan& st, PipelineStage& s) {
 // mr-fuse de-lights the albedo by the captured light (a map per frame: the
 // first frame's) unless room.options says otherwise.
 void AddDelightingMap(Plan& st, const std::vector<std::string>& opts, PipelineStage& s) {
-  const Node& room = *st.room;
+  const Node& room = *st.r.room;  // taken by PlanFuse
   if (std::find(opts.begin(), opts.end(), "--no-albedo") != opts.end() ||
       std::find(opts.begin(), opts.end(), "--env") != opts.end())
     return;
@@ -365,21 +465,22 @@ void AddDelightingMap(Plan& st, const std::vector<std::string>& opts, PipelineSt
   const fs::path delight = st.env.string().find('%') != std::string::npos ? FramePath(st.env, 0) : st.env;
   std::error_code ec;
   // A given map must exist; the probe's and a light video's are made by their stage.
-  if (st.light->Has("environment") && !fs::is_regular_file(delight, ec))
-    st.light->Child("environment")
-        .Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
+  if (st.light.environment && !fs::is_regular_file(delight, ec))
+    st.light.environment->Fail(fmt::format("{}: no map for frame 0 to de-light the room by", delight.string()));
   Append(&s.args, {"--env", delight.string()});
   s.inputs.push_back(delight);
 }
 
 void PlanFuse(Plan& st, PipelineStage& s) {
-  st.room.emplace(st.root.Required("room"));
-  const Node& room = *st.room;
-  room.RequireObject({"real", "rgbd", "options"});
-  if (room.Has("real") == room.Has("rgbd"))
-    room.Fail("give either room.real (meshes) or room.rgbd (a recording to fuse)");
-  if (room.Has("real")) {
-    const Node r = room.Child("real");
+  const Node& room_node = Need(st.r.room, st.root, "room");
+  JsonSettings rs(room_node);
+  st.room = {.real = rs.Take("real"), .rgbd = rs.Take("rgbd"), .options = rs.Take("options")};
+  rs.Done();
+  const RoomBlock& room = st.room;
+  if (room.real.has_value() == room.rgbd.has_value())
+    room_node.Fail("give either room.real (meshes) or room.rgbd (a recording to fuse)");
+  if (room.real) {
+    const Node& r = *room.real;
     Json reals = Json::array();
     auto rebase = [&](const Node& one) {
       Json e = Rebase(st.pl, one, {"mesh"});
@@ -396,12 +497,12 @@ void PlanFuse(Plan& st, PipelineStage& s) {
                          reals.size() == 1 ? "" : "es");
     return;
   }
-  const fs::path rgbd = st.pl.Path(room.Child("rgbd"), "RGB-D recording");
+  const fs::path rgbd = st.pl.Path(*room.rgbd, "RGB-D recording");
   st.fused_mesh = st.w / "room" / "room.ply";
   st.fused_trajectory = st.w / "room" / "trajectory.txt";
   s.args = {rgbd.string(), "--out", (st.w / "room").string()};
   s.inputs = {rgbd};
-  const auto opts = st.pl.Options(room);
+  const auto opts = st.pl.Options(room.options);
   AddDelightingMap(st, opts, s);
   Append(&s.args, opts);
   s.outputs = {st.fused_mesh, st.fused_trajectory};
@@ -418,16 +519,16 @@ void PlanFuse(Plan& st, PipelineStage& s) {
 // fitted as a check of the chain, not applied, unless asked ({"apply":
 // true}).
 void ReadGains(Plan& st) {
-  const Node& video = *st.video;
+  const VideoBlock& video = st.video;
   st.gains_dir = st.w / "radiometry";
   st.fitted_gains = st.gains_dir / "gains.json";
-  const bool linear = video.Has("frames_transfer") && video.Child("frames_transfer").String() == "linear";
-  bool apply_gains = !linear;
-  const bool display = video.Has("frames_transfer") && video.Child("frames_transfer").String() == "display";
-  if (!video.Has("frames")) {
+  const std::string transfer = video.frames_transfer ? video.frames_transfer->String() : "";
+  bool apply_gains = transfer != "linear";
+  const bool display = transfer == "display";
+  if (!video.frames) {
     st.gains_skip = "the video names no frames (a synthetic composite): there is no plate to fit";
-  } else if (video.Has("gains")) {
-    const Node g = video.Child("gains");
+  } else if (video.gains) {
+    const Node& g = *video.gains;
     if (g.json().is_string()) {
       st.camera["gains"] = st.pl.Rel(st.pl.Path(g, "plate gains"));
       st.gains_skip = "video.gains names them: " + g.String();
@@ -435,18 +536,22 @@ void ReadGains(Plan& st) {
       if (g.Bool()) g.Fail("expected false, a gains file, or {\"options\": {...}} (fitting is the default)");
       st.gains_skip = "video.gains is false";
     } else if (g.json().is_object()) {
-      g.RequireObject({"options", "scale", "apply"});
-      st.gains_options = st.pl.Options(g);
-      if (g.Has("apply")) apply_gains = g.Child("apply").Bool();
-      if (g.Has("scale")) st.camera["gains_scale"] = g.Child("scale").OneOf({"render", "room"});
+      JsonSettings gs(g);
+      const OptNode options = gs.Take("options");
+      std::string scale;
+      gs.OneOf("scale", &scale, {"render", "room"});
+      gs.Bool("apply", &apply_gains);
+      gs.Done();
+      st.gains_options = st.pl.Options(options);
+      if (!scale.empty()) st.camera["gains_scale"] = scale;
     } else {
       g.Fail("expected false, a gains file, or {\"options\": {...}}");
     }
-    if (display && video.Has("exposure") && !st.gains_skip.empty() && g.json().is_string())
-      video.Child("exposure").Fail("with video.gains the gains scale the render: give one of the two");
-    if (display && video.Has("exposure") && st.gains_skip.empty())
-      video.Child("exposure").Fail("a hand-set exposure and fitted gains both scale the render: give one of the two");
-  } else if (display && video.Has("exposure")) {
+    if (display && video.exposure && !st.gains_skip.empty() && g.json().is_string())
+      video.exposure->Fail("with video.gains the gains scale the render: give one of the two");
+    if (display && video.exposure && st.gains_skip.empty())
+      video.exposure->Fail("a hand-set exposure and fitted gains both scale the render: give one of the two");
+  } else if (display && video.exposure) {
     st.gains_skip = "video.exposure is hand-set for the display-space plate";
   }
   st.use_gains = st.gains_skip.empty() && apply_gains;
@@ -456,36 +561,49 @@ void ReadGains(Plan& st) {
 // The video section: the scene's camera (model, frames, exposure,
 // response) and the gains.
 void ReadVideo(Plan& st) {
-  st.video.emplace(st.root.Required("video"));
-  const Node& video = *st.video;
-  video.RequireObject({"frames", "frames_transfer", "exposure", "response", "gains", "poses"});
+  JsonSettings vs(Need(st.r.video, st.root, "video"));
+  st.video = {.frames = vs.Take("frames"),
+              .frames_transfer = vs.Take("frames_transfer"),
+              .exposure = vs.Take("exposure"),
+              .response = vs.Take("response"),
+              .gains = vs.Take("gains"),
+              .poses = vs.Take("poses")};
+  vs.Done();
+  const VideoBlock& video = st.video;
   st.camera = {{"model", st.pl.Rel(st.camera_model)}};
-  if (video.Has("frames")) st.camera["frames"] = st.pl.Rel(st.pl.Pattern(video.Child("frames"), "video frames"));
-  if (video.Has("frames_transfer")) st.camera["frames_transfer"] = video.Child("frames_transfer").String();
-  if (video.Has("exposure")) st.camera["exposure"] = video.Child("exposure").json();
-  if (video.Has("response")) st.camera["response"] = st.pl.Rel(st.pl.Path(video.Child("response"), "camera response"));
+  if (video.frames) st.camera["frames"] = st.pl.Rel(st.pl.Pattern(*video.frames, "video frames"));
+  if (video.frames_transfer) st.camera["frames_transfer"] = video.frames_transfer->String();
+  if (video.exposure) st.camera["exposure"] = video.exposure->json();
+  if (video.response) st.camera["response"] = st.pl.Rel(st.pl.Path(*video.response, "camera response"));
   ReadGains(st);
 }
+
+// video.poses: one of a trajectory, the fused one, a COLMAP model to align,
+// or registration by COLMAP, with mr-register's aligning settings.
+struct PosesBlock {
+  OptNode tum, fuse, colmap, register_, initial, options;
+  bool refine_mesh = false;
+};
 
 // mr-register's aligning: to the fused trajectory (and, asked, refined
 // against the fused mesh); with room meshes, to the meshes from a given
 // start.
-void AddAlignment(const Plan& st, const Node& ps, PipelineStage& s) {
+void AddAlignment(const Plan& st, const Node& node, const PosesBlock& ps, PipelineStage& s) {
   if (!st.fused_trajectory.empty()) {
     Append(&s.args, {"--trajectory", st.fused_trajectory.string()});
     s.inputs.push_back(st.fused_trajectory);
-    if (ps.Has("refine_mesh") && ps.Child("refine_mesh").Bool()) {
+    if (ps.refine_mesh) {
       Append(&s.args, {"--mesh", st.fused_mesh.string()});
       s.inputs.push_back(st.fused_mesh);
     }
     return;
   }
-  if (!ps.Has("initial"))
-    ps.Fail(
+  if (!ps.initial)
+    node.Fail(
         "aligning COLMAP's poses to room meshes needs \"initial\": a rough similarity, 16 numbers "
         "(row-major [s*R t; 0 0 0 1], COLMAP's frame to the room's)");
   std::string list;
-  for (double v : ps.Child("initial").Numbers(16, -1e30, 1e30)) {
+  for (double v : ps.initial->Numbers(16, -1e30, 1e30)) {
     if (!list.empty()) list += ',';
     list += fmt::format("{}", v);
   }
@@ -497,51 +615,68 @@ void AddAlignment(const Plan& st, const Node& ps, PipelineStage& s) {
   }
 }
 
+// mr-register colmap's arguments: the frames, and video.poses.register's
+// matcher settings when it is an object.
+void AddColmap(const Plan& st, const Node& reg, PipelineStage& s) {
+  const fs::path frames = st.pl.Pattern(*st.video.frames, "video frames");
+  s.args = {"colmap",   frames.string(),         "--workspace", (st.w / "video" / "colmap").string(),
+            "--camera", st.camera_model.string()};
+  s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, st.camera_model};
+  if (reg.json().is_object()) {
+    JsonSettings r(reg);
+    std::string matcher;
+    int overlap = 0;
+    r.OneOf("matcher", &matcher, {"sequential", "exhaustive"});
+    r.Integer("overlap", &overlap, 1, 1000);
+    r.Done();
+    if (!matcher.empty()) Append(&s.args, {"--matcher", matcher});
+    if (overlap) Append(&s.args, {"--overlap", std::to_string(overlap)});
+  } else if (!reg.Bool()) {
+    reg.Fail("expected true or {matcher, overlap}");
+  }
+  s.does =
+      "the video's frames registered by COLMAP and aligned to the room (similarity to mr-fuse's trajectory, "
+      "Ceres)";
+}
+
 void PlanRegister(Plan& st, PipelineStage& s) {
   ReadVideo(st);
-  const Node& video = *st.video;
-  const Node ps = video.Required("poses");
-  ps.RequireObject({"tum", "fuse", "colmap", "register", "initial", "refine_mesh", "options"});
-  const int given = ps.Has("tum") + ps.Has("fuse") + ps.Has("colmap") + ps.Has("register");
+  const VideoBlock& video = st.video;
+  const Node& node = Need(video.poses, *st.r.video, "poses");
+  JsonSettings pj(node);
+  PosesBlock ps{.tum = pj.Take("tum"),
+                .fuse = pj.Take("fuse"),
+                .colmap = pj.Take("colmap"),
+                .register_ = pj.Take("register"),
+                .initial = pj.Take("initial")};
+  pj.Bool("refine_mesh", &ps.refine_mesh);
+  ps.options = pj.Take("options");
+  pj.Done();
+  const int given = ps.tum.has_value() + ps.fuse.has_value() + ps.colmap.has_value() + ps.register_.has_value();
   if (given != 1)
-    ps.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
-  if (ps.Has("tum")) {
-    st.poses = st.pl.Path(ps.Child("tum"), "trajectory");
+    node.Fail("give one of tum (a trajectory), fuse (the RGB-D recording's), colmap (a model to align) or register");
+  if (ps.tum) {
+    st.poses = st.pl.Path(*ps.tum, "trajectory");
     s.skip = "video.poses.tum is given: " + st.poses.string();
-  } else if (ps.Has("fuse")) {
-    if (st.fused_trajectory.empty())
-      ps.Child("fuse").Fail("the room is not fused (room.rgbd): there is no fused trajectory");
+  } else if (ps.fuse) {
+    if (st.fused_trajectory.empty()) ps.fuse->Fail("the room is not fused (room.rgbd): there is no fused trajectory");
     st.poses = st.fused_trajectory;
     s.skip = "the video is the RGB-D recording's colour: its poses are mr-fuse's trajectory";
   } else {
     st.poses = st.w / "video" / "poses.txt";
     const fs::path model_out = st.w / "video" / "colmap.cameramodel";
-    if (ps.Has("colmap")) {
-      const fs::path m = st.pl.Path(ps.Child("colmap"), "COLMAP model");
+    if (ps.colmap) {
+      const fs::path m = st.pl.Path(*ps.colmap, "COLMAP model");
       s.args = {"align", m.string()};
       s.inputs = {m};
       s.does = "the COLMAP model aligned to the room (similarity to mr-fuse's trajectory, Ceres)";
     } else {
-      if (!video.Has("frames")) ps.Fail("registration needs video.frames");
-      const fs::path frames = st.pl.Pattern(video.Child("frames"), "video frames");
-      s.args = {"colmap",   frames.string(),         "--workspace", (st.w / "video" / "colmap").string(),
-                "--camera", st.camera_model.string()};
-      s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, st.camera_model};
-      if (ps.Child("register").json().is_object()) {
-        const Node r = ps.Child("register");
-        r.RequireObject({"matcher", "overlap"});
-        if (r.Has("matcher")) Append(&s.args, {"--matcher", r.Child("matcher").OneOf({"sequential", "exhaustive"})});
-        if (r.Has("overlap")) Append(&s.args, {"--overlap", std::to_string(r.Child("overlap").Integer(1, 1000))});
-      } else if (!ps.Child("register").Bool()) {
-        ps.Child("register").Fail("expected true or {matcher, overlap}");
-      }
-      s.does =
-          "the video's frames registered by COLMAP and aligned to the room (similarity to mr-fuse's trajectory, "
-          "Ceres)";
+      if (!video.frames) node.Fail("registration needs video.frames");
+      AddColmap(st, *ps.register_, s);
     }
-    AddAlignment(st, ps, s);
+    AddAlignment(st, node, ps, s);
     Append(&s.args, {"--out", st.poses.string(), "--camera-out", model_out.string()});
-    Append(&s.args, st.pl.Options(ps));
+    Append(&s.args, st.pl.Options(ps.options));
     s.outputs = {st.poses, model_out};
   }
   if (!st.poses.empty()) st.camera["poses"] = {{"format", "tum"}, {"path", st.pl.Rel(st.poses)}};
@@ -556,11 +691,12 @@ void PlanPlateProbe(Plan& st, PipelineStage& s) {
     s.skip = "lighting.sphere_in_plate is not given";
     return;
   }
-  const Node& sp = *st.plate_sphere;
-  const Node& video = *st.video;
-  if (!video.Has("frames")) sp.Fail("the sphere in the plate needs the plate (video.frames)");
-  const std::vector<double> c = sp.Required("centre").Numbers(3, -1e6, 1e6);
-  const double radius = sp.Required("radius").Number(1e-4, 100);
+  const PlateSphereBlock& sp = *st.plate_sphere;
+  const VideoBlock& video = st.video;
+  if (!video.frames) st.light.sphere_in_plate->Fail("the sphere in the plate needs the plate (video.frames)");
+  const Node& block = *st.light.sphere_in_plate;
+  const std::vector<double> c = Need(sp.centre, block, "centre").Numbers(3, -1e6, 1e6);
+  const double radius = Need(sp.radius, block, "radius").Number(1e-4, 100);
   const fs::path plate_scene = st.w / "plate.json";
   Json plate_camera = st.camera;
   if (st.use_gains) plate_camera.erase("gains");  // fitted by the radiometry stage, after this one
@@ -579,13 +715,12 @@ void PlanPlateProbe(Plan& st, PipelineStage& s) {
             fmt::format("{},{},{},{}", c[0], c[1], c[2], radius),
             "--out",
             st.env.string()};
-  if (sp.Has("reflectance"))
-    Append(&s.args, {"--reflectance", fmt::format("{}", sp.Child("reflectance").Number(1e-3, 1))});
-  Append(&s.args, st.pl.Options(sp));
-  const fs::path frames = st.pl.Pattern(video.Child("frames"), "video frames");
+  if (sp.reflectance) Append(&s.args, {"--reflectance", fmt::format("{}", sp.reflectance->Number(1e-3, 1))});
+  Append(&s.args, st.pl.Options(sp.options));
+  const fs::path frames = st.pl.Pattern(*video.frames, "video frames");
   s.inputs = {frames.string().find('%') != std::string::npos ? frames.parent_path() : frames, st.camera_model};
   if (!st.poses.empty()) s.inputs.push_back(st.poses);
-  if (video.Has("response")) s.inputs.push_back(st.pl.Path(video.Child("response"), "camera response"));
+  if (video.response) s.inputs.push_back(st.pl.Path(*video.response, "camera response"));
   if (st.camera.contains("gains") && !st.use_gains) s.inputs.push_back(st.w / st.camera["gains"].get<std::string>());
   s.outputs = {st.w / "env"};
   s.does = "the mirror sphere in each plate frame unwrapped from the frame's pose into a map";
@@ -594,17 +729,19 @@ void PlanPlateProbe(Plan& st, PipelineStage& s) {
 // Lights extracted from the map (or a map per frame), and the scene's
 // lighting section.
 void PlanLights(Plan& st, PipelineStage& s) {
-  const Node& light = *st.light;
+  const LightingBlock& light = st.light;
   st.lighting = {{"environment", st.pl.Rel(st.env)}};
-  if (!light.Has("lights")) {
+  if (!light.lights) {
     s.skip = "lighting.lights is not asked for: the scene is lit by the environment map alone";
-  } else if (light.Child("lights").json().is_string()) {
-    const fs::path l = st.pl.Pattern(light.Child("lights"), "lights.json");  // a file, or one per frame
+  } else if (light.lights->json().is_string()) {
+    const fs::path l = st.pl.Pattern(*light.lights, "lights.json");  // a file, or one per frame
     st.lighting["lights"] = st.pl.Rel(l);
     s.skip = "lighting.lights is given: " + l.string();
   } else {
-    const Node l = light.Child("lights");
-    l.RequireObject({"options"});
+    const Node& l = *light.lights;
+    JsonSettings ls(l);
+    const OptNode options = ls.Take("options");
+    ls.Done();
     if (IsVideoFile(st.env))
       l.Fail(
           "mr-lights extracts lights from maps, and lighting.environment is a video: give the maps as a "
@@ -614,7 +751,7 @@ void PlanLights(Plan& st, PipelineStage& s) {
     const fs::path out = per_frame ? st.w / "lights" / "%05d.json" : st.w / "lights.json";
     const fs::path residual = per_frame ? st.w / "env-residual" / "%05d.exr" : st.w / "env-residual.exr";
     s.args = {st.env.string(), "--out", out.string(), "--residual", residual.string()};
-    Append(&s.args, st.pl.Options(l));
+    Append(&s.args, st.pl.Options(options));
     s.inputs = {per_frame ? st.env.parent_path() : st.env};
     s.outputs = per_frame ? std::vector<fs::path>{st.w / "lights", st.w / "env-residual"}
                           : std::vector<fs::path>{out, residual};
@@ -623,8 +760,10 @@ void PlanLights(Plan& st, PipelineStage& s) {
                        : "lights extracted from the map; the scene is lit by them and the residual map";
     st.lighting = {{"environment", st.pl.Rel(residual)}, {"lights", st.pl.Rel(out)}};
   }
-  for (const char* k : {"environment_up", "environment_rotation_deg", "environment_scale"})
-    if (light.Has(k)) st.lighting[k] = light.Child(k).json();
+  // The map's orientation and scale: checked by the scene's parser.
+  if (light.environment_up) st.lighting["environment_up"] = light.environment_up->json();
+  if (light.environment_rotation_deg) st.lighting["environment_rotation_deg"] = light.environment_rotation_deg->json();
+  if (light.environment_scale) st.lighting["environment_scale"] = light.environment_scale->json();
   st.scene["lighting"] = st.lighting;
 }
 
@@ -632,7 +771,7 @@ void PlanLights(Plan& st, PipelineStage& s) {
 // Virtual objects, with form factors where prt needs them; the scene.
 
 void PlanFormfactor(Plan& st, PipelineStage& s) {
-  const Json render = st.root.Has("render") ? st.root.Child("render").json() : Json::object();
+  const Json render = st.r.render ? st.r.render->json() : Json::object();
   st.method = render.value("method", "pt");
   bool uses_ffc = false;
   std::string ffc_methods;
@@ -641,9 +780,9 @@ void PlanFormfactor(Plan& st, PipelineStage& s) {
       ffc_methods += (ffc_methods.empty() ? "" : ", ") + m.name;
       uses_ffc = uses_ffc || m.name == st.method;
     }
-  const Node v = st.root.Required("virtual");
+  const Node& v = Need(st.r.virtuals, st.root, "virtual");
   if (!v.json().is_array()) v.Fail("expected a list of virtual objects");
-  const auto opts = st.root.Has("formfactor") ? st.pl.Options(st.root, "formfactor") : std::vector<std::string>();
+  const auto opts = st.pl.Options(st.r.formfactor);
   for (size_t i = 0; i < v.json().size(); ++i) {
     const Node o = v.Index(i);
     if (o.Has("light")) {  // a virtual light: passed through
@@ -653,12 +792,12 @@ void PlanFormfactor(Plan& st, PipelineStage& s) {
     Json e = Rebase(st.pl, o, {"mesh", "formfactors"});
     if (o.Has("material"))  // its texture, like the mesh, relative to the work folder
       e["material"] = Rebase(st.pl, o.Child("material"), {"albedo_texture"});
-    const bool named_ffc = o.Has("formfactors") && o.Child("formfactors").json().is_string();
-    const bool asked_ffc =
-        o.Has("formfactors") && o.Child("formfactors").json().is_boolean() && o.Child("formfactors").Bool();
+    // "formfactors": a file (named), true (asked for) or false; checked by the scene's parser.
+    const Json ffc_value = o.json().value("formfactors", Json());
+    const bool named_ffc = ffc_value.is_string();
+    const bool asked_ffc = ffc_value.is_boolean() && ffc_value.get<bool>();
     const bool wants = uses_ffc ? !named_ffc : asked_ffc;
-    if (o.Has("formfactors") && o.Child("formfactors").json().is_boolean() && !o.Child("formfactors").Bool())
-      e.erase("formfactors");
+    if (ffc_value.is_boolean() && !asked_ffc) e.erase("formfactors");
     if (wants) {
       if (!s.args.empty()) o.Fail("form factors for more than one object: give each its own ffc file");
       const fs::path mesh = st.pl.Path(o.Required("mesh"), "mesh");
@@ -678,11 +817,10 @@ void PlanFormfactor(Plan& st, PipelineStage& s) {
                       : fmt::format("render.method is {}: form factors are only used by {}", st.method, ffc_methods);
   st.scene["virtual"] = st.virtuals;
   st.scene["render"] = render;
-  Json output = st.root.Has("output") ? st.root.Child("output").json() : Json::object();
+  Json output = st.r.output ? st.r.output->json() : Json::object();
   output["dir"] = "render";
   st.scene["output"] = output;
-  if (st.root.Has("reference"))
-    st.scene["reference"] = st.pl.Rel(st.pl.Pattern(st.root.Child("reference"), "reference frames"));
+  if (st.r.reference) st.scene["reference"] = st.pl.Rel(st.pl.Pattern(*st.r.reference, "reference frames"));
   st.scene["comment"] = fmt::format("written by mr-pipeline from {}", st.file.string());
 }
 
@@ -708,9 +846,10 @@ void PlanScene(Plan& st, PipelineStage& s) {
   for (const char* k : {"environment", "lights"})
     if (st.lighting.contains(k) && st.lighting[k].get<std::string>().find('%') != std::string::npos)
       st.per_frame.push_back((st.w / st.lighting[k].get<std::string>()).lexically_normal().parent_path());
-  st.outputs = st.root.Has("outputs") ? st.root.Child("outputs").json() : Json{{"render", true}};
-  st.outs.emplace(st.outputs, "outputs", &st.name);
-  st.outs->RequireObject({"render", "sweep"});
+  st.outputs = st.r.outputs ? st.r.outputs->json() : Json{{"render", true}};
+  JsonSettings os(Node(st.outputs, "outputs", &st.name));
+  st.outs = {.render = os.Take("render"), .sweep = os.Take("sweep")};
+  os.Done();
 }
 
 // ---------------------------------------------------------------------------
@@ -733,7 +872,7 @@ void PlanRadiometry(Plan& st, PipelineStage& s) {
 }
 
 void PlanRender(Plan& st, PipelineStage& s) {
-  if (st.outs->Has("render") && !st.outs->Child("render").Bool()) {
+  if (st.outs.render && !st.outs.render->Bool()) {
     s.skip = "outputs.render is false";
     return;
   }
@@ -748,23 +887,25 @@ void PlanRender(Plan& st, PipelineStage& s) {
 }
 
 void PlanSweep(Plan& st, PipelineStage& s) {
-  if (!st.outs->Has("sweep")) {
+  if (!st.outs.sweep) {
     s.skip = "outputs.sweep is not asked for";
     return;
   }
-  if (!st.root.Has("reference")) {
+  if (!st.r.reference) {
     s.skip = "no reference frames (reference): there is nothing to measure error against";
     return;
   }
-  const Node sw = st.outs->Child("sweep");
+  const Node& sw = *st.outs.sweep;
   if (sw.json().is_boolean() && !sw.Bool()) {
     s.skip = "outputs.sweep is false";
     return;
   }
   s.args = {"sweep", st.scene_file.string(), "--out", (st.w / "sweep").string()};
   if (sw.json().is_object()) {
-    sw.RequireObject({"options"});
-    Append(&s.args, st.pl.Options(sw));
+    JsonSettings ss(sw);
+    const OptNode options = ss.Take("options");
+    ss.Done();
+    Append(&s.args, st.pl.Options(options));
   }
   s.inputs = {st.scene_file};
   Append(&s.inputs, st.per_frame);
@@ -823,10 +964,9 @@ Pipeline PlanPipeline(const fs::path& file) {
   // found by fuzz/fuzz_pipeline) as one mr::Error naming the file.
   p.json = ReadJsonFile(file);
   Plan st(&p, file);
-  st.root.RequireObject({"version", "comment", "work", "camera", "lighting", "room", "video", "virtual", "render",
-                         "output", "reference", "formfactor", "outputs"});
-  if (st.root.Required("version").Integer(1, 1) != 1) st.root.Fail("version must be 1");
-  p.work = (p.base / (st.root.Has("work") ? st.root.Child("work").String() : std::string("work"))).lexically_normal();
+  st.r = ReadRoot(st.root);
+  if (Need(st.r.version, st.root, "version").Integer(1, 1) != 1) st.root.Fail("version must be 1");
+  p.work = (p.base / (st.r.work ? st.r.work->String() : std::string("work"))).lexically_normal();
   st.w = p.work;
   for (const StageDef& d : Stages()) {
     p.stages.push_back({});

@@ -70,6 +70,10 @@ mr_require(Ceres_FOUND libceres-dev "Ceres Solver (the mirror sphere's robust co
 find_package(embree 3 QUIET CONFIG)
 mr_require(embree_FOUND libembree-dev "Embree 3")
 
+# glTF 2.0 assets (geometry/asset_gltf.cpp; docs/dependencies.md says why not assimp).
+find_package(TinyGLTF QUIET CONFIG)
+mr_require(TinyGLTF_FOUND libtinygltf-dev "tinygltf (glTF 2.0 assets)")
+
 # mrcal ships neither a CMake config nor a pkg-config file in Debian 12.
 find_path(MRCAL_INCLUDE_DIR mrcal/mrcal.h)
 find_library(MRCAL_LIBRARY mrcal)

@@ -16,6 +16,7 @@ packages=(
   libceres-dev                        # the mirror sphere's robust fit
   # geometry and ray tracing
   libopenmesh-dev libembree-dev
+  libtinygltf-dev                     # glTF 2.0 assets
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   blender python3-opencv              # the Cycles cross-check and bench/cycles_compare.py

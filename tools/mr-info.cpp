@@ -13,11 +13,14 @@ int main(int argc, char** argv) {
                    "Says what each file that mr reads or writes is, and whether it is sound.\n"
                    "Kinds: .cameramodel (lens model, image size, field of view); images .exr .hdr .png\n"
                    ".jpg .tif .pfm (size, layers, min/max/mean per channel, NaN/Inf counts); meshes .ply .obj\n"
-                   ".off .stl (vertices, faces, bounds, degenerate faces); scene.json (full validation);\n"
+                   ".off .stl (vertices, faces, bounds, degenerate faces); assets .gltf .glb, and .obj with\n"
+                   "an mtllib (parts, triangles, materials, images and their sizes, extensions, what mr\n"
+                   "ignores); scene.json (full validation);\n"
                    "report.json; calibration boards (.json); TUM trajectories and 7-Scenes poses (.txt);\n"
                    "COLMAP text models (a folder with cameras.txt and images.txt).\n"
                    "Exit code 1 when any file is unreadable or unsound (NaN/Inf pixels, bad values).",
                    "  mr-info scene.json room.ply env.exr scene.cameramodel\n"
+                   "  mr-info chair.glb\n"
                    "  mr-info --json render-report.json > summary.json\n"
                    "  mr-info --report info-report.json frames/*.exr");
   app.add_option("files", files, "Files or folders to describe")->required();

@@ -7,6 +7,7 @@
 #include "core/error.h"
 #include "core/image.h"
 #include "core/report.h"
+#include "geometry/asset.h"
 #include "geometry/mesh.h"
 #include "hdr/response.h"
 #include "light/lights_file.h"
@@ -90,6 +91,23 @@ void DescribeMesh(const fs::path& path, FileInfo* fi) {
               {"faces_rejected_by_reader", rep.faces_rejected_by_reader},
               {"comment_lines_skipped", rep.comment_lines_skipped},
               {"bounds", {{b.min().x(), b.min().y(), b.min().z()}, {b.max().x(), b.max().y(), b.max().z()}}}};
+}
+
+// A glTF asset, or an OBJ's materials (mtllib) after its mesh.
+void DescribeAssetFile(const fs::path& path, FileInfo* fi) {
+  const Asset a = ReadAsset(path);
+  if (fi->kind.empty()) fi->kind = "asset";
+  for (std::string& l : DescribeAsset(a)) fi->lines.push_back(std::move(l));
+  Json materials = Json::array();
+  for (const AssetMaterial& m : a.materials) materials.push_back(m.name);
+  fi->json["asset"] = {{"format", a.report.format},
+                       {"parts", a.parts.size()},
+                       {"triangles", a.triangle_count()},
+                       {"materials", materials},
+                       {"images", a.images.size()},
+                       {"extensions_used", a.report.extensions_used},
+                       {"extensions_required", a.report.extensions_required},
+                       {"ignored", a.report.ignored}};
 }
 
 void DescribeTrajectory(const Trajectory& t, FileInfo* fi, const std::string& format) {
@@ -202,7 +220,13 @@ void Describe(const fs::path& path, FileInfo* fi) {
   if (ext == ".exr" || ext == ".hdr" || ext == ".png" || ext == ".jpg" || ext == ".jpeg" || ext == ".tif" ||
       ext == ".tiff" || ext == ".pfm")
     return DescribeImage(path, fi);
-  if (ext == ".ply" || ext == ".obj" || ext == ".off" || ext == ".stl") return DescribeMesh(path, fi);
+  if (ext == ".gltf" || ext == ".glb") return DescribeAssetFile(path, fi);
+  if (ext == ".obj") {
+    DescribeMesh(path, fi);
+    if (ReadTextFile(path).find("mtllib") != std::string::npos) DescribeAssetFile(path, fi);
+    return;
+  }
+  if (ext == ".ply" || ext == ".off" || ext == ".stl") return DescribeMesh(path, fi);
   if (ext == ".json") return DescribeJson(path, fi);
   if (ext == ".ffc") {
     fi->kind = "form factors";

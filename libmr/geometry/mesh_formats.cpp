@@ -110,6 +110,12 @@ void NonFinite(MeshSoup* soup, size_t v, const MeshReadOptions& options, const F
   soup->bad_vertex[v] = 1;
 }
 
+std::string_view Trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
 // OBJ keywords that carry no triangle-mesh data (groups, materials, smoothing,
 // free-form geometry, lines and points): ignored, and counted in the notes.
 bool IsIgnoredObjKeyword(std::string_view k) {
@@ -133,6 +139,7 @@ MeshSoup ParseObj(const std::string& text, const std::string& name, const MeshRe
   int64_t unknown_lines = 0;
   std::string first_unknown;
   bool has_colors = false;
+  int material = -1;  // the current usemtl's
   Lines lines(text);
   std::string_view raw;
   std::string joined;  // a line continued by a trailing backslash
@@ -192,6 +199,7 @@ MeshSoup ParseObj(const std::string& text, const std::string& name, const MeshRe
       if (tok.size() < 4)
         ThrowErrorAt(loc, "face {} has {} corners, at least 3 needed", soup.faces.size() + 1, tok.size() - 1);
       std::vector<int> face;
+      std::vector<Eigen::Vector3i> corners;
       face.reserve(tok.size() - 1);
       for (size_t k = 1; k < tok.size(); ++k) {
         // v, v/vt, v//vn or v/vt/vn; indices 1-based, negative from the end.
@@ -228,6 +236,8 @@ MeshSoup ParseObj(const std::string& text, const std::string& name, const MeshRe
         }
         const size_t v = static_cast<size_t>(idx[0]);
         face.push_back(static_cast<int>(v));
+        corners.emplace_back(static_cast<int>(v), parts >= 2 && !part[1].empty() ? static_cast<int>(idx[1]) : -1,
+                             parts == 3 ? static_cast<int>(idx[2]) : -1);
         // Per-vertex attributes from the corner (the last corner naming a
         // vertex wins, as in OpenMesh's reader).
         if (parts >= 2 && !part[1].empty()) {
@@ -242,8 +252,20 @@ MeshSoup ParseObj(const std::string& text, const std::string& name, const MeshRe
       if (soup.positions.size() > static_cast<size_t>(std::numeric_limits<int>::max()))
         ThrowErrorAt(loc, "more vertices than mr's meshes index (2^31)");
       soup.faces.push_back(std::move(face));
+      soup.obj_corners.push_back(std::move(corners));
+      soup.obj_face_material.push_back(material);
     } else if (IsIgnoredObjKeyword(kw)) {
       ++ignored[std::string(kw)];
+      // Kept for assets: the materials (the rest of the line is the name,
+      // which may hold spaces).
+      const std::string rest(Trim(line.substr(line.find(kw) + kw.size())));
+      if (kw == "usemtl") {
+        auto it = std::find(soup.obj_materials.begin(), soup.obj_materials.end(), rest);
+        material = static_cast<int>(it - soup.obj_materials.begin());
+        if (it == soup.obj_materials.end()) soup.obj_materials.push_back(rest);
+      } else if (kw == "mtllib" && !rest.empty()) {
+        soup.obj_mtllibs.push_back(rest);
+      }
     } else {
       if (unknown_lines++ == 0) first_unknown = fmt::format("{} at line {}", Quote(kw), first_line);
     }
@@ -254,6 +276,8 @@ MeshSoup ParseObj(const std::string& text, const std::string& name, const MeshRe
   if (has_colors) soup.colors.resize(nv, Eigen::Vector3f::Zero());
   if (!soup.uvs.empty()) soup.uvs.resize(nv, Eigen::Vector2f::Zero());
   if (!soup.normals.empty()) soup.normals.resize(nv, Eigen::Vector3f::Zero());
+  soup.obj_uvs = std::move(vt);
+  soup.obj_normals = std::move(vn);
   for (const auto& [kw, n] : ignored)
     soup.notes.push_back(
         fmt::format("{}: ignored {} \"{}\" line{} (no triangle data)", name, n, kw, n == 1 ? "" : "s"));

@@ -28,7 +28,16 @@ struct MeshSoup {
   // BadVertices::kDropFaces; kReject throws at the line instead).
   std::vector<char> bad_vertex;
   std::vector<std::string> notes;  // what was ignored, one line each
-  std::string format;              // "stl (ascii)", "stl (binary)"; empty for the others
+  // OBJ only, for assets (asset_obj.cpp): each face's corners as (vertex,
+  // uv, normal) indices into positions, obj_uvs and obj_normals (-1: none),
+  // its usemtl material (index into obj_materials; -1: none), and the
+  // mtllib files named, in order.
+  std::vector<Eigen::Vector2f> obj_uvs;
+  std::vector<Eigen::Vector3f> obj_normals;
+  std::vector<std::vector<Eigen::Vector3i>> obj_corners;
+  std::vector<int> obj_face_material;
+  std::vector<std::string> obj_materials, obj_mtllibs;
+  std::string format;  // "stl (ascii)", "stl (binary)"; empty for the others
 };
 
 // Each throws mr::Error naming `name` (and the line, for text formats) on

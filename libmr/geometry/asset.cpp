@@ -59,7 +59,8 @@ void TransformPart(const Eigen::Matrix4d& world, AssetPart* part) {
 
 void CheckMaterial(const AssetMaterial& m, const std::string& file, const std::string& what) {
   auto in = [&](const char* key, double v, double lo, double hi) {
-    if (!(v >= lo && v <= hi)) ThrowErrorAt(FileLoc{file}, "{}: {} is {}, expected a number in [{}, {}]", what, key, v, lo, hi);
+    if (!(v >= lo && v <= hi))
+      ThrowErrorAt(FileLoc{file}, "{}: {} is {}, expected a number in [{}, {}]", what, key, v, lo, hi);
   };
   for (int c = 0; c < 4; ++c) in("base colour", m.base_color[c], 0, 1);
   in("metallic", m.metallic, 0, 1);
@@ -132,7 +133,8 @@ std::string ImageLine(const AssetImage& im) {
 std::vector<std::string> DescribeAsset(const Asset& a) {
   std::vector<std::string> s;
   if (a.report.nodes)
-    s.push_back(fmt::format("nodes: {} ({} meshes, {} primitives)", a.report.nodes, a.report.meshes, a.report.primitives));
+    s.push_back(
+        fmt::format("nodes: {} ({} meshes, {} primitives)", a.report.nodes, a.report.meshes, a.report.primitives));
   size_t verts = 0;
   for (const AssetPart& p : a.parts) verts += p.mesh.vertex_count();
   s.push_back(fmt::format("parts: {} ({} triangles, {} vertices)", a.parts.size(), a.triangle_count(), verts));
@@ -143,18 +145,19 @@ std::vector<std::string> DescribeAsset(const Asset& a) {
     if (!p.uvs1.empty()) attrs += " uv1";
     if (!p.tangents.empty()) attrs += " tangents";
     if (!p.mesh.colors.empty()) attrs += " colours";
-    s.push_back(fmt::format("  {}: {} triangles, material {}{}{}", p.name, p.mesh.triangle_count(),
-                            p.material < 0 ? std::string("(default)") : a.materials[static_cast<size_t>(p.material)].name,
-                            attrs.empty() ? "" : ";", attrs));
+    s.push_back(
+        fmt::format("  {}: {} triangles, material {}{}{}", p.name, p.mesh.triangle_count(),
+                    p.material < 0 ? std::string("(default)") : a.materials[static_cast<size_t>(p.material)].name,
+                    attrs.empty() ? "" : ";", attrs));
   }
   s.push_back(fmt::format("materials: {}", a.materials.size()));
   auto tex = [&](const char* what, const AssetTexture& t) {
     return t.present() ? fmt::format(" {}={}", what, a.images[static_cast<size_t>(t.image)].name) : std::string();
   };
   for (const AssetMaterial& m : a.materials) {
-    std::string l = fmt::format("  {}: base [{:.3g} {:.3g} {:.3g} {:.3g}] metallic {:.3g} roughness {:.3g}", m.name,
-                                m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3], m.metallic,
-                                m.roughness);
+    std::string l =
+        fmt::format("  {}: base [{:.3g} {:.3g} {:.3g} {:.3g}] metallic {:.3g} roughness {:.3g}", m.name,
+                    m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3], m.metallic, m.roughness);
     if (m.transmission > 0) l += fmt::format(" transmission {:.3g} ior {:.3g}", m.transmission, m.ior);
     if (m.emissive.maxCoeff() > 0) l += fmt::format(" emissive x{:.3g}", m.emissive_strength);
     if (m.alpha_mode != AlphaMode::kOpaque) l += m.alpha_mode == AlphaMode::kMask ? " alpha-mask" : " alpha-blend";

@@ -46,7 +46,8 @@ struct Reader {
   std::vector<float> Floats(int index, int n, const char* what) const {
     const tg::Accessor& a = At(m.accessors, index, "accessor", what);
     const int comps = tg::GetNumComponentsInType(static_cast<uint32_t>(a.type));
-    if (comps != n) Fail(fmt::format("{}: accessor {} has {} components per element, expected {}", what, index, comps, n));
+    if (comps != n)
+      Fail(fmt::format("{}: accessor {} has {} components per element, expected {}", what, index, comps, n));
     std::vector<float> v(a.count * static_cast<size_t>(n), 0.0f);
     if (a.bufferView >= 0) ReadElements(a, a.bufferView, a.byteOffset, a.count, nullptr, &v, what, index);
     if (a.sparse.isSparse) ApplySparse(a, &v, what, index);
@@ -193,7 +194,8 @@ struct Reader {
     if (index < 0) return t;
     const tg::Texture& tex = At(m.textures, index, "texture", what);
     if (tex.source < 0) {
-      out->report.ignored.push_back(fmt::format("{}: texture {} has no image mr reads (an extension's only)", what, index));
+      out->report.ignored.push_back(
+          fmt::format("{}: texture {} has no image mr reads (an extension's only)", what, index));
       return t;
     }
     At(m.images, tex.source, "image", what);
@@ -215,7 +217,8 @@ struct Reader {
       t.rotation = Number(tt, "rotation", 0);
       if (tt->Has("texCoord") && tt->Get("texCoord").IsInt()) t.texcoord = tt->Get("texCoord").GetNumberAsInt();
     }
-    if (t.texcoord < 0 || t.texcoord > 1) Fail(fmt::format("{}: TEXCOORD_{} (mr reads sets 0 and 1)", what, t.texcoord));
+    if (t.texcoord < 0 || t.texcoord > 1)
+      Fail(fmt::format("{}: TEXCOORD_{} (mr reads sets 0 and 1)", what, t.texcoord));
     return t;
   }
 
@@ -225,8 +228,7 @@ struct Reader {
     AssetMaterial a;
     a.name = g.name.empty() ? fmt::format("material{}", i) : g.name;
     const auto& pbr = g.pbrMetallicRoughness;
-    if (pbr.baseColorFactor.size() == 4)
-      a.base_color = Eigen::Vector4d(pbr.baseColorFactor.data()).cast<float>();
+    if (pbr.baseColorFactor.size() == 4) a.base_color = Eigen::Vector4d(pbr.baseColorFactor.data()).cast<float>();
     a.base_color_texture =
         Texture(pbr.baseColorTexture.index, pbr.baseColorTexture.texCoord, pbr.baseColorTexture.extensions, what);
     a.metallic = static_cast<float>(pbr.metallicFactor);
@@ -240,9 +242,12 @@ struct Reader {
     if (a.occlusion_texture.present())
       out->report.ignored.push_back(what + ": occlusionTexture (a path tracer computes occlusion)");
     if (g.emissiveFactor.size() == 3) a.emissive = Eigen::Vector3d(g.emissiveFactor.data()).cast<float>();
-    a.emissive_texture = Texture(g.emissiveTexture.index, g.emissiveTexture.texCoord, g.emissiveTexture.extensions, what);
+    a.emissive_texture =
+        Texture(g.emissiveTexture.index, g.emissiveTexture.texCoord, g.emissiveTexture.extensions, what);
     a.emissive_strength = Number(Ext(g.extensions, "KHR_materials_emissive_strength"), "emissiveStrength", 1);
-    a.alpha_mode = g.alphaMode == "MASK" ? AlphaMode::kMask : g.alphaMode == "BLEND" ? AlphaMode::kBlend : AlphaMode::kOpaque;
+    a.alpha_mode = g.alphaMode == "MASK"    ? AlphaMode::kMask
+                   : g.alphaMode == "BLEND" ? AlphaMode::kBlend
+                                            : AlphaMode::kOpaque;
     a.alpha_cutoff = static_cast<float>(g.alphaCutoff);
     a.double_sided = g.doubleSided;
     if (const tg::Value* t = Ext(g.extensions, "KHR_materials_transmission")) {
@@ -385,13 +390,14 @@ struct Reader {
     if (!world.allFinite()) Fail(fmt::format("node {} ({}): a non-finite transform", index, n.name));
     const std::string node_name = n.name.empty() ? fmt::format("node{}", index) : n.name;
     if (n.skin >= 0)
-      Fail(fmt::format("node {} ({}): a skinned mesh (mr renders rigid assets: apply the pose in the exporter)",
-                       index, node_name));
+      Fail(fmt::format("node {} ({}): a skinned mesh (mr renders rigid assets: apply the pose in the exporter)", index,
+                       node_name));
     if (n.camera >= 0) out->report.ignored.push_back(fmt::format("node {} ({}): a camera", index, node_name));
     if (n.mesh >= 0) {
       const tg::Mesh& mesh = At(m.meshes, n.mesh, "mesh", node_name);
       for (size_t k = 0; k < mesh.primitives.size(); ++k) {
-        const std::string what = fmt::format("{}/{}[{}]", node_name, mesh.name.empty() ? fmt::format("mesh{}", n.mesh) : mesh.name, k);
+        const std::string what =
+            fmt::format("{}/{}[{}]", node_name, mesh.name.empty() ? fmt::format("mesh{}", n.mesh) : mesh.name, k);
         AssetPart part = Primitive(mesh.primitives[k], what);
         TransformPart(world, &part);
         out->parts.push_back(std::move(part));
@@ -480,12 +486,13 @@ Asset ReadGltf(const fs::path& path) {
   std::vector<int> path_stack;
   for (int root : roots) r.Walk(root, Eigen::Matrix4d::Identity(), &path_stack);
   if (!model.animations.empty())
-    asset.report.ignored.push_back(fmt::format("{} animation{} (mr places the asset by scene.json's transform or "
-                                               "trajectory)",
-                                               model.animations.size(), model.animations.size() == 1 ? "" : "s"));
+    asset.report.ignored.push_back(
+        fmt::format("{} animation{} (mr places the asset by scene.json's transform or "
+                    "trajectory)",
+                    model.animations.size(), model.animations.size() == 1 ? "" : "s"));
   if (!model.lights.empty())
-    asset.report.ignored.push_back(fmt::format("{} KHR_lights_punctual light{}", model.lights.size(),
-                                               model.lights.size() == 1 ? "" : "s"));
+    asset.report.ignored.push_back(
+        fmt::format("{} KHR_lights_punctual light{}", model.lights.size(), model.lights.size() == 1 ? "" : "s"));
   if (!model.skins.empty() && asset.parts.empty()) asset.report.ignored.push_back("skins");
   if (asset.parts.empty()) ThrowErrorAt(FileLoc{name}, "no triangles in the asset's scene");
   if (!warn.empty()) asset.report.ignored.push_back("tinygltf: " + warn);

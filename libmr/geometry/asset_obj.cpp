@@ -27,18 +27,6 @@ namespace mr::detail {
 
 namespace {
 
-std::vector<std::string_view> Split(std::string_view s) {
-  std::vector<std::string_view> t;
-  size_t i = 0;
-  while (i < s.size()) {
-    while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == '\r')) ++i;
-    const size_t b = i;
-    while (i < s.size() && s[i] != ' ' && s[i] != '\t' && s[i] != '\r') ++i;
-    if (i > b) t.push_back(s.substr(b, i - b));
-  }
-  return t;
-}
-
 class MtlReader {
  public:
   MtlReader(const fs::path& path, Asset* asset) : path_(path), name_(path.string()), asset_(asset) {}
@@ -54,7 +42,8 @@ class MtlReader {
       std::string_view l(text.data() + start, end - start);
       start = end + 1;
       if (const size_t hash = l.find('#'); hash != std::string_view::npos) l = l.substr(0, hash);
-      const std::vector<std::string_view> tok = Split(l);
+      l = Trim(l);
+      const std::vector<std::string_view> tok = Tokens(l);
       if (tok.empty()) continue;
       loc_ = FileLoc{name_, line};
       const std::string_view kw = tok[0];
@@ -65,7 +54,7 @@ class MtlReader {
         *m = AssetMaterial();
         m->name = n;
         has_pr_ = false;
-        m->metallic = 0;                  // MTL's default is a dielectric
+        m->metallic = 0;                            // MTL's default is a dielectric
         m->base_color.head<3>().setConstant(0.8f);  // Blender's default Kd
         continue;
       }
@@ -115,20 +104,18 @@ class MtlReader {
       Ignored(fmt::format("{}: read as glTF's metallic-roughness texture (G roughness, B metallic)", kw));
     } else if (kw == "Ka") {
       Ignored("Ka (ambient colour: the captured light is the ambient)");
-    } else if (kw == "illum" || kw == "Tf" || kw == "sharpness" || kw == "map_Ka" || kw == "map_Ks" ||
-               kw == "map_Ns" || kw == "map_d" || kw == "disp" || kw == "decal" || kw == "refl" || kw == "Pc" ||
-               kw == "Pcr" || kw == "aniso" || kw == "anisor" || kw == "Ps" || kw == "map_Ps") {
+    } else if (kw == "illum" || kw == "Tf" || kw == "sharpness" || kw == "map_Ka" || kw == "map_Ks" || kw == "map_Ns" ||
+               kw == "map_d" || kw == "disp" || kw == "decal" || kw == "refl" || kw == "Pc" || kw == "Pcr" ||
+               kw == "aniso" || kw == "anisor" || kw == "Ps" || kw == "map_Ps") {
       Ignored(std::string(kw));
     } else {
       Ignored(fmt::format("unknown keyword {}", std::string(kw)));
     }
   }
 
+  // What follows the keyword `kw` (a view into `l`), trimmed.
   static std::string Rest(std::string_view l, std::string_view kw) {
-    std::string_view r = l.substr(static_cast<size_t>(kw.data() - l.data()) + kw.size());
-    while (!r.empty() && (r.front() == ' ' || r.front() == '\t')) r.remove_prefix(1);
-    while (!r.empty() && (r.back() == ' ' || r.back() == '\t' || r.back() == '\r')) r.remove_suffix(1);
-    return std::string(r);
+    return std::string(Trim(l.substr(static_cast<size_t>(kw.data() - l.data()) + kw.size())));
   }
   double Num(const std::vector<std::string_view>& tok, size_t i) const {
     if (i >= tok.size()) ThrowErrorAt(loc_, "{}: a number is missing", std::string(tok[0]));
@@ -158,12 +145,11 @@ class MtlReader {
   // A map_ statement: options, then the file name (the rest of the line,
   // which may hold spaces).
   AssetTexture Texture(std::string_view l, std::string_view kw, float* bump_scale = nullptr) {
-    static const std::map<std::string, int> kArgs = {{"-blendu", 1}, {"-blendv", 1}, {"-boost", 1}, {"-cc", 1},
-                                                     {"-clamp", 1},  {"-imfchan", 1}, {"-mm", 2},   {"-texres", 1},
-                                                     {"-type", 1},   {"-bm", 1},      {"-o", 3},    {"-s", 3},
-                                                     {"-t", 3}};
+    static const std::map<std::string, int> kArgs = {
+        {"-blendu", 1}, {"-blendv", 1}, {"-boost", 1}, {"-cc", 1}, {"-clamp", 1}, {"-imfchan", 1}, {"-mm", 2},
+        {"-texres", 1}, {"-type", 1},   {"-bm", 1},    {"-o", 3},  {"-s", 3},     {"-t", 3}};
     const std::string rest = Rest(l, kw);
-    const std::vector<std::string_view> tok = Split(rest);
+    const std::vector<std::string_view> tok = Tokens(rest);
     AssetTexture t;
     size_t i = 0;
     while (i < tok.size() && tok[i].size() > 1 && tok[i][0] == '-') {
@@ -185,11 +171,16 @@ class MtlReader {
         args.push_back(v);
         ++i;
       }
-      if (opt == "-bm" && bump_scale && !args.empty()) *bump_scale = static_cast<float>(args[0]);
-      else if (opt == "-o" && args.size() >= 2) t.offset = Eigen::Vector2f(static_cast<float>(args[0]), static_cast<float>(args[1]));
-      else if (opt == "-s" && args.size() >= 2) t.scale = Eigen::Vector2f(static_cast<float>(args[0]), static_cast<float>(args[1]));
-      else if (opt == "-clamp") t.wrap_s = t.wrap_t = TextureWrap::kClamp;
-      else Ignored(fmt::format("{} option {}", std::string(kw), opt));
+      if (opt == "-bm" && bump_scale && !args.empty())
+        *bump_scale = static_cast<float>(args[0]);
+      else if (opt == "-o" && args.size() >= 2)
+        t.offset = Eigen::Vector2f(static_cast<float>(args[0]), static_cast<float>(args[1]));
+      else if (opt == "-s" && args.size() >= 2)
+        t.scale = Eigen::Vector2f(static_cast<float>(args[0]), static_cast<float>(args[1]));
+      else if (opt == "-clamp")
+        t.wrap_s = t.wrap_t = TextureWrap::kClamp;
+      else
+        Ignored(fmt::format("{} option {}", std::string(kw), opt));
     }
     if (i >= tok.size()) ThrowErrorAt(loc_, "{}: no file name", std::string(kw));
     const std::string file(rest.substr(static_cast<size_t>(tok[i].data() - rest.data())));
@@ -274,7 +265,8 @@ Asset ReadObjAsset(const fs::path& path) {
   for (int m : soup.obj_face_material) used[static_cast<size_t>(m + 1)] = 1;
   for (int m = -1; m < static_cast<int>(soup.obj_materials.size()); ++m) {
     if (!used[static_cast<size_t>(m + 1)]) continue;
-    AssetPart part = BuildPart(soup, m, m < 0 ? std::string("(no usemtl)") : soup.obj_materials[static_cast<size_t>(m)]);
+    AssetPart part =
+        BuildPart(soup, m, m < 0 ? std::string("(no usemtl)") : soup.obj_materials[static_cast<size_t>(m)]);
     part.material = m < 0 ? -1 : material_of[static_cast<size_t>(m)];
     asset.parts.push_back(std::move(part));
   }

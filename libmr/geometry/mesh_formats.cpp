@@ -15,9 +15,6 @@
 
 namespace mr::detail {
 
-namespace {
-
-// Splits a line into whitespace-separated tokens.
 std::vector<std::string_view> Tokens(std::string_view line) {
   std::vector<std::string_view> out;
   size_t i = 0;
@@ -30,6 +27,14 @@ std::vector<std::string_view> Tokens(std::string_view line) {
   }
   return out;
 }
+
+std::string_view Trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  return s;
+}
+
+namespace {
 
 // Iterates over the lines of `text` ('\n' or "\r\n"), 1-based.
 class Lines {
@@ -108,12 +113,6 @@ void NonFinite(MeshSoup* soup, size_t v, const MeshReadOptions& options, const F
   if (options.nonfinite == BadVertices::kReject) ThrowErrorAt(loc, "{} has a non-finite coordinate", what);
   if (soup->bad_vertex.size() <= v) soup->bad_vertex.resize(v + 1, 0);
   soup->bad_vertex[v] = 1;
-}
-
-std::string_view Trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
-  return s;
 }
 
 // OBJ keywords that carry no triangle-mesh data (groups, materials, smoothing,

@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -39,6 +40,11 @@ struct MeshSoup {
   std::vector<std::string> obj_materials, obj_mtllibs;
   std::string format;  // "stl (ascii)", "stl (binary)"; empty for the others
 };
+
+// Splits a line into whitespace-separated tokens (views into `line`).
+std::vector<std::string_view> Tokens(std::string_view line);
+// `s` without leading blanks and trailing blanks and carriage returns.
+std::string_view Trim(std::string_view s);
 
 // Each throws mr::Error naming `name` (and the line, for text formats) on
 // anything malformed.  `text` is the whole file.

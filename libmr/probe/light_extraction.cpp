@@ -20,6 +20,17 @@ namespace mr {
 
 namespace {
 
+// Which of two halves a uniform u picks, the first with probability p (0:
+// the first), and u rescaled to be uniform within it.
+int PickHalf(double p, double* u) {
+  if (*u < p) {
+    *u /= p;
+    return 0;
+  }
+  *u = (*u - p) / (1 - p);
+  return 1;
+}
+
 struct MapView {
   int w = 0, h = 0;
   std::vector<Eigen::Vector3d> radiance;  // per pixel
@@ -285,25 +296,9 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
       const double a = f[static_cast<size_t>(2 * j) * n + 2 * i], b = f[static_cast<size_t>(2 * j) * n + 2 * i + 1];
       const double c = f[static_cast<size_t>(2 * j + 1) * n + 2 * i],
                    d = f[static_cast<size_t>(2 * j + 1) * n + 2 * i + 1];
-      const double pl = (a + c) / (a + b + c + d);
-      int ci;
-      if (u < pl) {
-        u = u / pl;
-        ci = 0;
-      } else {
-        u = (u - pl) / (1 - pl);
-        ci = 1;
-      }
+      const int ci = PickHalf((a + c) / (a + b + c + d), &u);  // the left or right column
       const double top = ci == 0 ? a : b, bottom = ci == 0 ? c : d;
-      const double pt2 = top / (top + bottom);
-      int cj;
-      if (v < pt2) {
-        v = v / pt2;
-        cj = 0;
-      } else {
-        v = (v - pt2) / (1 - pt2);
-        cj = 1;
-      }
+      const int cj = PickHalf(top / (top + bottom), &v);  // then its top or bottom cell
       i = 2 * i + ci;
       j = 2 * j + cj;
       u = std::clamp(u, 0.0, std::nextafter(1.0, 0.0));

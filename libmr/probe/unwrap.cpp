@@ -84,18 +84,18 @@ Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eig
       Eigen::Matrix2d J;
       const bool x0 = map(d_env - step * t, &qx0), x1 = map(d_env + step * t, &qx1);
       const bool y0 = map(d_env - step * b, &qy0), y1 = map(d_env + step * b, &qy1);
-      if (x0 && x1)
-        J.col(0) = qx1 - qx0;
-      else if (x0 || x1)
-        J.col(0) = 2 * (x1 ? qx1 - q0 : q0 - qx0);
-      else
-        continue;
-      if (y0 && y1)
-        J.col(1) = qy1 - qy0;
-      else if (y0 || y1)
-        J.col(1) = 2 * (y1 ? qy1 - q0 : q0 - qy0);
-      else
-        continue;
+      // A central difference, one-sided where only one side maps.
+      auto column = [&](bool ok0, bool ok1, const Eigen::Vector2d& q_minus, const Eigen::Vector2d& q_plus,
+                        Eigen::Vector2d* c) {
+        if (ok0 && ok1)
+          *c = q_plus - q_minus;
+        else if (ok0 || ok1)
+          *c = 2 * (ok1 ? q_plus - q0 : q0 - q_minus);
+        return ok0 || ok1;
+      };
+      Eigen::Vector2d jx, jy;
+      if (!column(x0, x1, qx0, qx1, &jx) || !column(y0, y1, qy0, qy1, &jy)) continue;
+      J << jx, jy;
       const Eigen::Matrix2d S = J * J.transpose() / 4 + 0.25 * Eigen::Matrix2d::Identity();
       const Eigen::Matrix2d Q = S.inverse();
       const int rx = std::min(100, static_cast<int>(std::ceil(3 * std::sqrt(S(0, 0))))),

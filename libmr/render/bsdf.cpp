@@ -20,20 +20,41 @@ Bsdf::Bsdf(const Material& m) : albedo_(m.albedo), specular_(m.specular), alpha_
   glossy_weight_ = d + g > 0 ? g / (d + g) : 0;
 }
 
-double Bsdf::D(const Eigen::Vector3d& h) const {
+double GgxD(const Eigen::Vector3d& h, double alpha) {
   if (h.z() <= 0) return 0;
-  const double a2 = alpha_ * alpha_;
+  const double a2 = alpha * alpha;
   const double c2 = h.z() * h.z();
   const double t = c2 * (a2 - 1) + 1;
   return a2 / (kPi * t * t);
 }
 
-double Bsdf::Lambda(const Eigen::Vector3d& w) const {
+double GgxLambda(const Eigen::Vector3d& w, double alpha) {
   const double c2 = w.z() * w.z();
   if (c2 >= 1) return 0;
   const double t2 = (1 - c2) / c2;  // tan^2
-  return (std::sqrt(1 + alpha_ * alpha_ * t2) - 1) / 2;
+  return (std::sqrt(1 + alpha * alpha * t2) - 1) / 2;
 }
+
+// The normals wo sees (Heitz 2018, "Sampling the GGX Distribution of
+// Visible Normals"): the weight f cos / pdf of a lobe sampled so is
+// G2(wo, wi) / G1(wo) <= 1, where sampling D(h) cos(theta_h) gives weights
+// up to ~2 / alpha at grazing wo (fireflies off glossy surfaces seen at a
+// grazing angle).
+Eigen::Vector3d SampleGgxVisibleNormal(const Eigen::Vector3d& wo, double alpha, double u0, double u1) {
+  const Eigen::Vector3d vh = Eigen::Vector3d(alpha * wo.x(), alpha * wo.y(), wo.z()).normalized();
+  const double len2 = vh.x() * vh.x() + vh.y() * vh.y();
+  const Eigen::Vector3d t1 =
+      len2 > 0 ? Eigen::Vector3d(-vh.y(), vh.x(), 0) / std::sqrt(len2) : Eigen::Vector3d(1, 0, 0);
+  const Eigen::Vector3d t2 = vh.cross(t1);
+  const double r = std::sqrt(u0), phi = kTwoPi * u1;
+  const double p1 = r * std::cos(phi), sh = 0.5 * (1 + vh.z());
+  const double p2 = (1 - sh) * SafeSqrt(1 - p1 * p1) + sh * r * std::sin(phi);
+  const Eigen::Vector3d nh = p1 * t1 + p2 * t2 + SafeSqrt(1 - p1 * p1 - p2 * p2) * vh;
+  return Eigen::Vector3d(alpha * nh.x(), alpha * nh.y(), std::max(1e-12, nh.z())).normalized();
+}
+
+double Bsdf::D(const Eigen::Vector3d& h) const { return GgxD(h, alpha_); }
+double Bsdf::Lambda(const Eigen::Vector3d& w) const { return GgxLambda(w, alpha_); }
 
 Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
   if (wo.z() <= 0 || wi.z() <= 0) return Eigen::Vector3d::Zero();
@@ -80,21 +101,7 @@ bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1
     auto d = SampleCosineHemisphere(u0, u1);
     s->wi = Eigen::Vector3d(d[0], d[1], d[2]);
   } else {
-    // The normals wo sees (Heitz 2018, "Sampling the GGX Distribution of
-    // Visible Normals"): the weight f cos / pdf of the lobe is
-    // G2(wo, wi) / G1(wo) <= 1, where sampling D(h) cos(theta_h) gives
-    // weights up to ~2 / alpha at grazing wo (fireflies off glossy
-    // surfaces seen at a grazing angle).
-    const Eigen::Vector3d vh = Eigen::Vector3d(alpha_ * wo.x(), alpha_ * wo.y(), wo.z()).normalized();
-    const double len2 = vh.x() * vh.x() + vh.y() * vh.y();
-    const Eigen::Vector3d t1 =
-        len2 > 0 ? Eigen::Vector3d(-vh.y(), vh.x(), 0) / std::sqrt(len2) : Eigen::Vector3d(1, 0, 0);
-    const Eigen::Vector3d t2 = vh.cross(t1);
-    const double r = std::sqrt(u0), phi = kTwoPi * u1;
-    const double p1 = r * std::cos(phi), sh = 0.5 * (1 + vh.z());
-    const double p2 = (1 - sh) * SafeSqrt(1 - p1 * p1) + sh * r * std::sin(phi);
-    const Eigen::Vector3d nh = p1 * t1 + p2 * t2 + SafeSqrt(1 - p1 * p1 - p2 * p2) * vh;
-    const Eigen::Vector3d h = Eigen::Vector3d(alpha_ * nh.x(), alpha_ * nh.y(), std::max(1e-12, nh.z())).normalized();
+    const Eigen::Vector3d h = SampleGgxVisibleNormal(wo, alpha_, u0, u1);
     s->wi = 2 * wo.dot(h) * h - wo;
   }
   if (s->wi.z() <= 0) return false;

@@ -11,6 +11,13 @@
 
 namespace mr {
 
+// GGX (Trowbridge-Reitz) with roughness alpha, in the local frame: the
+// normal distribution D(h), Smith's Lambda(w) (G1 = 1 / (1 + Lambda)), and
+// a normal sampled from the normals wo sees (Heitz 2018).
+double GgxD(const Eigen::Vector3d& h, double alpha);
+double GgxLambda(const Eigen::Vector3d& w, double alpha);
+Eigen::Vector3d SampleGgxVisibleNormal(const Eigen::Vector3d& wo, double alpha, double u0, double u1);
+
 struct BsdfSample {
   Eigen::Vector3d wi;  // local frame
   Eigen::Vector3d f;   // BSDF value

@@ -26,8 +26,22 @@ namespace {
 namespace tg = tinygltf;
 
 // Keeps an image's bytes as they are: mr decodes them where they are used.
-bool KeepImageBytes(tg::Image* image, const int, std::string*, std::string*, int, int, const unsigned char* bytes,
-                    int size, void*) {
+// `model` is the model being read (its buffers and views are read before
+// its images): tinygltf 2.7 hands over an image's buffer view without
+// checking that it lies inside its buffer (found by fuzz/fuzz_glb), so the
+// view is checked here before a byte is read.
+bool KeepImageBytes(tg::Image* image, const int index, std::string* err, std::string*, int, int,
+                    const unsigned char* bytes, int size, void* model) {
+  if (image->bufferView >= 0) {
+    const tg::Model& m = *static_cast<const tg::Model*>(model);
+    const tg::BufferView& bv = m.bufferViews.at(static_cast<size_t>(image->bufferView));
+    const size_t held = m.buffers.at(static_cast<size_t>(bv.buffer)).data.size();
+    if (bv.byteOffset > held || bv.byteLength > held - bv.byteOffset || size < 0) {
+      *err += fmt::format("image {}: its buffer view {} reaches past its buffer ({} bytes at {}, the buffer holds {})",
+                          index, image->bufferView, bv.byteLength, bv.byteOffset, held);
+      return false;
+    }
+  }
   image->image.assign(bytes, bytes + size);
   image->width = image->height = image->component = -1;
   return true;
@@ -430,8 +444,8 @@ Asset ReadGltf(const fs::path& path) {
   const std::string name = path.string();
   const std::string ext = LowerExtension(path);
   tg::TinyGLTF loader;
-  loader.SetImageLoader(KeepImageBytes, nullptr);
   tg::Model model;
+  loader.SetImageLoader(KeepImageBytes, &model);
   std::string err, warn;
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) ThrowErrorAt(FileLoc{name}, "no such file");

@@ -27,10 +27,10 @@
 namespace mr {
 
 struct PbrParams {
-  Eigen::Vector3d base_color = Eigen::Vector3d::Ones();  // linear, [0, 1]
-  double metallic = 0;                                   // [0, 1]
-  double roughness = 0.5;                                // perceptual; alpha = roughness^2
-  double ior = 1.5;                                      // the dielectric part's, [1, 3] (clamped)
+  Eigen::Vector3d base_color = Eigen::Vector3d::Ones();      // linear, [0, 1]
+  double metallic = 0;                                       // [0, 1]
+  double roughness = 0.5;                                    // perceptual; alpha = roughness^2
+  double ior = 1.5;                                          // the dielectric part's, [1, 3] (clamped)
   Eigen::Vector3d specular_color = Eigen::Vector3d::Ones();  // tints the dielectric Fresnel
 };
 

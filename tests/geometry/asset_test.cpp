@@ -210,7 +210,8 @@ TEST_F(AssetFiles, RefusalsNameTheFileAndWhat) {
   g.positions[4] = std::numeric_limits<float>::quiet_NaN();
   EXPECT_NE(ErrorOf(Write("n.gltf", g.Json())).find("vertex 1 has a non-finite coordinate"), std::string::npos);
   g = MiniGltf();
-  g.root_extra = R"(, "extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"])";
+  g.root_extra =
+      R"(, "extensionsUsed": ["KHR_draco_mesh_compression"], "extensionsRequired": ["KHR_draco_mesh_compression"])";
   const std::string e = ErrorOf(Write("d.gltf", g.Json()));
   EXPECT_NE(e.find("d.gltf"), std::string::npos) << e;
   EXPECT_NE(e.find("requires KHR_draco_mesh_compression, which mr does not read"), std::string::npos) << e;

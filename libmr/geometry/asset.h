@@ -90,8 +90,10 @@ struct AssetMaterial {
 
 // One mesh with one material, in the asset's root coordinates.
 struct AssetPart {
-  std::string name;                       // "node/mesh[primitive]" (glTF) or the usemtl group (OBJ)
-  Mesh mesh;                              // positions, normals (when given), uvs (set 0), colors (COLOR_0)
+  std::string name;  // "node/mesh[primitive]" (glTF) or the usemtl group (OBJ)
+  // positions, normals (when given), uvs (set 0; glTF's convention: v = 0 at
+  // the image's top row, an OBJ's v flipped on reading), colors (COLOR_0).
+  Mesh mesh;
   std::vector<Eigen::Vector2f> uvs1;      // TEXCOORD_1; empty or one per vertex
   std::vector<Eigen::Vector4f> tangents;  // xyz and handedness w; empty or one per vertex
   int material = -1;                      // index into Asset::materials; -1: the default material

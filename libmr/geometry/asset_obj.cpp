@@ -206,6 +206,9 @@ class MtlReader {
   std::map<std::string, int64_t> ignored_;  // what was read past -> lines
 };
 
+// OBJ's v runs up the image, glTF's (and an asset's) down it.
+Eigen::Vector2f UvDown(const Eigen::Vector2f& uv) { return {uv.x(), 1 - uv.y()}; }
+
 // One part per material: the faces of that material, fan-triangulated,
 // each distinct (vertex, uv, normal) corner one vertex.
 AssetPart BuildPart(const MeshSoup& soup, int material, const std::string& name) {
@@ -217,7 +220,7 @@ AssetPart BuildPart(const MeshSoup& soup, int material, const std::string& name)
     if (inserted) {
       part.mesh.positions.push_back(soup.positions[static_cast<size_t>(c[0])]);
       if (!soup.obj_uvs.empty())
-        part.mesh.uvs.push_back(c[1] >= 0 ? soup.obj_uvs[static_cast<size_t>(c[1])] : Eigen::Vector2f::Zero());
+        part.mesh.uvs.push_back(c[1] >= 0 ? UvDown(soup.obj_uvs[static_cast<size_t>(c[1])]) : Eigen::Vector2f::Zero());
       if (!soup.obj_normals.empty())
         part.mesh.normals.push_back(c[2] >= 0 ? soup.obj_normals[static_cast<size_t>(c[2])] : Eigen::Vector3f::Zero());
       if (!soup.colors.empty()) part.mesh.colors.push_back(soup.colors[static_cast<size_t>(c[0])]);

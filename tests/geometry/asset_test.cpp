@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <set>
 
 #include "core/error.h"
 #include "core/file.h"
@@ -96,6 +97,14 @@ TEST(Asset, BlenderObjWithMtl) {
   EXPECT_NEAR(Mat(a, "painted").normal_scale, 1, 1e-6);
   // The cube's 8 corners split by their uvs and normals into 24 vertices (4 per face).
   EXPECT_EQ(Part(a, "painted").mesh.vertex_count(), 24u);
+  // Its uvs as the glTF exporter wrote them (v down the image: OBJ's v flipped).
+  auto uv_set = [](const Mesh& m) {
+    std::set<std::pair<long, long>> s;
+    for (const auto& uv : m.uvs) s.insert({std::lround(uv.x() * 1e4), std::lround(uv.y() * 1e4)});
+    return s;
+  };
+  EXPECT_EQ(uv_set(Part(a, "painted").mesh),
+            uv_set(Part(ReadAsset(kAssets / "blender" / "blender.glb"), "painted").mesh));
 }
 
 // --- files written here, for each case a reader must refuse or convert -----

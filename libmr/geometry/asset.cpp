@@ -17,6 +17,27 @@ size_t Asset::triangle_count() const {
   return n;
 }
 
+Mesh MergeParts(const Asset& asset, std::vector<int>* triangle_material) {
+  Mesh m;
+  bool normals = true, uvs = true, colors = true;
+  for (const AssetPart& p : asset.parts) {
+    normals = normals && !p.mesh.normals.empty();
+    uvs = uvs && !p.mesh.uvs.empty();
+    colors = colors && !p.mesh.colors.empty();
+  }
+  if (triangle_material) triangle_material->clear();
+  for (const AssetPart& p : asset.parts) {
+    const int base = static_cast<int>(m.positions.size());
+    m.positions.insert(m.positions.end(), p.mesh.positions.begin(), p.mesh.positions.end());
+    if (normals) m.normals.insert(m.normals.end(), p.mesh.normals.begin(), p.mesh.normals.end());
+    if (uvs) m.uvs.insert(m.uvs.end(), p.mesh.uvs.begin(), p.mesh.uvs.end());
+    if (colors) m.colors.insert(m.colors.end(), p.mesh.colors.begin(), p.mesh.colors.end());
+    for (const Eigen::Vector3i& t : p.mesh.triangles) m.triangles.push_back(t + Eigen::Vector3i::Constant(base));
+    if (triangle_material) triangle_material->insert(triangle_material->end(), p.mesh.triangles.size(), p.material);
+  }
+  return m;
+}
+
 bool IsAssetFile(const fs::path& path) {
   const std::string e = LowerExtension(path);
   return e == ".gltf" || e == ".glb";

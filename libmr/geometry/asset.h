@@ -114,6 +114,11 @@ struct Asset {
   size_t triangle_count() const;
 };
 
+// The parts as one mesh, in their order (ReadMesh of a .gltf or .glb gives
+// this): a vertex attribute is kept where every part has it; *material, when
+// given, receives each triangle's part material (AssetPart::material).
+Mesh MergeParts(const Asset& asset, std::vector<int>* triangle_material = nullptr);
+
 // Whether mr reads `path` as an asset (.gltf, .glb; .obj reads as an asset
 // too, with its materials).
 bool IsAssetFile(const fs::path& path);

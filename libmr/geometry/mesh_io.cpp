@@ -14,6 +14,7 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "geometry/asset.h"
 #include "geometry/mesh.h"
 #include "geometry/mesh_formats.h"
 
@@ -303,8 +304,17 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
   const std::string name = path.string();
   const FileLoc loc{name};
   const std::string ext = LowerExtension(path);
+  if (ext == ".gltf" || ext == ".glb") {  // an asset's geometry: its parts as one mesh
+    const Asset asset = ReadAsset(path);
+    if (report_out) {
+      *report_out = MeshReadReport();
+      report_out->format = asset.report.format;
+      report_out->notes = asset.report.ignored;
+    }
+    return MergeParts(asset);
+  }
   if (ext != ".ply" && ext != ".obj" && ext != ".off" && ext != ".stl")
-    ThrowErrorAt(loc, "unsupported mesh extension \"{}\" (use .ply .obj .off .stl)", ext);
+    ThrowErrorAt(loc, "unsupported mesh extension \"{}\" (use .ply .obj .off .stl, or a .gltf .glb asset)", ext);
   RequireFile(path, "mesh");
 
   MeshReadReport report;

@@ -20,43 +20,11 @@ Bsdf::Bsdf(const Material& m) : albedo_(m.albedo), specular_(m.specular), alpha_
   glossy_weight_ = d + g > 0 ? g / (d + g) : 0;
 }
 
-double GgxD(const Eigen::Vector3d& h, double alpha) {
-  if (h.z() <= 0) return 0;
-  const double a2 = alpha * alpha;
-  const double c2 = h.z() * h.z();
-  const double t = c2 * (a2 - 1) + 1;
-  return a2 / (kPi * t * t);
-}
-
-double GgxLambda(const Eigen::Vector3d& w, double alpha) {
-  const double c2 = w.z() * w.z();
-  if (c2 >= 1) return 0;
-  const double t2 = (1 - c2) / c2;  // tan^2
-  return (std::sqrt(1 + alpha * alpha * t2) - 1) / 2;
-}
-
-// The normals wo sees (Heitz 2018, "Sampling the GGX Distribution of
-// Visible Normals"): the weight f cos / pdf of a lobe sampled so is
-// G2(wo, wi) / G1(wo) <= 1, where sampling D(h) cos(theta_h) gives weights
-// up to ~2 / alpha at grazing wo (fireflies off glossy surfaces seen at a
-// grazing angle).
-Eigen::Vector3d SampleGgxVisibleNormal(const Eigen::Vector3d& wo, double alpha, double u0, double u1) {
-  const Eigen::Vector3d vh = Eigen::Vector3d(alpha * wo.x(), alpha * wo.y(), wo.z()).normalized();
-  const double len2 = vh.x() * vh.x() + vh.y() * vh.y();
-  const Eigen::Vector3d t1 =
-      len2 > 0 ? Eigen::Vector3d(-vh.y(), vh.x(), 0) / std::sqrt(len2) : Eigen::Vector3d(1, 0, 0);
-  const Eigen::Vector3d t2 = vh.cross(t1);
-  const double r = std::sqrt(u0), phi = kTwoPi * u1;
-  const double p1 = r * std::cos(phi), sh = 0.5 * (1 + vh.z());
-  const double p2 = (1 - sh) * SafeSqrt(1 - p1 * p1) + sh * r * std::sin(phi);
-  const Eigen::Vector3d nh = p1 * t1 + p2 * t2 + SafeSqrt(1 - p1 * p1 - p2 * p2) * vh;
-  return Eigen::Vector3d(alpha * nh.x(), alpha * nh.y(), std::max(1e-12, nh.z())).normalized();
-}
-
 double Bsdf::D(const Eigen::Vector3d& h) const { return GgxD(h, alpha_); }
 double Bsdf::Lambda(const Eigen::Vector3d& w) const { return GgxLambda(w, alpha_); }
 
 Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
+  if (pbr_) return pbr_->Eval(wo, wi);
   if (wo.z() <= 0 || wi.z() <= 0) return Eigen::Vector3d::Zero();
   Eigen::Vector3d f = albedo_ * kInvPi;
   if (glossy_weight_ > 0) {
@@ -69,9 +37,10 @@ Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi)
   return f;
 }
 
-Eigen::Vector3d Bsdf::DiffuseBound() const { return albedo_ * kInvPi; }
+Eigen::Vector3d Bsdf::DiffuseBound() const { return pbr_ ? pbr_->DiffuseBound() : Eigen::Vector3d(albedo_ * kInvPi); }
 
 Eigen::Vector3d Bsdf::GlossyBound(const Eigen::Vector3d& wo) const {
+  if (pbr_) return pbr_->GlossyBound(wo);
   if (glossy_weight_ <= 0 || wo.z() <= 0) return Eigen::Vector3d::Zero();
   // f cos = specular D G / (4 wo.z), D <= 1/(pi a^2) and G <= 1: the first
   // bound, which grows without limit at grazing wo.  There the masking
@@ -84,6 +53,7 @@ Eigen::Vector3d Bsdf::GlossyBound(const Eigen::Vector3d& wo) const {
 }
 
 double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
+  if (pbr_) return pbr_->Pdf(wo, wi);
   if (wo.z() <= 0 || wi.z() <= 0) return 0;
   double pdf = diffuse_weight_ * wi.z() * kInvPi;
   if (glossy_weight_ > 0) {
@@ -96,6 +66,7 @@ double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
 }
 
 bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const {
+  if (pbr_) return pbr_->Sample(wo, u_lobe, u0, u1, s);
   if (wo.z() <= 0 || IsBlack()) return false;
   if (u_lobe < diffuse_weight_) {
     auto d = SampleCosineHemisphere(u0, u1);

@@ -5,29 +5,23 @@
 // albedo + specular <= 1 keeps the model energy-conserving (tested).
 #pragma once
 
+#include <optional>
+
 #include <Eigen/Core>
 
+#include "render/microfacet.h"
+#include "render/pbr_bsdf.h"
 #include "scene/scene.h"
 
 namespace mr {
-
-// GGX (Trowbridge-Reitz) with roughness alpha, in the local frame: the
-// normal distribution D(h), Smith's Lambda(w) (G1 = 1 / (1 + Lambda)), and
-// a normal sampled from the normals wo sees (Heitz 2018).
-double GgxD(const Eigen::Vector3d& h, double alpha);
-double GgxLambda(const Eigen::Vector3d& w, double alpha);
-Eigen::Vector3d SampleGgxVisibleNormal(const Eigen::Vector3d& wo, double alpha, double u0, double u1);
-
-struct BsdfSample {
-  Eigen::Vector3d wi;  // local frame
-  Eigen::Vector3d f;   // BSDF value
-  double pdf = 0;      // solid angle, of the combined (mixture) sampling
-};
 
 class Bsdf {
  public:
   Bsdf() = default;  // black: reflects nothing
   explicit Bsdf(const Material& m);
+  // An asset's material at a point (render/pbr_bsdf.h): every call below
+  // goes to it.
+  explicit Bsdf(const PbrBsdf& pbr) : pbr_(pbr), diffuse_weight_(1) {}
   // wo and wi in the local frame (z = normal), both pointing away from the surface.
   Eigen::Vector3d Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
@@ -49,6 +43,7 @@ class Bsdf {
   Eigen::Vector3d albedo_ = Eigen::Vector3d::Zero(), specular_ = Eigen::Vector3d::Zero();
   double alpha_ = 1;
   double diffuse_weight_ = 0, glossy_weight_ = 0;  // lobe selection probabilities
+  std::optional<PbrBsdf> pbr_;
 };
 
 }  // namespace mr

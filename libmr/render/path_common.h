@@ -74,7 +74,10 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
   v.material = &scene.material(hit.geometry_id);
   v.geometry_id = hit.geometry_id;
   v.vertex_albedo = scene.has_varying_albedo(hit.geometry_id);
-  if (v.vertex_albedo) {
+  if (scene.has_asset_material(hit.geometry_id)) {
+    v.bsdf = scene.AssetBsdfAt(hit, &v.albedo);
+    v.vertex_albedo = true;  // the diffuse lobe apart: DiffuseBsdfWith(albedo)
+  } else if (v.vertex_albedo) {
     v.albedo = scene.AlbedoAt(hit);
     v.bsdf = scene.BsdfWith(hit.geometry_id, v.albedo);
   } else {

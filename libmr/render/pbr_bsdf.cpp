@@ -217,6 +217,24 @@ Eigen::Vector3d PbrBsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& 
   return f;
 }
 
+Eigen::Vector3d PbrBsdf::DiffuseBound() const {
+  // (1 - E_d(mu_o)) (1 - E_d(mu_i)) <= 1; the multiple-scattering lobe's
+  // (1 - E)(1 - E) F_ms / (pi (1 - E_avg)) <= 1 / (pi (1 - E_avg)).
+  const PbrTables& t = GetPbrTables();
+  const double e_avg = t.Eavg(alpha_);
+  return diffuse_ / (kPi * std::max(1 - t.EdAvg(alpha_, eta_), 1e-6)) +
+         Eigen::Vector3d::Constant(e_avg < 1 ? 1 / (kPi * (1 - e_avg)) : 0);
+}
+
+Eigen::Vector3d PbrBsdf::GlossyBound(const Eigen::Vector3d& wo) const {
+  // F <= 1: Bsdf's bound of a GGX lobe of reflectance 1.
+  if (wo.z() <= 0) return Eigen::Vector3d::Zero();
+  const double z = std::min(wo.z(), 1.0), sin_o = std::sqrt(std::max(0.0, 1 - z * z));
+  const double a2 = alpha_ * alpha_;
+  const double grazing = sin_o > 0 ? 1 / (2 * kPi * a2 * alpha_ * sin_o) : INFINITY;
+  return Eigen::Vector3d::Constant(std::min(1 / (4 * kPi * a2 * z), grazing));
+}
+
 // The share of samples the microfacet lobe takes at mu_o: its albedo's
 // luminance against the cosine-sampled lobes' (base and multiple
 // scattering), with a floor so that neither is starved.

@@ -22,7 +22,7 @@
 
 #include <Eigen/Core>
 
-#include "render/bsdf.h"
+#include "render/microfacet.h"
 
 namespace mr {
 
@@ -43,6 +43,11 @@ class PbrBsdf {
   // ones (the base and the multiple-scattering lobe) by their albedos at wo.
   bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const;
   double alpha() const { return alpha_; }
+  // Bounds on f(wo, wi) wi.z over wi (Bsdf::DiffuseBound, GlossyBound): the
+  // base's cosine-free part, and the microfacet and multiple-scattering
+  // lobes' as Bsdf bounds a GGX lobe of reflectance 1.
+  Eigen::Vector3d DiffuseBound() const;
+  Eigen::Vector3d GlossyBound(const Eigen::Vector3d& wo) const;
 
  private:
   double SpecularWeight(double mu_o) const;

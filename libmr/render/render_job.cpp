@@ -187,6 +187,7 @@ class RenderJob {
   uint64_t InputsKey(int f) const;
   std::string Provenance(int f) const;
   void CheckCrossings(int f, const std::vector<std::string>* moved);
+  void ReportAssetApproximations();
   FrameError Measure(int f, const Image& composite, const Image& ref, const std::optional<Image>& region, Json* fj);
   template <class Work>
   void Timed(Frame* fr, Work&& work) {
@@ -393,6 +394,7 @@ void RenderJob::PrepareWorldAndMethod() {
   copy_through_ = !world_->dynamic() && !rs_.has_virtual() && decoding_.photograph;
   if (!world_->dynamic() && !rs_.has_virtual())
     report_->Skip("virtual objects", "the scene has none: the composite is the photograph");
+  ReportAssetApproximations();
   if (copy_through_) {
     report_->Skip("rendering",
                   "no virtual object can change any frame: frames are copied through from the photographs");
@@ -406,6 +408,24 @@ void RenderJob::PrepareWorldAndMethod() {
     method_->Prepare(job);
   }
   CheckCrossings(resumed_end_, nullptr);
+}
+
+// What an asset's materials bring that this method does not render yet
+// (issue 38), per object.
+void RenderJob::ReportAssetApproximations() {
+  for (const SceneVirtual& v : scene_.virtuals) {
+    if (!IsAssetFile(v.mesh)) continue;
+    report_->Skip(fmt::format("virtual object \"{}\": its normal, emissive and occlusion textures, transmission, "
+                              "alpha and vertex normals",
+                              v.name),
+                  "not rendered yet: the asset is shaded by its base colour, metallic and roughness (factors and "
+                  "textures, mip level 0) on its flat facets; transmissive parts are opaque dielectrics");
+    if (scene_.render.method != "pt")
+      report_->Skip(fmt::format("virtual object \"{}\": its materials' lobes apart", v.name),
+                    fmt::format("method {} takes their diffuse albedo per point and the object's mean metallic lobe "
+                                "where it treats the lobes apart (pt renders them whole)",
+                                scene_.render.method));
+  }
 }
 
 // An object passing through a real surface renders, but is rarely meant.

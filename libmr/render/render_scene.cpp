@@ -10,6 +10,7 @@
 #include "core/file.h"
 #include "core/hash.h"
 #include "core/video.h"
+#include "render/texture.h"
 #include "scene/frames.h"
 
 namespace mr {
@@ -79,7 +80,7 @@ void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen:
   Material d = material, g = material;
   d.specular.setZero();
   g.albedo.setZero();
-  surfaces_[id] = Surface{material, Bsdf(material), normal_to_world, Bsdf(d), Bsdf(g), {}, {}};
+  surfaces_[id] = Surface{material, Bsdf(material), normal_to_world, Bsdf(d), Bsdf(g), {}, {}, {}, {}, nullptr};
   if (material.albedo_from_vertex_colors) {
     if (mesh.colors.size() != mesh.positions.size())
       ThrowError("material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
@@ -94,6 +95,77 @@ void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen:
     surfaces_[id].triangles = mesh.triangles;
   }
   has_glossy_ = has_glossy_ || material.IsGlossy();
+}
+
+struct RenderScene::AssetShading {
+  std::vector<int> triangle_material;  // by primitive id; -1: glTF's default material
+  std::vector<AssetMaterial> materials;
+  std::vector<std::shared_ptr<const Texture>> textures;  // by image; null where no material samples it
+  std::vector<Eigen::Vector2f> uvs;
+  std::vector<Eigen::Vector3i> triangles;
+};
+
+void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material,
+                                    const Mesh& mesh, const std::string& name) {
+  MR_CHECK(triangle_material.size() == mesh.triangles.size());
+  auto a = std::make_shared<AssetShading>();
+  a->triangle_material = std::move(triangle_material);
+  a->materials = asset.materials;
+  a->textures.resize(asset.images.size());
+  auto load = [&](const AssetTexture& t, TextureEncoding e) {
+    if (!t.present() || a->textures[static_cast<size_t>(t.image)]) return;
+    if (mesh.uvs.size() != mesh.positions.size())
+      ThrowErrorAt(FileLoc{name}, "a material samples {} but the asset has no texture coordinates",
+                   asset.images[static_cast<size_t>(t.image)].name);
+    a->textures[static_cast<size_t>(t.image)] =
+        std::make_shared<const Texture>(LoadAssetTexture(asset.images[static_cast<size_t>(t.image)], e, name));
+  };
+  for (const AssetMaterial& m : asset.materials) {
+    load(m.base_color_texture, TextureEncoding::kSrgb);
+    load(m.metallic_roughness_texture, TextureEncoding::kLinear);
+  }
+  a->uvs = mesh.uvs;
+  a->triangles = mesh.triangles;
+  surfaces_.at(id).asset = std::move(a);
+  has_glossy_ = true;
+}
+
+Bsdf RenderScene::AssetBsdfAt(const Hit& hit, Eigen::Vector3d* diffuse_albedo) const {
+  const AssetShading& a = *surfaces_.at(hit.geometry_id).asset;
+  const size_t tri = std::min<size_t>(hit.primitive_id, a.triangles.size() - 1);
+  const int mi = a.triangle_material[tri];
+  static const AssetMaterial kDefault = [] {  // glTF 2.0, 3.9.6: the default material
+    AssetMaterial m;
+    m.metallic = 1;
+    m.roughness = 1;
+    return m;
+  }();
+  const AssetMaterial& m = mi >= 0 ? a.materials[static_cast<size_t>(mi)] : kDefault;
+  Eigen::Vector4f base = m.base_color;
+  float metallic = m.metallic, roughness = m.roughness;
+  if (!a.uvs.empty()) {
+    const Eigen::Vector3i& t = a.triangles[tri];
+    const float u = hit.uv.x(), v = hit.uv.y();
+    const Eigen::Vector2f uv = (1 - u - v) * a.uvs[static_cast<size_t>(t[0])] + u * a.uvs[static_cast<size_t>(t[1])] +
+                               v * a.uvs[static_cast<size_t>(t[2])];
+    auto sample = [&](const AssetTexture& at) {
+      const Texture& tx = *a.textures[static_cast<size_t>(at.image)];
+      return tx.Sample(TransformUv(at, uv), 0, at.wrap_s, at.wrap_t);
+    };
+    if (m.base_color_texture.present()) base = base.cwiseProduct(sample(m.base_color_texture));
+    if (m.metallic_roughness_texture.present()) {
+      const Eigen::Vector4f mr = sample(m.metallic_roughness_texture);
+      roughness *= mr[1];
+      metallic *= mr[2];
+    }
+  }
+  const PbrParams p{.base_color = base.head<3>().cast<double>(),
+                    .metallic = metallic,
+                    .roughness = roughness,
+                    .ior = m.ior,
+                    .specular_color = m.specular_color.cast<double>()};
+  *diffuse_albedo = p.base_color * (1 - p.metallic);
+  return Bsdf(PbrBsdf(p));
 }
 
 Eigen::Vector3d RenderScene::AlbedoAt(const Hit& hit) const {
@@ -240,6 +312,28 @@ Eigen::Vector3d RenderScene::WorldNormal(const Hit& hit) const {
   return len > 0 ? Eigen::Vector3d(n / len) : Eigen::Vector3d::UnitZ();
 }
 
+// An asset's materials as one of mr's simple materials, for the methods
+// that take a material per object (prt's albedo, ic's and vpl's lobes
+// apart): the triangle-weighted mean of base x (1 - metallic) as albedo and
+// of base x metallic as specular, roughness the mean.
+Material AssetMeanMaterial(const Asset& asset, const std::vector<int>& triangle_material) {
+  Material m;
+  Eigen::Vector3d albedo = Eigen::Vector3d::Zero(), specular = Eigen::Vector3d::Zero();
+  double rough = 0;
+  for (int mi : triangle_material) {
+    const AssetMaterial a = mi >= 0 ? asset.materials[static_cast<size_t>(mi)] : AssetMaterial();
+    const Eigen::Vector3d base = a.base_color.head<3>().cast<double>();
+    albedo += base * (1 - a.metallic);
+    specular += base * a.metallic;
+    rough += a.roughness;
+  }
+  const double n = std::max<double>(1, static_cast<double>(triangle_material.size()));
+  m.albedo = albedo / n;
+  m.specular = specular / n;
+  m.roughness = std::clamp(rough / n, 1e-3, 1.0);
+  return m;
+}
+
 void LoadRenderScene(const Scene& scene, RenderScene* out, int frame) {
   auto with_name = [](const fs::path& mesh, auto&& add) {
     try {
@@ -253,6 +347,17 @@ void LoadRenderScene(const Scene& scene, RenderScene* out, int frame) {
     with_name(r.mesh, [&] { out->AddReal(mesh, r.material); });
   }
   for (const auto& v : scene.virtuals) {
+    if (IsAssetFile(v.mesh)) {
+      const Asset asset = ReadAsset(v.mesh);
+      std::vector<int> triangle_material;
+      const Mesh mesh = MergeParts(asset, &triangle_material);
+      with_name(v.mesh, [&] {
+        const uint32_t id =
+            out->AddVirtual(mesh, v.WorldFromObjectAt(frame), AssetMeanMaterial(asset, triangle_material));
+        out->SetAssetMaterials(id, asset, std::move(triangle_material), mesh, v.mesh.string());
+      });
+      continue;
+    }
     const Mesh mesh = ReadMesh(v.mesh);
     with_name(v.mesh, [&] { out->AddVirtual(mesh, v.WorldFromObjectAt(frame), v.material); });
   }

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "geometry/asset.h"
 #include "geometry/embree_scene.h"
 #include "geometry/enclosure.h"
 #include "geometry/mesh.h"
@@ -29,6 +30,20 @@ class RenderScene {
   uint32_t AddReal(const Mesh& mesh, const Material& material);
   // A virtual object: `mesh` in object coordinates, placed by world_from_object.
   uint32_t AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material);
+  // An asset's materials on geometry `id` (AddVirtual of MergeParts(asset,
+  // &triangle_material)): each triangle shaded by its part's material
+  // (PbrBsdf), base colour and metallic-roughness textures at the mesh's
+  // uvs (mip level 0: footprints come with ray differentials), loaded once
+  // per image.  `name` names the asset in messages.  Not yet used: normal,
+  // emissive, occlusion and transmission textures, transmission, alpha
+  // (AssetApproximations lists them).
+  void SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material, const Mesh& mesh,
+                         const std::string& name);
+  bool has_asset_material(uint32_t id) const { return surfaces_.at(id).asset != nullptr; }
+  // The BSDF of an asset's material at a hit, and the diffuse albedo there
+  // (base colour x (1 - metallic): what methods that treat the diffuse
+  // lobe apart take).
+  Bsdf AssetBsdfAt(const Hit& hit, Eigen::Vector3d* diffuse_albedo) const;
   void SetEnvironment(EnvironmentMap env) { env_ = std::move(env); }
   // A light of lights.json; a virtual light makes the scene differ from the real one.
   void AddLight(const Light& light);
@@ -97,6 +112,7 @@ class RenderScene {
   const ClosedSurfaces& closed_surfaces() const { return closed_; }
 
  private:
+  struct AssetShading;
   struct Surface {
     Material material;
     Bsdf bsdf;
@@ -106,6 +122,7 @@ class RenderScene {
     Image texture;                               // albedo texture (RGB); empty: none
     std::vector<Eigen::Vector2f> uvs;            // with texture: the mesh's, per vertex
     std::vector<Eigen::Vector3i> triangles;      // with either: the mesh's, by primitive id
+    std::shared_ptr<const AssetShading> asset;   // an asset's materials; null: `material`
   };
   void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world, const Mesh& mesh);
   bool has_glossy_ = false;

@@ -20,6 +20,12 @@ const std::vector<std::string>& OutputLayers() {
 
 namespace {
 
+// A glTF asset (geometry/asset.h; scene's layer does not read it).
+bool IsAssetPath(const fs::path& p) {
+  const std::string e = LowerExtension(p);
+  return e == ".gltf" || e == ".glb";
+}
+
 using Node = JsonNode;
 
 constexpr double kHuge = 1e30;
@@ -314,6 +320,8 @@ SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, b
     sv.keyframes = ParseTrajectory(*trajectory);
     sv.world_from_object = sv.WorldFromObjectAt(sv.keyframes.front().frame);
   }
+  if (material && IsAssetPath(sv.mesh))
+    material->Fail("the mesh is an asset, whose materials are its own: remove \"material\"");
   if (material) sv.material = ParseMaterial(*material, base, check);
   if (formfactors) sv.formfactors = ResolveFile(*formfactors, base, check, "form factors");
   return sv;

@@ -32,7 +32,7 @@ TEST(Texture, TexelCentresAreExactAndDecoded) {
   const Texture lin(Coded(1, 1, 2, {0.5f, 0.25f}), TextureEncoding::kLinear, "grey-alpha");
   const Eigen::Vector4f g = lin.Sample({0.9f, 0.1f}, 0);
   EXPECT_NEAR(g[0], 0.5, 1e-4);
-  EXPECT_NEAR(g[2], 0.5, 1e-4);    // grey repeats into RGB
+  EXPECT_NEAR(g[2], 0.5, 1e-4);   // grey repeats into RGB
   EXPECT_NEAR(g[3], 0.25, 1e-4);  // alpha is never sRGB-decoded
 }
 

@@ -83,6 +83,18 @@ TEST_F(SceneFiles, EnvironmentUpTurnsTheMap) {
   EXPECT_NE(ErrorOf(j).find("lighting.environment_up: a zero vector"), std::string::npos) << ErrorOf(j);
 }
 
+// A virtual object's mesh may be a glTF asset, whose materials are its own.
+TEST_F(SceneFiles, AssetMeshesBringTheirMaterials) {
+  Json j = Valid();
+  const std::string glb = std::string(MR_SOURCE_DIR) + "/tests/data/assets/blender/blender.glb";
+  j["virtual"][0]["mesh"] = glb;
+  j["virtual"][0].erase("material");
+  EXPECT_EQ(ErrorOf(j), "");
+  j["virtual"][0]["material"] = {{"albedo", {0.5, 0.5, 0.5}}};
+  EXPECT_EQ(ErrorOf(j),
+            "scene.json: virtual[0].material: the mesh is an asset, whose materials are its own: remove \"material\"");
+}
+
 TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   Json j = Valid();
   j["virtual"][1]["material"]["albedo"] = {0.1, 0.2, 0.3, 0.4};

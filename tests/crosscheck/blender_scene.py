@@ -2,7 +2,9 @@
 # and bench/cycles_compare.py:
 #   blender -b --factory-startup -noaudio -P blender_scene.py -- SPEC.json OUT.exr
 # SPEC (JSON):
-#   meshes: [{name, path (.obj or .ply), role: "real" | "virtual" (default
+#   meshes: [{name, path (.obj, .ply, or a .glb/.gltf asset imported with its
+#     own materials by Blender's glTF importer; "normal_maps": false unlinks
+#     their normal maps), role: "real" | "virtual" (default
 #     real), world_from_object (4x4, mr's world; optional), albedo [3],
 #     specular [3] and roughness (optional: mr's GGX lobe)}]
 #   environment: a lat-long EXR in mr's (OpenEXR's) convention
@@ -111,11 +113,49 @@ def material(m):
     return mat
 
 
+def import_asset(m, role):
+    """A glTF asset through Blender's own importer, with its materials as the
+    importer makes them (Principled BSDF): the peer's reading of the file.
+    Shaded flat, as mr renders assets today (its vertex normals are to come)."""
+    # Debian 12's Blender 3.4.1 glTF importer uses numpy.bool, which
+    # Debian's NumPy 1.24 no longer has: every import fails without the alias.
+    import numpy
+    if not hasattr(numpy, "bool"):
+        numpy.bool = bool
+    before = set(bpy.data.objects)
+    bpy.ops.import_scene.gltf(filepath=m["path"])
+    new = [o for o in bpy.data.objects if o not in before]
+    place = to_blender @ Matrix(m.get("world_from_object", Matrix.Identity(4))) @ to_blender.inverted()
+    for obj in new:
+        if obj.parent is None:
+            obj.matrix_world = place @ obj.matrix_world
+        if obj.type == "MESH":
+            for p in obj.data.polygons:
+                p.use_smooth = False
+            if obj.data.has_custom_normals:
+                obj.data.free_normals_split()
+                bpy.context.view_layer.objects.active = obj
+                bpy.ops.mesh.customdata_custom_splitnormals_clear()
+            if mode == "mask":
+                obj.data.materials.clear()
+                obj.data.materials.append(material(m))
+            elif not m.get("normal_maps", True):
+                # What mr renders today: no normal maps (the importer's
+                # Normal Map node unlinked from the Principled BSDF).
+                for mat in obj.data.materials:
+                    for link in list(mat.node_tree.links):
+                        if link.to_socket.name == "Normal" and link.to_node.type == "BSDF_PRINCIPLED":
+                            mat.node_tree.links.remove(link)
+
+
 for m in spec["meshes"]:
     role = m.get("role", "real")
     if mode == "real" and role == "virtual":
         continue
     path = m["path"]
+    if path.lower().endswith((".glb", ".gltf")):
+        import_asset(m, role)
+        continue
     # Both importers keep the file's vertices (the OBJ one puts its axis
     # change in the object's matrix, replaced here).
     if path.lower().endswith(".ply"):

@@ -1,7 +1,7 @@
 # Writes the Blender-exported test assets of tests/geometry/asset_test.cpp:
 # the same small scene exported by Blender's own glTF exporter (io_scene_gltf2)
-# as .glb and as .gltf with its .bin and images, and by its OBJ exporter with
-# an MTL, so that mr's readers are tested on files another program wrote.
+# as .glb and as .gltf with its .bin and images (and opaque.glb: the cube and
+# the sphere alone), and by its OBJ exporter with an MTL, so that mr's readers are tested on files another program wrote.
 #   blender -b --factory-startup --python tests/data/assets/make_blender_assets.py -- OUT_DIR
 # The scene: a 1 m cube "painted" (a 16x16 checker base colour texture, a
 # metallic-roughness texture, a normal map, metallic 0), a UV sphere of gold
@@ -91,4 +91,10 @@ slab.data.materials.append(glass)
 
 bpy.ops.export_scene.gltf(filepath=os.path.join(out, "blender.glb"), export_format="GLB")
 bpy.ops.export_scene.gltf(filepath=os.path.join(out, "blender.gltf"), export_format="GLTF_SEPARATE")
+# The opaque parts alone (the cube and the sphere): what mr renders today
+# (transmission is to come), for bench/asset_compare.py.
+bpy.ops.object.select_all(action="DESELECT")
+cube.select_set(True)
+sphere.select_set(True)
+bpy.ops.export_scene.gltf(filepath=os.path.join(out, "opaque.glb"), export_format="GLB", use_selection=True)
 bpy.ops.wm.obj_export(filepath=os.path.join(out, "blender.obj"), path_mode="RELATIVE", export_triangulated_mesh=False)

@@ -1,0 +1,158 @@
+#!/usr/bin/python3
+"""A glTF asset rendered by mr and by Blender Cycles from the same file (issue 38).
+
+The asset: tests/data/assets/blender/opaque.glb, written by Blender's own glTF
+exporter (a cube with base-colour, metallic-roughness and normal textures, and
+a gold sphere of roughness 0.3).  mr reads it with its reader and renders it
+with pt (render/pbr_bsdf.h); Blender reads it with its glTF importer
+(Principled BSDF) and renders it with Cycles.  Same sky (a gradient and a sun
+blob), ground plane, camera and pose as tests/crosscheck/crosscheck.py.
+Both shade flat (mr has no vertex normals yet: Blender's are cleared here).
+
+Printed and written to OUT/results.json: relMSE of mr against Cycles in the
+asset's region (its coverage, from mr's mask layer), beside the two
+renderers' own noise in that region (mr against mr with another seed, Cycles
+against Cycles), and each one's render time.  Named differences the numbers
+include: Blender's Principled BSDF (v1) adds its diffuse and specular lobes
+without mr's albedo scaling, and with single-scattering GGX.  The normal map
+is unlinked in Blender (mr does not render normal maps yet) unless
+--normal-maps.
+
+Usage: bench/asset_compare.py BIN_DIR OUT_DIR [--spp N] [--normal-maps]
+"""
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CROSS = os.path.join(HERE, "..", "tests", "crosscheck")
+ASSET = os.path.abspath(os.path.join(HERE, "..", "tests", "data", "assets", "blender", "opaque.glb"))
+sys.path.insert(0, CROSS)
+os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
+
+
+def Quaternion(R):
+    """(x, y, z, w) of a rotation matrix (Shepperd's method: the largest of
+    the four squares first, so that no branch divides by a small number)."""
+    t = R[0, 0] + R[1, 1] + R[2, 2]
+    if t > 0:
+        s = 2 * math.sqrt(t + 1)
+        return (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, s / 4
+    if R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
+        s = 2 * math.sqrt(1 + R[0, 0] - R[1, 1] - R[2, 2])
+        return s / 4, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s, (R[2, 1] - R[1, 2]) / s
+    if R[1, 1] > R[2, 2]:
+        s = 2 * math.sqrt(1 + R[1, 1] - R[0, 0] - R[2, 2])
+        return (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s, (R[0, 2] - R[2, 0]) / s
+    s = 2 * math.sqrt(1 + R[2, 2] - R[0, 0] - R[1, 1])
+    return (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4, (R[1, 0] - R[0, 1]) / s
+
+
+def main():
+    bin_dir, work = sys.argv[1], sys.argv[2]
+    spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else 256
+    blender = shutil.which("blender")
+    if not blender:
+        print("SKIP: blender is not installed")
+        return 77
+    import cv2
+    import numpy as np
+    from mr_to_blender import env_for_blender
+    os.makedirs(work, exist_ok=True)
+
+    W, H = 256, 129
+    env = np.zeros((H, W, 3), np.float32)
+    for y in range(H):
+        lat = math.pi / 2 - y * math.pi / (H - 1)
+        c = (0.35, 0.5, 0.9) if lat >= 0 else (0.25, 0.22, 0.2)
+        s = 0.6 + 0.4 * max(0.0, math.sin(lat))
+        env[y, :, :] = [c[2] * s, c[1] * s, c[0] * s]  # BGR
+    yy, xx = np.mgrid[0:H, 0:W]
+    env += (np.exp(-((xx - 80) ** 2 + (yy - 30) ** 2) / 8.0) * 2000.0).astype(np.float32)[:, :, None]
+    env_path = os.path.join(work, "env.exr")
+    cv2.imwrite(env_path, env)
+    with open(os.path.join(work, "plane.obj"), "w") as f:
+        f.write("v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 3 2\nf 1 4 3\n")
+
+    w, h, fx = 160, 96, 150.0
+    with open(os.path.join(work, "camera.cameramodel"), "w") as f:
+        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
+                "'extrinsics': [ 0, 0, 0, 0, 0, 0 ], 'imagersize': [ %d, %d ] }\n" % (fx, fx, (w - 1) / 2, (h - 1) / 2, w, h))
+    eye, target = np.array([1.0, 1.6, -2.8]), np.array([1.0, 0.4, 0.0])
+    z = (target - eye) / np.linalg.norm(target - eye)
+    x = np.cross(z, [0.0, 1.0, 0.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z], axis=1)
+    M = np.eye(4)
+    M[:3, :3], M[:3, 3] = R, eye
+    qx, qy, qz, qw = Quaternion(R)
+    with open(os.path.join(work, "trajectory.txt"), "w") as f:
+        f.write("0 %r %r %r %r %r %r %r\n" % (eye[0], eye[1], eye[2], qx, qy, qz, qw))
+    place = np.eye(4)
+    place[:3, 3] = [0.0, 0.0, 0.0]
+
+    depth = 6
+    times = {}
+    for seed, out in ((3, "mr"), (4, "mr2")):
+        scene = {"version": 1,
+                 "camera": {"model": "camera.cameramodel", "poses": {"format": "tum", "path": "trajectory.txt"}},
+                 "lighting": {"environment": "env.exr"},
+                 "real": {"mesh": "plane.obj", "material": {"albedo": [0.5, 0.5, 0.5]}},
+                 "virtual": [{"name": "asset", "mesh": ASSET, "transform": {"matrix": place.flatten().tolist()}}],
+                 "render": {"method": "pt", "spp": spp, "max_depth": depth, "seed": seed},
+                 "output": {"dir": out, "png": True}}
+        json.dump(scene, open(os.path.join(work, out + ".json"), "w"), indent=2)
+        t0 = time.perf_counter()
+        subprocess.run([os.path.join(bin_dir, "mr-render"), os.path.join(work, out + ".json"), "-q", "--threads", "2",
+                        "--report", os.path.join(work, out + "-report.json")], check=True)
+        times[out] = time.perf_counter() - t0
+
+    env_blender = os.path.join(work, "env-blender.exr")
+    env_for_blender(env_path, env_blender)
+    for seed, out in ((5, "cycles"), (6, "cycles2")):
+        spec = {"meshes": [{"name": "plane", "path": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},
+                           {"name": "asset", "role": "virtual", "path": ASSET, "world_from_object": place.tolist(),
+                            "normal_maps": "--normal-maps" in sys.argv}],
+                "environment": env_blender, "env_rotation_deg": 0.0,
+                "camera": {"width": w, "height": h, "fx": fx, "fy": fx, "cx": (w - 1) / 2, "cy": (h - 1) / 2},
+                "world_from_cam": M.tolist(), "spp": spp, "max_depth": depth, "seed": seed, "threads": 2}
+        json.dump(spec, open(os.path.join(work, out + ".json"), "w"), indent=2)
+        t0 = time.perf_counter()
+        subprocess.run([blender, "-b", "--factory-startup", "-noaudio", "-P", os.path.join(CROSS, "blender_scene.py"), "--",
+                        os.path.join(work, out + ".json"), os.path.join(work, out + ".exr")],
+                       check=True, stdout=subprocess.DEVNULL)
+        times[out] = time.perf_counter() - t0
+
+    # The asset's region: mr's mask layer (its coverage of each pixel).
+    region = os.path.join(work, "region.exr")
+    subprocess.run(["oiiotool", os.path.join(work, "mr", "00000.exr"), "--ch", "mask.Y", "--chnames", "Y", "-o", region],
+                   check=True)
+
+    def relmse(a, b):
+        rep = os.path.join(work, "cmp.json")
+        subprocess.run([os.path.join(bin_dir, "mr-eval"), "compare", a, b, "--region", region, "--report", rep, "-q"],
+                       check=True, capture_output=True)
+        return json.load(open(rep))["metrics"]["relmse"]
+
+    mr1, mr2 = os.path.join(work, "mr", "00000.exr"), os.path.join(work, "mr2", "00000.exr")
+    cy1, cy2 = os.path.join(work, "cycles.exr"), os.path.join(work, "cycles2.exr")
+    r = {"spp": spp, "mr_vs_cycles": relmse(mr1, cy1), "mr_vs_mr": relmse(mr1, mr2),
+         "cycles_vs_cycles": relmse(cy1, cy2), "mr_seconds": times["mr"], "cycles_seconds": times["cycles"]}
+    # Two independent renders of one image differ by the sum of their
+    # variances: mr against Cycles is "within noise" below about
+    # (mr_vs_mr + cycles_vs_cycles) / 2.
+    r["noise_floor"] = (r["mr_vs_mr"] + r["cycles_vs_cycles"]) / 2
+    json.dump(r, open(os.path.join(work, "results.json"), "w"), indent=2)
+    print("region relMSE at %d spp: mr vs Cycles %.4g; noise floor %.4g (mr vs mr %.4g, Cycles vs Cycles %.4g); "
+          "wall time mr %.1f s, Cycles %.1f s" % (spp, r["mr_vs_cycles"], r["noise_floor"], r["mr_vs_mr"],
+                                                  r["cycles_vs_cycles"], r["mr_seconds"], r["cycles_seconds"]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -413,8 +413,12 @@ void RenderJob::PrepareWorldAndMethod() {
 // What an asset's materials bring that this method does not render yet
 // (issue 38), per object.
 void RenderJob::ReportAssetApproximations() {
-  for (const SceneVirtual& v : scene_.virtuals) {
+  for (size_t i = 0; i < scene_.virtuals.size(); ++i) {
+    const SceneVirtual& v = scene_.virtuals[i];
     if (!IsAssetFile(v.mesh)) continue;
+    const uint32_t id = rs_.virtual_ids().at(i);
+    report_->SetMetric("assets." + v.name + ".textures", rs_.asset_textures(id));
+    report_->SetMetric("assets." + v.name + ".texture_bytes", rs_.asset_texture_bytes(id));
     report_->Skip(fmt::format("virtual object \"{}\": its normal, emissive and occlusion textures, transmission, "
                               "alpha and vertex normals",
                               v.name),

@@ -130,6 +130,19 @@ void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector
   has_glossy_ = true;
 }
 
+int64_t RenderScene::asset_textures(uint32_t id) const {
+  const auto& a = surfaces_.at(id).asset;
+  return a ? std::count_if(a->textures.begin(), a->textures.end(), [](const auto& t) { return t != nullptr; }) : 0;
+}
+
+int64_t RenderScene::asset_texture_bytes(uint32_t id) const {
+  int64_t b = 0;
+  if (const auto& a = surfaces_.at(id).asset)
+    for (const auto& t : a->textures)
+      if (t) b += static_cast<int64_t>(t->bytes());
+  return b;
+}
+
 Bsdf RenderScene::AssetBsdfAt(const Hit& hit, Eigen::Vector3d* diffuse_albedo) const {
   const AssetShading& a = *surfaces_.at(hit.geometry_id).asset;
   const size_t tri = std::min<size_t>(hit.primitive_id, a.triangles.size() - 1);

@@ -40,6 +40,10 @@ class RenderScene {
   void SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material, const Mesh& mesh,
                          const std::string& name);
   bool has_asset_material(uint32_t id) const { return surfaces_.at(id).asset != nullptr; }
+  // The textures of geometry `id`'s asset: how many, and their bytes (every
+  // mip level; each image once however many materials sample it).
+  int64_t asset_textures(uint32_t id) const;
+  int64_t asset_texture_bytes(uint32_t id) const;
   // The BSDF of an asset's material at a hit, and the diffuse albedo there
   // (base colour x (1 - metallic): what methods that treat the diffuse
   // lobe apart take).

@@ -21,7 +21,6 @@ is unlinked in Blender (mr does not render normal maps yet) unless
 Usage: bench/asset_compare.py BIN_DIR OUT_DIR [--spp N] [--normal-maps]
 """
 import json
-import math
 import os
 import shutil
 import subprocess
@@ -35,23 +34,6 @@ sys.path.insert(0, CROSS)
 os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
 
 
-def Quaternion(R):
-    """(x, y, z, w) of a rotation matrix (Shepperd's method: the largest of
-    the four squares first, so that no branch divides by a small number)."""
-    t = R[0, 0] + R[1, 1] + R[2, 2]
-    if t > 0:
-        s = 2 * math.sqrt(t + 1)
-        return (R[2, 1] - R[1, 2]) / s, (R[0, 2] - R[2, 0]) / s, (R[1, 0] - R[0, 1]) / s, s / 4
-    if R[0, 0] > R[1, 1] and R[0, 0] > R[2, 2]:
-        s = 2 * math.sqrt(1 + R[0, 0] - R[1, 1] - R[2, 2])
-        return s / 4, (R[0, 1] + R[1, 0]) / s, (R[0, 2] + R[2, 0]) / s, (R[2, 1] - R[1, 2]) / s
-    if R[1, 1] > R[2, 2]:
-        s = 2 * math.sqrt(1 + R[1, 1] - R[0, 0] - R[2, 2])
-        return (R[0, 1] + R[1, 0]) / s, s / 4, (R[1, 2] + R[2, 1]) / s, (R[0, 2] - R[2, 0]) / s
-    s = 2 * math.sqrt(1 + R[2, 2] - R[0, 0] - R[1, 1])
-    return (R[0, 2] + R[2, 0]) / s, (R[1, 2] + R[2, 1]) / s, s / 4, (R[1, 0] - R[0, 1]) / s
-
-
 def main():
     bin_dir, work = sys.argv[1], sys.argv[2]
     spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else 256
@@ -61,38 +43,16 @@ def main():
         return 77
     import cv2
     import numpy as np
-    from mr_to_blender import env_for_blender
+    from mr_to_blender import env_for_blender, look_at, write_pinhole, write_sky
     os.makedirs(work, exist_ok=True)
 
-    W, H = 256, 129
-    env = np.zeros((H, W, 3), np.float32)
-    for y in range(H):
-        lat = math.pi / 2 - y * math.pi / (H - 1)
-        c = (0.35, 0.5, 0.9) if lat >= 0 else (0.25, 0.22, 0.2)
-        s = 0.6 + 0.4 * max(0.0, math.sin(lat))
-        env[y, :, :] = [c[2] * s, c[1] * s, c[0] * s]  # BGR
-    yy, xx = np.mgrid[0:H, 0:W]
-    env += (np.exp(-((xx - 80) ** 2 + (yy - 30) ** 2) / 8.0) * 2000.0).astype(np.float32)[:, :, None]
     env_path = os.path.join(work, "env.exr")
-    cv2.imwrite(env_path, env)
+    write_sky(env_path)
     with open(os.path.join(work, "plane.obj"), "w") as f:
         f.write("v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 3 2\nf 1 4 3\n")
-
     w, h, fx = 160, 96, 150.0
-    with open(os.path.join(work, "camera.cameramodel"), "w") as f:
-        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
-                "'extrinsics': [ 0, 0, 0, 0, 0, 0 ], 'imagersize': [ %d, %d ] }\n" % (fx, fx, (w - 1) / 2, (h - 1) / 2, w, h))
-    eye, target = np.array([1.0, 1.6, -2.8]), np.array([1.0, 0.4, 0.0])
-    z = (target - eye) / np.linalg.norm(target - eye)
-    x = np.cross(z, [0.0, 1.0, 0.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z], axis=1)
-    M = np.eye(4)
-    M[:3, :3], M[:3, 3] = R, eye
-    qx, qy, qz, qw = Quaternion(R)
-    with open(os.path.join(work, "trajectory.txt"), "w") as f:
-        f.write("0 %r %r %r %r %r %r %r\n" % (eye[0], eye[1], eye[2], qx, qy, qz, qw))
+    write_pinhole(os.path.join(work, "camera.cameramodel"), w, h, fx)
+    M = look_at([1.0, 1.6, -2.8], [1.0, 0.4, 0.0], os.path.join(work, "trajectory.txt"))
     place = np.eye(4)
     place[:3, 3] = [0.0, 0.0, 0.0]
 

@@ -38,19 +38,10 @@ def main():
     # The environment: a sky gradient and a sun blob (Gaussian, sigma 2 px,
     # peak 2000 x the sky) so that half-pixel differences in the map's
     # convention stay below the noise.
-    W, H = 256, 129
-    env = np.zeros((H, W, 3), np.float32)
-    for y in range(H):
-        lat = math.pi / 2 - y * math.pi / (H - 1)
-        c = (0.35, 0.5, 0.9) if lat >= 0 else (0.25, 0.22, 0.2)
-        s = 0.6 + 0.4 * max(0.0, math.sin(lat))
-        env[y, :, :] = [c[2] * s, c[1] * s, c[0] * s]  # BGR for OpenCV
-    sx, sy = 80, 30
-    yy, xx = np.mgrid[0:H, 0:W]
-    blob = np.exp(-((xx - sx) ** 2 + (yy - sy) ** 2) / (2 * 2.0 ** 2)).astype(np.float32) * 2000.0
-    env += blob[:, :, None]
+    sys.path.insert(0, HERE)
+    from mr_to_blender import env_for_blender, look_at, write_pinhole, write_sky
     env_path = os.path.join(work, "env.exr")
-    cv2.imwrite(env_path, env)
+    write_sky(env_path)
 
     # Meshes as OBJ, y up (Blender's importer maps them to z up).
     with open(os.path.join(work, "plane.obj"), "w") as f:
@@ -73,25 +64,8 @@ def main():
 
     # Camera: pinhole, 96x72, looking at the sphere from above and in front.
     w, h, fx = 96, 72, 90.0
-    with open(os.path.join(work, "camera.cameramodel"), "w") as f:
-        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
-                "'extrinsics': [ 0, 0, 0, 0, 0, 0 ], 'imagersize': [ %d, %d ] }\n" % (fx, fx, (w - 1) / 2, (h - 1) / 2, w, h))
-    eye, target = np.array([0.3, 1.2, -1.6]), np.array([0.0, 0.3, 0.0])
-    z = (target - eye) / np.linalg.norm(target - eye)
-    x = np.cross(z, [0.0, 1.0, 0.0])
-    x /= np.linalg.norm(x)
-    y = np.cross(z, x)
-    R = np.stack([x, y, z], axis=1)
-    assert np.linalg.det(R) > 0
-    M = np.eye(4)
-    M[:3, :3], M[:3, 3] = R, eye
-    # Quaternion of R (TUM: qx qy qz qw).
-    qw = math.sqrt(max(0.0, 1 + R[0, 0] + R[1, 1] + R[2, 2])) / 2
-    qx = math.copysign(math.sqrt(max(0.0, 1 + R[0, 0] - R[1, 1] - R[2, 2])) / 2, R[2, 1] - R[1, 2])
-    qy = math.copysign(math.sqrt(max(0.0, 1 - R[0, 0] + R[1, 1] - R[2, 2])) / 2, R[0, 2] - R[2, 0])
-    qz = math.copysign(math.sqrt(max(0.0, 1 - R[0, 0] - R[1, 1] + R[2, 2])) / 2, R[1, 0] - R[0, 1])
-    with open(os.path.join(work, "trajectory.txt"), "w") as f:
-        f.write("0 %r %r %r %r %r %r %r\n" % (eye[0], eye[1], eye[2], qx, qy, qz, qw))
+    write_pinhole(os.path.join(work, "camera.cameramodel"), w, h, fx)
+    M = look_at([0.3, 1.2, -1.6], [0.0, 0.3, 0.0], os.path.join(work, "trajectory.txt"))
 
     max_depth = 4
     scene = {"version": 1, "camera": {"model": "camera.cameramodel", "poses": {"format": "tum", "path": "trajectory.txt"}},
@@ -109,8 +83,6 @@ def main():
 
     # The map in Blender's convention (a quarter turn, half a pixel and a
     # (W-1)/W stretch from OpenEXR's; docs/benchmarks.md "Cross-check").
-    sys.path.insert(0, HERE)
-    from mr_to_blender import env_for_blender
     env_blender = os.path.join(work, "env-blender.exr")
     env_for_blender(env_path, env_blender)
     spec = {"meshes": [{"name": "plane", "path": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},

@@ -29,7 +29,7 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
           fmt::format("method prt needs form factors for virtual object \"{}\": run mr-formfactor on {} and "
                       "name the .ffc in virtual[{}].formfactors",
                       v.name, v.mesh.string(), i));
-    const Mesh mesh = ReadMesh(v.mesh);
+    const Mesh mesh = ReadVirtualMesh(v);
     const VertexTransfer t = ReadTransfer(*v.formfactors);
     CheckTransferMatches(t, mesh, v.formfactors->string(), v.mesh.string());
     if (t.header.valid_spp > 0 && spp > t.header.valid_spp)
@@ -108,7 +108,7 @@ std::vector<char> VerticesSeenByCamera(const Scene& scene, const std::string& ob
   RenderScene rs;
   LoadRenderScene(scene, &rs);
   const uint32_t id = rs.virtual_ids().at(index);
-  const Mesh mesh = ReadMesh(scene.virtuals[index].mesh);
+  const Mesh mesh = ReadVirtualMesh(scene.virtuals[index]);
   const CameraModel camera = CameraModel::Read(scene.camera.model);
   const std::vector<Rigid3> poses = LoadScenePoses(scene);
   const int end = scene.render.frame_end < 0 ? static_cast<int>(poses.size())

@@ -415,7 +415,7 @@ void RenderJob::PrepareWorldAndMethod() {
 void RenderJob::ReportAssetApproximations() {
   for (size_t i = 0; i < scene_.virtuals.size(); ++i) {
     const SceneVirtual& v = scene_.virtuals[i];
-    if (!IsAssetFile(v.mesh)) continue;
+    if (!v.file_materials) continue;
     const uint32_t id = rs_.virtual_ids().at(i);
     report_->SetMetric("assets." + v.name + ".textures", rs_.asset_textures(id));
     report_->SetMetric("assets." + v.name + ".texture_bytes", rs_.asset_texture_bytes(id));

@@ -347,6 +347,10 @@ Material AssetMeanMaterial(const Asset& asset, const std::vector<int>& triangle_
   return m;
 }
 
+Mesh ReadVirtualMesh(const SceneVirtual& v) {
+  return v.file_materials ? MergeParts(ReadAsset(v.mesh)) : ReadMesh(v.mesh);
+}
+
 void LoadRenderScene(const Scene& scene, RenderScene* out, int frame) {
   auto with_name = [](const fs::path& mesh, auto&& add) {
     try {
@@ -360,7 +364,7 @@ void LoadRenderScene(const Scene& scene, RenderScene* out, int frame) {
     with_name(r.mesh, [&] { out->AddReal(mesh, r.material); });
   }
   for (const auto& v : scene.virtuals) {
-    if (IsAssetFile(v.mesh)) {
+    if (v.file_materials) {
       const Asset asset = ReadAsset(v.mesh);
       std::vector<int> triangle_material;
       const Mesh mesh = MergeParts(asset, &triangle_material);

@@ -152,6 +152,11 @@ class RenderScene {
 // file when it has neither R, G, B nor Y.
 Image ReadAlbedoTexture(const fs::path& path);
 
+// A virtual object's mesh as LoadRenderScene adds it (the same vertices and
+// triangles, in the same order): an asset's parts merged where it is shaded
+// by its file's materials, else the mesh file as ReadMesh reads it.
+Mesh ReadVirtualMesh(const SceneVirtual& v);
+
 // Builds a RenderScene from a validated scene description: reads the meshes
 // and the environment map (NaN/Inf pixels are an error naming the file and
 // pixel; albedo_from_vertex_colors on a mesh without colours names the mesh).

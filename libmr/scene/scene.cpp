@@ -320,9 +320,16 @@ SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, b
     sv.keyframes = ParseTrajectory(*trajectory);
     sv.world_from_object = sv.WorldFromObjectAt(sv.keyframes.front().frame);
   }
-  if (material && IsAssetPath(sv.mesh))
+  sv.file_materials = IsAssetPath(sv.mesh);
+  if (material && sv.file_materials)
     material->Fail("the mesh is an asset, whose materials are its own: remove \"material\"");
-  if (material) sv.material = ParseMaterial(*material, base, check);
+  if (material && material->json().is_string()) {  // "mtl": the OBJ's own materials
+    if (material->String() != "mtl" || LowerExtension(sv.mesh) != ".obj")
+      material->Fail("expected a material block, or \"mtl\" for an OBJ's own MTL materials");
+    sv.file_materials = true;
+  } else if (material) {
+    sv.material = ParseMaterial(*material, base, check);
+  }
   if (formfactors) sv.formfactors = ResolveFile(*formfactors, base, check, "form factors");
   return sv;
 }

@@ -113,6 +113,10 @@ struct SceneVirtual {
   std::vector<ObjectKeyframe> keyframes;
   Material material;
   std::optional<fs::path> formfactors;  // .ffc from mr-formfactor
+  // Shaded by the mesh file's own materials (geometry/asset.h): always for
+  // a glTF asset (.gltf, .glb), and for an OBJ whose "material" is "mtl"
+  // (its MTL library); `material` is then unused.
+  bool file_materials = false;
   // world_from_object at `frame`: between two keyframes translation and
   // scale linear, rotation slerp (the shorter way); before the first and
   // after the last, held.

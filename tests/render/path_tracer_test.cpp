@@ -324,6 +324,25 @@ TEST(PathTracer, EnvironmentPixelsAreSampledOnceAndChangeNothing) {
 namespace mr {
 namespace {
 
+// An OBJ with "material": "mtl" is added with its MTL materials, its mesh
+// as ReadVirtualMesh reads it (prt's and the renderer's agree).
+TEST(PathTracer, ObjWithMtlMaterialsLoads) {
+  SceneVirtual v;
+  v.name = "blender";
+  v.mesh = fs::path(MR_SOURCE_DIR) / "tests/data/assets/blender/blender.obj";
+  v.file_materials = true;
+  const Mesh mesh = ReadVirtualMesh(v);
+  EXPECT_EQ(mesh.triangle_count(), 248u);
+  EXPECT_EQ(mesh.vertex_count(), 199u);  // split at seams, unlike ReadMesh's 130
+  Scene scene;
+  scene.virtuals.push_back(v);
+  RenderScene rs;
+  LoadRenderScene(scene, &rs);
+  const uint32_t id = rs.virtual_ids().at(0);
+  EXPECT_TRUE(rs.has_asset_material(id));
+  EXPECT_EQ(rs.asset_textures(id), 1);  // checker.png (the normal map is not loaded yet)
+}
+
 // An asset's materials through the path tracer: a convex sphere in a
 // uniform sky of radiance 1 reflects radiance 1 wherever its BSDF conserves
 // energy (render/pbr_bsdf.h): a white metal, and a white base under the

@@ -93,6 +93,18 @@ TEST_F(SceneFiles, AssetMeshesBringTheirMaterials) {
   j["virtual"][0]["material"] = {{"albedo", {0.5, 0.5, 0.5}}};
   EXPECT_EQ(ErrorOf(j),
             "scene.json: virtual[0].material: the mesh is an asset, whose materials are its own: remove \"material\"");
+  // An OBJ takes its own MTL materials with "material": "mtl" (its renders
+  // with a material block, or none, are unchanged).
+  j = Valid();
+  j["virtual"][0]["mesh"] = std::string(MR_SOURCE_DIR) + "/tests/data/assets/blender/blender.obj";
+  j["virtual"][0]["material"] = "mtl";
+  EXPECT_EQ(ErrorOf(j), "");
+  EXPECT_TRUE(ParseScene(j, dir_.path(), "scene.json", true).virtuals[0].file_materials);
+  j["virtual"][0]["material"] = "gltf";
+  EXPECT_EQ(ErrorOf(j),
+            "scene.json: virtual[0].material: expected a material block, or \"mtl\" for an OBJ's own MTL materials");
+  j["virtual"][0].erase("material");
+  EXPECT_FALSE(ParseScene(j, dir_.path(), "scene.json", true).virtuals[0].file_materials);
 }
 
 TEST_F(SceneFiles, ErrorsNameTheKeyPath) {

@@ -4,6 +4,7 @@
 // a few bytes of work however large the numbers it claims.
 #include "geometry/mesh_formats.h"
 
+#include <array>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -128,6 +129,43 @@ bool IsIgnoredObjKeyword(std::string_view k) {
   return false;
 }
 
+// One face corner, "v", "v/vt", "v//vn" or "v/vt/vn" (1-based, negative
+// from the end), against the counts of vertices, uvs and normals defined so
+// far: 0-based (vertex, uv, normal), -1 where the corner names none.
+Eigen::Vector3i ParseObjCorner(std::string_view c, const std::array<size_t, 3>& counts, const FileLoc& loc) {
+  std::string_view part[3];
+  int parts = 0;
+  size_t start = 0;
+  for (size_t i = 0; i <= c.size() && parts < 4; ++i) {
+    if (i == c.size() || c[i] == '/') {
+      if (parts == 3) ThrowErrorAt(loc, "face corner {}: more than three indices", Quote(c));
+      part[parts++] = c.substr(start, i - start);
+      start = i + 1;
+    }
+  }
+  const char* kinds[3] = {"vertex", "texture coordinate", "normal"};
+  int64_t idx[3] = {0, 0, 0};
+  for (int p = 0; p < parts; ++p) {
+    if (part[p].empty()) {
+      if (p == 0) ThrowErrorAt(loc, "face corner {} has no vertex index", Quote(c));
+      if (p == 1 && parts == 3) continue;  // v//vn
+      ThrowErrorAt(loc, "face corner {}: empty index", Quote(c));
+    }
+    int64_t i = 0;
+    if (!ParseInt(part[p], &i) || i == 0)
+      ThrowErrorAt(loc, "face corner {}: {} is not a {} index (1-based, or negative from the end)", Quote(c),
+                   Quote(part[p]), kinds[p]);
+    const int64_t n = static_cast<int64_t>(counts[p]);
+    const int64_t resolved = i > 0 ? i - 1 : n + i;
+    if (resolved < 0 || resolved >= n)
+      ThrowErrorAt(loc, "face corner {} uses {} {}, but {} {}s are defined before it", Quote(c), kinds[p], i, n,
+                   kinds[p]);
+    idx[p] = resolved;
+  }
+  return {static_cast<int>(idx[0]), parts >= 2 && !part[1].empty() ? static_cast<int>(idx[1]) : -1,
+          parts == 3 ? static_cast<int>(idx[2]) : -1};
+}
+
 }  // namespace
 
 MeshSoup ParseObj(const std::string& text, const std::string& name, const MeshReadOptions& options) {
@@ -201,51 +239,19 @@ MeshSoup ParseObj(const std::string& text, const std::string& name, const MeshRe
       std::vector<Eigen::Vector3i> corners;
       face.reserve(tok.size() - 1);
       for (size_t k = 1; k < tok.size(); ++k) {
-        // v, v/vt, v//vn or v/vt/vn; indices 1-based, negative from the end.
-        std::string_view c = tok[k];
-        std::string_view part[3];
-        int parts = 0;
-        size_t start = 0;
-        for (size_t i = 0; i <= c.size() && parts < 4; ++i) {
-          if (i == c.size() || c[i] == '/') {
-            if (parts == 3) ThrowErrorAt(loc, "face corner {}: more than three indices", Quote(c));
-            part[parts++] = c.substr(start, i - start);
-            start = i + 1;
-          }
-        }
-        const size_t counts[3] = {soup.positions.size(), vt.size(), vn.size()};
-        const char* kinds[3] = {"vertex", "texture coordinate", "normal"};
-        int64_t idx[3] = {0, 0, 0};
-        for (int p = 0; p < parts; ++p) {
-          if (part[p].empty()) {
-            if (p == 0) ThrowErrorAt(loc, "face corner {} has no vertex index", Quote(c));
-            if (p == 1 && parts == 3) continue;  // v//vn
-            ThrowErrorAt(loc, "face corner {}: empty index", Quote(c));
-          }
-          int64_t i = 0;
-          if (!ParseInt(part[p], &i) || i == 0)
-            ThrowErrorAt(loc, "face corner {}: {} is not a {} index (1-based, or negative from the end)", Quote(c),
-                         Quote(part[p]), kinds[p]);
-          const int64_t n = static_cast<int64_t>(counts[p]);
-          const int64_t resolved = i > 0 ? i - 1 : n + i;
-          if (resolved < 0 || resolved >= n)
-            ThrowErrorAt(loc, "face corner {} uses {} {}, but {} {}s are defined before it", Quote(c), kinds[p], i, n,
-                         kinds[p]);
-          idx[p] = resolved;
-        }
-        const size_t v = static_cast<size_t>(idx[0]);
-        face.push_back(static_cast<int>(v));
-        corners.emplace_back(static_cast<int>(v), parts >= 2 && !part[1].empty() ? static_cast<int>(idx[1]) : -1,
-                             parts == 3 ? static_cast<int>(idx[2]) : -1);
+        const Eigen::Vector3i c = ParseObjCorner(tok[k], {soup.positions.size(), vt.size(), vn.size()}, loc);
+        const size_t v = static_cast<size_t>(c[0]);
+        face.push_back(c[0]);
+        corners.push_back(c);
         // Per-vertex attributes from the corner (the last corner naming a
         // vertex wins, as in OpenMesh's reader).
-        if (parts >= 2 && !part[1].empty()) {
+        if (c[1] >= 0) {
           soup.uvs.resize(std::max(soup.uvs.size(), v + 1), Eigen::Vector2f::Zero());
-          soup.uvs[v] = vt[static_cast<size_t>(idx[1])];
+          soup.uvs[v] = vt[static_cast<size_t>(c[1])];
         }
-        if (parts == 3) {
+        if (c[2] >= 0) {
           soup.normals.resize(std::max(soup.normals.size(), v + 1), Eigen::Vector3f::Zero());
-          soup.normals[v] = vn[static_cast<size_t>(idx[2])];
+          soup.normals[v] = vn[static_cast<size_t>(c[2])];
         }
       }
       if (soup.positions.size() > static_cast<size_t>(std::numeric_limits<int>::max()))

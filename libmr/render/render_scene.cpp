@@ -108,6 +108,10 @@ struct RenderScene::AssetShading {
 void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material,
                                     const Mesh& mesh, const std::string& name) {
   MR_CHECK(triangle_material.size() == mesh.triangles.size());
+  // PbrBsdf's tables built here, on the loading thread: their build is a
+  // parallel loop, which inside a render's own parallel loop could steal a
+  // task that waits on the same static (TBB has no isolation there).
+  GetPbrTables();
   auto a = std::make_shared<AssetShading>();
   a->triangle_material = std::move(triangle_material);
   a->materials = asset.materials;

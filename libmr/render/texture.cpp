@@ -150,6 +150,7 @@ Texture LoadAssetTexture(const AssetImage& image, TextureEncoding encoding, cons
     temporary = fs::temp_directory_path() / fmt::format("mr-texture-{}-{}", getpid(), counter++);
     std::ofstream out(temporary, std::ios::binary);
     out.write(reinterpret_cast<const char*>(image.bytes.data()), static_cast<std::streamsize>(image.bytes.size()));
+    out.close();  // a full disk shows at the close
     if (!out) ThrowError("{}: cannot write a temporary copy to decode it ({})", name, temporary.string());
     file = temporary;
   }

@@ -1,5 +1,6 @@
 #include "geometry/asset.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -7,6 +8,7 @@
 
 #include "core/error.h"
 #include "core/image.h"
+#include "core/spherical.h"
 #include "geometry/asset_detail.h"
 
 namespace mr {
@@ -36,6 +38,46 @@ Mesh MergeParts(const Asset& asset, std::vector<int>* triangle_material) {
     if (triangle_material) triangle_material->insert(triangle_material->end(), p.mesh.triangles.size(), p.material);
   }
   return m;
+}
+
+std::vector<Eigen::Vector4f> AssetTangents(const Asset& asset, const Mesh& merged) {
+  const size_t n = merged.positions.size();
+  if (merged.normals.size() != n || merged.uvs.size() != n) return {};
+  std::vector<Eigen::Vector4f> out;
+  if (std::all_of(asset.parts.begin(), asset.parts.end(),
+                  [](const AssetPart& p) { return p.tangents.size() == p.mesh.positions.size(); })) {
+    for (const AssetPart& p : asset.parts) out.insert(out.end(), p.tangents.begin(), p.tangents.end());
+    if (out.size() == n) return out;
+    out.clear();
+  }
+  std::vector<Eigen::Vector3d> t(n, Eigen::Vector3d::Zero()), b(n, Eigen::Vector3d::Zero());
+  for (const Eigen::Vector3i& tri : merged.triangles) {
+    const auto P = [&](int k) { return merged.positions[static_cast<size_t>(tri[k])].cast<double>(); };
+    const auto U = [&](int k) { return merged.uvs[static_cast<size_t>(tri[k])].cast<double>(); };
+    const Eigen::Vector3d e1 = P(1) - P(0), e2 = P(2) - P(0);
+    const Eigen::Vector2d d1 = U(1) - U(0), d2 = U(2) - U(0);
+    const double det = d1.x() * d2.y() - d2.x() * d1.y();
+    if (!(std::abs(det) > 0)) continue;
+    const Eigen::Vector3d dpdu = (d2.y() * e1 - d1.y() * e2) / det, dpdv = (d1.x() * e2 - d2.x() * e1) / det;
+    if (!dpdu.allFinite() || !dpdv.allFinite()) continue;
+    for (int k = 0; k < 3; ++k) {
+      t[static_cast<size_t>(tri[k])] += dpdu;
+      b[static_cast<size_t>(tri[k])] -= dpdv;  // glTF's v runs down the image; "up" is -v
+    }
+  }
+  out.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3d nn = merged.normals[i].cast<double>().normalized();
+    Eigen::Vector3d tt = t[i] - nn * nn.dot(t[i]);
+    if (!(tt.norm() > 1e-12 * (t[i].norm() + 1e-300)) || !tt.allFinite()) {
+      Eigen::Vector3d bb;
+      CoordinateSystem(nn, &tt, &bb);  // no uv derivative here: any frame
+    }
+    tt.normalize();
+    const float w = nn.cross(tt).dot(b[i]) < 0 ? -1.0f : 1.0f;
+    out[i] << tt.cast<float>(), w;
+  }
+  return out;
 }
 
 bool IsAssetFile(const fs::path& path) {

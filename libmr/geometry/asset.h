@@ -119,6 +119,16 @@ struct Asset {
 // given, receives each triangle's part material (AssetPart::material).
 Mesh MergeParts(const Asset& asset, std::vector<int>* triangle_material = nullptr);
 
+// Per-vertex tangents of MergeParts(asset) (`merged`), for normal maps: the
+// asset's own where every part has them, else computed from the uvs (set
+// 0) as the glTF specification asks of MikkTSpace's convention: xyz along
+// increasing u, orthogonal to the vertex normal, w the handedness such that
+// cross(normal, xyz) w points up the image (decreasing glTF v).  Per-vertex
+// sums of the triangles' uv derivatives, angle-free (not MikkTSpace's exact
+// splitting: they differ where a vertex's triangles disagree).  Empty
+// without normals or uvs.
+std::vector<Eigen::Vector4f> AssetTangents(const Asset& asset, const Mesh& merged);
+
 // Whether mr reads `path` as an asset (.gltf, .glb; .obj reads as an asset
 // too, with its materials).
 bool IsAssetFile(const fs::path& path);

@@ -23,7 +23,31 @@ Bsdf::Bsdf(const Material& m) : albedo_(m.albedo), specular_(m.specular), alpha_
 double Bsdf::D(const Eigen::Vector3d& h) const { return GgxD(h, alpha_); }
 double Bsdf::Lambda(const Eigen::Vector3d& w) const { return GgxLambda(w, alpha_); }
 
+void Bsdf::SetGeometricNormal(const Eigen::Vector3d& ng, bool shadowing) {
+  ng_ = ng;
+  has_ng_ = true;
+  shadowing_ = shadowing;
+}
+
+// Chiang et al. 2019, eq. 4-5: G = min(1, (ng . wi) / ((ns . wi)(ng . ns))),
+// smoothed as -G^3 + G^2 + G; ns is the local z.
+double Bsdf::GeometricFactor(const Eigen::Vector3d& wi) const {
+  if (!has_ng_) return 1;
+  const double gi = wi.dot(ng_);
+  if ((gi > 0) != (wi.z() > 0) || gi == 0) return 0;
+  if (!shadowing_) return 1;
+  const double denom = std::abs(wi.z() * ng_.z());
+  const double g = denom > 0 ? std::min(1.0, std::abs(gi) / denom) : 1.0;
+  return -g * g * g + g * g + g;
+}
+
 Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
+  if (!has_ng_) return EvalLobes(wo, wi);
+  const double g = GeometricFactor(wi);
+  return g > 0 ? Eigen::Vector3d(EvalLobes(wo, wi) * g) : Eigen::Vector3d::Zero();
+}
+
+Eigen::Vector3d Bsdf::EvalLobes(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
   if (pbr_) return pbr_->Eval(wo, wi);
   if (wo.z() <= 0 || wi.z() <= 0) return Eigen::Vector3d::Zero();
   Eigen::Vector3d f = albedo_ * kInvPi;
@@ -66,7 +90,11 @@ double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
 }
 
 bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const {
-  if (pbr_) return pbr_->Sample(wo, u_lobe, u0, u1, s);
+  if (pbr_) {
+    if (!pbr_->Sample(wo, u_lobe, u0, u1, s)) return false;
+    if (has_ng_) s->f *= GeometricFactor(s->wi);
+    return !has_ng_ || s->f.maxCoeff() > 0;
+  }
   if (wo.z() <= 0 || IsBlack()) return false;
   if (u_lobe < diffuse_weight_) {
     auto d = SampleCosineHemisphere(u0, u1);
@@ -77,6 +105,7 @@ bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1
   }
   if (s->wi.z() <= 0) return false;
   s->f = Eval(wo, s->wi);
+  if (has_ng_ && s->f.maxCoeff() <= 0) return false;
   s->pdf = Pdf(wo, s->wi);
   return s->pdf > 0;
 }

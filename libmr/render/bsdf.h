@@ -21,13 +21,22 @@ class Bsdf {
   explicit Bsdf(const Material& m);
   // An asset's material at a point (render/pbr_bsdf.h): every call below
   // goes to it.
-  explicit Bsdf(const PbrBsdf& pbr) : pbr_(pbr), diffuse_weight_(1) {}
+  explicit Bsdf(const PbrBsdf& pbr) : diffuse_weight_(1), pbr_(pbr) {}
   // wo and wi in the local frame (z = normal), both pointing away from the surface.
   Eigen::Vector3d Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   // Returns false when no direction was produced (e.g. below the horizon).
   bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const;
   bool IsBlack() const { return diffuse_weight_ + glossy_weight_ <= 0; }
+  // Shading normals (docs/methods.md, "Shading normals"): `ng` is the unit
+  // geometric normal in this BSDF's local frame (whose z is the shading
+  // normal), on wo's side.  From then on a wi on the other side of the
+  // geometric surface than its local z says (wi . ng and wi.z of different
+  // sign) gets nothing, so no light leaks through the surface, and with
+  // `shadowing` (a normal-mapped point) f is multiplied by Chiang, Li and
+  // Burley's shadowing term (2019) against the terminator's hard edge.
+  // Pdf is unchanged: it is the sampling density.
+  void SetGeometricNormal(const Eigen::Vector3d& ng, bool shadowing);
   // Bounds on f(wo, wi) wi.z over every wi, per channel, for a light tree's
   // error bounds: the diffuse part's is albedo/pi times the cosine (the
   // caller bounds the cosine), `glossy` is specular times the smaller of
@@ -40,10 +49,14 @@ class Bsdf {
  private:
   double D(const Eigen::Vector3d& h) const;
   double Lambda(const Eigen::Vector3d& w) const;
+  Eigen::Vector3d EvalLobes(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
+  double GeometricFactor(const Eigen::Vector3d& wi) const;
   Eigen::Vector3d albedo_ = Eigen::Vector3d::Zero(), specular_ = Eigen::Vector3d::Zero();
   double alpha_ = 1;
   double diffuse_weight_ = 0, glossy_weight_ = 0;  // lobe selection probabilities
   std::optional<PbrBsdf> pbr_;
+  Eigen::Vector3d ng_ = Eigen::Vector3d::UnitZ();
+  bool has_ng_ = false, shadowing_ = false;
 };
 
 }  // namespace mr

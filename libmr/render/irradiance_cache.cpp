@@ -634,7 +634,7 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
   if (want_r) real += f.cwiseProduct(e_r);
   if (!glossy) return done();
   PathVertex vg = v;
-  vg.bsdf = scene_.glossy_bsdf(v.geometry_id);
+  vg.bsdf = GlossyLobe(scene_, v);
   NextEvent(scene_, vg, g, [&](const Eigen::Vector3d& c, Ray shadow, bool vl) {
     rays += AddNextEvent(scene_, c, shadow, vl, xv, want_m, want_r, &mixed, &real);
   });
@@ -649,7 +649,7 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
     const auto [u0, u1] = g.Next2D();
     if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) continue;
     const Eigen::Vector3d b = bs.f * (bs.wi.z() / (bs.pdf * n));
-    const Ray next = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(bs.wi), kMaskAll);
+    const Ray next = MakeRay(v.origin, v.frame.ToWorld(bs.wi), kMaskAll);
     if (xv && !want_r) {  // the mixed path from a virtual surface: the plate where it sees
       int nr = 0;
       mixed += glossy_tracer_.MixedRadianceFromVirtual(next, b, bs.pdf, depth + 1, g, &nr);
@@ -698,7 +698,7 @@ int64_t IcFrameRenderer::Continue(Ray ray, bool want_m, bool want_r, int depth, 
       const auto d = SampleCosineHemisphere(u[0], u[1]);
       const double pdf = d[2] * kInvPi;
       if (!(pdf > 0)) continue;
-      const Ray r = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
+      const Ray r = MakeRay(v.origin, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
       // Bounce 1 onwards, first-segment escapes left out (the direct light's), as a record's ray.
       const PathSample ps = cache_->tracer_.TraceFrom(r, Eigen::Vector3d::Ones(), pdf, 1, g, 2);
       rays += ps.rays;

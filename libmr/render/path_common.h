@@ -47,18 +47,41 @@ inline Ray MakeRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& dir, ui
   return r;
 }
 
+// A shading normal `ns` (unit, on the side of `ng`, the unit geometric
+// normal facing wo) bent towards ng where the mirror reflection of wo about
+// it would go below the geometric surface (or graze it): then ns is the
+// half vector between wo and the reflection turned up to an elevation of
+// min(0.01, 0.9 wo.ng) above the surface, as Cycles' "ensure valid
+// reflection" does for its normal maps.  Returns ns itself otherwise.
+inline Eigen::Vector3d ValidReflectionNormal(const Eigen::Vector3d& ns, const Eigen::Vector3d& ng,
+                                             const Eigen::Vector3d& wo) {
+  const double q = std::min(0.01, 0.9 * wo.dot(ng));
+  const Eigen::Vector3d r = 2 * wo.dot(ns) * ns - wo;
+  if (r.dot(ng) >= q) return ns;
+  Eigen::Vector3d tangential = r - r.dot(ng) * ng;
+  if (!(tangential.norm() > 1e-12)) return ng;
+  const Eigen::Vector3d r2 = std::sqrt(1 - q * q) * tangential.normalized() + q * ng;
+  const Eigen::Vector3d h = wo + r2;
+  return h.norm() > 1e-12 ? Eigen::Vector3d(h.normalized()) : ng;
+}
+
 // A surface vertex: position, shading frame facing the incoming ray, BSDF.
 // The BSDF is held by value: with vertex-colour albedo it differs from
 // point to point (RenderScene::AlbedoAt).
 struct PathVertex {
   Eigen::Vector3d p, wo_world;
   double offset = 0;  // along the normal, for rays leaving p
-  ShadingFrame frame;
+  // The geometric normal facing wo, and where rays that leave p on its
+  // side start: offset along it, and moved onto the smooth surface the
+  // vertex normals describe where they shade (RenderScene::ShadingNormalAt).
+  Eigen::Vector3d ng = Eigen::Vector3d::UnitZ(), origin = Eigen::Vector3d::Zero();
+  ShadingFrame frame;  // z: the shading normal (ng where the geometric normal shades)
   Bsdf bsdf;                                         // black until MakeVertex sets it
   Eigen::Vector3d albedo = Eigen::Vector3d::Zero();  // the diffuse albedo here
   bool vertex_albedo = false;                        // albedo varies over the surface
   const Material* material = nullptr;
   uint32_t geometry_id = 0;
+  bool shading_normal = false, mapped = false;  // frame.n is not ng; a normal map bent it
 };
 
 inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit& hit) {
@@ -68,9 +91,21 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
   v.p = o + static_cast<double>(hit.t) * ray.direction.cast<double>();
   v.offset = OffsetScale(v.p, o, static_cast<double>(hit.t) * ray.direction.cast<double>().norm());
   Eigen::Vector3d n = scene.WorldNormal(hit);
-  if (n.dot(d) > 0) n = -n;  // two-sided: face the incoming ray
-  v.frame = ShadingFrame(n);
+  const bool back = n.dot(d) > 0;
+  if (back) n = -n;  // two-sided: face the incoming ray
+  v.ng = n;
   v.wo_world = -d;
+  v.origin = v.p + n * v.offset;
+  RenderScene::ShadingNormal sn;
+  const bool shading = scene.ShadingNormalAt(hit, &sn);
+  if (shading) {
+    Eigen::Vector3d ns = back ? -sn.n : sn.n;
+    if (ns.dot(n) <= 0) ns = -ns;  // vertex normals against the winding: the geometry's side
+    v.frame = ShadingFrame(ValidReflectionNormal(ns, n, v.wo_world));
+    if (sn.shift.dot(n) > 0) v.origin += sn.shift;
+  } else {
+    v.frame = ShadingFrame(n);
+  }
   v.material = &scene.material(hit.geometry_id);
   v.geometry_id = hit.geometry_id;
   v.vertex_albedo = scene.has_varying_albedo(hit.geometry_id);
@@ -84,12 +119,29 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
     v.albedo = v.material->albedo;
     v.bsdf = scene.bsdf(hit.geometry_id);
   }
+  if (shading) {
+    v.shading_normal = true;
+    v.mapped = sn.mapped;
+    v.bsdf.SetGeometricNormal(v.frame.ToLocal(n), sn.mapped);
+  }
   return v;
+}
+
+// A lobe of v's material with v's geometric normal (Bsdf::SetGeometricNormal).
+inline Bsdf AtVertex(Bsdf b, const PathVertex& v) {
+  if (v.shading_normal) b.SetGeometricNormal(v.frame.ToLocal(v.ng), v.mapped);
+  return b;
 }
 
 // The diffuse lobe alone at v (for methods that treat the lobes apart).
 inline Bsdf DiffuseLobe(const RenderScene& scene, const PathVertex& v) {
-  return v.vertex_albedo ? scene.DiffuseBsdfWith(v.geometry_id, v.albedo) : scene.diffuse_bsdf(v.geometry_id);
+  return AtVertex(v.vertex_albedo ? scene.DiffuseBsdfWith(v.geometry_id, v.albedo) : scene.diffuse_bsdf(v.geometry_id),
+                  v);
+}
+
+// The glossy lobe alone at v.
+inline Bsdf GlossyLobe(const RenderScene& scene, const PathVertex& v) {
+  return AtVertex(scene.glossy_bsdf(v.geometry_id), v);
 }
 
 // Which emitters a path sees: the environment and real lights exist in both
@@ -140,7 +192,7 @@ inline void AddEscapedCameraRay(const RenderScene& scene, const Ray& ray, Eigen:
 template <class Emit>
 void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true) {
   const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
-  const Eigen::Vector3d origin = v.p + v.frame.n * v.offset;
+  const Eigen::Vector3d& origin = v.origin;
   const EnvironmentMap& env = scene.environment();
   {
     const auto [u0, u1] = rng.Next2D();
@@ -269,7 +321,7 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
   const auto d = SampleCosineHemisphere(u[0], u[1]);
   const double pdf = d[2] * kInvPi;
   if (!(pdf > 0)) return rays;
-  Ray sky = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskReal);
+  Ray sky = MakeRay(v.origin, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskReal);
   ++rays;
   if (embree.Occluded(sky)) return rays;  // real blockers stop both solutions
   const Eigen::Vector3d e = albedo.cwiseProduct(Escaped(scene, sky, pdf, kRealLights));

@@ -96,7 +96,7 @@ bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::
     if (v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
       const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
       const PathSample ps =
-          TraceFrom(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), b, s.pdf, depth + 1, rng);
+          TraceFrom(MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll), b, s.pdf, depth + 1, rng);
       *rays += ps.rays;
       if (ps.mixed.allFinite() && ps.real.allFinite()) *L += ps.mixed - ps.real;
     }
@@ -141,7 +141,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       if (rng.NextDouble() >= q) break;
       beta /= q;
     }
-    ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), mask);
+    ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), mask);
   }
   return L;
 }
@@ -209,7 +209,7 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
       if (rng.NextDouble() >= q) return out;
       beta /= q;
     }
-    ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll);
+    ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll);
   }
 }
 

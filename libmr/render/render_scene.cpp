@@ -65,6 +65,7 @@ void RenderScene::SetVirtualTransform(size_t i, const Eigen::Affine3d& world_fro
     for (int k = 0; k < 8; ++k)
       wb.extend(world_from_object * ob.corner(static_cast<Eigen::AlignedBox3d::CornerType>(k)));
     surfaces_[id].normal_to_world = world_from_object.linear().inverse().transpose();
+    surfaces_[id].linear = world_from_object.linear();
   }
   geometry_bounds_[id] = wb;
   virtual_bounds_[i] = wb;
@@ -81,6 +82,13 @@ void RenderScene::SetSurface(uint32_t id, const Material& material, const Eigen:
   d.specular.setZero();
   g.albedo.setZero();
   surfaces_[id] = Surface{material, Bsdf(material), normal_to_world, Bsdf(d), Bsdf(g), {}, {}, {}, {}, nullptr};
+  if (material.normals == Material::Normals::kVertex) {
+    if (mesh.normals.size() != mesh.positions.size())
+      ThrowError("material.normals is \"vertex\" but the mesh has no vertex normals");
+    surfaces_[id].normals = mesh.normals;
+    surfaces_[id].positions = mesh.positions;
+    surfaces_[id].triangles = mesh.triangles;
+  }
   if (material.albedo_from_vertex_colors) {
     if (mesh.colors.size() != mesh.positions.size())
       ThrowError("material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
@@ -103,7 +111,31 @@ struct RenderScene::AssetShading {
   std::vector<std::shared_ptr<const Texture>> textures;  // by image; null where no material samples it
   std::vector<Eigen::Vector2f> uvs;
   std::vector<Eigen::Vector3i> triangles;
+  std::vector<Eigen::Vector4f> tangents;  // with a normal texture: per vertex (AssetTangents)
+  const AssetMaterial& MaterialOf(uint32_t primitive) const;
+  Eigen::Vector2f UvAt(const Hit& hit) const;
+  Eigen::Vector4f Sample(const AssetTexture& t, const Eigen::Vector2f& uv) const {
+    return textures[static_cast<size_t>(t.image)]->Sample(TransformUv(t, uv), 0, t.wrap_s, t.wrap_t);
+  }
 };
+
+const AssetMaterial& RenderScene::AssetShading::MaterialOf(uint32_t primitive) const {
+  static const AssetMaterial kDefault = [] {  // glTF 2.0, 3.9.6: the default material
+    AssetMaterial m;
+    m.metallic = 1;
+    m.roughness = 1;
+    return m;
+  }();
+  const int mi = triangle_material[std::min<size_t>(primitive, triangle_material.size() - 1)];
+  return mi >= 0 ? materials[static_cast<size_t>(mi)] : kDefault;
+}
+
+Eigen::Vector2f RenderScene::AssetShading::UvAt(const Hit& hit) const {
+  const Eigen::Vector3i& t = triangles[std::min<size_t>(hit.primitive_id, triangles.size() - 1)];
+  const float u = hit.uv.x(), v = hit.uv.y();
+  return (1 - u - v) * uvs[static_cast<size_t>(t[0])] + u * uvs[static_cast<size_t>(t[1])] +
+         v * uvs[static_cast<size_t>(t[2])];
+}
 
 void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material,
                                     const Mesh& mesh, const std::string& name) {
@@ -124,13 +156,23 @@ void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector
     a->textures[static_cast<size_t>(t.image)] =
         std::make_shared<const Texture>(LoadAssetTexture(asset.images[static_cast<size_t>(t.image)], e, name));
   };
+  bool normal_maps = false;
   for (const AssetMaterial& m : asset.materials) {
     load(m.base_color_texture, TextureEncoding::kSrgb);
     load(m.metallic_roughness_texture, TextureEncoding::kLinear);
+    if (!mesh.normals.empty()) load(m.normal_texture, TextureEncoding::kLinear);
+    normal_maps = normal_maps || (m.normal_texture.present() && !mesh.normals.empty());
   }
   a->uvs = mesh.uvs;
   a->triangles = mesh.triangles;
-  surfaces_.at(id).asset = std::move(a);
+  if (normal_maps) a->tangents = AssetTangents(asset, mesh);
+  Surface& s = surfaces_.at(id);
+  if (!mesh.normals.empty()) {  // glTF: flat normals only where the asset gives none
+    s.normals = mesh.normals;
+    s.positions = mesh.positions;
+    s.triangles = mesh.triangles;
+  }
+  s.asset = std::move(a);
   has_glossy_ = true;
 }
 
@@ -149,29 +191,14 @@ int64_t RenderScene::asset_texture_bytes(uint32_t id) const {
 
 Bsdf RenderScene::AssetBsdfAt(const Hit& hit, Eigen::Vector3d* diffuse_albedo) const {
   const AssetShading& a = *surfaces_.at(hit.geometry_id).asset;
-  const size_t tri = std::min<size_t>(hit.primitive_id, a.triangles.size() - 1);
-  const int mi = a.triangle_material[tri];
-  static const AssetMaterial kDefault = [] {  // glTF 2.0, 3.9.6: the default material
-    AssetMaterial m;
-    m.metallic = 1;
-    m.roughness = 1;
-    return m;
-  }();
-  const AssetMaterial& m = mi >= 0 ? a.materials[static_cast<size_t>(mi)] : kDefault;
+  const AssetMaterial& m = a.MaterialOf(hit.primitive_id);
   Eigen::Vector4f base = m.base_color;
   float metallic = m.metallic, roughness = m.roughness;
   if (!a.uvs.empty()) {
-    const Eigen::Vector3i& t = a.triangles[tri];
-    const float u = hit.uv.x(), v = hit.uv.y();
-    const Eigen::Vector2f uv = (1 - u - v) * a.uvs[static_cast<size_t>(t[0])] + u * a.uvs[static_cast<size_t>(t[1])] +
-                               v * a.uvs[static_cast<size_t>(t[2])];
-    auto sample = [&](const AssetTexture& at) {
-      const Texture& tx = *a.textures[static_cast<size_t>(at.image)];
-      return tx.Sample(TransformUv(at, uv), 0, at.wrap_s, at.wrap_t);
-    };
-    if (m.base_color_texture.present()) base = base.cwiseProduct(sample(m.base_color_texture));
+    const Eigen::Vector2f uv = a.UvAt(hit);
+    if (m.base_color_texture.present()) base = base.cwiseProduct(a.Sample(m.base_color_texture, uv));
     if (m.metallic_roughness_texture.present()) {
-      const Eigen::Vector4f mr = sample(m.metallic_roughness_texture);
+      const Eigen::Vector4f mr = a.Sample(m.metallic_roughness_texture, uv);
       roughness *= mr[1];
       metallic *= mr[2];
     }
@@ -321,6 +348,59 @@ bool RenderScene::VirtualEnclosedAwayFrom(const Eigen::Vector3d& eye, std::strin
         surfaces.size(), closed_.count());
   }
   return true;
+}
+
+bool RenderScene::ShadingNormalAt(const Hit& hit, ShadingNormal* out) const {
+  const Surface& s = surfaces_[hit.geometry_id];
+  if (s.normals.empty() || hit.primitive_id >= s.triangles.size()) return false;
+  const Eigen::Vector3i& t = s.triangles[hit.primitive_id];
+  const double b[3] = {1.0 - hit.uv.x() - hit.uv.y(), hit.uv.x(), hit.uv.y()};
+  Eigen::Vector3d n = Eigen::Vector3d::Zero(), p = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) {
+    n += b[k] * s.normals[static_cast<size_t>(t[k])].cast<double>();
+    p += b[k] * s.positions[static_cast<size_t>(t[k])].cast<double>();
+  }
+  Eigen::Vector3d q = Eigen::Vector3d::Zero();  // Hanika 2021, eq. 3
+  for (int k = 0; k < 3; ++k) {
+    const Eigen::Vector3d pk = s.positions[static_cast<size_t>(t[k])].cast<double>();
+    const Eigen::Vector3d nk = s.normals[static_cast<size_t>(t[k])].cast<double>().normalized();
+    q += b[k] * (nk.allFinite() ? Eigen::Vector3d(p - (p - pk).dot(nk) * nk) : p);
+  }
+  out->shift = s.linear * (q - p);
+  out->mapped = false;
+  Eigen::Vector3d nw = (s.normal_to_world * n).normalized();
+  if (s.asset && !s.asset->tangents.empty()) {
+    const Eigen::Vector3d mapped = NormalMapped(s, hit, nw);
+    out->mapped = mapped != nw;
+    nw = mapped;
+  }
+  if (!nw.allFinite() || !out->shift.allFinite()) return false;
+  out->n = nw;
+  return true;
+}
+
+// glTF 2.0, 3.9.3: the normal texture's RGB in [0, 1] map to [-1, 1] in the
+// tangent frame (x along the tangent, y along the bitangent, z the normal),
+// x and y scaled by normalTextureInfo.scale.
+Eigen::Vector3d RenderScene::NormalMapped(const Surface& s, const Hit& hit, const Eigen::Vector3d& nw) const {
+  const AssetShading& a = *s.asset;
+  const AssetMaterial& m = a.MaterialOf(hit.primitive_id);
+  if (!m.normal_texture.present() || a.uvs.empty()) return nw;
+  const Eigen::Vector3i& t = a.triangles[hit.primitive_id];
+  const double b[3] = {1.0 - hit.uv.x() - hit.uv.y(), hit.uv.x(), hit.uv.y()};
+  Eigen::Vector3d tan = Eigen::Vector3d::Zero();
+  for (int k = 0; k < 3; ++k) tan += b[k] * a.tangents[static_cast<size_t>(t[k])].head<3>().cast<double>();
+  tan = s.linear * tan;
+  tan -= nw * nw.dot(tan);
+  if (!(tan.norm() > 0)) return nw;
+  tan.normalize();
+  // The handedness flips with a mirroring placement.
+  const double w = a.tangents[static_cast<size_t>(t[0])].w() * (s.linear.determinant() < 0 ? -1.0 : 1.0);
+  const Eigen::Vector3d bit = w * nw.cross(tan);
+  const Eigen::Vector4f c = a.Sample(m.normal_texture, a.UvAt(hit));
+  const double x = (2.0 * c[0] - 1) * m.normal_scale, y = (2.0 * c[1] - 1) * m.normal_scale, z = 2.0 * c[2] - 1;
+  const Eigen::Vector3d out = x * tan + y * bit + z * nw;
+  return out.norm() > 0 && out.allFinite() ? Eigen::Vector3d(out.normalized()) : nw;
 }
 
 Eigen::Vector3d RenderScene::WorldNormal(const Hit& hit) const {

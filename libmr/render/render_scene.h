@@ -98,6 +98,21 @@ class RenderScene {
   // Unit world-space geometric normal of a hit (Embree reports instance
   // normals in object space).
   Eigen::Vector3d WorldNormal(const Hit& hit) const;
+  // A hit's shading normal where its surface has one (material.normals
+  // "vertex", an asset with normals; docs/methods.md, "Shading normals"):
+  // `n` the vertex normals interpolated (barycentric) and, on an asset
+  // material with a normal texture, bent by it in the tangent frame; world
+  // space, unit, on the side the mesh's normals point to (not turned to
+  // face a ray).  `shift` moves a ray origin from the flat triangle to the
+  // smooth surface the vertex normals describe (Hanika 2021, "Hacking the
+  // shadow terminator"): the barycentric mean of the point's projections
+  // onto the vertices' tangent planes, minus the point.  Returns false
+  // where the surface is shaded by its geometric normal.
+  struct ShadingNormal {
+    Eigen::Vector3d n, shift;
+    bool mapped = false;  // a normal map bent it
+  };
+  bool ShadingNormalAt(const Hit& hit, ShadingNormal* out) const;
   // Whether anything virtual (geometry not hidden, or a light) exists:
   // without it I_m = I_r.
   bool has_virtual() const { return has_virtual_; }
@@ -125,9 +140,14 @@ class RenderScene {
     std::vector<Eigen::Vector3f> vertex_albedo;  // empty: the material's albedo everywhere
     Image texture;                               // albedo texture (RGB); empty: none
     std::vector<Eigen::Vector2f> uvs;            // with texture: the mesh's, per vertex
-    std::vector<Eigen::Vector3i> triangles;      // with either: the mesh's, by primitive id
+    std::vector<Eigen::Vector3i> triangles;      // with either, or normals: the mesh's, by primitive id
     std::shared_ptr<const AssetShading> asset;   // an asset's materials; null: `material`
+    // Shading normals: the mesh's vertex normals and positions (object
+    // coordinates); empty: the geometric normal shades.
+    std::vector<Eigen::Vector3f> normals, positions;
+    Eigen::Matrix3d linear = Eigen::Matrix3d::Identity();  // world_from_object's
   };
+  Eigen::Vector3d NormalMapped(const Surface& s, const Hit& hit, const Eigen::Vector3d& n_obj) const;
   void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world, const Mesh& mesh);
   bool has_glossy_ = false;
   std::unique_ptr<EmbreeScene> embree_;

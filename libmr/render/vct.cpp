@@ -697,7 +697,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
     // the rest through the specular cone, weighted by the lobe's
     // reflectance (one BSDF sample's f cos / pdf).
     PathVertex vg = v;
-    vg.bsdf = scene_.glossy_bsdf(v.geometry_id);
+    vg.bsdf = GlossyLobe(scene_, v);
     const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
     for (const LightSource& l : scene_.lights()) {
       if (l.light().type == LightType::kDistant) continue;
@@ -708,7 +708,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
       const Eigen::Vector3d fg = vg.bsdf.Eval(wo_l, wi_l);
       if (fg.maxCoeff() <= 0) continue;
       c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / ls.pdf)),
-                             MakeRay(v.p + v.frame.n * v.offset, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)),
+                             MakeRay(v.origin, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)),
                              l.is_virtual(), xv, want_m, want_r, &mixed, &real);
     }
     BsdfSample bs;
@@ -757,7 +757,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
       const PathVertex v = MakeVertex(scene_, ray, hit);
       const auto u = rng.Next2D();
       const auto d = SampleCosineHemisphere(u[0], u[1]);
-      const Ray gr = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
+      const Ray gr = MakeRay(v.origin, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
       Hit gh;
       ++c.rays;
       ++c.gather_rays;

@@ -287,7 +287,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
               const PathVertex v = MakeVertex(scene, ray, hit);
               if (Luminance(phi) > 0) {
                 Vpl p;
-                p.p = v.p + v.frame.n * v.offset;
+                p.p = v.origin;
                 p.frame = v.frame;
                 p.wi_local = v.frame.ToLocal(v.wo_world);
                 p.flux = phi;
@@ -308,7 +308,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
                 return;
               }
               phi /= q;
-              ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), MaskOf(path_sets));
+              ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), MaskOf(path_sets));
             }
           };
       walk(MakeRay(origin, dir, MaskOf(sets)), sets, flux, 0, rng);
@@ -465,7 +465,7 @@ class VplShader {
       // Diffuse lobe by VPLs; glossy lobe by next-event estimation and one
       // BSDF-sampled ray, gathered where it lands.
       const Bsdf diffuse = DiffuseLobe(scene_, v);
-      const Bsdf& glossy = scene_.glossy_bsdf(Id(v));
+      const Bsdf& glossy = GlossyLobe(scene_, v);
       Gather(v, diffuse, false, x_virtual, want_m, want_r, beta, rng, acc, depth == 0, !gather);
       if (gather) FinalGather(v, diffuse, beta, rng, acc);
       PathVertex g = v;
@@ -479,7 +479,7 @@ class VplShader {
       const auto [u0, u1] = rng.Next2D();
       if (glossy.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
         const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
-        ShadeRay(MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
+        ShadeRay(MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
                  b, rng, acc, x_virtual);
       }
     }
@@ -498,7 +498,7 @@ class VplShader {
     const auto [u0, u1] = rng.Next2D();
     if (!bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return;
     const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
-    const Ray ray = MakeRay(v.p + v.frame.n * v.offset, v.frame.ToWorld(s.wi), kMaskAll);
+    const Ray ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll);
     Hit hit;
     ++acc->c.gather_rays;
     if (!scene_.embree().Intersect(ray, &hit)) return;
@@ -522,7 +522,7 @@ class VplShader {
     const Eigen::Vector3d dir = v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2]));
     const Eigen::Vector3d albedo = DiffuseAlbedo(v);  // f cos / pdf of the diffuse lobe
     auto one = [&](uint32_t mask, bool m, bool r) {
-      Ray ray = MakeRay(v.p + v.frame.n * v.offset, dir, mask, set_.clamp_distance());
+      Ray ray = MakeRay(v.origin, dir, mask, set_.clamp_distance());
       Hit hit;
       ++acc->c.compensation_rays;
       if (!scene_.embree().Intersect(ray, &hit)) return;
@@ -544,7 +544,7 @@ class VplShader {
       one(kMaskReal, false, true);
     } else {
       // Both from one mixed ray unless it meets a virtual object first.
-      Ray probe = MakeRay(v.p + v.frame.n * v.offset, dir, kMaskAll, set_.clamp_distance());
+      Ray probe = MakeRay(v.origin, dir, kMaskAll, set_.clamp_distance());
       Hit hit;
       if (scene_.embree().Intersect(probe, &hit) && hit.is_virtual) {
         one(kMaskAll, true, false);
@@ -581,7 +581,7 @@ class VplShader {
       });
       if (glossy) {  // light sampling alone: no BSDF-sampled ray of this lobe counts the emitters
         PathVertex vg = v;
-        vg.bsdf = scene_.glossy_bsdf(Id(v));
+        vg.bsdf = GlossyLobe(scene_, v);
         NextEvent(
             scene_, vg, rng,
             [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
@@ -596,7 +596,7 @@ class VplShader {
     thread_local std::vector<Contribution> list;
     list.clear();
     const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
-    const Eigen::Vector3d origin = v.p + v.frame.n * v.offset;
+    const Eigen::Vector3d origin = v.origin;
     // Which sets matter here: a virtual point exists in I_m only.
     const uint8_t wanted = static_cast<uint8_t>((want_m ? kLightsMixed : 0) | (want_r && !x_virtual ? kLightsReal : 0));
     double total = 0;

@@ -31,6 +31,11 @@ struct Material {
   // An image whose texels are the albedo at the mesh's texture coordinates
   // (uv (0,0) at the image's bottom left, repeating; bilinear); empty: none.
   fs::path albedo_texture;
+  // Which normal shades the surface: the triangle's own (kGeometric, flat
+  // facets: mr's behaviour before shading normals) or the mesh's vertex
+  // normals interpolated over it (kVertex; mr::Error where the mesh has
+  // none).  An asset's file materials choose kVertex where it has normals.
+  enum class Normals { kGeometric, kVertex } normals = Normals::kGeometric;
   bool IsGlossy() const { return specular.maxCoeff() > 0; }
   bool IsEmissive() const { return emission.maxCoeff() > 0; }
 };

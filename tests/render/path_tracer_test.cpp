@@ -340,7 +340,7 @@ TEST(PathTracer, ObjWithMtlMaterialsLoads) {
   LoadRenderScene(scene, &rs);
   const uint32_t id = rs.virtual_ids().at(0);
   EXPECT_TRUE(rs.has_asset_material(id));
-  EXPECT_EQ(rs.asset_textures(id), 1);  // checker.png (the normal map is not loaded yet)
+  EXPECT_EQ(rs.asset_textures(id), 2);  // checker.png and normal.png
 }
 
 // An asset's materials through the path tracer: a convex sphere in a

@@ -7,18 +7,18 @@ a gold sphere of roughness 0.3).  mr reads it with its reader and renders it
 with pt (render/pbr_bsdf.h); Blender reads it with its glTF importer
 (Principled BSDF) and renders it with Cycles.  Same sky (a gradient and a sun
 blob), ground plane, camera and pose as tests/crosscheck/crosscheck.py.
-Both shade flat (mr has no vertex normals yet: Blender's are cleared here).
+Both shade by the asset's vertex normals and normal maps.
 
 Printed and written to OUT/results.json: relMSE of mr against Cycles in the
 asset's region (its coverage, from mr's mask layer), beside the two
 renderers' own noise in that region (mr against mr with another seed, Cycles
 against Cycles), and each one's render time.  Named differences the numbers
 include: Blender's Principled BSDF (v1) adds its diffuse and specular lobes
-without mr's albedo scaling, and with single-scattering GGX.  The normal map
-is unlinked in Blender (mr does not render normal maps yet) unless
---normal-maps.
+without mr's albedo scaling, and with single-scattering GGX; Blender's
+normal map node and its tangents (MikkTSpace) against mr's (docs/methods.md,
+"Shading normals").
 
-Usage: bench/asset_compare.py BIN_DIR OUT_DIR [--spp N] [--normal-maps]
+Usage: bench/asset_compare.py BIN_DIR OUT_DIR [--spp N]
 """
 import json
 import os
@@ -76,8 +76,7 @@ def main():
     env_for_blender(env_path, env_blender)
     for seed, out in ((5, "cycles"), (6, "cycles2")):
         spec = {"meshes": [{"name": "plane", "path": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},
-                           {"name": "asset", "role": "virtual", "path": ASSET, "world_from_object": place.tolist(),
-                            "normal_maps": "--normal-maps" in sys.argv}],
+                           {"name": "asset", "role": "virtual", "path": ASSET, "world_from_object": place.tolist()}],
                 "environment": env_blender, "env_rotation_deg": 0.0,
                 "camera": {"width": w, "height": h, "fx": fx, "fy": fx, "cx": (w - 1) / 2, "cy": (h - 1) / 2},
                 "world_from_cam": M.tolist(), "spp": spp, "max_depth": depth, "seed": seed, "threads": 2}

@@ -2,6 +2,8 @@
 
 #include "core/color.h"
 
+#include <algorithm>
+
 #include <cmath>
 
 #include "core/math.h"
@@ -47,7 +49,15 @@ Eigen::Vector3d Bsdf::Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi)
   return g > 0 ? Eigen::Vector3d(EvalLobes(wo, wi) * g) : Eigen::Vector3d::Zero();
 }
 
+Bsdf::Bsdf(const PbrBsdf& pbr, const GlassBsdf& glass, double transmission)
+    : diffuse_weight_(1), pbr_(pbr), glass_(glass), transmission_(std::clamp(transmission, 0.0, 1.0)) {}
+
 Eigen::Vector3d Bsdf::EvalLobes(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
+  if (glass_) {
+    Eigen::Vector3d f = transmission_ * glass_->Eval(wo, wi);
+    if (transmission_ < 1) f += (1 - transmission_) * pbr_->Eval(wo, wi);
+    return f;
+  }
   if (pbr_) return pbr_->Eval(wo, wi);
   if (wo.z() <= 0 || wi.z() <= 0) return Eigen::Vector3d::Zero();
   Eigen::Vector3d f = albedo_ * kInvPi;
@@ -77,6 +87,8 @@ Eigen::Vector3d Bsdf::GlossyBound(const Eigen::Vector3d& wo) const {
 }
 
 double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
+  if (glass_)
+    return transmission_ * glass_->Pdf(wo, wi) + (transmission_ < 1 ? (1 - transmission_) * pbr_->Pdf(wo, wi) : 0.0);
   if (pbr_) return pbr_->Pdf(wo, wi);
   if (wo.z() <= 0 || wi.z() <= 0) return 0;
   double pdf = diffuse_weight_ * wi.z() * kInvPi;
@@ -90,6 +102,19 @@ double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
 }
 
 bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const {
+  if (glass_) {  // one lobe chosen by u_lobe, then f and pdf of the mixture
+    const bool glass = u_lobe < transmission_;
+    const double u = glass ? u_lobe / transmission_ : (u_lobe - transmission_) / (1 - transmission_);
+    if (!(glass ? glass_->Sample(wo, u, u0, u1, s) : pbr_->Sample(wo, u, u0, u1, s))) return false;
+    if (s->delta) {  // chosen with probability transmission_, weighted by it: the ratio stays
+      s->f *= transmission_ * GeometricFactor(s->wi);
+      s->pdf *= transmission_;
+      return s->f.maxCoeff() > 0;
+    }
+    s->f = Eval(wo, s->wi);
+    s->pdf = Pdf(wo, s->wi);
+    return s->pdf > 0 && s->f.maxCoeff() > 0;
+  }
   if (pbr_) {
     if (!pbr_->Sample(wo, u_lobe, u0, u1, s)) return false;
     if (has_ng_) s->f *= GeometricFactor(s->wi);

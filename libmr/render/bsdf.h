@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 
 #include "render/microfacet.h"
+#include "render/glass_bsdf.h"
 #include "render/pbr_bsdf.h"
 #include "scene/scene.h"
 
@@ -22,6 +23,12 @@ class Bsdf {
   // An asset's material at a point (render/pbr_bsdf.h): every call below
   // goes to it.
   explicit Bsdf(const PbrBsdf& pbr) : diffuse_weight_(1), pbr_(pbr) {}
+  // A transmissive asset material: (1 - transmission) of `pbr` and
+  // `transmission` of the glass interface (glTF: the dielectric base's
+  // diffuse part replaced by the specular transmission).
+  Bsdf(const PbrBsdf& pbr, const GlassBsdf& glass, double transmission);
+  // Whether wi below the local horizon can carry light (transmission).
+  bool Transmits() const { return glass_.has_value(); }
   // wo and wi in the local frame (z = normal), both pointing away from the surface.
   Eigen::Vector3d Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
@@ -55,6 +62,8 @@ class Bsdf {
   double alpha_ = 1;
   double diffuse_weight_ = 0, glossy_weight_ = 0;  // lobe selection probabilities
   std::optional<PbrBsdf> pbr_;
+  std::optional<GlassBsdf> glass_;
+  double transmission_ = 0;
   Eigen::Vector3d ng_ = Eigen::Vector3d::UnitZ();
   bool has_ng_ = false, shadowing_ = false;
 };

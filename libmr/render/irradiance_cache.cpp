@@ -648,8 +648,8 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
     const double ul = g.NextDouble();
     const auto [u0, u1] = g.Next2D();
     if (!vg.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &bs)) continue;
-    const Eigen::Vector3d b = bs.f * (bs.wi.z() / (bs.pdf * n));
-    const Ray next = MakeRay(v.origin, v.frame.ToWorld(bs.wi), kMaskAll);
+    const Eigen::Vector3d b = bs.f * (std::abs(bs.wi.z()) / (bs.pdf * n));
+    const Ray next = MakeRay(v.OriginFor(v.frame.ToWorld(bs.wi)), v.frame.ToWorld(bs.wi), kMaskAll);
     if (xv && !want_r) {  // the mixed path from a virtual surface: the plate where it sees
       int nr = 0;
       mixed += glossy_tracer_.MixedRadianceFromVirtual(next, b, bs.pdf, depth + 1, g, &nr);

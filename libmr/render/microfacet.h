@@ -17,6 +17,10 @@ struct BsdfSample {
   Eigen::Vector3d wi;  // local frame
   Eigen::Vector3d f;   // BSDF value
   double pdf = 0;      // solid angle, of the combined (mixture) sampling
+  // A direction no other could have given (an ior-1 interface's straight
+  // pass): f and pdf are then a pair whose ratio alone means anything, and
+  // Eval and Pdf of wi do not include it.
+  bool delta = false;
 };
 
 }  // namespace mr

@@ -82,6 +82,14 @@ struct PathVertex {
   const Material* material = nullptr;
   uint32_t geometry_id = 0;
   bool shading_normal = false, mapped = false;  // frame.n is not ng; a normal map bent it
+  // What the medium the incoming ray crossed let through (a solid glass's
+  // absorption, seen from inside); the caller multiplies its throughput.
+  Eigen::Vector3d transmittance = Eigen::Vector3d::Ones();
+  // Where a ray leaving in direction wi (world) starts: `origin` on ng's
+  // side, just below the surface for a transmitted ray.
+  Eigen::Vector3d OriginFor(const Eigen::Vector3d& wi) const {
+    return wi.dot(ng) >= 0 ? origin : Eigen::Vector3d(p - ng * offset);
+  }
 };
 
 inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit& hit) {
@@ -110,7 +118,11 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
   v.geometry_id = hit.geometry_id;
   v.vertex_albedo = scene.has_varying_albedo(hit.geometry_id);
   if (scene.has_asset_material(hit.geometry_id)) {
-    v.bsdf = scene.AssetBsdfAt(hit, &v.albedo);
+    v.bsdf = scene.AssetBsdfAt(hit, back, &v.albedo);
+    if (back) {  // inside a solid glass: what it absorbed along the way here (Beer-Lambert)
+      const Eigen::Vector3d sigma = scene.AssetAbsorption(hit);
+      if (sigma.maxCoeff() > 0) v.transmittance = (-sigma * (v.p - o).norm()).array().exp();
+    }
     v.vertex_albedo = true;  // the diffuse lobe apart: DiffuseBsdfWith(albedo)
   } else if (v.vertex_albedo) {
     v.albedo = scene.AlbedoAt(hit);

@@ -94,9 +94,9 @@ bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::
     const double ul = rng.NextDouble();
     const auto [u0, u1] = rng.Next2D();
     if (v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
-      const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
+      const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
       const PathSample ps =
-          TraceFrom(MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll), b, s.pdf, depth + 1, rng);
+          TraceFrom(MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll), b, s.pdf, depth + 1, rng);
       *rays += ps.rays;
       if (ps.mixed.allFinite() && ps.real.allFinite()) *L += ps.mixed - ps.real;
     }
@@ -120,6 +120,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       break;
     }
     PathVertex v = MakeVertex(scene_, ray, hit);
+    beta = beta.cwiseProduct(v.transmittance);
     if (use_plate && from_virtual && !hit.is_virtual && PlateAtRealPoint(v, beta, depth, rng, rays, &L)) break;
     from_virtual = hit.is_virtual;
     L += beta.cwiseProduct(v.material->emission);
@@ -134,14 +135,17 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     const double ul = rng.NextDouble();
     const auto [u0, u1] = rng.Next2D();
     if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) break;
-    beta = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
-    prev_pdf = s.pdf;
+    beta = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
+    // A transmitted direction is one next-event estimation never samples
+    // (it tests the light on the near side only): no MIS weight against it.
+    prev_pdf = s.wi.z() < 0 || s.delta ? INFINITY : s.pdf;
     if (depth + 1 >= settings_.rr_depth) {
       const double q = std::min(1.0, beta.maxCoeff());
       if (rng.NextDouble() >= q) break;
       beta /= q;
     }
-    ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), mask);
+    const Eigen::Vector3d wi = v.frame.ToWorld(s.wi);
+    ray = MakeRay(v.OriginFor(wi), wi, mask);
   }
   return L;
 }
@@ -202,14 +206,14 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
     const double ul = rng.NextDouble();
     const auto [u0, u1] = rng.Next2D();
     if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return out;
-    beta = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
+    beta = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
     prev_pdf = s.pdf;
     if (depth + 1 >= settings_.rr_depth) {
       const double q = std::min(1.0, beta.maxCoeff());
       if (rng.NextDouble() >= q) return out;
       beta /= q;
     }
-    ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll);
+    ray = MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll);
   }
 }
 

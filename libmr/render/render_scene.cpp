@@ -9,6 +9,7 @@
 #include "core/error.h"
 #include "core/file.h"
 #include "core/hash.h"
+#include "core/math.h"
 #include "core/video.h"
 #include "render/texture.h"
 #include "scene/frames.h"
@@ -189,13 +190,26 @@ int64_t RenderScene::asset_texture_bytes(uint32_t id) const {
   return b;
 }
 
-Bsdf RenderScene::AssetBsdfAt(const Hit& hit, Eigen::Vector3d* diffuse_albedo) const {
+Eigen::Vector3d RenderScene::AssetAbsorption(const Hit& hit) const {
+  const AssetShading* a = surfaces_.at(hit.geometry_id).asset.get();
+  if (!a) return Eigen::Vector3d::Zero();
+  const AssetMaterial& m = a->MaterialOf(hit.primitive_id);
+  if (m.transmission <= 0 || m.thickness <= 0 || m.attenuation_distance <= 0) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d sigma;
+  for (int c = 0; c < 3; ++c)
+    sigma[c] = -std::log(std::clamp(static_cast<double>(m.attenuation_color[c]), 1e-30, 1.0)) / m.attenuation_distance;
+  return sigma;
+}
+
+Bsdf RenderScene::AssetBsdfAt(const Hit& hit, bool inside, Eigen::Vector3d* diffuse_albedo) const {
   const AssetShading& a = *surfaces_.at(hit.geometry_id).asset;
   const AssetMaterial& m = a.MaterialOf(hit.primitive_id);
   Eigen::Vector4f base = m.base_color;
-  float metallic = m.metallic, roughness = m.roughness;
+  float metallic = m.metallic, roughness = m.roughness, transmission = m.transmission;
   if (!a.uvs.empty()) {
     const Eigen::Vector2f uv = a.UvAt(hit);
+    if (m.transmission_texture.present() && transmission > 0)
+      transmission *= a.Sample(m.transmission_texture, uv)[0];
     if (m.base_color_texture.present()) base = base.cwiseProduct(a.Sample(m.base_color_texture, uv));
     if (m.metallic_roughness_texture.present()) {
       const Eigen::Vector4f mr = a.Sample(m.metallic_roughness_texture, uv);
@@ -208,8 +222,17 @@ Bsdf RenderScene::AssetBsdfAt(const Hit& hit, Eigen::Vector3d* diffuse_albedo) c
                     .roughness = roughness,
                     .ior = m.ior,
                     .specular_color = m.specular_color.cast<double>()};
-  *diffuse_albedo = p.base_color * (1 - p.metallic);
-  return Bsdf(PbrBsdf(p));
+  const double t = std::clamp(static_cast<double>(transmission), 0.0, 1.0) * (1 - std::clamp(p.metallic, 0.0, 1.0));
+  *diffuse_albedo = p.base_color * (1 - p.metallic) * (1 - t);
+  if (!(t > 0)) return Bsdf(PbrBsdf(p));
+  // glTF: without KHR_materials_volume's thickness the surface is a thin wall.
+  const bool thin = !(m.thickness > 0);
+  const double ior = std::clamp(static_cast<double>(m.ior), 1.0, 3.0);
+  const GlassParams g{.alpha = Square(std::clamp(p.roughness, 0.0, 1.0)),
+                      .eta = thin || !inside ? ior : 1 / ior,
+                      .thin = thin,
+                      .tint = p.base_color};
+  return Bsdf(PbrBsdf(p), GlassBsdf(g), t);
 }
 
 Eigen::Vector3d RenderScene::AlbedoAt(const Hit& hit) const {

@@ -45,9 +45,15 @@ class RenderScene {
   int64_t asset_textures(uint32_t id) const;
   int64_t asset_texture_bytes(uint32_t id) const;
   // The BSDF of an asset's material at a hit, and the diffuse albedo there
-  // (base colour x (1 - metallic): what methods that treat the diffuse
-  // lobe apart take).
-  Bsdf AssetBsdfAt(const Hit& hit, Eigen::Vector3d* diffuse_albedo) const;
+  // (base colour x (1 - metallic) x (1 - transmission): what methods that
+  // treat the diffuse lobe apart take).  `inside`: the ray meets the
+  // surface from behind its normals (leaving a solid glass: the relative
+  // ior is 1/ior there).
+  Bsdf AssetBsdfAt(const Hit& hit, bool inside, Eigen::Vector3d* diffuse_albedo) const;
+  // The absorption coefficient (per metre, per channel) inside a solid
+  // transmissive asset material (KHR_materials_volume: -ln(attenuation
+  // colour) / attenuation distance); zero elsewhere.
+  Eigen::Vector3d AssetAbsorption(const Hit& hit) const;
   void SetEnvironment(EnvironmentMap env) { env_ = std::move(env); }
   // A light of lights.json; a virtual light makes the scene differ from the real one.
   void AddLight(const Light& light);

@@ -715,7 +715,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
     const double ul = g.NextDouble();
     const auto [u0, u1] = g.Next2D();
     if (!vg.bsdf.Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
-    const Eigen::Vector3d beta = bs.f * (bs.wi.z() / bs.pdf);
+    const Eigen::Vector3d beta = bs.f * (std::abs(bs.wi.z()) / bs.pdf);
     const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
     const double alpha = v.material->roughness;
     const double half = std::clamp(std::atan(alpha), 0.5 * st.min_specular_aperture_deg * kDegToRad, 45 * kDegToRad);

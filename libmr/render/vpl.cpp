@@ -301,14 +301,14 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
               BsdfSample s;
               const double ul = g.NextDouble(), a = g.NextDouble(), b = g.NextDouble();
               if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, a, b, &s)) return;
-              phi = phi.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
+              phi = phi.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
               const double q = std::min(1.0, phi.maxCoeff() / flux0);
               if (g.NextDouble() >= q) {
                 if (q > 0) below.fetch_add(1);
                 return;
               }
               phi /= q;
-              ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), MaskOf(path_sets));
+              ray = MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), MaskOf(path_sets));
             }
           };
       walk(MakeRay(origin, dir, MaskOf(sets)), sets, flux, 0, rng);
@@ -478,8 +478,8 @@ class VplShader {
       const double ul = rng.NextDouble();
       const auto [u0, u1] = rng.Next2D();
       if (glossy.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
-        const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
-        ShadeRay(MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
+        const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
+        ShadeRay(MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
                  b, rng, acc, x_virtual);
       }
     }
@@ -497,8 +497,8 @@ class VplShader {
     const double ul = rng.NextDouble();
     const auto [u0, u1] = rng.Next2D();
     if (!bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return;
-    const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (s.wi.z() / s.pdf);
-    const Ray ray = MakeRay(v.origin, v.frame.ToWorld(s.wi), kMaskAll);
+    const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
+    const Ray ray = MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll);
     Hit hit;
     ++acc->c.gather_rays;
     if (!scene_.embree().Intersect(ray, &hit)) return;

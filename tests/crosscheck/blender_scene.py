@@ -3,8 +3,9 @@
 #   blender -b --factory-startup -noaudio -P blender_scene.py -- SPEC.json OUT.exr
 # SPEC (JSON):
 #   meshes: [{name, path (.obj, .ply, or a .glb/.gltf asset imported with its
-#     own materials by Blender's glTF importer; "normal_maps": false unlinks
-#     their normal maps), role: "real" | "virtual" (default
+#     own materials by Blender's glTF importer, smooth as imported; "flat":
+#     true shades its facets flat, "normal_maps": false unlinks its normal
+#     maps), role: "real" | "virtual" (default
 #     real), world_from_object (4x4, mr's world; optional), albedo [3],
 #     specular [3] and roughness (optional: mr's GGX lobe)}]
 #   environment: a lat-long EXR in mr's (OpenEXR's) convention
@@ -129,19 +130,21 @@ def import_asset(m, role):
     for obj in new:
         if obj.parent is None:
             obj.matrix_world = place @ obj.matrix_world
-        if obj.type == "MESH":
+        if obj.type == "MESH" and m.get("flat", False):
+            # Flat facets (mr's shading before shading normals).
             for p in obj.data.polygons:
                 p.use_smooth = False
             if obj.data.has_custom_normals:
                 obj.data.free_normals_split()
                 bpy.context.view_layer.objects.active = obj
                 bpy.ops.mesh.customdata_custom_splitnormals_clear()
+        if obj.type == "MESH":
             if mode == "mask":
                 obj.data.materials.clear()
                 obj.data.materials.append(material(m))
             elif not m.get("normal_maps", True):
-                # What mr renders today: no normal maps (the importer's
-                # Normal Map node unlinked from the Principled BSDF).
+                # No normal maps (the importer's Normal Map node unlinked
+                # from the Principled BSDF).
                 for mat in obj.data.materials:
                     for link in list(mat.node_tree.links):
                         if link.to_socket.name == "Normal" and link.to_node.type == "BSDF_PRINCIPLED":

@@ -221,7 +221,13 @@ std::vector<std::string> DescribeAsset(const Asset& a) {
     std::string l =
         fmt::format("  {}: base [{:.3g} {:.3g} {:.3g} {:.3g}] metallic {:.3g} roughness {:.3g}", m.name,
                     m.base_color[0], m.base_color[1], m.base_color[2], m.base_color[3], m.metallic, m.roughness);
-    if (m.transmission > 0) l += fmt::format(" transmission {:.3g} ior {:.3g}", m.transmission, m.ior);
+    if (m.transmission > 0) {
+      l += fmt::format(" transmission {:.3g} ior {:.3g}", m.transmission, m.ior);
+      l += m.thickness > 0 ? fmt::format(" solid (thickness {:.3g})", m.thickness) : std::string(" thin-walled");
+      if (m.attenuation_distance > 0)
+        l += fmt::format(" attenuation [{:.3g} {:.3g} {:.3g}] at {:.3g}", m.attenuation_color[0],
+                         m.attenuation_color[1], m.attenuation_color[2], m.attenuation_distance);
+    }
     if (m.emissive.maxCoeff() > 0) l += fmt::format(" emissive x{:.3g}", m.emissive_strength);
     if (m.alpha_mode != AlphaMode::kOpaque) l += m.alpha_mode == AlphaMode::kMask ? " alpha-mask" : " alpha-blend";
     l += tex("base", m.base_color_texture) + tex("metal-rough", m.metallic_roughness_texture) +

@@ -9,8 +9,8 @@
 
 #include <Eigen/Core>
 
-#include "render/microfacet.h"
 #include "render/glass_bsdf.h"
+#include "render/microfacet.h"
 #include "render/pbr_bsdf.h"
 #include "scene/scene.h"
 

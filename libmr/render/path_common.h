@@ -75,7 +75,7 @@ struct PathVertex {
   // side start: offset along it, and moved onto the smooth surface the
   // vertex normals describe where they shade (RenderScene::ShadingNormalAt).
   Eigen::Vector3d ng = Eigen::Vector3d::UnitZ(), origin = Eigen::Vector3d::Zero();
-  ShadingFrame frame;  // z: the shading normal (ng where the geometric normal shades)
+  ShadingFrame frame;                                // z: the shading normal (ng where the geometric normal shades)
   Bsdf bsdf;                                         // black until MakeVertex sets it
   Eigen::Vector3d albedo = Eigen::Vector3d::Zero();  // the diffuse albedo here
   bool vertex_albedo = false;                        // albedo varies over the surface

@@ -95,8 +95,8 @@ bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::
     const auto [u0, u1] = rng.Next2D();
     if (v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
       const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
-      const PathSample ps =
-          TraceFrom(MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll), b, s.pdf, depth + 1, rng);
+      const PathSample ps = TraceFrom(MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll), b,
+                                      s.pdf, depth + 1, rng);
       *rays += ps.rays;
       if (ps.mixed.allFinite() && ps.real.allFinite()) *L += ps.mixed - ps.real;
     }
@@ -111,7 +111,8 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   ray.mask = mask;
   const unsigned lights = mask == kMaskReal ? kRealLights : kAllLights;  // a real path sees no virtual light
   const bool use_plate = mask == kMaskAll && settings_.plate_reflections && !settings_.plates.empty();
-  // from_virtual: the ray leaves a virtual surface
+  // from_virtual: the ray leaves a virtual surface; refracted: through it
+  bool refracted = false;
   for (;; ++depth) {
     Hit hit;
     ++*rays;
@@ -121,7 +122,14 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     }
     PathVertex v = MakeVertex(scene_, ray, hit);
     beta = beta.cwiseProduct(v.transmittance);
-    if (use_plate && from_virtual && !hit.is_virtual && PlateAtRealPoint(v, beta, depth, rng, rays, &L)) break;
+    if (use_plate && from_virtual && !hit.is_virtual) {
+      const bool taken = PlateAtRealPoint(v, beta, depth, rng, rays, &L);
+      if (refracted) {
+        ++plate_counters_->through_glass;
+        if (taken) ++plate_counters_->through_glass_from_plate;
+      }
+      if (taken) break;
+    }
     from_virtual = hit.is_virtual;
     L += beta.cwiseProduct(v.material->emission);
     if (depth >= settings_.max_depth || v.bsdf.IsBlack()) break;
@@ -139,6 +147,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     // A transmitted direction is one next-event estimation never samples
     // (it tests the light on the near side only): no MIS weight against it.
     prev_pdf = s.wi.z() < 0 || s.delta ? INFINITY : s.pdf;
+    refracted = s.wi.z() < 0 || s.delta;
     if (depth + 1 >= settings_.rr_depth) {
       const double q = std::min(1.0, beta.maxCoeff());
       if (rng.NextDouble() >= q) break;

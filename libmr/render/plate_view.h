@@ -35,6 +35,9 @@ struct PlateCounters {
   std::atomic<int64_t> from_plate{0}, rendered{0};
   std::atomic<int64_t> from_other_frames{0};  // of `from_plate`: a neighbour's plate (the frame's own does not see it)
   std::atomic<int64_t> clipped{0};            // of `rendered`: a plate clipped there
+  // Of all: real points met through a refraction (a virtual glass), and of
+  // those, the ones the plate gave.
+  std::atomic<int64_t> through_glass{0}, through_glass_from_plate{0};
 };
 
 // A frame report's `plate_reflections` entry; null when no real point was
@@ -46,7 +49,11 @@ inline Json PlateCountersJson(const PlateCounters& c) {
           {"from_other_frames", c.from_other_frames.load()},
           {"rendered", c.rendered.load()},
           {"rendered_clipped", c.clipped.load()},
-          {"share", static_cast<double>(c.from_plate) / static_cast<double>(total)}};
+          {"share", static_cast<double>(c.from_plate) / static_cast<double>(total)},
+          {"through_glass", c.through_glass.load()},
+          {"through_glass_share",
+           c.through_glass > 0 ? static_cast<double>(c.through_glass_from_plate) / static_cast<double>(c.through_glass)
+                               : 0.0}};
 }
 
 }  // namespace mr

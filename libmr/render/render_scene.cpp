@@ -208,8 +208,7 @@ Bsdf RenderScene::AssetBsdfAt(const Hit& hit, bool inside, Eigen::Vector3d* diff
   float metallic = m.metallic, roughness = m.roughness, transmission = m.transmission;
   if (!a.uvs.empty()) {
     const Eigen::Vector2f uv = a.UvAt(hit);
-    if (m.transmission_texture.present() && transmission > 0)
-      transmission *= a.Sample(m.transmission_texture, uv)[0];
+    if (m.transmission_texture.present() && transmission > 0) transmission *= a.Sample(m.transmission_texture, uv)[0];
     if (m.base_color_texture.present()) base = base.cwiseProduct(a.Sample(m.base_color_texture, uv));
     if (m.metallic_roughness_texture.present()) {
       const Eigen::Vector4f mr = a.Sample(m.metallic_roughness_texture, uv);

@@ -708,8 +708,8 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
       const Eigen::Vector3d fg = vg.bsdf.Eval(wo_l, wi_l);
       if (fg.maxCoeff() <= 0) continue;
       c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / ls.pdf)),
-                             MakeRay(v.origin, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)),
-                             l.is_virtual(), xv, want_m, want_r, &mixed, &real);
+                             MakeRay(v.origin, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)), l.is_virtual(), xv, want_m,
+                             want_r, &mixed, &real);
     }
     BsdfSample bs;
     const double ul = g.NextDouble();

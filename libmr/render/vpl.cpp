@@ -479,8 +479,8 @@ class VplShader {
       const auto [u0, u1] = rng.Next2D();
       if (glossy.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) {
         const Eigen::Vector3d b = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
-        ShadeRay(MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r, depth + 1, s.pdf,
-                 b, rng, acc, x_virtual);
+        ShadeRay(MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll), want_m, want_r,
+                 depth + 1, s.pdf, b, rng, acc, x_virtual);
       }
     }
     if (st_.compensate && depth == 0 && !gather) Compensate(v, x_virtual, want_m, want_r, beta, rng, acc);

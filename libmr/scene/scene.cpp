@@ -49,7 +49,8 @@ Material ParseMaterial(const Node& n, const fs::path& base, bool check) {
   s.Number("roughness", &m.roughness, 1e-3, 1);
   if (const auto v = s.Take("emission")) m.emission = v->Vec3(0, kHuge);
   s.Bool("albedo_from_vertex_colors", &m.albedo_from_vertex_colors);
-  s.Choice("normals", &m.normals, {{"geometric", Material::Normals::kGeometric}, {"vertex", Material::Normals::kVertex}});
+  s.Choice("normals", &m.normals,
+           {{"geometric", Material::Normals::kGeometric}, {"vertex", Material::Normals::kVertex}});
   const auto texture = s.Take("albedo_texture");
   s.Done();
   if (texture) {

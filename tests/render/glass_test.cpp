@@ -70,9 +70,9 @@ TEST(Glass, TotalInternalReflection) {
   EXPECT_EQ(e.t, 0);
   EXPECT_NEAR(e.r, 1.0, 2e-3);
   for (double th : {0.0, 0.5, 1.0, 2.0, 3.0})  // alpha 1e-4: D's tail that far out is < 1e-9
-    EXPECT_LT(leave.Eval(Dir(60 * kPi / 180), Eigen::Vector3d(std::sin(th), 0, -std::cos(th) * 0.9).normalized())
-                  .maxCoeff(),
-              1e-6);
+    EXPECT_LT(
+        leave.Eval(Dir(60 * kPi / 180), Eigen::Vector3d(std::sin(th), 0, -std::cos(th) * 0.9).normalized()).maxCoeff(),
+        1e-6);
 }
 
 // Rough glass: the sampled estimate of f |cos| agrees with a quadrature
@@ -181,8 +181,8 @@ TEST(Glass, SlabTransmitsWhatFresnelAndBeerLambertLeave) {
   // bends: the same two interfaces.
   EXPECT_NEAR(ThroughGlass(MakeGlass(slab, 1.5f, 0.0f)), 0.9231, 0.01);
   // One thin sheet: 1 - R = 0.96.
-  const Mesh sheet = Quad(Eigen::Vector3f(-2, -2, 0), Eigen::Vector3f(2, -2, 0), Eigen::Vector3f(2, 2, 0),
-                          Eigen::Vector3f(-2, 2, 0));
+  const Mesh sheet =
+      Quad(Eigen::Vector3f(-2, -2, 0), Eigen::Vector3f(2, -2, 0), Eigen::Vector3f(2, 2, 0), Eigen::Vector3f(-2, 2, 0));
   EXPECT_NEAR(ThroughGlass(MakeGlass(sheet, 1.5f, 0.0f)), 0.96, 0.01);
 }
 

@@ -67,9 +67,7 @@ Mesh SmoothSphere(float r, int n) {
   return m;
 }
 
-fs::path TestDir(const std::string& name) {
-  return fs::temp_directory_path() / ("mr_shading_normal_test_" + name);
-}
+fs::path TestDir(const std::string& name) { return fs::temp_directory_path() / ("mr_shading_normal_test_" + name); }
 
 Hit HitOn(uint32_t id, uint32_t primitive, float u, float v) {
   Hit h;
@@ -85,8 +83,8 @@ Hit HitOn(uint32_t id, uint32_t primitive, float u, float v) {
 // +x, up the image along +y.  8-bit codes: within 0.5 degrees.
 TEST(ShadingNormals, NormalMapGivesTheNormalItEncodes) {
   const double tilt = 20 * kPi / 180;
-  for (const Eigen::Vector3d& n_ts : {Eigen::Vector3d(std::sin(tilt), 0, std::cos(tilt)),
-                                      Eigen::Vector3d(0, std::sin(tilt), std::cos(tilt))}) {
+  for (const Eigen::Vector3d& n_ts :
+       {Eigen::Vector3d(std::sin(tilt), 0, std::cos(tilt)), Eigen::Vector3d(0, std::sin(tilt), std::cos(tilt))}) {
     NormalMappedQuad q = MakeNormalMappedQuad(n_ts, TestDir("encodes"));
     RenderScene scene;
     const uint32_t id = scene.AddVirtual(q.mesh, Eigen::Affine3d::Identity(), Material());
@@ -138,8 +136,9 @@ TEST(ShadingNormals, HanikaShiftMovesOriginsOntoTheSmoothSurface) {
     for (int k = 0; k < 3; ++k) p += sphere.positions[static_cast<size_t>(t[k])].cast<double>() / 3;
     RenderScene::ShadingNormal sn;
     ASSERT_TRUE(scene.ShadingNormalAt(HitOn(id, tri, 1.0f / 3, 1.0f / 3), &sn));
-    const Eigen::Vector3d e1 = (sphere.positions[static_cast<size_t>(t[1])] - sphere.positions[static_cast<size_t>(t[0])]).cast<double>(),
-                          e2 = (sphere.positions[static_cast<size_t>(t[2])] - sphere.positions[static_cast<size_t>(t[0])]).cast<double>();
+    const Eigen::Vector3d
+        e1 = (sphere.positions[static_cast<size_t>(t[1])] - sphere.positions[static_cast<size_t>(t[0])]).cast<double>(),
+        e2 = (sphere.positions[static_cast<size_t>(t[2])] - sphere.positions[static_cast<size_t>(t[0])]).cast<double>();
     if (e1.cross(e2).norm() < 1e-6) continue;  // UvSphere's degenerate triangles at the poles
     const double inside = 1 - p.norm(), shifted = (p + sn.shift).norm();
     EXPECT_GE(shifted, 1 - 0.1 * inside) << "triangle " << tri;
@@ -257,8 +256,7 @@ TEST(ShadingNormals, NoLightThroughTheGeometricSurface) {
   // Sampling never returns a direction through the geometric surface.
   for (int i = 0; i < 256; ++i) {
     BsdfSample s;
-    if (b.Sample(wo, 0.5, (i + 0.5) / 256, std::fmod(i * 0.618034, 1.0), &s))
-      EXPECT_GT(s.wi.dot(ng), 0) << i;
+    if (b.Sample(wo, 0.5, (i + 0.5) / 256, std::fmod(i * 0.618034, 1.0), &s)) EXPECT_GT(s.wi.dot(ng), 0) << i;
   }
 }
 

@@ -618,8 +618,8 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
     *real_out += beta.cwiseProduct(real);
     return rays;
   };
-  if (want_m) mixed += v.material->emission;
-  if (want_r) real += v.material->emission;
+  if (want_m) mixed += v.emission;
+  if (want_r) real += v.emission;
   if (v.bsdf.IsBlack()) return done();
   const bool glossy = v.material->IsGlossy();
   PathVertex vd = v;

@@ -80,6 +80,7 @@ struct PathVertex {
   Eigen::Vector3d albedo = Eigen::Vector3d::Zero();  // the diffuse albedo here
   bool vertex_albedo = false;                        // albedo varies over the surface
   const Material* material = nullptr;
+  Eigen::Vector3d emission = Eigen::Vector3d::Zero();  // the radiance the surface emits here
   uint32_t geometry_id = 0;
   bool shading_normal = false, mapped = false;  // frame.n is not ng; a normal map bent it
   // What the medium the incoming ray crossed let through (a solid glass's
@@ -115,10 +116,12 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
     v.frame = ShadingFrame(n);
   }
   v.material = &scene.material(hit.geometry_id);
+  v.emission = v.material->emission;
   v.geometry_id = hit.geometry_id;
   v.vertex_albedo = scene.has_varying_albedo(hit.geometry_id);
   if (scene.has_asset_material(hit.geometry_id)) {
     v.bsdf = scene.AssetBsdfAt(hit, back, &v.albedo);
+    v.emission = scene.AssetEmissionAt(hit);
     if (back) {  // inside a solid glass: what it absorbed along the way here (Beer-Lambert)
       const Eigen::Vector3d sigma = scene.AssetAbsorption(hit);
       if (sigma.maxCoeff() > 0) v.transmittance = (-sigma * (v.p - o).norm()).array().exp();

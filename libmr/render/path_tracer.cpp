@@ -131,7 +131,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
       if (taken) break;
     }
     from_virtual = hit.is_virtual;
-    L += beta.cwiseProduct(v.material->emission);
+    L += beta.cwiseProduct(v.emission);
     if (depth >= settings_.max_depth || v.bsdf.IsBlack()) break;
     NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
       if (virtual_light && !(lights & kVirtualLights)) return;
@@ -189,7 +189,7 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
     }
     // A real vertex shared by both paths.
     PathVertex v = MakeVertex(scene_, ray, hit);
-    const Eigen::Vector3d e = beta.cwiseProduct(v.material->emission);
+    const Eigen::Vector3d e = beta.cwiseProduct(v.emission);
     out.mixed += e;
     out.real += e;
     if (depth >= settings_.max_depth || v.bsdf.IsBlack()) return out;

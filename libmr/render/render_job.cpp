@@ -419,15 +419,14 @@ void RenderJob::ReportAssetApproximations() {
     const uint32_t id = rs_.virtual_ids().at(i);
     report_->SetMetric("assets." + v.name + ".textures", rs_.asset_textures(id));
     report_->SetMetric("assets." + v.name + ".texture_bytes", rs_.asset_texture_bytes(id));
-    report_->Skip(fmt::format("virtual object \"{}\": its normal, emissive and occlusion textures, transmission, "
-                              "alpha and vertex normals",
-                              v.name),
-                  "not rendered yet: the asset is shaded by its base colour, metallic and roughness (factors and "
-                  "textures, mip level 0) on its flat facets; transmissive parts are opaque dielectrics");
+    report_->Skip(fmt::format("virtual object \"{}\": its occlusion textures, alpha and texture filtering", v.name),
+                  "occlusion textures are baked ambient occlusion, which a path tracer computes; alpha (MASK, BLEND) "
+                  "is not rendered yet (every part opaque); textures are read at mip level 0 (no pixel footprint)");
     if (scene_.render.method != "pt")
       report_->Skip(fmt::format("virtual object \"{}\": its materials' lobes apart", v.name),
                     fmt::format("method {} takes their diffuse albedo per point and the object's mean metallic lobe "
-                                "where it treats the lobes apart (pt renders them whole)",
+                                "where it treats the lobes apart, and its cached or gathered diffuse light ignores "
+                                "transmission (pt renders them whole)",
                                 scene_.render.method));
   }
 }

@@ -162,6 +162,8 @@ void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector
     load(m.base_color_texture, TextureEncoding::kSrgb);
     load(m.metallic_roughness_texture, TextureEncoding::kLinear);
     if (!mesh.normals.empty()) load(m.normal_texture, TextureEncoding::kLinear);
+    if (m.transmission > 0) load(m.transmission_texture, TextureEncoding::kLinear);
+    if (m.emissive.maxCoeff() > 0) load(m.emissive_texture, TextureEncoding::kSrgb);
     normal_maps = normal_maps || (m.normal_texture.present() && !mesh.normals.empty());
   }
   a->uvs = mesh.uvs;
@@ -188,6 +190,17 @@ int64_t RenderScene::asset_texture_bytes(uint32_t id) const {
     for (const auto& t : a->textures)
       if (t) b += static_cast<int64_t>(t->bytes());
   return b;
+}
+
+Eigen::Vector3d RenderScene::AssetEmissionAt(const Hit& hit) const {
+  const AssetShading* a = surfaces_.at(hit.geometry_id).asset.get();
+  if (!a) return Eigen::Vector3d::Zero();
+  const AssetMaterial& m = a->MaterialOf(hit.primitive_id);
+  if (!(m.emissive.maxCoeff() > 0) || !(m.emissive_strength > 0)) return Eigen::Vector3d::Zero();
+  Eigen::Vector3d e = m.emissive.cast<double>() * m.emissive_strength;
+  if (m.emissive_texture.present() && !a->uvs.empty())
+    e = e.cwiseProduct(a->Sample(m.emissive_texture, a->UvAt(hit)).head<3>().cast<double>());
+  return e.cwiseMax(0.0);
 }
 
 Eigen::Vector3d RenderScene::AssetAbsorption(const Hit& hit) const {

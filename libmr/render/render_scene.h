@@ -34,9 +34,9 @@ class RenderScene {
   // &triangle_material)): each triangle shaded by its part's material
   // (PbrBsdf), base colour and metallic-roughness textures at the mesh's
   // uvs (mip level 0: footprints come with ray differentials), loaded once
-  // per image.  `name` names the asset in messages.  Not yet used: normal,
-  // emissive, occlusion and transmission textures, transmission, alpha
-  // (AssetApproximations lists them).
+  // per image.  `name` names the asset in messages.  Not used: occlusion
+  // textures (a path tracer computes occlusion), alpha (AssetApproximations
+  // lists them).
   void SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material, const Mesh& mesh,
                          const std::string& name);
   bool has_asset_material(uint32_t id) const { return surfaces_.at(id).asset != nullptr; }
@@ -50,6 +50,11 @@ class RenderScene {
   // surface from behind its normals (leaving a solid glass: the relative
   // ior is 1/ior there).
   Bsdf AssetBsdfAt(const Hit& hit, bool inside, Eigen::Vector3d* diffuse_albedo) const;
+  // The radiance an asset's material emits at a hit: emissiveFactor x
+  // KHR_materials_emissive_strength x the emissive texture (sRGB), as
+  // glTF defines it (W/(sr m^2) in mr's units: the asset's numbers taken
+  // as the scene's radiance scale).
+  Eigen::Vector3d AssetEmissionAt(const Hit& hit) const;
   // The absorption coefficient (per metre, per channel) inside a solid
   // transmissive asset material (KHR_materials_volume: -ln(attenuation
   // colour) / attenuation distance); zero elsewhere.

@@ -645,8 +645,8 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
                    bool glossy = true) {
     PathVertex v = MakeVertex(scene_, r, hit);
     const bool xv = hit.is_virtual;
-    if (want_m) mixed += v.material->emission;
-    if (want_r) real += v.material->emission;
+    if (want_m) mixed += v.emission;
+    if (want_r) real += v.emission;
     if (v.bsdf.IsBlack()) return;
     // Direct light; a real point's virtual shadows by shadow cone.
     PathVertex vd = v;

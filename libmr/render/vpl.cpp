@@ -454,7 +454,7 @@ class VplShader {
 
   void ShadeAt(const PathVertex& v, bool x_virtual, bool want_m, bool want_r, int depth, const Eigen::Vector3d& beta,
                Sampler& rng, Accum* acc, bool emission) const {
-    if (emission) Add(acc, want_m, want_r, beta.cwiseProduct(v.material->emission));
+    if (emission) Add(acc, want_m, want_r, beta.cwiseProduct(v.emission));
     if (v.bsdf.IsBlack()) return;
     const bool split = v.material->IsGlossy() && depth < st_.glossy_depth;
     const bool gather = st_.final_gather && x_virtual && depth == 0;

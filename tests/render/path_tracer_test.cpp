@@ -386,5 +386,36 @@ TEST(PathTracer, AssetMaterialsConserveEnergyInAWhiteSky) {
   }
 }
 
+// An emissive asset material seen directly: emissiveFactor x
+// KHR_materials_emissive_strength (glTF: radiance, linear), the black base
+// reflecting nothing of the black sky: exactly e x strength.
+TEST(PathTracer, AssetEmissionIsItsFactorTimesItsStrength) {
+  Asset asset;
+  Mesh quad;
+  quad.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+  quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+  asset.parts.push_back({.name = "panel", .mesh = quad, .material = 0});
+  AssetMaterial m;
+  m.base_color = Eigen::Vector4f(0, 0, 0, 1);
+  m.metallic = 0;
+  m.emissive = Eigen::Vector3f(1.0f, 0.5f, 0.25f);
+  m.emissive_strength = 40;
+  asset.materials.push_back(m);
+  std::vector<int> triangle_material;
+  const Mesh mesh = MergeParts(asset, &triangle_material);
+  RenderScene scene;
+  const uint32_t id = scene.AddVirtual(mesh, Eigen::Affine3d::Identity(), Material());
+  scene.SetAssetMaterials(id, asset, triangle_material, mesh, "panel.glb");
+  scene.Commit();
+  PathTracerSettings st;
+  Rigid3 world_from_cam;
+  world_from_cam.translation = Eigen::Vector3d(0, 0, -3);
+  PtFrameRenderer r(scene, Pinhole(8, 8, 20), world_from_cam, st);
+  r.RenderPass(1);
+  const Image img = r.Mixed();
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(img.at(4, 4, c), 40.0 * m.emissive[c], 1e-3) << c;
+  EXPECT_EQ(r.Real().at(4, 4, 0), 0);  // a virtual emitter: in I_m only
+}
+
 }  // namespace
 }  // namespace mr

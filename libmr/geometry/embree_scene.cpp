@@ -48,6 +48,30 @@ void ToRTC(const Ray& r, RTCRay* out) {
   out->flags = 0;
 }
 
+uint64_t Mix(uint64_t h, float f) {
+  uint32_t b = 0;
+  std::memcpy(&b, &f, 4);
+  h ^= b + 0x9E3779B97F4A7C15ull + (h << 6) + (h >> 2);
+  return h * 0xBF58476D1CE4E5B9ull;
+}
+
+// Embree's filter for a prototype with a HitFilter (its user data): a hit
+// the filter refuses is not a hit.
+void FilterHits(const RTCFilterFunctionNArguments* args) {
+  const auto& accept = *static_cast<const EmbreeScene::HitFilter*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] != -1) continue;
+    uint64_t key = 0;
+    for (float f : {RTCRayN_org_x(args->ray, args->N, i), RTCRayN_org_y(args->ray, args->N, i),
+                    RTCRayN_org_z(args->ray, args->N, i), RTCRayN_dir_x(args->ray, args->N, i),
+                    RTCRayN_dir_y(args->ray, args->N, i), RTCRayN_dir_z(args->ray, args->N, i)})
+      key = Mix(key, f);
+    if (!accept(RTCHitN_primID(args->hit, args->N, i), RTCHitN_u(args->hit, args->N, i),
+                RTCHitN_v(args->hit, args->N, i), key))
+      args->valid[i] = 0;
+  }
+}
+
 }  // namespace
 
 struct EmbreeScene::Impl {
@@ -55,7 +79,8 @@ struct EmbreeScene::Impl {
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
   std::vector<RTCScene> prototypes;
-  std::vector<char> is_virtual;  // by geometry id
+  std::vector<std::unique_ptr<HitFilter>> filters;  // user data of the prototypes' filters
+  std::vector<char> is_virtual;                     // by geometry id
   bool committed = false;
 
   void Check(const char* what) {
@@ -126,6 +151,20 @@ uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
   impl_->Check("building a prototype");
   impl_->prototypes.push_back(s);
   return static_cast<uint32_t>(impl_->prototypes.size() - 1);
+}
+
+void EmbreeScene::SetPrototypeFilter(uint32_t prototype, HitFilter accept) {
+  MR_CHECK(!impl_->committed);
+  MR_CHECK_LT(prototype, impl_->prototypes.size());
+  impl_->filters.push_back(std::make_unique<HitFilter>(std::move(accept)));
+  RTCScene s = impl_->prototypes[prototype];
+  RTCGeometry g = rtcGetGeometry(s, 0);
+  rtcSetGeometryUserData(g, impl_->filters.back().get());
+  rtcSetGeometryIntersectFilterFunction(g, FilterHits);
+  rtcSetGeometryOccludedFilterFunction(g, FilterHits);
+  rtcCommitGeometry(g);
+  rtcCommitScene(s);
+  impl_->Check("setting a prototype's hit filter");
 }
 
 uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object, bool is_virtual) {

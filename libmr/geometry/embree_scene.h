@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <memory>
 #include <span>
@@ -59,6 +60,14 @@ class EmbreeScene {
   // scaled to nothing) disables it: no ray meets it until it is moved back.
   // Commit() again before the next query.
   void SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object);
+  // Hits on prototype `prototype` count only where `accept(primitive, u, v,
+  // ray_key)` is true (an asset's alpha cutout: Embree's intersection and
+  // occlusion filters); ray_key hashes the ray's origin and direction (as
+  // the prototype sees them), for stochastic transparency that is the same
+  // for the same ray.  Called from many threads: it must be thread-safe and
+  // a pure function of its arguments.  Before Commit().
+  using HitFilter = std::function<bool(uint32_t primitive, float u, float v, uint64_t ray_key)>;
+  void SetPrototypeFilter(uint32_t prototype, HitFilter accept);
   // Builds the acceleration structures; call after the last Add (or move)
   // and before any query.
   void Commit();

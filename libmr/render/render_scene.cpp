@@ -35,6 +35,7 @@ bool Collapses(const Eigen::Affine3d& t) { return !(std::abs(t.linear().determin
 uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material) {
   uint32_t proto = embree_->AddPrototype(mesh);
   uint32_t id = embree_->AddInstance(proto, Eigen::Affine3f::Identity(), /*is_virtual=*/true);
+  virtual_prototypes_.push_back(proto);
   geometry_bounds_.emplace_back();
   virtual_bounds_.emplace_back();
   virtual_ids_.push_back(id);
@@ -114,7 +115,9 @@ struct RenderScene::AssetShading {
   std::vector<Eigen::Vector3i> triangles;
   std::vector<Eigen::Vector4f> tangents;  // with a normal texture: per vertex (AssetTangents)
   const AssetMaterial& MaterialOf(uint32_t primitive) const;
-  Eigen::Vector2f UvAt(const Hit& hit) const;
+  Eigen::Vector2f UvAt(uint32_t primitive, float u, float v) const;
+  Eigen::Vector2f UvAt(const Hit& hit) const { return UvAt(hit.primitive_id, hit.uv.x(), hit.uv.y()); }
+  bool Accepts(uint32_t primitive, float u, float v, uint64_t ray_key) const;
   Eigen::Vector4f Sample(const AssetTexture& t, const Eigen::Vector2f& uv) const {
     return textures[static_cast<size_t>(t.image)]->Sample(TransformUv(t, uv), 0, t.wrap_s, t.wrap_t);
   }
@@ -131,11 +134,24 @@ const AssetMaterial& RenderScene::AssetShading::MaterialOf(uint32_t primitive) c
   return mi >= 0 ? materials[static_cast<size_t>(mi)] : kDefault;
 }
 
-Eigen::Vector2f RenderScene::AssetShading::UvAt(const Hit& hit) const {
-  const Eigen::Vector3i& t = triangles[std::min<size_t>(hit.primitive_id, triangles.size() - 1)];
-  const float u = hit.uv.x(), v = hit.uv.y();
+Eigen::Vector2f RenderScene::AssetShading::UvAt(uint32_t primitive, float u, float v) const {
+  const Eigen::Vector3i& t = triangles[std::min<size_t>(primitive, triangles.size() - 1)];
   return (1 - u - v) * uvs[static_cast<size_t>(t[0])] + u * uvs[static_cast<size_t>(t[1])] +
          v * uvs[static_cast<size_t>(t[2])];
+}
+
+// glTF 2.0, 3.9.4: alpha is the base colour's, factor times texture; MASK
+// renders where alpha >= alphaCutoff, BLEND covers alpha of the pixel
+// (here: a ray passes with probability 1 - alpha, from its key).
+bool RenderScene::AssetShading::Accepts(uint32_t primitive, float u, float v, uint64_t ray_key) const {
+  const AssetMaterial& m = MaterialOf(primitive);
+  if (m.alpha_mode == AlphaMode::kOpaque) return true;
+  float alpha = m.base_color[3];
+  if (m.base_color_texture.present() && !uvs.empty()) alpha *= Sample(m.base_color_texture, UvAt(primitive, u, v))[3];
+  if (m.alpha_mode == AlphaMode::kMask) return alpha >= m.alpha_cutoff;
+  uint64_t h = (ray_key ^ (0x9E3779B97F4A7C15ull * (primitive + 1))) * 0xBF58476D1CE4E5B9ull;
+  h ^= h >> 31;
+  return static_cast<float>(h >> 40) * (1.0f / 16777216.0f) < alpha;
 }
 
 void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material,
@@ -174,6 +190,15 @@ void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector
     s.normals = mesh.normals;
     s.positions = mesh.positions;
     s.triangles = mesh.triangles;
+  }
+  const bool cut = std::any_of(asset.materials.begin(), asset.materials.end(),
+                               [](const AssetMaterial& m) { return m.alpha_mode != AlphaMode::kOpaque; });
+  const auto vi = std::find(virtual_ids_.begin(), virtual_ids_.end(), id);
+  if (cut && vi != virtual_ids_.end()) {
+    std::shared_ptr<const AssetShading> shading = a;
+    embree_->SetPrototypeFilter(
+        virtual_prototypes_[static_cast<size_t>(vi - virtual_ids_.begin())],
+        [shading](uint32_t prim, float u, float v, uint64_t key) { return shading->Accepts(prim, u, v, key); });
   }
   s.asset = std::move(a);
   has_glossy_ = true;

@@ -34,9 +34,12 @@ class RenderScene {
   // &triangle_material)): each triangle shaded by its part's material
   // (PbrBsdf), base colour and metallic-roughness textures at the mesh's
   // uvs (mip level 0: footprints come with ray differentials), loaded once
-  // per image.  `name` names the asset in messages.  Not used: occlusion
-  // textures (a path tracer computes occlusion), alpha (AssetApproximations
-  // lists them).
+  // per image.  Alpha (base colour's A x the texture's): MASK cuts the
+  // surface where alpha < alphaCutoff, BLEND lets a ray through with
+  // probability 1 - alpha (stochastic transparency, the same for the same
+  // ray), both in Embree's filters, so every ray (camera, shadow, bounce)
+  // sees the same cut surface.  `name` names the asset in messages.  Not
+  // used: occlusion textures (a path tracer computes occlusion).
   void SetAssetMaterials(uint32_t id, const Asset& asset, std::vector<int> triangle_material, const Mesh& mesh,
                          const std::string& name);
   bool has_asset_material(uint32_t id) const { return surfaces_.at(id).asset != nullptr; }
@@ -168,6 +171,7 @@ class RenderScene {
   ClosedSurfaces closed_;
   std::vector<Eigen::AlignedBox3d> geometry_bounds_, virtual_bounds_;
   std::vector<uint32_t> virtual_ids_;
+  std::vector<uint32_t> virtual_prototypes_;                     // EmbreeScene prototype of each
   std::vector<Eigen::AlignedBox3d> virtual_object_bounds_;       // in object coordinates
   std::vector<Eigen::Affine3d> virtual_poses_;                   // world_from_object now
   std::vector<std::vector<Eigen::Vector3f>> virtual_positions_;  // object coordinates

@@ -144,23 +144,29 @@ EnvironmentMap HalfSky() {
   return EnvironmentMap(img, "half sky");
 }
 
-// The mean of the central 4 x 4 pixels of a pt render looking along +z
-// from z = -3 through `mesh` at a half sky.
-double ThroughGlass(const GlassAsset& g) {
+// pt's image of `g` from z = -3 looking along +z before `env` (16 x 16
+// pixels of focal length f, every path to `depth` bounces, no roulette).
+Image RenderGlass(const GlassAsset& g, EnvironmentMap env, double f, int depth, int spp) {
   RenderScene scene;
   const uint32_t id = scene.AddVirtual(g.mesh, Eigen::Affine3d::Identity(), Material());
   scene.SetAssetMaterials(id, g.asset, g.triangle_material, g.mesh, "glass.glb");
-  scene.SetEnvironment(HalfSky());
+  scene.SetEnvironment(std::move(env));
   scene.Commit();
   PathTracerSettings st;
-  st.max_depth = 64;
-  st.rr_depth = 64;
+  st.max_depth = depth;
+  st.rr_depth = depth;
   Rigid3 world_from_cam;
   world_from_cam.translation = Eigen::Vector3d(0, 0, -3);
-  PtFrameRenderer r(scene, CameraModel("LENSMODEL_PINHOLE", {400, 400, 7.5, 7.5}, 16, 16), world_from_cam, st);
-  r.RenderPass(64);
+  PtFrameRenderer r(scene, CameraModel("LENSMODEL_PINHOLE", {f, f, 7.5, 7.5}, 16, 16), world_from_cam, st);
+  r.RenderPass(spp);
   EXPECT_EQ(r.nonfinite_samples(), 0);
-  const Image img = r.Mixed();
+  return r.Mixed();
+}
+
+// The mean of the central 4 x 4 pixels looking through `mesh` at a half
+// sky, the camera's rays within a degree of +z.
+double ThroughGlass(const GlassAsset& g) {
+  const Image img = RenderGlass(g, HalfSky(), 400, 64, 64);
   double sum = 0;
   for (int y = 6; y < 10; ++y)
     for (int x = 6; x < 10; ++x) sum += img.at(x, y, 1);
@@ -202,20 +208,8 @@ TEST(Glass, IorOneIsInvisible) {
 TEST(Glass, GlassSphereInAWhiteSkyIsInvisible) {
   Mesh sphere = UvSphere(0.5f, 64);
   for (const Eigen::Vector3f& p : sphere.positions) sphere.normals.push_back(p.normalized());
-  GlassAsset g = MakeGlass(sphere, 1.5f, 1.0f);
-  RenderScene scene;
-  const uint32_t id = scene.AddVirtual(g.mesh, Eigen::Affine3d::Identity(), Material());
-  scene.SetAssetMaterials(id, g.asset, g.triangle_material, g.mesh, "glass.glb");
-  scene.SetEnvironment(EnvironmentMap::Constant(Eigen::Vector3d::Ones()));
-  scene.Commit();
-  PathTracerSettings st;
-  st.max_depth = 256;
-  st.rr_depth = 256;
-  Rigid3 world_from_cam;
-  world_from_cam.translation = Eigen::Vector3d(0, 0, -3);
-  PtFrameRenderer r(scene, CameraModel("LENSMODEL_PINHOLE", {40, 40, 7.5, 7.5}, 16, 16), world_from_cam, st);
-  r.RenderPass(16);
-  const Image img = r.Mixed();
+  const Image img =
+      RenderGlass(MakeGlass(sphere, 1.5f, 1.0f), EnvironmentMap::Constant(Eigen::Vector3d::Ones()), 40, 256, 16);
   for (int y = 3; y < 13; ++y)
     for (int x = 3; x < 13; ++x) EXPECT_NEAR(img.at(x, y, 1), 1.0, 0.02) << x << "," << y;
 }

@@ -67,6 +67,15 @@ Mesh SmoothSphere(float r, int n) {
   return m;
 }
 
+// A distant delta light of irradiance pi from direction `l` (towards it).
+void AddSun(RenderScene* scene, const Eigen::Vector3d& l) {
+  Light sun;
+  sun.type = LightType::kDistant;
+  sun.direction = l;
+  sun.irradiance = Eigen::Vector3d::Constant(kPi);
+  scene->AddLight(sun);
+}
+
 fs::path TestDir(const std::string& name) { return fs::temp_directory_path() / ("mr_shading_normal_test_" + name); }
 
 Hit HitOn(uint32_t id, uint32_t primitive, float u, float v) {
@@ -161,12 +170,8 @@ double SphereShadingError(Material::Normals normals) {
   m.albedo = Eigen::Vector3d::Constant(0.5);
   m.normals = normals;
   scene.AddVirtual(SmoothSphere(1.0f, 8), Eigen::Affine3d::Identity(), m);
-  Light sun;
-  sun.type = LightType::kDistant;
   const Eigen::Vector3d l = Eigen::Vector3d(0.5, -0.3, -1).normalized();
-  sun.direction = l;
-  sun.irradiance = Eigen::Vector3d::Constant(kPi);
-  scene.AddLight(sun);
+  AddSun(&scene, l);
   scene.Commit();
   PathTracerSettings st;
   st.max_depth = 1;
@@ -214,11 +219,7 @@ TEST(ShadingNormals, NormalMappedPlaneReflectsAsTheTiltedPlane) {
   RenderScene scene;
   const uint32_t id = scene.AddVirtual(q.mesh, Eigen::Affine3d::Identity(), Material());
   scene.SetAssetMaterials(id, q.asset, q.triangle_material, q.mesh, "quad.glb");
-  Light sun;
-  sun.type = LightType::kDistant;
-  sun.direction = n_ts;
-  sun.irradiance = Eigen::Vector3d::Constant(kPi);
-  scene.AddLight(sun);
+  AddSun(&scene, n_ts);
   scene.Commit();
   PathTracerSettings st;
   st.max_depth = 1;

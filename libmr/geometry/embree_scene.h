@@ -29,6 +29,10 @@ struct Ray {
   float tnear = 0.0f;
   float tfar = std::numeric_limits<float>::infinity();
   uint32_t mask = kMaskAll;
+  // A cone around the ray for texture footprints (a pixel's, then widened
+  // by each bounce; docs/methods.md, "Asset textures"): its width at the
+  // origin and its growth per unit t (radians).  0: a thin ray (level 0).
+  float cone_width = 0.0f, cone_spread = 0.0f;
 };
 
 inline constexpr uint32_t kInvalidId = 0xffffffffu;

@@ -68,8 +68,13 @@ Sampler CameraSampler::Sample(int x, int y, int s, Ray* ray) const {
   const auto [fx, fy] = rng.Next2D();
   const Eigen::Vector3d d = (1 - fy) * ((1 - fx) * corner_dirs_[c00] + fx * corner_dirs_[c10]) +
                             fy * ((1 - fx) * corner_dirs_[c01] + fx * corner_dirs_[c11]);
+  // The pixel cone: the square root of the solid angle between its corners.
+  const Eigen::Vector3d a = corner_dirs_[c00].normalized();
+  const float spread = static_cast<float>(
+      std::sqrt((corner_dirs_[c10].normalized() - a).cross(corner_dirs_[c01].normalized() - a).norm()));
   if (!exposure_.any()) {
     *ray = MakeRay(world_from_cam_.translation, (R_ * d).normalized(), kMaskAll);
+    ray->cone_spread = std::isfinite(spread) ? spread : 0.0f;
     return rng;
   }
   Rigid3 pose = world_from_cam_;
@@ -90,6 +95,7 @@ Sampler CameraSampler::Sample(int x, int y, int s, Ray* ray) const {
     dir = (focus - origin).normalized();
   }
   *ray = MakeRay(pose * origin, pose.rotation * dir, kMaskAll);
+  ray->cone_spread = std::isfinite(spread) ? spread : 0.0f;
   return rng;
 }
 

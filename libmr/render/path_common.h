@@ -83,6 +83,16 @@ struct PathVertex {
   Eigen::Vector3d emission = Eigen::Vector3d::Zero();  // the radiance the surface emits here
   uint32_t geometry_id = 0;
   bool shading_normal = false, mapped = false;  // frame.n is not ng; a normal map bent it
+  // The incoming ray's cone here (Ray::cone_width, cone_spread).
+  double cone_width = 0, cone_spread = 0;
+  // The cone of a ray leaving along a sample of v's BSDF: the width here,
+  // the spread grown by the solid angle 1/pdf the sample stands for (its
+  // angular width 1/sqrt(pdf), at most 1 radian); a delta sample keeps it.
+  void SetCone(const BsdfSample& s, Ray* r) const {
+    r->cone_width = static_cast<float>(cone_width);
+    r->cone_spread =
+        static_cast<float>(cone_spread + (s.delta || !(s.pdf > 0) ? 0.0 : std::min(1.0, 1 / std::sqrt(s.pdf))));
+  }
   // What the medium the incoming ray crossed let through (a solid glass's
   // absorption, seen from inside); the caller multiplies its throughput.
   Eigen::Vector3d transmittance = Eigen::Vector3d::Ones();
@@ -99,6 +109,8 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
   const Eigen::Vector3d o = ray.origin.cast<double>();
   v.p = o + static_cast<double>(hit.t) * ray.direction.cast<double>();
   v.offset = OffsetScale(v.p, o, static_cast<double>(hit.t) * ray.direction.cast<double>().norm());
+  v.cone_width = ray.cone_width + ray.cone_spread * static_cast<double>(hit.t) * ray.direction.cast<double>().norm();
+  v.cone_spread = ray.cone_spread;
   Eigen::Vector3d n = scene.WorldNormal(hit);
   const bool back = n.dot(d) > 0;
   if (back) n = -n;  // two-sided: face the incoming ray
@@ -120,8 +132,10 @@ inline PathVertex MakeVertex(const RenderScene& scene, const Ray& ray, const Hit
   v.geometry_id = hit.geometry_id;
   v.vertex_albedo = scene.has_varying_albedo(hit.geometry_id);
   if (scene.has_asset_material(hit.geometry_id)) {
-    v.bsdf = scene.AssetBsdfAt(hit, back, &v.albedo);
-    v.emission = scene.AssetEmissionAt(hit);
+    // The ray's cone where it meets the surface, stretched by the incidence.
+    const double footprint = v.cone_width / std::max(std::abs(n.dot(d)), 1e-3);
+    v.bsdf = scene.AssetBsdfAt(hit, back, footprint, &v.albedo);
+    v.emission = scene.AssetEmissionAt(hit, footprint);
     if (back) {  // inside a solid glass: what it absorbed along the way here (Beer-Lambert)
       const Eigen::Vector3d sigma = scene.AssetAbsorption(hit);
       if (sigma.maxCoeff() > 0) v.transmittance = (-sigma * (v.p - o).norm()).array().exp();

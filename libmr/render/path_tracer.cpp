@@ -155,6 +155,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     }
     const Eigen::Vector3d wi = v.frame.ToWorld(s.wi);
     ray = MakeRay(v.OriginFor(wi), wi, mask);
+    v.SetCone(s, &ray);
   }
   return L;
 }
@@ -223,6 +224,7 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
       beta /= q;
     }
     ray = MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll);
+    v.SetCone(s, &ray);
   }
 }
 

@@ -419,9 +419,8 @@ void RenderJob::ReportAssetApproximations() {
     const uint32_t id = rs_.virtual_ids().at(i);
     report_->SetMetric("assets." + v.name + ".textures", rs_.asset_textures(id));
     report_->SetMetric("assets." + v.name + ".texture_bytes", rs_.asset_texture_bytes(id));
-    report_->Skip(fmt::format("virtual object \"{}\": its occlusion textures and texture filtering", v.name),
-                  "occlusion textures are baked ambient occlusion, which a path tracer computes; textures are read "
-                  "at mip level 0 (no pixel footprint)");
+    report_->Skip(fmt::format("virtual object \"{}\": its occlusion textures", v.name),
+                  "occlusion textures are baked ambient occlusion, which a path tracer computes");
     if (scene_.render.method != "pt")
       report_->Skip(fmt::format("virtual object \"{}\": its materials' lobes apart", v.name),
                     fmt::format("method {} takes their diffuse albedo per point and the object's mean metallic lobe "

@@ -118,8 +118,18 @@ struct RenderScene::AssetShading {
   Eigen::Vector2f UvAt(uint32_t primitive, float u, float v) const;
   Eigen::Vector2f UvAt(const Hit& hit) const { return UvAt(hit.primitive_id, hit.uv.x(), hit.uv.y()); }
   bool Accepts(uint32_t primitive, float u, float v, uint64_t ray_key) const;
-  Eigen::Vector4f Sample(const AssetTexture& t, const Eigen::Vector2f& uv) const {
-    return textures[static_cast<size_t>(t.image)]->Sample(TransformUv(t, uv), 0, t.wrap_s, t.wrap_t);
+  std::vector<float> uv_density;  // by triangle: sqrt(uv area / object area)
+  // `footprint` in uv units (0: level 0); KHR_texture_transform's scale
+  // scales it with the uvs.
+  Eigen::Vector4f Sample(const AssetTexture& t, const Eigen::Vector2f& uv, float footprint = 0) const {
+    return textures[static_cast<size_t>(t.image)]->Sample(TransformUv(t, uv), footprint * t.scale.cwiseAbs().maxCoeff(),
+                                                          t.wrap_s, t.wrap_t);
+  }
+  // A world footprint on triangle `primitive` in uv units; `world_scale`:
+  // the placement's linear scale.
+  float UvFootprint(uint32_t primitive, double footprint, double world_scale) const {
+    if (!(footprint > 0) || uv_density.empty()) return 0;
+    return static_cast<float>(footprint / world_scale * uv_density[std::min<size_t>(primitive, uv_density.size() - 1)]);
   }
 };
 
@@ -184,6 +194,18 @@ void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector
   }
   a->uvs = mesh.uvs;
   a->triangles = mesh.triangles;
+  if (!mesh.uvs.empty()) {
+    a->uv_density.reserve(mesh.triangles.size());
+    for (const Eigen::Vector3i& t : mesh.triangles) {
+      const auto P = [&](int k) { return mesh.positions[static_cast<size_t>(t[k])].cast<double>(); };
+      const auto U = [&](int k) { return mesh.uvs[static_cast<size_t>(t[k])].cast<double>(); };
+      const double area = (P(1) - P(0)).cross(P(2) - P(0)).norm();
+      const Eigen::Vector2d e1 = U(1) - U(0), e2 = U(2) - U(0);
+      const double uv_area = std::abs(e1.x() * e2.y() - e1.y() * e2.x());
+      const double d = area > 0 ? std::sqrt(uv_area / area) : 0.0;
+      a->uv_density.push_back(std::isfinite(d) ? static_cast<float>(d) : 0.0f);
+    }
+  }
   if (normal_maps) a->tangents = AssetTangents(asset, mesh);
   Surface& s = surfaces_.at(id);
   if (!mesh.normals.empty()) {  // glTF: flat normals only where the asset gives none
@@ -217,14 +239,17 @@ int64_t RenderScene::asset_texture_bytes(uint32_t id) const {
   return b;
 }
 
-Eigen::Vector3d RenderScene::AssetEmissionAt(const Hit& hit) const {
+Eigen::Vector3d RenderScene::AssetEmissionAt(const Hit& hit, double footprint) const {
   const AssetShading* a = surfaces_.at(hit.geometry_id).asset.get();
   if (!a) return Eigen::Vector3d::Zero();
   const AssetMaterial& m = a->MaterialOf(hit.primitive_id);
   if (!(m.emissive.maxCoeff() > 0) || !(m.emissive_strength > 0)) return Eigen::Vector3d::Zero();
   Eigen::Vector3d e = m.emissive.cast<double>() * m.emissive_strength;
   if (m.emissive_texture.present() && !a->uvs.empty())
-    e = e.cwiseProduct(a->Sample(m.emissive_texture, a->UvAt(hit)).head<3>().cast<double>());
+    e = e.cwiseProduct(a->Sample(m.emissive_texture, a->UvAt(hit),
+                                 a->UvFootprint(hit.primitive_id, footprint, WorldScale(hit.geometry_id)))
+                           .head<3>()
+                           .cast<double>());
   return e.cwiseMax(0.0);
 }
 
@@ -239,17 +264,24 @@ Eigen::Vector3d RenderScene::AssetAbsorption(const Hit& hit) const {
   return sigma;
 }
 
-Bsdf RenderScene::AssetBsdfAt(const Hit& hit, bool inside, Eigen::Vector3d* diffuse_albedo) const {
+double RenderScene::WorldScale(uint32_t id) const {
+  const double det = std::abs(surfaces_.at(id).linear.determinant());
+  return det > 0 ? std::cbrt(det) : 1.0;
+}
+
+Bsdf RenderScene::AssetBsdfAt(const Hit& hit, bool inside, double footprint, Eigen::Vector3d* diffuse_albedo) const {
   const AssetShading& a = *surfaces_.at(hit.geometry_id).asset;
   const AssetMaterial& m = a.MaterialOf(hit.primitive_id);
   Eigen::Vector4f base = m.base_color;
   float metallic = m.metallic, roughness = m.roughness, transmission = m.transmission;
   if (!a.uvs.empty()) {
     const Eigen::Vector2f uv = a.UvAt(hit);
-    if (m.transmission_texture.present() && transmission > 0) transmission *= a.Sample(m.transmission_texture, uv)[0];
-    if (m.base_color_texture.present()) base = base.cwiseProduct(a.Sample(m.base_color_texture, uv));
+    const float w = a.UvFootprint(hit.primitive_id, footprint, WorldScale(hit.geometry_id));
+    if (m.transmission_texture.present() && transmission > 0)
+      transmission *= a.Sample(m.transmission_texture, uv, w)[0];
+    if (m.base_color_texture.present()) base = base.cwiseProduct(a.Sample(m.base_color_texture, uv, w));
     if (m.metallic_roughness_texture.present()) {
-      const Eigen::Vector4f mr = a.Sample(m.metallic_roughness_texture, uv);
+      const Eigen::Vector4f mr = a.Sample(m.metallic_roughness_texture, uv, w);
       roughness *= mr[1];
       metallic *= mr[2];
     }

@@ -33,7 +33,7 @@ class RenderScene {
   // An asset's materials on geometry `id` (AddVirtual of MergeParts(asset,
   // &triangle_material)): each triangle shaded by its part's material
   // (PbrBsdf), base colour and metallic-roughness textures at the mesh's
-  // uvs (mip level 0: footprints come with ray differentials), loaded once
+  // uvs (mip level from the ray's cone: AssetBsdfAt), loaded once
   // per image.  Alpha (base colour's A x the texture's): MASK cuts the
   // surface where alpha < alphaCutoff, BLEND lets a ray through with
   // probability 1 - alpha (stochastic transparency, the same for the same
@@ -52,12 +52,14 @@ class RenderScene {
   // treat the diffuse lobe apart take).  `inside`: the ray meets the
   // surface from behind its normals (leaving a solid glass: the relative
   // ior is 1/ior there).
-  Bsdf AssetBsdfAt(const Hit& hit, bool inside, Eigen::Vector3d* diffuse_albedo) const;
+  // `footprint`: the width (world units, on the surface) a lookup stands
+  // for, from the ray's cone (0: mip level 0).
+  Bsdf AssetBsdfAt(const Hit& hit, bool inside, double footprint, Eigen::Vector3d* diffuse_albedo) const;
   // The radiance an asset's material emits at a hit: emissiveFactor x
   // KHR_materials_emissive_strength x the emissive texture (sRGB), as
   // glTF defines it (W/(sr m^2) in mr's units: the asset's numbers taken
   // as the scene's radiance scale).
-  Eigen::Vector3d AssetEmissionAt(const Hit& hit) const;
+  Eigen::Vector3d AssetEmissionAt(const Hit& hit, double footprint) const;
   // The absorption coefficient (per metre, per channel) inside a solid
   // transmissive asset material (KHR_materials_volume: -ln(attenuation
   // colour) / attenuation distance); zero elsewhere.
@@ -162,6 +164,7 @@ class RenderScene {
     Eigen::Matrix3d linear = Eigen::Matrix3d::Identity();  // world_from_object's
   };
   Eigen::Vector3d NormalMapped(const Surface& s, const Hit& hit, const Eigen::Vector3d& n_obj) const;
+  double WorldScale(uint32_t id) const;  // a placement's linear scale (cube root of |det|)
   void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world, const Mesh& mesh);
   bool has_glossy_ = false;
   std::unique_ptr<EmbreeScene> embree_;

@@ -21,7 +21,11 @@ normal map node and its tangents (MikkTSpace) against mr's (docs/methods.md,
 KHR_materials_volume: the glTF specification's thin wall, light passes
 unbent) and a solid refracting box for Cycles (which has no thin walls).
 
-Usage: bench/asset_compare.py BIN_DIR OUT_DIR [--spp N] [--opaque]
+--asset PATH: another asset (placed at the origin, raised by --lift Y metres);
+tests/data/assets/khronos/BoxTextured.gltf is a public sample model written by
+COLLADA2GLTF.
+
+Usage: bench/asset_compare.py BIN_DIR OUT_DIR [--spp N] [--opaque | --asset PATH [--lift Y]]
 """
 import json
 import os
@@ -41,6 +45,8 @@ def main():
     bin_dir, work = sys.argv[1], sys.argv[2]
     spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else 256
     ASSET = os.path.join(ASSETS, "opaque.glb" if "--opaque" in sys.argv else "blender.glb")
+    if "--asset" in sys.argv:
+        ASSET = os.path.abspath(sys.argv[sys.argv.index("--asset") + 1])
     blender = shutil.which("blender")
     if not blender:
         print("SKIP: blender is not installed")
@@ -56,12 +62,12 @@ def main():
         f.write("v -6 0 -6\nv 6 0 -6\nv 6 0 6\nv -6 0 6\nf 1 3 2\nf 1 4 3\n")
     w, h, fx = 240, 120, 200.0
     write_pinhole(os.path.join(work, "camera.cameramodel"), w, h, fx)
-    if "--opaque" in sys.argv:
+    if "--opaque" in sys.argv or "--asset" in sys.argv:
         M = look_at([1.0, 1.6, -2.8], [1.0, 0.4, 0.0], os.path.join(work, "trajectory.txt"))
     else:  # the slab at x = -2 too
         M = look_at([0.0, 1.8, -4.6], [0.0, 0.4, 0.0], os.path.join(work, "trajectory.txt"))
     place = np.eye(4)
-    place[:3, 3] = [0.0, 0.0, 0.0]
+    place[:3, 3] = [0.0, float(sys.argv[sys.argv.index("--lift") + 1]) if "--lift" in sys.argv else 0.0, 0.0]
 
     depth = 6
     times = {}

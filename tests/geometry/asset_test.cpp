@@ -84,6 +84,38 @@ TEST(Asset, BlenderGlbAndGltf) {
   }
 }
 
+// A public sample model written by another program (COLLADA2GLTF; Khronos's
+// BoxTextured, tests/data/assets/khronos/LICENSE.md): data: URIs for its
+// buffer and image, unsigned-short indices, byte strides, a node matrix
+// (a quarter turn about x) applied to the positions and normals, and uvs up
+// to 6 in u (the sampler repeats).
+TEST(Asset, KhronosBoxTextured) {
+  const Asset a = ReadAsset(kAssets / "khronos" / "BoxTextured.gltf");
+  ASSERT_EQ(a.parts.size(), 1u);
+  const Mesh& m = a.parts[0].mesh;
+  EXPECT_EQ(m.triangle_count(), 12u);
+  EXPECT_EQ(m.vertex_count(), 24u);
+  const Eigen::AlignedBox3f b = m.Bounds();
+  EXPECT_NEAR(b.min().x(), -0.5, 1e-6);
+  EXPECT_NEAR(b.max().z(), 0.5, 1e-6);
+  // The file's first normal is +z; the node's matrix (column-major, its
+  // third column (0, 1, 0)) turns +z into +y.
+  EXPECT_NEAR(m.normals[0].y(), 1, 1e-6);
+  for (size_t i = 0; i < m.positions.size(); ++i)  // normals stay outward
+    EXPECT_GT(m.normals[i].dot(m.positions[i]), 0.4f) << i;
+  float umax = 0;
+  for (const Eigen::Vector2f& uv : m.uvs) umax = std::max(umax, uv.x());
+  EXPECT_NEAR(umax, 6, 1e-6);
+  const AssetMaterial& t = Mat(a, "Texture");
+  EXPECT_EQ(t.metallic, 0);
+  EXPECT_EQ(t.roughness, 1);  // the default
+  ASSERT_TRUE(t.base_color_texture.present());
+  const AssetImage& im = a.images[static_cast<size_t>(t.base_color_texture.image)];
+  EXPECT_EQ(im.bytes.size(), 3750u);
+  EXPECT_EQ(std::memcmp(im.bytes.data(), "\x89PNG", 4), 0);
+  EXPECT_EQ(t.base_color_texture.wrap_s, TextureWrap::kRepeat);
+}
+
 // Blender's OBJ exporter writes roughness as Ns = 1000 (1 - r)^2 and no Pm:
 // read back as its importer does (asset_obj.cpp).
 TEST(Asset, BlenderObjWithMtl) {

@@ -5,6 +5,7 @@
 
 #include <cstring>
 #include <memory>
+#include <optional>
 
 #include "core/math.h"
 #include "core/parallel.h"
@@ -386,44 +387,62 @@ TEST(PathTracer, AssetMaterialsConserveEnergyInAWhiteSky) {
   }
 }
 
+// A 2 m square in z = 0 (u along +x, glTF's v down the image along -y)
+// as an asset of one part with material `m` and `images`.
+Asset QuadAsset(const AssetMaterial& m, std::vector<AssetImage> images = {}) {
+  Asset asset;
+  Mesh quad;
+  quad.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
+  quad.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
+  quad.triangles = {{0, 1, 2}, {0, 2, 3}};
+  asset.parts.push_back({.name = "quad", .mesh = quad, .material = 0});
+  asset.materials.push_back(m);
+  asset.images = std::move(images);
+  return asset;
+}
+
+// `asset` at the origin of a scene with environment `env` (none: black),
+// seen by pt from z = -3 along +z through a size x size pinhole of focal
+// length f: the renderer after `spp` samples.
+std::unique_ptr<PtFrameRenderer> RenderAssetFromFront(const Asset& asset, std::optional<EnvironmentMap> env, int size,
+                                                      double f, int spp, std::unique_ptr<RenderScene>* keep) {
+  std::vector<int> triangle_material;
+  const Mesh mesh = MergeParts(asset, &triangle_material);
+  *keep = std::make_unique<RenderScene>();
+  RenderScene& scene = **keep;
+  const uint32_t id = scene.AddVirtual(mesh, Eigen::Affine3d::Identity(), Material());
+  scene.SetAssetMaterials(id, asset, triangle_material, mesh, "quad.glb");
+  if (env) scene.SetEnvironment(std::move(*env));
+  scene.Commit();
+  Rigid3 world_from_cam;
+  world_from_cam.translation = Eigen::Vector3d(0, 0, -3);
+  auto r = std::make_unique<PtFrameRenderer>(scene, Pinhole(size, size, f), world_from_cam, PathTracerSettings());
+  r->RenderPass(spp);
+  return r;
+}
+
 // An emissive asset material seen directly: emissiveFactor x
 // KHR_materials_emissive_strength (glTF: radiance, linear), the black base
 // reflecting nothing of the black sky: exactly e x strength.
 TEST(PathTracer, AssetEmissionIsItsFactorTimesItsStrength) {
-  Asset asset;
-  Mesh quad;
-  quad.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
-  quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-  asset.parts.push_back({.name = "panel", .mesh = quad, .material = 0});
   AssetMaterial m;
   m.base_color = Eigen::Vector4f(0, 0, 0, 1);
   m.metallic = 0;
   m.emissive = Eigen::Vector3f(1.0f, 0.5f, 0.25f);
   m.emissive_strength = 40;
-  asset.materials.push_back(m);
-  std::vector<int> triangle_material;
-  const Mesh mesh = MergeParts(asset, &triangle_material);
-  RenderScene scene;
-  const uint32_t id = scene.AddVirtual(mesh, Eigen::Affine3d::Identity(), Material());
-  scene.SetAssetMaterials(id, asset, triangle_material, mesh, "panel.glb");
-  scene.Commit();
-  PathTracerSettings st;
-  Rigid3 world_from_cam;
-  world_from_cam.translation = Eigen::Vector3d(0, 0, -3);
-  PtFrameRenderer r(scene, Pinhole(8, 8, 20), world_from_cam, st);
-  r.RenderPass(1);
-  const Image img = r.Mixed();
+  std::unique_ptr<RenderScene> scene;
+  const auto r = RenderAssetFromFront(QuadAsset(m), std::nullopt, 8, 20, 1, &scene);
+  const Image img = r->Mixed();
   for (int c = 0; c < 3; ++c) EXPECT_NEAR(img.at(4, 4, c), 40.0 * m.emissive[c], 1e-3) << c;
-  EXPECT_EQ(r.Real().at(4, 4, 0), 0);  // a virtual emitter: in I_m only
+  EXPECT_EQ(r->Real().at(4, 4, 0), 0);  // a virtual emitter: in I_m only
 }
 
 // Alpha (glTF 3.9.4) in Embree's filters: a quad before a white sky whose
 // base colour texture is opaque on its right half and clear on its left.
 // MASK: the left half shows the sky (1), the right half the black quad (its
-// coat's reflection of the sky, ~0.014),
-// for camera rays and shadow rays alike (a point light behind the quad
-// lights a wall through the clear half only); BLEND at alpha 0.25 lets 3/4
-// of the rays through (within 3 %, 1024 rays a pixel).
+// coat's reflection of the sky, ~0.014), for camera rays and shadow rays
+// alike (a ray through each half); BLEND at alpha 0.25 lets 3/4 of the rays
+// through (within 3 %, 1024 rays a pixel).
 TEST(PathTracer, AssetAlphaCutsAndBlends) {
   const fs::path dir = fs::temp_directory_path() / "mr_alpha_test";
   fs::create_directories(dir);
@@ -431,42 +450,25 @@ TEST(PathTracer, AssetAlphaCutsAndBlends) {
   rgba.values() = {0, 0, 0, 0, 0, 0, 0, 1};  // left texel clear, right opaque
   WriteImage(dir / "alpha.png", rgba, {.ldr_transfer = Transfer::kLinear});
   for (AlphaMode mode : {AlphaMode::kMask, AlphaMode::kBlend}) {
-    Asset asset;
-    Mesh quad;
-    quad.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
-    quad.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
-    quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-    asset.parts.push_back({.name = "leaf", .mesh = quad, .material = 0});
     AssetMaterial m;
     m.base_color = Eigen::Vector4f(0, 0, 0, mode == AlphaMode::kBlend ? 0.25f : 1.0f);
     m.metallic = 0;
     m.alpha_mode = mode;
     if (mode == AlphaMode::kMask) m.base_color_texture.image = 0;
-    asset.materials.push_back(m);
-    asset.images.push_back({.name = "alpha.png", .file = dir / "alpha.png"});
-    std::vector<int> triangle_material;
-    const Mesh mesh = MergeParts(asset, &triangle_material);
-    RenderScene scene;
-    const uint32_t id = scene.AddVirtual(mesh, Eigen::Affine3d::Identity(), Material());
-    scene.SetAssetMaterials(id, asset, triangle_material, mesh, "leaf.glb");
-    scene.SetEnvironment(EnvironmentMap::Constant(Eigen::Vector3d::Ones()));
-    scene.Commit();
-    PathTracerSettings st;
-    Rigid3 world_from_cam;
-    world_from_cam.translation = Eigen::Vector3d(0, 0, -3);
-    PtFrameRenderer r(scene, Pinhole(16, 16, 40), world_from_cam, st);
-    r.RenderPass(mode == AlphaMode::kBlend ? 1024 : 4);
-    const Image img = r.Mixed();
+    std::unique_ptr<RenderScene> scene;
+    const auto r = RenderAssetFromFront(QuadAsset(m, {{.name = "alpha.png", .file = dir / "alpha.png"}}),
+                                        EnvironmentMap::Constant(Eigen::Vector3d::Ones()), 16, 40,
+                                        mode == AlphaMode::kBlend ? 1024 : 4, &scene);
+    const Image img = r->Mixed();
     if (mode == AlphaMode::kMask) {
       EXPECT_NEAR(img.at(4, 8, 1), 1.0, 1e-6);  // x < 0: the clear texel
       EXPECT_LT(img.at(11, 8, 1), 0.05);        // the black base's dielectric coat reflects a little sky
-      // Shadow rays see the same cut: a ray through each half.
       Ray through;
       through.origin = Eigen::Vector3f(-0.5f, 0, -1);
       through.direction = Eigen::Vector3f(0, 0, 1);
-      EXPECT_FALSE(scene.embree().Occluded(through));
+      EXPECT_FALSE(scene->embree().Occluded(through));
       through.origin.x() = 0.5f;
-      EXPECT_TRUE(scene.embree().Occluded(through));
+      EXPECT_TRUE(scene->embree().Occluded(through));
     } else {
       EXPECT_NEAR(img.at(8, 8, 1), 0.75, 0.03);
     }
@@ -486,31 +488,15 @@ TEST(PathTracer, TextureFootprintsFollowThePixelCone) {
     for (int x = 0; x < 256; ++x)
       for (int c = 0; c < 3; ++c) checker.at(x, y, c) = static_cast<float>((x + y) % 2);
   WriteImage(dir / "checker.png", checker);
-  Asset asset;
-  Mesh quad;
-  quad.positions = {{-1, -1, 0}, {1, -1, 0}, {1, 1, 0}, {-1, 1, 0}};
-  quad.uvs = {{0, 1}, {1, 1}, {1, 0}, {0, 0}};
-  quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-  asset.parts.push_back({.name = "panel", .mesh = quad, .material = 0});
   AssetMaterial m;
   m.base_color = Eigen::Vector4f(0, 0, 0, 1);
   m.metallic = 0;
   m.emissive = Eigen::Vector3f::Ones();
   m.emissive_texture.image = 0;
-  asset.materials.push_back(m);
-  asset.images.push_back({.name = "checker.png", .file = dir / "checker.png"});
-  std::vector<int> triangle_material;
-  const Mesh mesh = MergeParts(asset, &triangle_material);
-  RenderScene scene;
-  const uint32_t id = scene.AddVirtual(mesh, Eigen::Affine3d::Identity(), Material());
-  scene.SetAssetMaterials(id, asset, triangle_material, mesh, "panel.glb");
-  scene.Commit();
-  PathTracerSettings st;
-  Rigid3 world_from_cam;
-  world_from_cam.translation = Eigen::Vector3d(0, 0, -3);
-  PtFrameRenderer r(scene, Pinhole(16, 16, 20), world_from_cam, st);
-  r.RenderPass(1);
-  const Image img = r.Mixed();
+  std::unique_ptr<RenderScene> scene;
+  const auto r = RenderAssetFromFront(QuadAsset(m, {{.name = "checker.png", .file = dir / "checker.png"}}),
+                                      std::nullopt, 16, 20, 1, &scene);
+  const Image img = r->Mixed();
   for (int y = 5; y < 11; ++y)
     for (int x = 5; x < 11; ++x) EXPECT_NEAR(img.at(x, y, 1), 0.5, 0.05) << x << "," << y;
 }

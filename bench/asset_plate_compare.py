@@ -1,0 +1,114 @@
+#!/usr/bin/python3
+"""The generated showcase asset under a real captured light, rendered by mr and
+by Blender Cycles from the same files (issue 38).
+
+Takes the scene examples/mirrorball/run.sh step 7 writes (OUT/scene-asset.json
+in its output folder: the counter of the iPhone photograph, the mirror ball's
+unwrapped map env.exr, the plate's pinhole, the showcase .glb on the counter)
+and renders the local scene alone, without the photograph (so that neither
+renderer's plate handling enters): the counter at a uniform albedo (the median
+of the de-lit texture), the asset with its own materials, lit by the map.  mr
+renders it with pt; Blender imports the .glb with its glTF importer and the
+counter as an OBJ, and Cycles renders them.  Printed and written to
+OUT_DIR/results.json: relMSE of mr against Cycles in the asset's region (mr's
+mask), beside the two renderers' own noise (each against itself with another
+seed), and each one's time.  The named differences of bench/asset_compare.py
+apply (Principled v1's energy, docs/benchmarks.md).
+
+Usage: bench/asset_plate_compare.py BIN_DIR MIRRORBALL_OUT OUT_DIR [--spp N]
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+CROSS = os.path.join(HERE, "..", "tests", "crosscheck")
+sys.path.insert(0, CROSS)
+os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
+
+
+def main():
+    bin_dir, mb, work = sys.argv[1], os.path.abspath(sys.argv[2]), os.path.abspath(sys.argv[3])
+    spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else 256
+    blender = shutil.which("blender")
+    if not blender:
+        print("SKIP: blender is not installed")
+        return 77
+    if not os.path.exists(os.path.join(mb, "scene-asset.json")):
+        print("SKIP: run examples/mirrorball/run.sh %s first" % mb)
+        return 77
+    import cv2
+    import numpy as np
+    from mr_to_blender import env_for_blender
+    os.makedirs(work, exist_ok=True)
+    src = json.load(open(os.path.join(mb, "scene-asset.json")))
+    albedo = cv2.imread(os.path.join(mb, "counter-albedo.exr"), cv2.IMREAD_UNCHANGED)[:, :, ::-1]
+    rho = [float(x) for x in np.median(albedo.reshape(-1, 3), axis=0)]
+    asset = [v for v in src["virtual"] if v["name"] == "showcase"][0]
+    M = np.array(asset["transform"]["matrix"], float).reshape(4, 4)
+    glb = os.path.join(mb, asset["mesh"])
+    model = open(os.path.join(mb, src["camera"]["model"])).read()
+    import ast
+    cm = ast.literal_eval(model[model.index("{"):])
+    fx, fy, cx, cy = cm["intrinsics"]
+    w, h = cm["imagersize"]
+
+    times = {}
+    for seed, out in ((3, "mr"), (4, "mr2")):
+        scene = {"version": 1,
+                 "camera": {"model": os.path.join(mb, src["camera"]["model"]),
+                            "poses": {"format": "tum", "path": os.path.join(mb, "poses.txt")}},
+                 "lighting": {"environment": os.path.join(mb, "env.exr")},
+                 "real": {"mesh": os.path.join(mb, "counter.obj"), "material": {"albedo": rho}},
+                 "virtual": [{"name": "showcase", "mesh": glb, "transform": {"matrix": M.flatten().tolist()}}],
+                 "render": {"method": "pt", "spp": spp, "max_depth": 8, "seed": seed},
+                 "output": {"dir": out}}
+        json.dump(scene, open(os.path.join(work, out + ".json"), "w"), indent=2)
+        t0 = time.perf_counter()
+        subprocess.run([os.path.join(bin_dir, "mr-render"), os.path.join(work, out + ".json"), "-q", "--threads", "2"],
+                       check=True)
+        times[out] = time.perf_counter() - t0
+
+    env_blender = os.path.join(work, "env-blender.exr")
+    env_for_blender(os.path.join(mb, "env.exr"), env_blender)
+    for seed, out in ((5, "cycles"), (6, "cycles2")):
+        spec = {"meshes": [{"name": "counter", "path": os.path.join(mb, "counter.obj"), "albedo": rho},
+                           {"name": "showcase", "role": "virtual", "path": glb, "world_from_object": M.tolist()}],
+                "environment": env_blender, "env_rotation_deg": 0.0,
+                "camera": {"width": w, "height": h, "fx": fx, "fy": fy, "cx": cx, "cy": cy},
+                "world_from_cam": np.eye(4).tolist(), "spp": spp, "max_depth": 8, "seed": seed, "threads": 2}
+        json.dump(spec, open(os.path.join(work, out + ".json"), "w"), indent=2)
+        t0 = time.perf_counter()
+        subprocess.run([blender, "-b", "--factory-startup", "-noaudio", "-P", os.path.join(CROSS, "blender_scene.py"), "--",
+                        os.path.join(work, out + ".json"), os.path.join(work, out + ".exr")],
+                       check=True, stdout=subprocess.DEVNULL)
+        times[out] = time.perf_counter() - t0
+
+    region = os.path.join(work, "region.exr")
+    subprocess.run(["oiiotool", os.path.join(work, "mr", "00000.exr"), "--ch", "mask.Y", "--chnames", "Y", "-o", region],
+                   check=True)
+
+    def relmse(a, b):
+        rep = os.path.join(work, "cmp.json")
+        subprocess.run([os.path.join(bin_dir, "mr-eval"), "compare", a, b, "--region", region, "--report", rep, "-q"],
+                       check=True, capture_output=True)
+        return json.load(open(rep))["metrics"]["relmse"]
+
+    mr1, mr2 = os.path.join(work, "mr", "00000.exr"), os.path.join(work, "mr2", "00000.exr")
+    cy1, cy2 = os.path.join(work, "cycles.exr"), os.path.join(work, "cycles2.exr")
+    r = {"spp": spp, "counter_albedo": rho, "mr_vs_cycles": relmse(mr1, cy1), "mr_vs_mr": relmse(mr1, mr2),
+         "cycles_vs_cycles": relmse(cy1, cy2), "mr_seconds": times["mr"], "cycles_seconds": times["cycles"]}
+    r["noise_floor"] = (r["mr_vs_mr"] + r["cycles_vs_cycles"]) / 2
+    json.dump(r, open(os.path.join(work, "results.json"), "w"), indent=2)
+    print("under the mirror ball's light, region relMSE at %d spp: mr vs Cycles %.4g; noise floor %.4g (mr vs mr %.4g, "
+          "Cycles vs Cycles %.4g); wall time mr %.1f s, Cycles %.1f s" %
+          (spp, r["mr_vs_cycles"], r["noise_floor"], r["mr_vs_mr"], r["cycles_vs_cycles"], r["mr_seconds"],
+           r["cycles_seconds"]))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

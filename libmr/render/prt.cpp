@@ -71,7 +71,9 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
                    "material.albedo_from_vertex_colors is set but the mesh has no vertex colours");
     // A texture is sampled at each vertex's uv: prt shades per vertex.
     std::vector<Eigen::Vector3f> texels;
-    if (!v.material.albedo_texture.empty()) {
+    if (v.file_materials) {  // an asset: its own materials' albedo at each vertex
+      texels = AssetVertexAlbedo(ReadAsset(v.mesh), v.mesh.string());
+    } else if (!v.material.albedo_texture.empty()) {
       if (mesh.uvs.size() != mesh.positions.size())
         ThrowErrorAt(FileLoc{v.mesh.string()},
                      "material.albedo_texture is set but the mesh has no texture coordinates");

@@ -523,6 +523,37 @@ Material AssetMeanMaterial(const Asset& asset, const std::vector<int>& triangle_
   return m;
 }
 
+std::vector<Eigen::Vector3f> AssetVertexAlbedo(const Asset& asset, const std::string& name) {
+  std::vector<std::unique_ptr<Texture>> textures(asset.images.size());
+  auto texture = [&](const AssetTexture& at, TextureEncoding e, const Mesh& mesh) -> const Texture* {
+    if (!at.present() || mesh.uvs.size() != mesh.positions.size()) return nullptr;
+    auto& t = textures[static_cast<size_t>(at.image)];
+    if (!t) t = std::make_unique<Texture>(LoadAssetTexture(asset.images[static_cast<size_t>(at.image)], e, name));
+    return t.get();
+  };
+  std::vector<Eigen::Vector3f> out;
+  for (const AssetPart& part : asset.parts) {
+    const AssetMaterial m = part.material >= 0 ? asset.materials[static_cast<size_t>(part.material)] : AssetMaterial();
+    const Texture* base = texture(m.base_color_texture, TextureEncoding::kSrgb, part.mesh);
+    const Texture* mr = texture(m.metallic_roughness_texture, TextureEncoding::kLinear, part.mesh);
+    const Texture* tr =
+        m.transmission > 0 ? texture(m.transmission_texture, TextureEncoding::kLinear, part.mesh) : nullptr;
+    auto at = [&](const Texture* t, const AssetTexture& a, size_t i) {
+      return t->Sample(TransformUv(a, part.mesh.uvs[i]), 0, a.wrap_s, a.wrap_t);
+    };
+    for (size_t i = 0; i < part.mesh.positions.size(); ++i) {
+      float metallic = m.metallic, transmission = m.transmission;
+      Eigen::Vector3f a = m.base_color.head<3>();
+      if (base) a = a.cwiseProduct(at(base, m.base_color_texture, i).head<3>());
+      if (mr) metallic *= at(mr, m.metallic_roughness_texture, i)[2];
+      if (tr) transmission *= at(tr, m.transmission_texture, i)[0];
+      a *= (1 - std::clamp(metallic, 0.0f, 1.0f)) * (1 - std::clamp(transmission, 0.0f, 1.0f));
+      out.push_back(a.cwiseMax(0.0f).cwiseMin(1.0f));
+    }
+  }
+  return out;
+}
+
 Mesh ReadVirtualMesh(const SceneVirtual& v) {
   return v.file_materials ? MergeParts(ReadAsset(v.mesh)) : ReadMesh(v.mesh);
 }

@@ -190,6 +190,12 @@ class RenderScene {
 // file when it has neither R, G, B nor Y.
 Image ReadAlbedoTexture(const fs::path& path);
 
+// The diffuse albedo of an asset at each vertex of MergeParts(asset): its
+// part's base colour x (1 - metallic) x (1 - transmission), times the base
+// colour texture at the vertex's uv (level 0; each image decoded once), for
+// methods that shade per vertex (prt).  `name` names the asset in messages.
+std::vector<Eigen::Vector3f> AssetVertexAlbedo(const Asset& asset, const std::string& name);
+
 // A virtual object's mesh as LoadRenderScene adds it (the same vertices and
 // triangles, in the same order): an asset's parts merged where it is shaded
 // by its file's materials, else the mesh file as ReadMesh reads it.

@@ -344,6 +344,35 @@ TEST(PathTracer, ObjWithMtlMaterialsLoads) {
   EXPECT_EQ(rs.asset_textures(id), 2);  // checker.png and normal.png
 }
 
+// prt's per-vertex albedo of an asset (AssetVertexAlbedo) on Blender's
+// export: the gold sphere (metallic 1) and the glass slab (transmission 1)
+// have no diffuse albedo; the painted cube (metallic factor 1, its texture's
+// B channel 0) takes its checker's two colours (sRGB codes 204, 51, 26 and
+// 26, 77, 204, decoded: 0.604, 0.033, 0.010 and 0.010, 0.074, 0.604) or a
+// bilinear mix of them at each vertex's uv.
+TEST(PathTracer, AssetVertexAlbedoForPrt) {
+  const fs::path glb = fs::path(MR_SOURCE_DIR) / "tests/data/assets/blender/blender.glb";
+  const Asset asset = ReadAsset(glb);
+  const std::vector<Eigen::Vector3f> albedo = AssetVertexAlbedo(asset, glb.string());
+  ASSERT_EQ(albedo.size(), MergeParts(asset).vertex_count());
+  size_t i = 0;
+  for (const AssetPart& p : asset.parts) {
+    const std::string& mat = asset.materials[static_cast<size_t>(p.material)].name;
+    for (size_t k = 0; k < p.mesh.positions.size(); ++k, ++i) {
+      const Eigen::Vector3f& a = albedo[i];
+      if (mat != "painted") {
+        EXPECT_EQ(a.maxCoeff(), 0) << mat;
+        continue;
+      }
+      const Eigen::Vector3f red(0.604f, 0.033f, 0.010f), blue(0.010f, 0.074f, 0.604f);
+      const float t = (a.x() - blue.x()) / (red.x() - blue.x());  // the mix, from R
+      EXPECT_GE(t, -0.01f);
+      EXPECT_LE(t, 1.01f);
+      EXPECT_LT((a - (t * red + (1 - t) * blue)).norm(), 0.01f) << a.transpose();
+    }
+  }
+}
+
 // An asset's materials through the path tracer: a convex sphere in a
 // uniform sky of radiance 1 reflects radiance 1 wherever its BSDF conserves
 // energy (render/pbr_bsdf.h): a white metal, and a white base under the

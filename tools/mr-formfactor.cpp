@@ -35,6 +35,8 @@ int main(int argc, char** argv) {
   app.add_option("--shade", job.shade, "Environment map (lat-long) to shade with")->check(CLI::ExistingFile);
   app.add_option("--color", job.color, "Albedo R G B for shading")->expected(3);
   app.add_option("--env-rotation-deg", job.env_rotation_deg, "Rotation of the map about +y (as scene.json)");
+  app.add_flag("--mtl", job.mtl,
+               "Read an OBJ with its MTL materials, its vertices as mr-render reads it with \"material\": \"mtl\"");
   app.add_flag("--no-window", job.no_window, "Do not window SH coefficients");
   app.add_flag("--vertex-albedo", job.vertex_albedo, "Shade with the mesh's vertex colours as albedo");
   app.add_option("--reference-rays", job.reference_rays,

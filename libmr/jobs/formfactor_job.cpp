@@ -9,6 +9,7 @@
 #include "core/image.h"
 #include "core/math.h"
 #include "eval/transfer_reference.h"
+#include "geometry/asset.h"
 #include "geometry/mesh.h"
 #include "render/prt.h"
 #include "scene/scene.h"
@@ -136,7 +137,7 @@ void FormfactorJobOptions::Check() const {
 void RunFormfactor(const FormfactorJobOptions& o, Report* report) {
   o.Check();
   MeshReadReport mrr;
-  Mesh mesh = ReadMesh(o.mesh, {}, &mrr);
+  Mesh mesh = o.mtl ? MergeParts(ReadAsset(o.mesh)) : ReadMesh(o.mesh, {}, &mrr);
   report->AddInput(o.mesh);
   if (o.shading()) return Shade(o, std::move(mesh), report);
   TransferOptions to = o.transfer;

@@ -16,8 +16,12 @@ struct FormfactorJobOptions {
   std::string mesh, out;
   std::string basis = "cube";  // cube | sh
   TransferOptions transfer;    // --resolution, --order, --supersample, --bounces, --albedo
-  std::string scene, object;   // skip the vertices this scene's camera cannot see of this object
-  int spp = 0;                 // with a scene: the renders' samples per pixel (0: the scene's)
+  // Read an OBJ with its MTL materials, its vertices as mr-render reads it
+  // with "material": "mtl" (split where a corner's uv or normal differs), so
+  // that the .ffc matches that render's mesh.
+  bool mtl = false;
+  std::string scene, object;  // skip the vertices this scene's camera cannot see of this object
+  int spp = 0;                // with a scene: the renders' samples per pixel (0: the scene's)
   // Shading instead: the transfer (--ffc), the map (--shade), its rotation
   // about +y, the albedo (or the mesh's vertex colours), SH windowing, and
   // the reference's rays per vertex (0: none).

@@ -41,6 +41,44 @@ sys.path.insert(0, CROSS)
 os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
 
 
+def render_cycles_pair(blender, work, spec, times):
+    """Cycles renders `spec` (tests/crosscheck/blender_scene.py's) twice, seeds
+    5 and 6, into WORK/cycles.exr and cycles2.exr; their times into `times`."""
+    for seed, out in ((5, "cycles"), (6, "cycles2")):
+        json.dump(dict(spec, seed=seed), open(os.path.join(work, out + ".json"), "w"), indent=2)
+        t0 = time.perf_counter()
+        subprocess.run([blender, "-b", "--factory-startup", "-noaudio", "-P", os.path.join(CROSS, "blender_scene.py"), "--",
+                        os.path.join(work, out + ".json"), os.path.join(work, out + ".exr")],
+                       check=True, stdout=subprocess.DEVNULL)
+        times[out] = time.perf_counter() - t0
+
+
+def compare_in_region(bin_dir, work, spp, times, extra=None):
+    """relMSE of WORK/mr/00000.exr against cycles.exr in the asset's region
+    (mr's mask layer), beside each renderer against itself with another seed
+    (mr2, cycles2); written to WORK/results.json and returned."""
+    region = os.path.join(work, "region.exr")
+    subprocess.run(["oiiotool", os.path.join(work, "mr", "00000.exr"), "--ch", "mask.Y", "--chnames", "Y", "-o", region],
+                   check=True)
+
+    def relmse(a, b):
+        rep = os.path.join(work, "cmp.json")
+        subprocess.run([os.path.join(bin_dir, "mr-eval"), "compare", a, b, "--region", region, "--report", rep, "-q"],
+                       check=True, capture_output=True)
+        return json.load(open(rep))["metrics"]["relmse"]
+
+    mr1, mr2 = os.path.join(work, "mr", "00000.exr"), os.path.join(work, "mr2", "00000.exr")
+    cy1, cy2 = os.path.join(work, "cycles.exr"), os.path.join(work, "cycles2.exr")
+    r = dict(extra or {}, spp=spp, mr_vs_cycles=relmse(mr1, cy1), mr_vs_mr=relmse(mr1, mr2),
+             cycles_vs_cycles=relmse(cy1, cy2), mr_seconds=times["mr"], cycles_seconds=times["cycles"])
+    # Two independent renders of one image differ by the sum of their
+    # variances: mr against Cycles is "within noise" below about
+    # (mr_vs_mr + cycles_vs_cycles) / 2.
+    r["noise_floor"] = (r["mr_vs_mr"] + r["cycles_vs_cycles"]) / 2
+    json.dump(r, open(os.path.join(work, "results.json"), "w"), indent=2)
+    return r
+
+
 def main():
     bin_dir, work = sys.argv[1], sys.argv[2]
     spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else 256
@@ -87,39 +125,13 @@ def main():
 
     env_blender = os.path.join(work, "env-blender.exr")
     env_for_blender(env_path, env_blender)
-    for seed, out in ((5, "cycles"), (6, "cycles2")):
-        spec = {"meshes": [{"name": "plane", "path": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},
-                           {"name": "asset", "role": "virtual", "path": ASSET, "world_from_object": place.tolist()}],
-                "environment": env_blender, "env_rotation_deg": 0.0,
-                "camera": {"width": w, "height": h, "fx": fx, "fy": fx, "cx": (w - 1) / 2, "cy": (h - 1) / 2},
-                "world_from_cam": M.tolist(), "spp": spp, "max_depth": depth, "seed": seed, "threads": 2}
-        json.dump(spec, open(os.path.join(work, out + ".json"), "w"), indent=2)
-        t0 = time.perf_counter()
-        subprocess.run([blender, "-b", "--factory-startup", "-noaudio", "-P", os.path.join(CROSS, "blender_scene.py"), "--",
-                        os.path.join(work, out + ".json"), os.path.join(work, out + ".exr")],
-                       check=True, stdout=subprocess.DEVNULL)
-        times[out] = time.perf_counter() - t0
-
-    # The asset's region: mr's mask layer (its coverage of each pixel).
-    region = os.path.join(work, "region.exr")
-    subprocess.run(["oiiotool", os.path.join(work, "mr", "00000.exr"), "--ch", "mask.Y", "--chnames", "Y", "-o", region],
-                   check=True)
-
-    def relmse(a, b):
-        rep = os.path.join(work, "cmp.json")
-        subprocess.run([os.path.join(bin_dir, "mr-eval"), "compare", a, b, "--region", region, "--report", rep, "-q"],
-                       check=True, capture_output=True)
-        return json.load(open(rep))["metrics"]["relmse"]
-
-    mr1, mr2 = os.path.join(work, "mr", "00000.exr"), os.path.join(work, "mr2", "00000.exr")
-    cy1, cy2 = os.path.join(work, "cycles.exr"), os.path.join(work, "cycles2.exr")
-    r = {"spp": spp, "mr_vs_cycles": relmse(mr1, cy1), "mr_vs_mr": relmse(mr1, mr2),
-         "cycles_vs_cycles": relmse(cy1, cy2), "mr_seconds": times["mr"], "cycles_seconds": times["cycles"]}
-    # Two independent renders of one image differ by the sum of their
-    # variances: mr against Cycles is "within noise" below about
-    # (mr_vs_mr + cycles_vs_cycles) / 2.
-    r["noise_floor"] = (r["mr_vs_mr"] + r["cycles_vs_cycles"]) / 2
-    json.dump(r, open(os.path.join(work, "results.json"), "w"), indent=2)
+    render_cycles_pair(blender, work, {
+        "meshes": [{"name": "plane", "path": os.path.join(work, "plane.obj"), "albedo": [0.5, 0.5, 0.5]},
+                   {"name": "asset", "role": "virtual", "path": ASSET, "world_from_object": place.tolist()}],
+        "environment": env_blender, "env_rotation_deg": 0.0,
+        "camera": {"width": w, "height": h, "fx": fx, "fy": fx, "cx": (w - 1) / 2, "cy": (h - 1) / 2},
+        "world_from_cam": M.tolist(), "spp": spp, "max_depth": depth, "threads": 2}, times)
+    r = compare_in_region(bin_dir, work, spp, times)
     print("region relMSE at %d spp: mr vs Cycles %.4g; noise floor %.4g (mr vs mr %.4g, Cycles vs Cycles %.4g); "
           "wall time mr %.1f s, Cycles %.1f s" % (spp, r["mr_vs_cycles"], r["noise_floor"], r["mr_vs_mr"],
                                                   r["cycles_vs_cycles"], r["mr_seconds"], r["cycles_seconds"]))

@@ -43,6 +43,7 @@ def main():
     import cv2
     import numpy as np
     from mr_to_blender import env_for_blender
+    from asset_compare import compare_in_region, render_cycles_pair
     os.makedirs(work, exist_ok=True)
     src = json.load(open(os.path.join(mb, "scene-asset.json")))
     albedo = cv2.imread(os.path.join(mb, "counter-albedo.exr"), cv2.IMREAD_UNCHANGED)[:, :, ::-1]
@@ -74,35 +75,13 @@ def main():
 
     env_blender = os.path.join(work, "env-blender.exr")
     env_for_blender(os.path.join(mb, "env.exr"), env_blender)
-    for seed, out in ((5, "cycles"), (6, "cycles2")):
-        spec = {"meshes": [{"name": "counter", "path": os.path.join(mb, "counter.obj"), "albedo": rho},
-                           {"name": "showcase", "role": "virtual", "path": glb, "world_from_object": M.tolist()}],
-                "environment": env_blender, "env_rotation_deg": 0.0,
-                "camera": {"width": w, "height": h, "fx": fx, "fy": fy, "cx": cx, "cy": cy},
-                "world_from_cam": np.eye(4).tolist(), "spp": spp, "max_depth": 8, "seed": seed, "threads": 2}
-        json.dump(spec, open(os.path.join(work, out + ".json"), "w"), indent=2)
-        t0 = time.perf_counter()
-        subprocess.run([blender, "-b", "--factory-startup", "-noaudio", "-P", os.path.join(CROSS, "blender_scene.py"), "--",
-                        os.path.join(work, out + ".json"), os.path.join(work, out + ".exr")],
-                       check=True, stdout=subprocess.DEVNULL)
-        times[out] = time.perf_counter() - t0
-
-    region = os.path.join(work, "region.exr")
-    subprocess.run(["oiiotool", os.path.join(work, "mr", "00000.exr"), "--ch", "mask.Y", "--chnames", "Y", "-o", region],
-                   check=True)
-
-    def relmse(a, b):
-        rep = os.path.join(work, "cmp.json")
-        subprocess.run([os.path.join(bin_dir, "mr-eval"), "compare", a, b, "--region", region, "--report", rep, "-q"],
-                       check=True, capture_output=True)
-        return json.load(open(rep))["metrics"]["relmse"]
-
-    mr1, mr2 = os.path.join(work, "mr", "00000.exr"), os.path.join(work, "mr2", "00000.exr")
-    cy1, cy2 = os.path.join(work, "cycles.exr"), os.path.join(work, "cycles2.exr")
-    r = {"spp": spp, "counter_albedo": rho, "mr_vs_cycles": relmse(mr1, cy1), "mr_vs_mr": relmse(mr1, mr2),
-         "cycles_vs_cycles": relmse(cy1, cy2), "mr_seconds": times["mr"], "cycles_seconds": times["cycles"]}
-    r["noise_floor"] = (r["mr_vs_mr"] + r["cycles_vs_cycles"]) / 2
-    json.dump(r, open(os.path.join(work, "results.json"), "w"), indent=2)
+    render_cycles_pair(blender, work, {
+        "meshes": [{"name": "counter", "path": os.path.join(mb, "counter.obj"), "albedo": rho},
+                   {"name": "showcase", "role": "virtual", "path": glb, "world_from_object": M.tolist()}],
+        "environment": env_blender, "env_rotation_deg": 0.0,
+        "camera": {"width": w, "height": h, "fx": fx, "fy": fy, "cx": cx, "cy": cy},
+        "world_from_cam": np.eye(4).tolist(), "spp": spp, "max_depth": 8, "threads": 2}, times)
+    r = compare_in_region(bin_dir, work, spp, times, {"counter_albedo": rho})
     print("under the mirror ball's light, region relMSE at %d spp: mr vs Cycles %.4g; noise floor %.4g (mr vs mr %.4g, "
           "Cycles vs Cycles %.4g); wall time mr %.1f s, Cycles %.1f s" %
           (spp, r["mr_vs_cycles"], r["noise_floor"], r["mr_vs_mr"], r["cycles_vs_cycles"], r["mr_seconds"],

@@ -239,6 +239,21 @@ int64_t RenderScene::asset_texture_bytes(uint32_t id) const {
   return b;
 }
 
+namespace {
+
+// glTF 2.0 appendix B with KHR_materials_transmission: the metal at weight
+// m, the dielectric's transmission at T (1 - m), its diffuse base at
+// (1 - m)(1 - T) (the dielectric coat over both).
+struct AssetLobeWeights {
+  double metal, glass, diffuse;
+};
+AssetLobeWeights LobeWeights(double metallic, double transmission) {
+  const double m = std::clamp(metallic, 0.0, 1.0), t = std::clamp(transmission, 0.0, 1.0);
+  return {m, t * (1 - m), (1 - m) * (1 - t)};
+}
+
+}  // namespace
+
 Eigen::Vector3d RenderScene::AssetEmissionAt(const Hit& hit, double footprint) const {
   const AssetShading* a = surfaces_.at(hit.geometry_id).asset.get();
   if (!a) return Eigen::Vector3d::Zero();
@@ -291,9 +306,9 @@ Bsdf RenderScene::AssetBsdfAt(const Hit& hit, bool inside, double footprint, Eig
                     .roughness = roughness,
                     .ior = m.ior,
                     .specular_color = m.specular_color.cast<double>()};
-  const double t = std::clamp(static_cast<double>(transmission), 0.0, 1.0) * (1 - std::clamp(p.metallic, 0.0, 1.0));
-  *diffuse_albedo = p.base_color * (1 - p.metallic) * (1 - t);
-  if (!(t > 0)) return Bsdf(PbrBsdf(p));
+  const AssetLobeWeights w = LobeWeights(p.metallic, transmission);
+  *diffuse_albedo = p.base_color * w.diffuse;
+  if (!(w.glass > 0)) return Bsdf(PbrBsdf(p));
   // glTF: without KHR_materials_volume's thickness the surface is a thin wall.
   const bool thin = !(m.thickness > 0);
   const double ior = std::clamp(static_cast<double>(m.ior), 1.0, 3.0);
@@ -301,7 +316,11 @@ Bsdf RenderScene::AssetBsdfAt(const Hit& hit, bool inside, double footprint, Eig
                       .eta = thin || !inside ? ior : 1 / ior,
                       .thin = thin,
                       .tint = p.base_color};
-  return Bsdf(PbrBsdf(p), GlassBsdf(g), t);
+  // The opaque part (weight 1 - glass) keeps the metal at weight m overall:
+  // its own metallic is m / (1 - glass).
+  PbrParams opaque = p;
+  opaque.metallic = w.glass < 1 ? std::clamp(w.metal / (1 - w.glass), 0.0, 1.0) : 0.0;
+  return Bsdf(PbrBsdf(opaque), GlassBsdf(g), w.glass);
 }
 
 Eigen::Vector3d RenderScene::AlbedoAt(const Hit& hit) const {
@@ -547,7 +566,7 @@ std::vector<Eigen::Vector3f> AssetVertexAlbedo(const Asset& asset, const std::st
       if (base) a = a.cwiseProduct(at(base, m.base_color_texture, i).head<3>());
       if (mr) metallic *= at(mr, m.metallic_roughness_texture, i)[2];
       if (tr) transmission *= at(tr, m.transmission_texture, i)[0];
-      a *= (1 - std::clamp(metallic, 0.0f, 1.0f)) * (1 - std::clamp(transmission, 0.0f, 1.0f));
+      a *= static_cast<float>(LobeWeights(metallic, transmission).diffuse);
       out.push_back(a.cwiseMax(0.0f).cwiseMin(1.0f));
     }
   }

@@ -530,5 +530,35 @@ TEST(PathTracer, TextureFootprintsFollowThePixelCone) {
     for (int x = 5; x < 11; ++x) EXPECT_NEAR(img.at(x, y, 1), 0.5, 0.05) << x << "," << y;
 }
 
+// A material both half metal and half transmissive: glTF's weights (metal
+// m, transmission T (1 - m), diffuse base (1 - m)(1 - T)) give a diffuse
+// albedo of a quarter of the base colour, the same per hit (pt, ic, vpl,
+// vct) as per vertex (prt).
+TEST(PathTracer, MetalAndTransmissionWeighAsGltfSays) {
+  AssetMaterial m;
+  m.base_color = Eigen::Vector4f(0.8f, 0.6f, 0.4f, 1);
+  m.metallic = 0.5f;
+  m.transmission = 0.5f;
+  const Asset asset = QuadAsset(m);
+  std::vector<int> triangle_material;
+  const Mesh mesh = MergeParts(asset, &triangle_material);
+  RenderScene scene;
+  const uint32_t id = scene.AddVirtual(mesh, Eigen::Affine3d::Identity(), Material());
+  scene.SetAssetMaterials(id, asset, triangle_material, mesh, "quad.glb");
+  scene.Commit();
+  Hit hit;
+  hit.t = 1;
+  hit.geometry_id = id;
+  hit.primitive_id = 0;
+  hit.uv = Eigen::Vector2f(0.3f, 0.3f);
+  hit.geometric_normal = Eigen::Vector3f::UnitZ();
+  Eigen::Vector3d diffuse;
+  const Bsdf b = scene.AssetBsdfAt(hit, false, 0, &diffuse);
+  EXPECT_TRUE(b.Transmits());
+  EXPECT_LT((diffuse - 0.25 * Eigen::Vector3d(0.8, 0.6, 0.4)).norm(), 1e-6) << diffuse.transpose();
+  for (const Eigen::Vector3f& a : AssetVertexAlbedo(asset, "quad.glb"))
+    EXPECT_LT((a.cast<double>() - diffuse).norm(), 1e-6);
+}
+
 }  // namespace
 }  // namespace mr

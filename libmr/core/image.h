@@ -106,6 +106,16 @@ struct ImageFileInfo {
 };
 
 Image ReadImage(const fs::path& path, const ImageReadOptions& options = {}, ImageFileInfo* info = nullptr);
+// An image's stored codes, unconverted (asset textures keep them so): an
+// 8-bit file gives bits 8 (a byte a value), any other integer file bits 16
+// (two bytes a value, native order), a float file its values clamped to
+// [0, 1] and coded in 16 bits.  Interleaved, row 0 at the top.  The same
+// checks and messages as ReadImage; no transfer is applied.
+struct ImageCodes {
+  int width = 0, height = 0, channels = 0, bits = 8;
+  std::vector<uint8_t> bytes;
+};
+ImageCodes ReadImageCodes(const fs::path& path, const ImageReadOptions& options = {});
 // Header only: size and channel names without reading pixels.
 ImageFileInfo ReadImageHeader(const fs::path& path, int* width, int* height, std::vector<std::string>* channels);
 

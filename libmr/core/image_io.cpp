@@ -2,6 +2,7 @@
 #include <OpenImageIO/filesystem.h>
 #include <OpenImageIO/imageio.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -366,13 +367,15 @@ bool ReadPixelsAsFloat(OIIO::ImageInput& in, const OIIO::ImageSpec& spec, float*
   return true;
 }
 
-}  // namespace
-
-Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFileInfo* info_out) {
-  OIIO::ImageSpec spec;
+// Opens `path` for its pixels with every check a size or a header needs
+// before a buffer is allocated (ReadImage and ReadImageCodes share them).
+std::unique_ptr<OIIO::ImageInput> OpenForPixels(const fs::path& path, const ImageReadOptions& options,
+                                                OIIO::ImageSpec* spec_out, ImageFileInfo* info_out) {
+  OIIO::ImageSpec& spec = *spec_out;
   auto in = Open(path, &spec, &options);
   const FileLoc loc{path.string()};
-  ImageFileInfo info = InfoFromSpec(*in, spec);
+  ImageFileInfo& info = *info_out;
+  info = InfoFromSpec(*in, spec);
   if (spec.width <= 0 || spec.height <= 0 || spec.nchannels <= 0)
     ThrowErrorAt(loc, "image has no pixels ({}x{}, {} channels)", spec.width, spec.height, spec.nchannels);
   if (spec.depth > 1) ThrowErrorAt(loc, "volume images are not supported");
@@ -402,19 +405,34 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
     ThrowErrorAt(loc, "the {} header claims {}x{} pixels of {} channels, more than the file's {} bytes can hold",
                  info.format, spec.width, spec.height, spec.nchannels, bytes);
 
+  return in;
+}
+
+// Reads the pixels of `in` as `type`, or throws naming the file.
+void ReadPixelsAs(OIIO::ImageInput& in, const OIIO::ImageSpec& spec, OIIO::TypeDesc type, void* out,
+                  const FileLoc& loc) {
+  StderrCapture library_lines;
+  const bool ok = type == OIIO::TypeDesc::FLOAT ? ReadPixelsAsFloat(in, spec, static_cast<float*>(out))
+                                                : in.read_image(0, 0, 0, spec.nchannels, type, out);
+  if (ok) return;
+  const std::string printed = library_lines.Take();
+  std::string err = in.geterror();
+  if (err.empty()) err = printed.empty() ? "unknown error" : printed;
+  ThrowErrorAt(loc, "cannot read pixels (truncated or corrupt file?): {}", err);
+}
+
+}  // namespace
+
+Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFileInfo* info_out) {
+  OIIO::ImageSpec spec;
+  ImageFileInfo info;
+  auto in = OpenForPixels(path, options, &spec, &info);
+  const FileLoc loc{path.string()};
   std::vector<std::string> names = spec.channelnames;
   for (size_t i = 0; i < names.size(); ++i)
     if (names[i].empty()) names[i] = fmt::format("ch{}", i);
   Image img(spec.width, spec.height, names);
-  {
-    StderrCapture library_lines;
-    if (!ReadPixelsAsFloat(*in, spec, img.data())) {
-      const std::string printed = library_lines.Take();
-      std::string err = in->geterror();
-      if (err.empty()) err = printed.empty() ? "unknown error" : printed;
-      ThrowErrorAt(loc, "cannot read pixels (truncated or corrupt file?): {}", err);
-    }
-  }
+  ReadPixelsAs(*in, spec, OIIO::TypeDesc::FLOAT, img.data(), loc);
 
   if (IsIntegerType(spec.format)) {
     info.decoded_from_ldr = true;
@@ -451,6 +469,32 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
   }
   if (info_out) *info_out = info;
   return img;
+}
+
+ImageCodes ReadImageCodes(const fs::path& path, const ImageReadOptions& options) {
+  OIIO::ImageSpec spec;
+  ImageFileInfo info;
+  auto in = OpenForPixels(path, options, &spec, &info);
+  ImageCodes c;
+  c.width = spec.width;
+  c.height = spec.height;
+  c.channels = spec.nchannels;
+  const size_t n = static_cast<size_t>(spec.width) * static_cast<size_t>(spec.height) * spec.nchannels;
+  if (IsIntegerType(spec.format) && spec.channelformats.empty()) {
+    c.bits = spec.format.size() == 1 ? 8 : 16;
+    c.bytes.resize(n * static_cast<size_t>(c.bits / 8));
+    ReadPixelsAs(*in, spec, c.bits == 8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16, c.bytes.data(),
+                 FileLoc{path.string()});
+    return c;
+  }
+  in.reset();
+  const Image img = ReadImage(path, options);  // float files: checked for NaN/Inf there
+  c.bits = 16;
+  c.bytes.resize(n * 2);
+  auto* out = reinterpret_cast<uint16_t*>(c.bytes.data());
+  for (size_t i = 0; i < n; ++i)
+    out[i] = static_cast<uint16_t>(std::lround(std::clamp(img.values()[i], 0.0f, 1.0f) * 65535.0f));
+  return c;
 }
 
 ImageWriteResult WriteImage(const fs::path& path, const Image& img, const ImageWriteOptions& options) {

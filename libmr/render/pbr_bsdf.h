@@ -20,6 +20,8 @@
 // (PbrTables()).  Local frame: z is the shading normal, wo and wi point away.
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 
 #include "render/microfacet.h"
@@ -69,6 +71,11 @@ struct PbrTables {
   double FavgDielectric(double eta) const;
 };
 const PbrTables& GetPbrTables();
+// The tables' values in one list (E, E_avg, Ed, Ed_avg, F_avg): computed
+// from their definition (seconds), or as embedded in the library (what
+// GetPbrTables reads).  For the generator of the embedded values and the
+// test that they are their definition's.
+std::vector<double> ComputePbrTableValues(bool embedded);
 
 // Exact unpolarised Fresnel reflectance of a dielectric interface at
 // cos_i (> 0) from the outside, relative ior eta (>= 1).

@@ -10,6 +10,7 @@
 #include "core/file.h"
 #include "core/hash.h"
 #include "core/math.h"
+#include "core/parallel.h"
 #include "core/video.h"
 #include "render/texture.h"
 #include "scene/frames.h"
@@ -175,13 +176,17 @@ void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector
   a->triangle_material = std::move(triangle_material);
   a->materials = asset.materials;
   a->textures.resize(asset.images.size());
+  // The images the materials sample, each once (with the encoding of its
+  // first use), then decoded in parallel: an asset's textures are most of
+  // its load (nine 4k PNGs: 0.6 s of decoding and 0.3 s of mip-maps each).
+  std::vector<std::pair<int, TextureEncoding>> wanted;
   auto load = [&](const AssetTexture& t, TextureEncoding e) {
-    if (!t.present() || a->textures[static_cast<size_t>(t.image)]) return;
+    if (!t.present()) return;
     if (mesh.uvs.size() != mesh.positions.size())
       ThrowErrorAt(FileLoc{name}, "a material samples {} but the asset has no texture coordinates",
                    asset.images[static_cast<size_t>(t.image)].name);
-    a->textures[static_cast<size_t>(t.image)] =
-        std::make_shared<const Texture>(LoadAssetTexture(asset.images[static_cast<size_t>(t.image)], e, name));
+    if (std::none_of(wanted.begin(), wanted.end(), [&](const auto& w) { return w.first == t.image; }))
+      wanted.emplace_back(t.image, e);
   };
   bool normal_maps = false;
   for (const AssetMaterial& m : asset.materials) {
@@ -192,6 +197,11 @@ void RenderScene::SetAssetMaterials(uint32_t id, const Asset& asset, std::vector
     if (m.emissive.maxCoeff() > 0) load(m.emissive_texture, TextureEncoding::kSrgb);
     normal_maps = normal_maps || (m.normal_texture.present() && !mesh.normals.empty());
   }
+  ParallelFor(0, static_cast<int64_t>(wanted.size()), [&](int64_t i) {
+    const auto [image, e] = wanted[static_cast<size_t>(i)];
+    a->textures[static_cast<size_t>(image)] =
+        std::make_shared<const Texture>(LoadAssetTexture(asset.images[static_cast<size_t>(image)], e, name));
+  });
   a->uvs = mesh.uvs;
   a->triangles = mesh.triangles;
   if (!mesh.uvs.empty()) {

@@ -10,21 +10,33 @@
 
 #include "core/color.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace mr {
 
 namespace {
 
-uint16_t Code(float v) { return static_cast<uint16_t>(std::lround(std::clamp(v, 0.0f, 1.0f) * 65535.0f)); }
-
-// 16-bit sRGB codes to linear, once.
-const std::vector<float>& SrgbTable() {
-  static const std::vector<float> t = [] {
-    std::vector<float> v(65536);
-    for (size_t i = 0; i < v.size(); ++i) v[i] = SrgbToLinear(static_cast<float>(i) / 65535.0f);
+// sRGB codes of `bits` bits to linear, once each.
+const std::vector<float>& SrgbTable(int bits) {
+  auto make = [](int n) {
+    std::vector<float> v(static_cast<size_t>(n));
+    for (size_t i = 0; i < v.size(); ++i) v[i] = SrgbToLinear(static_cast<float>(i) / static_cast<float>(n - 1));
     return v;
+  };
+  static const std::vector<float> t8 = make(256), t16 = make(65536);
+  return bits == 8 ? t8 : t16;
+}
+
+// Linear values to 8-bit sRGB codes: the code is the number of thresholds
+// (the linear values halfway between codes) below v, which is
+// round(255 LinearToSrgb(v)) without a power per value.
+uint8_t SrgbCode8(float v) {
+  static const std::array<float, 255> thresholds = [] {
+    std::array<float, 255> t{};
+    for (size_t k = 0; k < t.size(); ++k) t[k] = SrgbToLinear((static_cast<float>(k) + 0.5f) / 255.0f);
+    return t;
   }();
-  return t;
+  return static_cast<uint8_t>(std::upper_bound(thresholds.begin(), thresholds.end(), v) - thresholds.begin());
 }
 
 // Integer texel coordinate i wrapped into [0, n).
@@ -43,56 +55,98 @@ int Wrap(int i, int n, TextureWrap w) {
 
 }  // namespace
 
+namespace {
+
+ImageCodes Codes16(const Image& coded) {
+  ImageCodes c{coded.width(), coded.height(), coded.channels(), 16, {}};
+  c.bytes.resize(coded.values().size() * 2);
+  auto* out = reinterpret_cast<uint16_t*>(c.bytes.data());
+  for (size_t i = 0; i < coded.values().size(); ++i)
+    out[i] = static_cast<uint16_t>(std::lround(std::clamp(coded.values()[i], 0.0f, 1.0f) * 65535.0f));
+  return c;
+}
+
+}  // namespace
+
 Texture::Texture(const Image& coded, TextureEncoding encoding, std::string name)
-    : channels_(coded.channels()), encoding_(encoding), name_(std::move(name)) {
-  MR_CHECK(channels_ >= 1 && channels_ <= 4 && coded.width() > 0 && coded.height() > 0);
-  Level l0{coded.width(), coded.height(), std::vector<uint16_t>(coded.values().size())};
-  for (size_t i = 0; i < l0.texels.size(); ++i) l0.texels[i] = Code(coded.values()[i]);
-  levels_.push_back(std::move(l0));
-  // Each level the average of 2 x 2 texels of the one above, in linear values.
+    : Texture(Codes16(coded), encoding, std::move(name)) {}
+
+Texture::Texture(ImageCodes coded, TextureEncoding encoding, std::string name)
+    : channels_(coded.channels), bits_(coded.bits), encoding_(encoding), name_(std::move(name)) {
+  MR_CHECK(channels_ >= 1 && channels_ <= 4 && coded.width > 0 && coded.height > 0);
+  MR_CHECK((bits_ == 8 || bits_ == 16) && coded.bytes.size() == static_cast<size_t>(coded.width) *
+                                                                    static_cast<size_t>(coded.height) *
+                                                                    static_cast<size_t>(channels_ * bits_ / 8));
+  levels_.push_back({coded.width, coded.height, std::move(coded.bytes)});
+  const float max_code = bits_ == 8 ? 255.0f : 65535.0f;
+  // Each level the average of 2 x 2 texels of the one above, in linear
+  // values, coded back at the texture's own depth; rows in parallel (each
+  // written by one task: the same bytes whatever the thread count).
   while (levels_.back().width > 1 || levels_.back().height > 1) {
     const Level& up = levels_.back();
     Level next{(up.width + 1) / 2, (up.height + 1) / 2, {}};
-    next.texels.resize(static_cast<size_t>(next.width) * static_cast<size_t>(next.height) * channels_);
-    for (int y = 0; y < next.height; ++y)
+    next.texels.resize(static_cast<size_t>(next.width) * static_cast<size_t>(next.height) *
+                       static_cast<size_t>(channels_ * bits_ / 8));
+    ParallelFor(0, next.height, [&](int64_t y64) {
+      const int y = static_cast<int>(y64);
       for (int x = 0; x < next.width; ++x) {
         Eigen::Vector4f sum = Eigen::Vector4f::Zero();
         for (int dy = 0; dy < 2; ++dy)
           for (int dx = 0; dx < 2; ++dx)
             sum += Texel(up, std::min(2 * x + dx, up.width - 1), std::min(2 * y + dy, up.height - 1));
         const Eigen::Vector4f avg = sum / 4;
-        uint16_t* t = &next.texels[(static_cast<size_t>(y) * next.width + x) * channels_];
+        const size_t at = (static_cast<size_t>(y) * static_cast<size_t>(next.width) + static_cast<size_t>(x)) *
+                          static_cast<size_t>(channels_);
         for (int c = 0; c < channels_; ++c) {
           // Back to the level's encoding (grey: R; alpha: the last channel).
           const bool alpha = channels_ == 2 ? c == 1 : c == 3;
           const float v = channels_ <= 2 && !alpha ? avg[0] : avg[alpha ? 3 : c];
-          t[c] = Code(encoding_ == TextureEncoding::kSrgb && !alpha ? LinearToSrgb(v) : v);
+          const bool srgb = encoding_ == TextureEncoding::kSrgb && !alpha;
+          if (bits_ == 8 && srgb) {
+            next.texels[at + static_cast<size_t>(c)] = SrgbCode8(v);
+            continue;
+          }
+          const float e = std::clamp(srgb ? LinearToSrgb(v) : v, 0.0f, 1.0f);
+          const auto code = static_cast<uint16_t>(std::lround(e * max_code));
+          if (bits_ == 8)
+            next.texels[at + static_cast<size_t>(c)] = static_cast<uint8_t>(code);
+          else
+            reinterpret_cast<uint16_t*>(next.texels.data())[at + static_cast<size_t>(c)] = code;
         }
       }
+    });
     levels_.push_back(std::move(next));
   }
 }
 
 size_t Texture::bytes() const {
   size_t b = 0;
-  for (const Level& l : levels_) b += l.texels.size() * sizeof(uint16_t);
+  for (const Level& l : levels_) b += l.texels.size();
   return b;
 }
 
 Eigen::Vector4f Texture::Texel(const Level& l, int x, int y) const {
-  const uint16_t* t = &l.texels[(static_cast<size_t>(y) * l.width + x) * channels_];
-  auto decode = [&](uint16_t c) {
-    return encoding_ == TextureEncoding::kSrgb ? SrgbTable()[c] : static_cast<float>(c) / 65535.0f;
+  const size_t at =
+      (static_cast<size_t>(y) * static_cast<size_t>(l.width) + static_cast<size_t>(x)) * static_cast<size_t>(channels_);
+  uint32_t t[4];
+  if (bits_ == 8)
+    for (int c = 0; c < channels_; ++c) t[c] = l.texels[at + static_cast<size_t>(c)];
+  else
+    for (int c = 0; c < channels_; ++c) t[c] = reinterpret_cast<const uint16_t*>(l.texels.data())[at + c];
+  const float scale = bits_ == 8 ? 1.0f / 255.0f : 1.0f / 65535.0f;
+  const std::vector<float>& srgb = SrgbTable(bits_);
+  auto decode = [&](uint32_t c) {
+    return encoding_ == TextureEncoding::kSrgb ? srgb[c] : static_cast<float>(c) * scale;
   };
   switch (channels_) {
     case 1:
       return {decode(t[0]), decode(t[0]), decode(t[0]), 1};
     case 2:
-      return {decode(t[0]), decode(t[0]), decode(t[0]), t[1] / 65535.0f};
+      return {decode(t[0]), decode(t[0]), decode(t[0]), static_cast<float>(t[1]) * scale};
     case 3:
       return {decode(t[0]), decode(t[1]), decode(t[2]), 1};
     default:
-      return {decode(t[0]), decode(t[1]), decode(t[2]), t[3] / 65535.0f};
+      return {decode(t[0]), decode(t[1]), decode(t[2]), static_cast<float>(t[3]) * scale};
   }
 }
 
@@ -161,14 +215,14 @@ Texture LoadAssetTexture(const AssetImage& image, TextureEncoding encoding, cons
       if (!p.empty()) fs::remove(p, ec);
     }
   } remove{temporary};
-  Image img;
+  ImageCodes codes;
   try {
-    img = ReadImage(file, opt);
+    codes = ReadImageCodes(file, opt);
   } catch (const Error& e) {
     ThrowError("{}: {}", name, e.what());
   }
-  if (img.channels() > 4) ThrowError("{}: {} channels (a texture has 1 to 4)", name, img.channels());
-  return Texture(img, encoding, image.name);
+  if (codes.channels > 4) ThrowError("{}: {} channels (a texture has 1 to 4)", name, codes.channels);
+  return Texture(std::move(codes), encoding, image.name);
 }
 
 }  // namespace mr

@@ -215,6 +215,46 @@ TEST(Image, RejectsNonFinitePixelsByDefault) {
   EXPECT_FLOAT_EQ(stats[0].max, 0.5f);
 }
 
+// ReadImageCodes keeps a file's codes: 8-bit files a byte a value, 16-bit
+// ones two, float files clamped to [0, 1] in 16 bits; the same codes
+// ReadImage decodes (linear transfer: code / max exactly), and the same
+// errors for a bad file.
+TEST(Image, CodesAreTheFilesOwnAtItsDepth) {
+  TempDir dir;
+  Image img = Ramp(8, 4, {"R", "G", "B"}, 1.5f);  // values to 1.5: the float file clamps
+  ImageWriteOptions lin;
+  lin.ldr_transfer = Transfer::kLinear;
+  WriteImage(dir / "a8.png", img, lin);
+  lin.pixel_type = PixelType::kUint16;
+  WriteImage(dir / "a16.png", img, lin);
+  WriteImage(dir / "a.exr", img);
+  ImageReadOptions raw;
+  raw.use_file_transfer = false;
+  raw.default_ldr_transfer = Transfer::kLinear;
+  for (const auto& [name, bits] : {std::pair{"a8.png", 8}, std::pair{"a16.png", 16}, std::pair{"a.exr", 16}}) {
+    const ImageCodes c = ReadImageCodes(dir / name, raw);
+    ASSERT_EQ(c.bits, bits) << name;
+    ASSERT_EQ(c.width, 8);
+    ASSERT_EQ(c.height, 4);
+    ASSERT_EQ(c.channels, 3);
+    ASSERT_EQ(c.bytes.size(), 8u * 4 * 3 * (bits / 8));
+    const Image back = ReadImage(dir / name, raw);
+    const double max = bits == 8 ? 255.0 : 65535.0;
+    for (size_t i = 0; i < back.values().size(); ++i) {
+      const double code = bits == 8 ? c.bytes[i] : reinterpret_cast<const uint16_t*>(c.bytes.data())[i];
+      const double want = std::clamp(static_cast<double>(back.values()[i]), 0.0, 1.0);
+      ASSERT_NEAR(code / max, want, std::string(name) == "a.exr" ? 0.5 / 65535 : 1e-7) << name << " " << i;
+    }
+  }
+  { std::ofstream(dir / "text.png") << "this is not a png"; }
+  try {
+    ReadImageCodes(dir / "text.png");
+    FAIL() << "text decoded";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).rfind((dir / "text.png").string(), 0), 0u) << e.what();
+  }
+}
+
 TEST(Image, BadFilesGiveOneClearError) {
   TempDir dir;
   auto expect_error = [](const fs::path& p, const std::string& needle) {

@@ -100,3 +100,20 @@ TEST(PbrBsdf, ReciprocalAndPdfIntegratesToOne) {
 
 }  // namespace
 }  // namespace mr
+
+namespace mr {
+namespace {
+
+// The embedded tables (render/pbr_tables_data.inc) are what their definition
+// computes: regenerated with bench/gen_pbr_tables.cpp when it changes.  Equal
+// to 1e-12 (hexadecimal floats round-trip exactly; the margin is for another
+// machine's libm in the last bits).
+TEST(PbrTables, EmbeddedAreTheirDefinition) {
+  const std::vector<double> embedded = ComputePbrTableValues(true), computed = ComputePbrTableValues(false);
+  ASSERT_EQ(embedded.size(), computed.size());
+  for (size_t i = 0; i < embedded.size(); ++i)
+    ASSERT_NEAR(embedded[i], computed[i], 1e-12) << "value " << i << ": regenerate libmr/render/pbr_tables_data.inc";
+}
+
+}  // namespace
+}  // namespace mr

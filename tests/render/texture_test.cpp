@@ -75,6 +75,33 @@ TEST(Texture, OneTexelAndSixteenKWide) {
   EXPECT_EQ(wide.bytes(), (16384u + 8192 + 4096 + 2048 + 1024 + 512 + 256 + 128 + 64 + 32 + 16 + 8 + 4 + 2 + 1) * 2);
 }
 
+// An 8-bit file stays 8-bit (half the memory of 16-bit codes) and decodes
+// to exactly what the file holds; its mip levels are the linear average
+// coded back to the nearest 8-bit sRGB code, as round(255 LinearToSrgb(v)).
+TEST(Texture, EightBitFilesKeepTheirCodes) {
+  const fs::path png = fs::path(MR_SOURCE_DIR) / "tests/data/assets/blender/checker.png";
+  const Texture t = LoadAssetTexture({.name = "checker.png", .file = png}, TextureEncoding::kSrgb, "blender.gltf");
+  EXPECT_EQ(t.bits(), 8);
+  EXPECT_EQ(t.bytes(), (16u * 16 + 8 * 8 + 4 * 4 + 2 * 2 + 1) * static_cast<size_t>(t.channels()));
+  ImageReadOptions raw;
+  raw.use_file_transfer = false;
+  raw.default_ldr_transfer = Transfer::kLinear;
+  const Image codes = ReadImage(png, raw);
+  for (int y = 0; y < 16; ++y)
+    for (int x = 0; x < 16; ++x) {
+      const Eigen::Vector4f c = t.Sample({(x + 0.5f) / 16, (y + 0.5f) / 16}, 0);
+      ASSERT_NEAR(c[0], SrgbToLinear(codes.at(x, y, 0)), 1e-6) << x << " " << y;
+    }
+  for (int a = 0; a < 256; a += 3)
+    for (int b = 0; b < 256; b += 5) {
+      ImageCodes pair{2, 1, 1, 8, {static_cast<uint8_t>(a), static_cast<uint8_t>(b)}};
+      const Texture p(std::move(pair), TextureEncoding::kSrgb, "pair");
+      const float mean = 0.5f * (SrgbToLinear(a / 255.0f) + SrgbToLinear(b / 255.0f));
+      const float want = SrgbToLinear(std::round(255 * LinearToSrgb(mean)) / 255);
+      ASSERT_NEAR(p.Sample({0.5f, 0.5f}, 1)[0], want, 1e-6) << a << " " << b;
+    }
+}
+
 // KHR_texture_transform: offset, rotation (counter-clockwise in uv, v down)
 // and scale, in that order of application: scale, rotate, offset.
 TEST(Texture, TextureTransformAsTheExtensionDefines) {

@@ -5,7 +5,8 @@
 // tinygltf"; docs/benchmarks.md).  One reader per process, so that the peak
 // memory (VmHWM) is that reader's:
 //   bench_asset_read mr|assimp FILE
-// prints one JSON line.
+// prints one JSON line;  bench_asset_read assimp-keys FILE  prints the
+// material keys assimp carries.
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
@@ -99,6 +100,20 @@ Stats ReadAssimp(const std::string& path) {
   return s;
 }
 
+// The material keys assimp carries for each material (what a renderer over
+// assimp could read), one line each: to check which glTF extensions survive.
+void PrintAssimpMaterialKeys(const std::string& path) {
+  Assimp::Importer importer;
+  const aiScene* scene = importer.ReadFile(path, aiProcess_Triangulate);
+  if (!scene) return;
+  for (unsigned i = 0; i < scene->mNumMaterials; ++i) {
+    const aiMaterial* m = scene->mMaterials[i];
+    std::printf("%s:", m->GetName().C_Str());
+    for (unsigned k = 0; k < m->mNumProperties; ++k) std::printf(" %s", m->mProperties[k]->mKey.C_Str());
+    std::printf("\n");
+  }
+}
+
 long PeakKiB() {
   std::ifstream in("/proc/self/status");
   std::string line;
@@ -115,6 +130,10 @@ int main(int argc, char** argv) {
     return 2;
   }
   const std::string reader = argv[1];
+  if (reader == "assimp-keys") {
+    PrintAssimpMaterialKeys(argv[2]);
+    return 0;
+  }
   const Stats s = reader == "mr" ? ReadMr(argv[2]) : ReadAssimp(argv[2]);
   std::printf(
       "{\"reader\": \"%s\", \"file\": \"%s\", \"seconds\": %.3f, \"peak_mib\": %.1f, \"triangles\": %lld, "

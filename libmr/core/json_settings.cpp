@@ -89,11 +89,12 @@ void JsonSettings::Header(const char* format, const char* what) {
   if (v.Integer(1, 1000) != 1) v.Fail(fmt::format("this mr reads {} version 1", what));
 }
 
-void JsonSettings::Done() const {
+void JsonSettings::Done(const char* also) const {
   const std::vector<std::string> unread = Unread();
   if (unread.empty()) return;
   std::string list;
   for (const SettingDecl& d : decl_) list += (list.empty() ? "" : ", ") + d.key;
+  if (also) list += std::string("; ") + also;
   block_.Child(unread.front()).Fail(fmt::format("unknown key (allowed here: {})", list));
 }
 

@@ -75,8 +75,10 @@ class JsonSettings {
   // The node of a declared key, for checks across keys (Fail names it).
   JsonNode Node(const char* key) const { return block_.Child(key); }
   bool Has(const char* key) const { return block_.Has(key); }
-  // Rejects every key of the block no call above declared.
-  void Done() const;
+  // Rejects every key of the block no call above declared; `also`, when
+  // given, is added to the list of allowed keys in the message (keys another
+  // parser reads: "or light, which makes the entry a virtual light").
+  void Done(const char* also = nullptr) const;
   // The keys no call above declared, in the block's order (for blocks that
   // hold more than settings: render's method blocks).
   std::vector<std::string> Unread() const;

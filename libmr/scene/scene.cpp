@@ -1,6 +1,9 @@
 #include "scene/scene.h"
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
+#include <optional>
 #include <set>
 
 #include "core/error.h"
@@ -8,6 +11,7 @@
 #include "core/json_settings.h"
 #include "core/math.h"
 #include "core/video.h"
+#include "geometry/mesh.h"
 #include "scene/frames.h"
 
 namespace mr {
@@ -64,13 +68,29 @@ Material ParseMaterial(const Node& n, const fs::path& base, bool check) {
   return m;
 }
 
-Eigen::Affine3d ParseTransform(const Node& n) {
+// A scale: one number (uniform) or three.
+Eigen::Vector3d ParseScale(const Node& n, double lo) {
+  if (n.json().is_number()) return Eigen::Vector3d::Constant(n.Number(lo, kHuge));
+  if (!n.json().is_array())
+    n.Fail(fmt::format("expected a number (a uniform scale) or 3 numbers [sx, sy, sz], got {}", n.TypeName()));
+  return n.Vec3(lo, kHuge);
+}
+
+// `rest_on`, when the block has it, receives its node (the placement is
+// resolved against the real meshes by RestOnTheRoom).
+Eigen::Affine3d ParseTransform(const Node& n, std::optional<Node>* rest_on = nullptr) {
   JsonSettings s(n);
   const auto matrix = s.Take("matrix");
   const auto translation = s.Take("translation");
   const auto rotation = s.Take("rotation_deg");
   const auto scale = s.Take("scale");
+  const auto rest = rest_on ? s.Take("rest_on") : std::nullopt;
   s.Done();
+  if (rest) {
+    if (matrix || translation) rest->Fail("give either rest_on or translation/matrix, not both");
+    rest->Vec3(-kHuge, kHuge);
+    *rest_on = *rest;
+  }
   if (matrix) {
     if (translation || rotation || scale) n.Fail("give either matrix or translation/rotation_deg/scale, not both");
     auto v = matrix->Numbers(16, -kHuge, kHuge);
@@ -90,12 +110,7 @@ Eigen::Affine3d ParseTransform(const Node& n) {
     a.rotate(Eigen::AngleAxisd(r.z(), Eigen::Vector3d::UnitZ()) * Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
              Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX()));
   }
-  if (scale) {
-    if (scale->json().is_number())
-      a.scale(scale->Number(1e-9, kHuge));
-    else
-      a.scale(scale->Vec3(1e-9, kHuge));
-  }
+  if (scale) a.scale(ParseScale(*scale, 1e-9));
   return a;
 }
 
@@ -131,8 +146,7 @@ std::vector<ObjectKeyframe> ParseTrajectory(const Node& n) {
                    Eigen::AngleAxisd(r.y(), Eigen::Vector3d::UnitY()) *
                    Eigen::AngleAxisd(r.x(), Eigen::Vector3d::UnitX());
     }
-    if (scale)
-      f.scale = scale->json().is_number() ? Eigen::Vector3d::Constant(scale->Number(0, kHuge)) : scale->Vec3(0, kHuge);
+    if (scale) f.scale = ParseScale(*scale, 0);
     out.push_back(f);
   }
   return out;
@@ -300,10 +314,59 @@ SceneVirtualLight ParseVirtualLight(const Node& o, size_t i) {
   return vl;
 }
 
+// transform.rest_on: the object (its rotation and scale applied) moved so
+// that its lowest point along the world's up (lighting.up, default +y) rests
+// on the first real surface below the given point, its bounding box
+// centred on the point across up.  Needs the files (skipped unchecked).
+void RestOnTheRoom(const Node& rest_on, const Scene& scene, bool check, SceneVirtual* sv) {
+  if (!check) return;
+  const Eigen::Vector3d p = rest_on.Vec3(-kHuge, kHuge);
+  const Eigen::Vector3d up = (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
+  if (scene.reals.empty()) rest_on.Fail("there is no real mesh to rest the object on");
+  // The first real surface below p: the nearest hit of the ray p - t up, t > 0.
+  double best = std::numeric_limits<double>::infinity();
+  for (const SceneReal& r : scene.reals) {
+    const Mesh m = ReadMesh(r.mesh);
+    for (const Eigen::Vector3i& t : m.triangles) {
+      const Eigen::Vector3d a = m.positions[static_cast<size_t>(t[0])].cast<double>();
+      const Eigen::Vector3d e1 = m.positions[static_cast<size_t>(t[1])].cast<double>() - a;
+      const Eigen::Vector3d e2 = m.positions[static_cast<size_t>(t[2])].cast<double>() - a;
+      const Eigen::Vector3d q = (-up).cross(e2);
+      const double det = e1.dot(q);
+      if (std::abs(det) < 1e-18) continue;
+      const Eigen::Vector3d s = p - a;
+      const double u = s.dot(q) / det;
+      const Eigen::Vector3d r2 = s.cross(e1);
+      const double v = (-up).dot(r2) / det;
+      const double d = e2.dot(r2) / det;
+      if (u >= 0 && v >= 0 && u + v <= 1 && d > 0 && d < best) best = d;
+    }
+  }
+  if (!std::isfinite(best))
+    rest_on.Fail(fmt::format("no real surface below [{:.4g}, {:.4g}, {:.4g}] (along -up, up = [{:.3g}, {:.3g}, {:.3g}])",
+                             p.x(), p.y(), p.z(), up.x(), up.y(), up.z()));
+  const Eigen::Vector3d hit = p - best * up;
+  const Mesh object = ReadMesh(sv->mesh);
+  if (object.positions.empty()) rest_on.Fail(fmt::format("{} has no vertices", sv->mesh.string()));
+  const Eigen::Matrix3d linear = sv->world_from_object.linear();
+  double lowest = std::numeric_limits<double>::infinity();
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(kHuge), hi = Eigen::Vector3d::Constant(-kHuge);
+  for (const Eigen::Vector3f& v : object.positions) {
+    const Eigen::Vector3d w = linear * v.cast<double>();
+    lowest = std::min(lowest, up.dot(w));
+    lo = lo.cwiseMin(w);
+    hi = hi.cwiseMax(w);
+  }
+  const Eigen::Vector3d centre = (lo + hi) / 2;
+  const Eigen::Vector3d across = (p - centre) - up.dot(p - centre) * up;
+  sv->world_from_object.translation() = across + (up.dot(hit) - lowest) * up;
+  sv->rests_on = hit;
+}
+
 // A virtual object: a mesh placed by a transform or a trajectory; `names`
 // holds the names taken so far.
 SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, bool check,
-                                std::set<std::string>* names) {
+                                std::set<std::string>* names, const Scene& scene) {
   JsonSettings os(o);
   const auto name = os.Take("name");
   const JsonNode mesh = os.Require("mesh");
@@ -311,13 +374,15 @@ SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, b
   const auto trajectory = os.Take("trajectory");
   const auto material = os.Take("material");
   const auto formfactors = os.Take("formfactors");
-  os.Done();
+  os.Done("or light, which makes the entry a virtual light");
   SceneVirtual sv;
   sv.name = name ? name->String() : fmt::format("object{}", i);
   if (!names->insert(sv.name).second) (name ? *name : o).Fail(fmt::format("name \"{}\" is used twice", sv.name));
   sv.mesh = ResolveFile(mesh, base, check, "mesh");
   if (transform && trajectory) trajectory->Fail("give either transform or trajectory, not both");
-  if (transform) sv.world_from_object = ParseTransform(*transform);
+  std::optional<Node> rest_on;
+  if (transform) sv.world_from_object = ParseTransform(*transform, &rest_on);
+  if (rest_on) RestOnTheRoom(*rest_on, scene, check, &sv);
   if (trajectory) {
     sv.keyframes = ParseTrajectory(*trajectory);
     sv.world_from_object = sv.WorldFromObjectAt(sv.keyframes.front().frame);
@@ -348,7 +413,7 @@ void ParseVirtuals(const Node& v, const fs::path& base, bool check, Scene* out) 
       if (!names.insert(vl.name).second) o.Fail(fmt::format("name \"{}\" is used twice", vl.name));
       s.virtual_lights.push_back(std::move(vl));
     } else {
-      s.virtuals.push_back(ParseVirtualObject(o, i, base, check, &names));
+      s.virtuals.push_back(ParseVirtualObject(o, i, base, check, &names, s));
     }
   }
 }

@@ -122,6 +122,9 @@ struct SceneVirtual {
   // a glTF asset (.gltf, .glb), and for an OBJ whose "material" is "mtl"
   // (its MTL library); `material` is then unused.
   bool file_materials = false;
+  // transform.rest_on, resolved: the real surface point the object rests
+  // on (its translation set so; docs/formats.md).
+  std::optional<Eigen::Vector3d> rests_on;
   // world_from_object at `frame`: between two keyframes translation and
   // scale linear, rotation slerp (the shorter way); before the first and
   // after the last, held.

@@ -116,11 +116,12 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].material.albedo: expected 3 numbers in [0,1], got 1.5");
   j = Valid();
   j["virtual"][0]["colour"] = "red";
-  EXPECT_EQ(ErrorOf(j).rfind("scene.json: virtual[0].colour: unknown key (allowed here: name, mesh, transform, "
-                             "trajectory, material, formfactors)",
-                             0),
-            0u)
-      << ErrorOf(j);
+  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].colour: unknown key (allowed here: name, mesh, transform, "
+                        "trajectory, material, formfactors; or light, which makes the entry a virtual light)");
+  j = Valid();  // one number or three
+  j["virtual"][0]["transform"]["scale"] = "0.5";
+  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].transform.scale: expected a number (a uniform scale) or 3 numbers "
+                        "[sx, sy, sz], got string");
   j = Valid();
   j["render"]["spp"] = "many";
   EXPECT_EQ(ErrorOf(j), "scene.json: render.spp: expected an integer in [1, 16777216], got string");
@@ -160,6 +161,44 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   j = Valid();
   j["virtual"][0]["transform"] = {{"matrix", {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 2}}};
   EXPECT_NE(ErrorOf(j).find("last row"), std::string::npos);
+}
+
+// transform.rest_on: the object's lowest point (after its rotation and
+// scale) on the first real surface below the point, centred on it across
+// up; with lighting.up, "below" follows it.  A point over nothing, or
+// rest_on beside a translation, is an error naming the key.
+TEST_F(SceneFiles, RestOnPutsTheObjectOnTheSurfaceBelow) {
+  // A floor at y = 0 and a table top at y = 0.7 over x, z in [0, 1].
+  WriteTextFile(dir_ / "room.obj",
+                "v -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nv 0 0.7 0\nv 1 0.7 0\nv 1 0.7 1\nv 0 0.7 1\n"
+                "f 1 3 2\nf 1 4 3\nf 5 7 6\nf 5 8 7\n");
+  // A box from (-1, -2, -1) to (1, 0, 3): lowest y -2, centre (0, -1, 1).
+  WriteTextFile(dir_ / "box.obj", "v -1 -2 -1\nv 1 -2 -1\nv 1 0 3\nv -1 0 3\nf 1 2 3\nf 1 3 4\n");
+  Json j = Valid();
+  j["real"]["mesh"] = "room.obj";
+  j["virtual"][0]["mesh"] = "box.obj";
+  j["virtual"][0]["transform"] = {{"rest_on", {0.5, 2.0, 0.5}}, {"scale", 0.1}};
+  Scene s = ParseScene(j, dir_.path(), "scene.json", true);
+  const Eigen::Affine3d& m = s.virtuals[0].world_from_object;
+  // The mesh's float positions: 0.7f is 0.7 to 1.2e-8.
+  EXPECT_TRUE((m * Eigen::Vector3d(0, -2, 1)).isApprox(Eigen::Vector3d(0.5, 0.7, 0.5), 1e-7))  // bottom centre
+      << (m * Eigen::Vector3d(0, -2, 1)).transpose();
+  ASSERT_TRUE(s.virtuals[0].rests_on);
+  EXPECT_TRUE(s.virtuals[0].rests_on->isApprox(Eigen::Vector3d(0.5, 0.7, 0.5), 1e-7));
+  j["virtual"][0]["transform"]["rest_on"] = {3.0, 2.0, 3.0};  // beside the table: the floor
+  s = ParseScene(j, dir_.path(), "scene.json", true);
+  EXPECT_NEAR((s.virtuals[0].world_from_object * Eigen::Vector3d(0, -2, 1)).y(), 0, 1e-7);
+  j["virtual"][0]["transform"]["rest_on"] = {3.0, -1.0, 3.0};  // under the floor: nothing below
+  EXPECT_EQ(ErrorOf(j).rfind("scene.json: virtual[0].transform.rest_on: no real surface below [3, -1, 3]", 0), 0u)
+      << ErrorOf(j);
+  j["virtual"][0]["transform"]["rest_on"] = {0.5, 2.0, 0.5};
+  j["virtual"][0]["transform"]["translation"] = {0, 0, 0};
+  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].transform.rest_on: give either rest_on or translation/matrix, not both");
+  // Up along +z (a room in its first camera's frame): "below" is -z, which
+  // both planes contain, so nothing is below.
+  j["virtual"][0]["transform"].erase("translation");
+  j["lighting"]["environment_up"] = {0, 0, 1};
+  EXPECT_NE(ErrorOf(j).find("no real surface below"), std::string::npos) << ErrorOf(j);
 }
 
 // A trajectory (docs/conventions.md, "Object trajectories"): keyframes by

@@ -12,11 +12,15 @@ CLI::App* AddCompare(CLI::App& app, mr::CompareJobOptions& co) {
       app.add_subcommand("compare",
                          "RMSE, relative MSE, PSNR and SSIM of A against the reference B (metric definitions in\n"
                          "docs/formats.md), over the image or the pixels where --region is > 0. EXR renders are\n"
-                         "compared by their composite layer.");
+                         "compared by their composite layer. --region is a mask (the objects' coverage);\n"
+                         "mr-render's region_relmse is over where the reference differs from the plate\n"
+                         "(objects, shadows and the light they send the room), a larger region: the two differ.");
   cmp->fallthrough();  // --report, --threads ... after the subcommand
   cmp->add_option("A", co.estimate, "Estimate (image, or mr-render EXR)")->required()->check(CLI::ExistingFile);
   cmp->add_option("B", co.reference, "Reference")->required()->check(CLI::ExistingFile);
-  cmp->add_option("--region", co.region, "One-channel image: compare where > 0")->check(CLI::ExistingFile);
+  cmp->add_option("--region", co.region,
+                  "Mask: a one-layer image (its first channel) or an mr-render EXR (its mask layer); compare where > 0")
+      ->check(CLI::ExistingFile);
   cmp->add_option("--diff", co.diff, "Write |A - B| x scale (e.g. diff.png or diff.exr)");
   cmp->add_option("--scale", co.scale, "Scale of the difference image")->default_val(10)->check(mr::kPositive);
   return cmp;

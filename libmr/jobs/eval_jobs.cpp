@@ -1,5 +1,6 @@
 #include "jobs/eval_jobs.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <sstream>
 
@@ -34,7 +35,20 @@ void RunCompare(const CompareJobOptions& o, Report* rep) {
     if (r.width() != ia.width() || r.height() != ia.height())
       ThrowErrorAt(FileLoc{o.region}, "region is {}x{}, the images {}x{}", r.width(), r.height(), ia.width(),
                    ia.height());
-    reg = r.channels() == 1 ? r : r.Layer(r.LayerNames().front());
+    // An mr-render EXR: its mask layer; a one-layer image (a mask as grey,
+    // RGB or RGBA): its first channel; any other layered image is refused
+    // rather than compared by its first layer (a composite, nonzero almost
+    // everywhere).
+    const std::vector<std::string> layers = r.LayerNames();
+    if (std::find(layers.begin(), layers.end(), "mask") != layers.end())
+      reg = r.Layer("mask");
+    else if (layers.size() == 1)
+      reg = r.channels() == 1 ? r : r.Layer(layers.front());
+    else
+      ThrowErrorAt(FileLoc{o.region},
+                   "region has {} layers and none is \"mask\": give a one-layer mask image or an "
+                   "mr-render EXR",
+                   layers.size());
   }
   const ImageMetrics m = CompareImages(ia, ib, reg ? &*reg : nullptr);
   rep->AddInput(o.estimate);

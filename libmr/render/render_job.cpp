@@ -189,6 +189,7 @@ class RenderJob {
   void CheckCrossings(int f, const std::vector<std::string>* moved);
   void ReportAssetApproximations();
   FrameError Measure(int f, const Image& composite, const Image& ref, const std::optional<Image>& region, Json* fj);
+  void CheckMaskAgainstReference(int f, const Image& mask, const Image& ref, const Image& photo, Json* fj);
   template <class Work>
   void Timed(Frame* fr, Work&& work) {
     const auto start = std::chrono::steady_clock::now();
@@ -460,6 +461,36 @@ void RenderJob::SetUpNeighbourPlates() {
   if (use_neighbours_) neighbour_frames_.emplace(scene_, in_.camera, decoding_);
   if (scene_.camera.shutter <= 0) report_->Skip("motion blur", "camera.shutter is 0 (or not given)");
   if (scene_.camera.aperture_radius <= 0) report_->Skip("depth of field", "camera.lens is not given: a pinhole");
+}
+
+// Where the objects cover the frame, a reference made with the same objects
+// differs from the plate by more than the light they send the room (which
+// changes the whole room a little): the share of the mask where a channel
+// of the reference differs from the plate's by over 10 %, and a warning
+// below one half (the objects moved, or were rescaled, since the reference
+// was made; its error figures then compare two different scenes).
+void RenderJob::CheckMaskAgainstReference(int f, const Image& mask, const Image& ref, const Image& photo, Json* fj) {
+  int64_t covered = 0, inside = 0, changed_pixels = 0;
+  for (int y = 0; y < mask.height(); ++y)
+    for (int x = 0; x < mask.width(); ++x) {
+      bool c = false;
+      for (int k = 0; k < 3; ++k)
+        c = c || std::abs(ref.at(x, y, k) - photo.at(x, y, k)) > 0.1f * (std::abs(photo.at(x, y, k)) + 1e-3f);
+      changed_pixels += c;
+      if (!(mask.at(x, y, 0) > 0)) continue;
+      ++covered;
+      inside += c;
+    }
+  if (covered == 0) return;
+  const double share = static_cast<double>(inside) / static_cast<double>(covered);
+  (*fj)["mask_in_reference_change"] = share;
+  if (share < 0.5)
+    report_->Warn(fmt::format(
+        "frame {}: only {:.0f} % of the objects' mask ({} pixels) lies where the reference differs from the plate "
+        "by over 10 % ({} pixels): the objects are not where they were when the reference was made (moved or "
+        "rescaled?), so its "
+        "error figures compare two different scenes",
+        f, 100 * share, covered, changed_pixels));
 }
 
 // A frame's error against the reference (over the region the objects
@@ -748,6 +779,7 @@ void RenderJob::RenderFrame(int f) {
     report_->Skip(fmt::format("frame {}: {} pixels after the first sample", f, env_pixels),
                   "their camera rays provably meet no geometry (environment only): I_m - I_r = 0 exactly");
   if (fr.ref) fj["curve"] = errors_.EndFrame(Measure(f, im.cr.composite, *fr.ref, fr.region, &fj));
+  if (fr.ref && fr.photo) CheckMaskAgainstReference(f, im.mask, *fr.ref, *fr.photo, &fj);
   if (fm) method_->FrameDone(*fm, fc, report_, &fj);
   frames_json_.push_back(fj);
   WriteFrame(fr, &im);

@@ -343,8 +343,9 @@ void RestOnTheRoom(const Node& rest_on, const Scene& scene, bool check, SceneVir
     }
   }
   if (!std::isfinite(best))
-    rest_on.Fail(fmt::format("no real surface below [{:.4g}, {:.4g}, {:.4g}] (along -up, up = [{:.3g}, {:.3g}, {:.3g}])",
-                             p.x(), p.y(), p.z(), up.x(), up.y(), up.z()));
+    rest_on.Fail(
+        fmt::format("no real surface below [{:.4g}, {:.4g}, {:.4g}] (along -up, up = [{:.3g}, {:.3g}, {:.3g}])", p.x(),
+                    p.y(), p.z(), up.x(), up.y(), up.z()));
   const Eigen::Vector3d hit = p - best * up;
   const Mesh object = ReadMesh(sv->mesh);
   if (object.positions.empty()) rest_on.Fail(fmt::format("{} has no vertices", sv->mesh.string()));
@@ -365,8 +366,8 @@ void RestOnTheRoom(const Node& rest_on, const Scene& scene, bool check, SceneVir
 
 // A virtual object: a mesh placed by a transform or a trajectory; `names`
 // holds the names taken so far.
-SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, bool check,
-                                std::set<std::string>* names, const Scene& scene) {
+SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, bool check, std::set<std::string>* names,
+                                const Scene& scene) {
   JsonSettings os(o);
   const auto name = os.Take("name");
   const JsonNode mesh = os.Require("mesh");

@@ -106,6 +106,17 @@ bad "NaN pixels" 1 "nan.pfm: 2 NaN/Inf values" -- "$bin/mr-info" "$d/nan.pfm"
 bad "NaN environment" 1 "nan.pfm: 1 NaN and 1 Inf values" -- "$bin/mr-lights" "$d/nan.pfm" --out "$out/l.json"
 oiiotool --pattern constant:color=1,1,1 8x8 3 -o "$d/small.exr" 2>/dev/null
 bad "compare: size mismatch" 1 "small.exr: image is 8x8, the reference" -- "$bin/mr-eval" compare "$d/small.exr" "$cap/env.exr" --diff "$out/d.png"
+# --region: an mr-render EXR's mask layer (here a checker: half the pixels), a layered image
+# without one refused rather than compared by its first layer.
+size=$(oiiotool "$cap/truth/00000.exr" --echo "{TOP.width}x{TOP.height}" 2>/dev/null | tail -n 1)
+oiiotool --pattern constant:color=0.5,0.5,0.5 "$size" 3 --chnames composite.R,composite.G,composite.B \
+  --pattern checker:width=1:height=1:color1=1:color2=0 "$size" 1 --chnames mask.Y --chappend -o "$d/layered-mask.exr" 2>/dev/null
+pixels=$("$bin/mr-eval" compare "$cap/truth/00000.exr" "$cap/truth/00001.exr" --region "$d/layered-mask.exr" -q 2>/dev/null | sed -n 's/.*(\([0-9]*\) pixels).*/\1/p')
+w=${size%x*}; h=${size#*x}
+if [ "$pixels" != "$(( w * h / 2 ))" ]; then echo "FAIL compare --region: the mask layer gave $pixels pixels, expected $(( w * h / 2 ))"; fail=$((fail + 1)); fi
+oiiotool --pattern constant:color=0.5,0.5,0.5 "$size" 3 --chnames a.R,a.G,a.B \
+  --pattern constant:color=1 "$size" 1 --chnames b.Y --chappend -o "$d/layered.exr" 2>/dev/null
+bad "compare: layered region without mask" 1 "layered.exr: region has 2 layers and none is \"mask\"" -- "$bin/mr-eval" compare "$cap/truth/00000.exr" "$cap/truth/00001.exr" --region "$d/layered.exr"
 bad "hdr: one image" 1 "" -- "$bin/mr-hdr" "$cap/photos/00000.png" --out "$out/x.exr"
 
 # --- Scenes: checked before the first frame -------------------------------

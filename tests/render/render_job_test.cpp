@@ -23,6 +23,29 @@ TEST_F(Capture, RelativeErrorFallsAsOneOverSpp) {
   EXPECT_GT(r.metrics()["region_relmse"].get<double>(), 0.0);
 }
 
+// The objects' mask against the reference's changed region: the capture's
+// own scene puts the object where the truth has it (most of the mask lies
+// where the truth differs from the plate, no warning); moved 0.6 m sideways,
+// the mask falls where the truth shows the room, and the report says so.
+TEST_F(Capture, MovedObjectIsNamedAgainstItsReference) {
+  const Json j = ReadJsonFile(Cap() / "scene.json");
+  RenderOptions o;
+  o.spp = 2;
+  o.frame_end = 1;
+  Report same("mr-render", "test");
+  RenderVariant(j, "in-place", o, &same);
+  EXPECT_GT(same.metrics()["frames"][0]["mask_in_reference_change"].get<double>(), 0.9);
+  for (const std::string& w : same.warnings()) EXPECT_EQ(w.find("not where they were"), std::string::npos) << w;
+  Json moved = j;
+  moved["virtual"][0]["transform"]["matrix"][3] = moved["virtual"][0]["transform"]["matrix"][3].get<double>() + 0.6;
+  Report r("mr-render", "test");
+  RenderVariant(moved, "moved", o, &r);
+  EXPECT_LT(r.metrics()["frames"][0]["mask_in_reference_change"].get<double>(), 0.5);
+  bool named = false;
+  for (const std::string& w : r.warnings()) named = named || w.find("not where they were") != std::string::npos;
+  EXPECT_TRUE(named);
+}
+
 // Adaptive sampling stops pixels without losing the object's change: on
 // the diffuse-table capture (pt, 32 spp, threshold 3e-3 from 8 spp) the
 // object's total change over the image (composite - plate, summed) is the

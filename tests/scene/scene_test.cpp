@@ -116,12 +116,14 @@ TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].material.albedo: expected 3 numbers in [0,1], got 1.5");
   j = Valid();
   j["virtual"][0]["colour"] = "red";
-  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].colour: unknown key (allowed here: name, mesh, transform, "
-                        "trajectory, material, formfactors; or light, which makes the entry a virtual light)");
+  EXPECT_EQ(ErrorOf(j),
+            "scene.json: virtual[0].colour: unknown key (allowed here: name, mesh, transform, "
+            "trajectory, material, formfactors; or light, which makes the entry a virtual light)");
   j = Valid();  // one number or three
   j["virtual"][0]["transform"]["scale"] = "0.5";
-  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].transform.scale: expected a number (a uniform scale) or 3 numbers "
-                        "[sx, sy, sz], got string");
+  EXPECT_EQ(ErrorOf(j),
+            "scene.json: virtual[0].transform.scale: expected a number (a uniform scale) or 3 numbers "
+            "[sx, sy, sz], got string");
   j = Valid();
   j["render"]["spp"] = "many";
   EXPECT_EQ(ErrorOf(j), "scene.json: render.spp: expected an integer in [1, 16777216], got string");
@@ -193,7 +195,8 @@ TEST_F(SceneFiles, RestOnPutsTheObjectOnTheSurfaceBelow) {
       << ErrorOf(j);
   j["virtual"][0]["transform"]["rest_on"] = {0.5, 2.0, 0.5};
   j["virtual"][0]["transform"]["translation"] = {0, 0, 0};
-  EXPECT_EQ(ErrorOf(j), "scene.json: virtual[0].transform.rest_on: give either rest_on or translation/matrix, not both");
+  EXPECT_EQ(ErrorOf(j),
+            "scene.json: virtual[0].transform.rest_on: give either rest_on or translation/matrix, not both");
   // Up along +z (a room in its first camera's frame): "below" is -z, which
   // both planes contain, so nothing is below.
   j["virtual"][0]["transform"].erase("translation");

@@ -10,7 +10,7 @@ int main(int argc, char** argv) {
   CLI::App app;
   std::string board_file, out;
   int nx = 0, ny = 0;
-  double square_mm = 0, margin_mm = 10;
+  double square_mm = 0, margin_mm = 5;
   mr::ConfigureApp(app, "mr-board",
                    "Writes a calibration board as an SVG at its physical size, to print at 100% scale.\n"
                    "Give a board definition (calib/boards/*.json: chessboard or ChArUco) or\n"
@@ -28,7 +28,7 @@ int main(int argc, char** argv) {
       "Inner corners, NxM (e.g. 10x10)");
   app.add_option("--square-mm", square_mm, "Square side in millimetres")->check(mr::kPositive);
   app.add_option("--margin-mm", margin_mm, "White margin around the board, millimetres")
-      ->default_val(10)
+      ->default_val(5)
       ->check(mr::kNonNegative);
   double ppmm = 20;
   app.add_option("--charuco-ppmm", ppmm, "ChArUco raster resolution, pixels per millimetre")
@@ -51,7 +51,18 @@ int main(int argc, char** argv) {
     mr::ToolReport().AddOutput(out);
     mr::ToolReport().SetMetric("board.inner_corners", {b.inner_x, b.inner_y});
     mr::ToolReport().SetMetric("board.square_mm", b.square_m * 1000.0);
-    spdlog::info("wrote {} ({} x {} inner corners, {} mm squares)", out, b.inner_x, b.inner_y, b.square_m * 1000);
+    // The page at 100 %, and the smallest ISO A sheet that holds it.
+    const auto [w, h] = mr::BoardPageMm(b, margin_mm);
+    const std::string paper = mr::SmallestIsoA(w, h);
+    mr::ToolReport().SetMetric("page_mm", {w, h});
+    mr::ToolReport().SetMetric("paper", paper);
+    spdlog::info("wrote {} ({} x {} inner corners, {} mm squares; the page is {:.0f} x {:.0f} mm: {})", out, b.inner_x,
+                 b.inner_y, b.square_m * 1000, w, h, paper.empty() ? "larger than A0" : "fits " + paper);
+    if (paper != "A4")
+      mr::ToolReport().Warn(fmt::format(
+          "the page is {:.0f} x {:.0f} mm, larger than A4 (210 x 297 mm): print it on {} at 100 %, or use a board "
+          "made for A4 (calib/boards/charuco-8x11-A4.json, or --inner-corners and --square-mm)",
+          w, h, paper.empty() ? "a plotter" : paper));
     return mr::kExitOk;
   });
 }

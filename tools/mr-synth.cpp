@@ -20,7 +20,11 @@ int main(int argc, char** argv) {
   app.add_option("--preset", o.preset, "small, medium or room")->default_val("small");
   app.add_option("--out", o.out, "Output folder (created)")->required();
   app.add_option("--seed", o.seed, "Random seed")->default_val(1);
-  app.add_option("--object", o.object, "Virtual object: sphere, box, or a mesh file")->default_val("sphere");
+  app.add_option("--object", o.object,
+                 "Virtual object: sphere, box, or a mesh file (scaled to about 30 cm across, turned 28.65 degrees "
+                 "about y and rested on the table top, centred at (0.1, 0.75, 0), as scene.json's transform.rest_on "
+                 "places it; the report's object gives scale, rotation_deg and rests_on)")
+      ->default_val("sphere");
   app.add_flag("--spot-light", o.spot_light, "Add a real spot light above the table (written to lights.json)");
   app.add_option("--frames", o.frames, "Frames of the capture (default: the preset's)")->check(mr::kPositive);
   app.add_flag("--dynamic", o.dynamic,

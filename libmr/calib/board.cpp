@@ -1,5 +1,6 @@
 #include "calib/board.h"
 
+#include <algorithm>
 #include <sstream>
 
 #include "core/error.h"
@@ -93,12 +94,28 @@ std::string Base64(const std::string& in) {
 
 }  // namespace
 
+namespace {
+constexpr double kCaptionMm = 6.0;  // the line under the board giving its size
+}  // namespace
+
+std::pair<double, double> BoardPageMm(const BoardSpec& b, double margin_mm) {
+  return {b.squares_x() * b.square_m * 1000 + 2 * margin_mm,
+          b.squares_y() * b.square_m * 1000 + 2 * margin_mm + kCaptionMm};
+}
+
+std::string SmallestIsoA(double w_mm, double h_mm) {
+  const double lo = std::min(w_mm, h_mm), hi = std::max(w_mm, h_mm);
+  const std::pair<const char*, std::pair<double, double>> sheets[] = {
+      {"A4", {210, 297}}, {"A3", {297, 420}}, {"A2", {420, 594}}, {"A1", {594, 841}}, {"A0", {841, 1189}}};
+  for (const auto& [name, size] : sheets)
+    if (lo <= size.first + 1e-9 && hi <= size.second + 1e-9) return name;
+  return "";
+}
+
 std::string BoardSvg(const BoardSpec& b, double margin_m, double charuco_pixels_per_mm) {
   const double sq = b.square_m * 1000.0, margin = margin_m * 1000.0;
   const double bw = b.squares_x() * sq, bh = b.squares_y() * sq;
-  const double w = bw + 2 * margin;
-  const double caption = 6.0;
-  const double h = bh + 2 * margin + caption;
+  const auto [w, h] = BoardPageMm(b, margin);
   std::ostringstream s;
   s.imbue(std::locale::classic());
   s << "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
@@ -33,6 +34,12 @@ struct BoardSpec {
 BoardSpec ParseBoard(const Json& j, const std::string& name);
 BoardSpec ReadBoard(const fs::path& path);
 Json BoardToJson(const BoardSpec& b);
+
+// The printed page of BoardSvg at 100 %, millimetres (width, height).
+std::pair<double, double> BoardPageMm(const BoardSpec& b, double margin_mm);
+// The smallest ISO A sheet (A4 up to A0) that holds w x h mm either way
+// up ("A4", "A3", ...); empty when none does.
+std::string SmallestIsoA(double w_mm, double h_mm);
 
 // An SVG of the board at its physical size (width/height in mm), with a white
 // quiet zone of `margin_m` around it and a caption giving the size to check

@@ -8,6 +8,7 @@ extern "C" {
 // clang-format on
 }
 
+#include <spdlog/spdlog.h>
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -18,6 +19,7 @@ extern "C" {
 #include "core/error.h"
 #include "core/math.h"
 #include "core/npz.h"
+#include "core/stderr_capture.h"
 
 namespace mr {
 
@@ -93,13 +95,20 @@ mrcal_problem_constants_t Constants() {
   return c;
 }
 
+// mrcal prints its progress to stderr ("mrcal.c(5351): Threw out some
+// outliers ..."): held here and passed on as debug lines (the outliers it
+// threw out are in the report's counts).
 mrcal_stats_t Solve(Problem* p, const mrcal_lensmodel_t& lens, const mrcal_problem_selections_t& sel) {
   const mrcal_problem_constants_t constants = Constants();
   const std::vector<int> imagersizes = p->Imagersizes();
-  return mrcal_optimize(nullptr, 0, nullptr, 0, p->intrinsics.data(), p->extrinsics.data(), p->frames.data(), nullptr,
-                        nullptr, p->ncams, p->Ncams_extrinsics(), p->F(), 0, 0, p->obs.data(), nullptr, p->N(), 0,
-                        p->pool.data(), &lens, imagersizes.data(), sel, &constants, p->spacing, p->nx, p->ny, false,
-                        false);
+  StderrCapture mrcal_lines;
+  const mrcal_stats_t stats = mrcal_optimize(
+      nullptr, 0, nullptr, 0, p->intrinsics.data(), p->extrinsics.data(), p->frames.data(), nullptr, nullptr, p->ncams,
+      p->Ncams_extrinsics(), p->F(), 0, 0, p->obs.data(), nullptr, p->N(), 0, p->pool.data(), &lens, imagersizes.data(),
+      sel, &constants, p->spacing, p->nx, p->ny, false, false);
+  const std::string printed = mrcal_lines.Take();
+  if (!printed.empty()) spdlog::debug("mrcal: {}", printed);
+  return stats;
 }
 
 Eigen::Matrix3d Rodrigues(const Eigen::Vector3d& r) {

@@ -274,7 +274,13 @@ void LightsJob::Once(const Image& env, const std::vector<double>& ref) {
                                           {"rms_relative_with_residual_sh", e.with_residual.rms_relative},
                                           {"normals", o_.normals}});
   if (static_cast<int>(n_lights) < eo.count)
-    report_->Warn(fmt::format("{} lights asked for, {} found", eo.count, n_lights));
+    report_->Warn(
+        eo.method == "blobs"
+            ? fmt::format("{} lights asked for, {} found: the map has only {} connected regions brighter than "
+                          "--threshold {:g} x its mean radiance (a lower threshold finds dimmer ones)",
+                          eo.count, n_lights, n_lights, eo.threshold)
+            : fmt::format("{} lights asked for, {} found: the map holds fewer distinct sources for method {}", eo.count,
+                          n_lights, eo.method));
   spdlog::info(
       "{}: {} lights ({}) in {:.3f} s take {:.1f}% of the energy; irradiance error {:.3g} (RMS), {:.3g} "
       "with the residual's SH",

@@ -68,6 +68,20 @@ std::string Quote(const std::string& s) {
   return q + "'";
 }
 
+// What the radiometry stage (mr-eval plate: the room alone through the
+// plate's poses) reads of the scene: all but the virtual objects, the
+// outputs, the reference and the render settings other than the seed, so
+// that its up-to-date key does not change when only an object moves.
+Json PlateScene(const Json& scene) {
+  Json plate = scene;
+  for (const char* k : {"virtual", "output", "reference"}) plate.erase(k);
+  Json render = Json::object();
+  if (scene.contains("render") && scene["render"].contains("seed")) render["seed"] = scene["render"]["seed"];
+  plate["render"] = render;
+  plate["comment"] = "written by mr-pipeline: scene.json as the radiometry stage reads it (no virtual objects)";
+  return plate;
+}
+
 // The scene stage: scene.json, with the fused room's own albedo (its
 // vertex colours, mr-fuse's de-lit albedo) for every render method.
 void WriteSceneJson(const Pipeline& p) {
@@ -81,6 +95,7 @@ void WriteSceneJson(const Pipeline& p) {
   }
   CheckRenderSettings(ParseScene(scene, p.work, (p.work / "scene.json").string(), true));
   WriteTextFile(p.work / "scene.json", scene.dump(2) + "\n");
+  WriteTextFile(p.work / "scene-plate.json", PlateScene(scene).dump(2) + "\n");
 }
 
 }  // namespace
@@ -285,9 +300,15 @@ void RunPipeline(const Pipeline& p, const PipelineRunOptions& o, Report* report)
     sj["does"] = s.does;
     // Up to date?
     const bool forced = std::find(o.force.begin(), o.force.end(), s.name) != o.force.end();
+    // An input an earlier stage re-makes: a dry run cannot know its new
+    // content, so the stage would run; a real run has made it by now, and
+    // the key (by content) decides (moving an object re-makes scene.json
+    // and scene-plate.json, whose content the radiometry stage reads is the
+    // same).
     std::string upstream;
-    for (const auto& in : s.inputs)
-      if (remade.count(in.string())) upstream = in.string();
+    if (o.dry_run)
+      for (const auto& in : s.inputs)
+        if (remade.count(in.string())) upstream = in.string();
     const fs::path stamp = p.work / ".mr-pipeline" / (s.name + ".json");
     bool inputs_ready = true;
     const std::string key_hex = StageKey(p, s, argv, &inputs_ready);

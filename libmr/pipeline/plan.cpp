@@ -834,7 +834,7 @@ void PlanScene(Plan& st, PipelineStage& s) {
   if (!st.poses.empty()) s.inputs.push_back(st.poses);
   for (const auto& v : st.virtuals)
     if (v.contains("formfactors")) s.inputs.push_back(st.w / v["formfactors"].get<std::string>());
-  s.outputs = {st.scene_file};
+  s.outputs = {st.scene_file, st.w / "scene-plate.json"};
   s.does = st.fused_mesh.empty() ? "scene.json naming every input"
                                  : "scene.json naming every input (the fused room's per-vertex albedo)";
   if (!st.fused_mesh.empty()) {
@@ -860,9 +860,12 @@ void PlanRadiometry(Plan& st, PipelineStage& s) {
     s.skip = st.gains_skip;
     return;
   }
-  s.args = {"plate", st.scene_file.string(), "--out", st.gains_dir.string()};
+  // scene-plate.json: the scene without what the plate check does not read
+  // (written beside scene.json by the scene stage).
+  const fs::path plate_scene = st.w / "scene-plate.json";
+  s.args = {"plate", plate_scene.string(), "--out", st.gains_dir.string()};
   Append(&s.args, st.gains_options);
-  s.inputs = {st.scene_file};
+  s.inputs = {plate_scene};
   Append(&s.inputs, st.per_frame);
   s.outputs = {st.gains_dir};
   s.does = st.use_gains

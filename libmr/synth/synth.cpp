@@ -256,14 +256,28 @@ SynthCapture MakeSynthCapture(const SynthOptions& o) {
   const double scale = 0.3 / std::max(size, 1e-9);  // about 30 cm across
   Eigen::Affine3d& world_from_object = c.world_from_object;
   world_from_object = Eigen::Affine3d::Identity();
-  const Eigen::Vector3d object_at(0.1, 0.75 - scale * ob.min().y(), 0.0);
-  world_from_object.translate(object_at);
-  world_from_object.rotate(Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()));
-  world_from_object.scale(scale);
+  c.object_rests_on = Eigen::Vector3d(0.1, 0.75, 0.0);  // on the table top, its footprint centred there
+  c.object_scale = scale;
+  const Eigen::Vector3d object_at =
+      c.object_rests_on + Eigen::Vector3d(0, -scale * static_cast<double>(ob.min().y()), 0);
+  // Placed as scene.json's transform.rest_on places an object: turned 0.5
+  // rad about y and scaled, its lowest point on the table top, the box
+  // around it centred on object_rests_on across y (so that a scene placing
+  // the user's mesh with rest_on, the same rotation and scale, matches the
+  // truth).
+  c.object_rotation_deg = Eigen::Vector3d(0, 0.5 / kDegToRad, 0);
+  const Eigen::Matrix3d linear = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY()).toRotationMatrix() * scale;
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const Eigen::Vector3f& v : object.positions) {
+    lo = lo.cwiseMin(linear * v.cast<double>());
+    hi = hi.cwiseMax(linear * v.cast<double>());
+  }
+  world_from_object.linear() = linear;
+  world_from_object.translation() =
+      c.object_rests_on - Eigen::Vector3d((lo.x() + hi.x()) / 2, lo.y(), (lo.z() + hi.z()) / 2);
   Eigen::Vector3d oc = 0.5 * (ob.min() + ob.max()).cast<double>();
   const Eigen::Vector3d object_centre(oc.x(), 0, oc.z());
   const double object_scale = scale;
-  world_from_object.translate(-object_centre);
   Material& object_material = c.object_material;
   object_material = Diffuse(0.8, 0.75, 0.7);
   if (o.object_material == "glossy") {
@@ -767,6 +781,13 @@ void RunSynth(const SynthOptions& o, Report* report) {
         region, 3 * region);
   }
   report->SetMetric("size", {p.width, p.height});
+  // What --object became: mr-synth sets any mesh about 30 cm across on the
+  // table (scene.json's virtual[0].transform places it so in the scene).
+  report->SetMetric(
+      "object", {{"mesh", o.object},
+                 {"scale", c.object_scale},
+                 {"rotation_deg", {c.object_rotation_deg.x(), c.object_rotation_deg.y(), c.object_rotation_deg.z()}},
+                 {"rests_on", {c.object_rests_on.x(), c.object_rests_on.y(), c.object_rests_on.z()}}});
   report->SetMetric("sun_to_sky", p.sun_to_sky);
   report->SetMetric("changed_values", changed);
   report->SetMetric("dynamic", o.dynamic);

@@ -120,6 +120,11 @@ struct SynthCapture {
   int truth_spp = 0;
   std::vector<SynthPart> parts;
   Mesh object;
+  // The object scaled to about 30 cm across (object_scale) and rested on the
+  // table top, its footprint centred at object_rests_on.
+  double object_scale = 1;
+  Eigen::Vector3d object_rotation_deg = Eigen::Vector3d::Zero();  // x, y, z as scene.json's rotation_deg
+  Eigen::Vector3d object_rests_on = Eigen::Vector3d::Zero();
   Eigen::Affine3d world_from_object = Eigen::Affine3d::Identity();
   Material object_material;
   Image sky;

@@ -54,6 +54,15 @@ check "given: edited output detected" 0 "output changed since" -- "$P" "$tmp/giv
 check "given: --until scene" 0 "after --until scene" -- "$P" "$tmp/given.json" --until scene --dry-run
 check "given: --until a stage left out" 0 "render      skipped     after --until fuse" -- "$P" "$tmp/given.json" --until fuse --dry-run
 check "given: unknown stage" 2 "no such stage" -- "$P" "$tmp/given.json" --until paint
+# Only the object moved: the radiometry stage (the room alone) is not re-run, the render is.
+check "given: up to date again" 0 "" -- "$P" "$tmp/given.json" -q
+radiometry_before=$(stat -c %Y "$tmp/given-work/reports/radiometry.json")
+render_before=$(stat -c %Y "$tmp/given-work/reports/render.json")
+sleep 1
+sed -i 's/"translation": \[0.1, 0.9, 0\]/"translation": [0.15, 0.9, 0]/' "$tmp/given.json"
+check "given: object moved: runs" 0 "" -- "$P" "$tmp/given.json" -q
+check "given: object moved: radiometry kept" 0 "" -- test "$radiometry_before" = "$(stat -c %Y "$tmp/given-work/reports/radiometry.json")"
+check "given: object moved: render re-run" 0 "" -- test "$render_before" != "$(stat -c %Y "$tmp/given-work/reports/render.json")"
 
 # 2. A probe bracket (HDR merge, unwrapping with a given probe.json, lights),
 #    a fused room, and prt: form factors are computed.

@@ -46,7 +46,7 @@ check "scene unknown key" 1 "mr-info: error: $tmp/scene.json: real.colour: unkno
 # mr-info leaves nothing behind; mr-board writes its SVG atomically.
 before=$(ls -A "$tmp" | wc -l)
 check "mr-board" 0 "" -- "$bin/mr-board" --inner-corners 10x10 --square-mm 30 --out "$tmp/board.svg"
-check "mr-board svg size" 0 'width="350mm"' -- cat "$tmp/board.svg"
+check "mr-board svg size" 0 'width="340mm"' -- cat "$tmp/board.svg"  # 11 x 30 mm + 2 x 5 mm margin
 check "mr-board bad folder" 1 "does not exist" -- "$bin/mr-board" --inner-corners 10x10 --square-mm 30 --out "$tmp/no/board.svg"
 after=$(ls -A "$tmp" | wc -l)
 check "no stray files" 0 "" -- test "$after" -eq $((before + 1))

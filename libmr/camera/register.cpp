@@ -608,7 +608,6 @@ void RegisterFrames(const std::vector<fs::path>& images, ColmapRunOptions co, co
     } catch (const AlignmentError& e) {
       if (attempt >= attempts) throw;
       report->Warn(fmt::format("COLMAP attempt {} (seed {}): {}; running it again", attempt, co.seed, e.message()));
-      spdlog::warn("COLMAP attempt {}: {}; running it again", attempt, e.message());
     }
   }
 }

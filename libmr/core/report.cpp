@@ -1,5 +1,7 @@
 #include "core/report.h"
 
+#include <spdlog/spdlog.h>
+
 #include "core/error.h"
 #include "core/version.h"
 
@@ -17,7 +19,10 @@ void Report::Skip(const std::string& what, const std::string& why) {
   skipped_.push_back({{"what", what}, {"why", why}});
 }
 
-void Report::Warn(const std::string& message) { warnings_.push_back(message); }
+void Report::Warn(const std::string& message) {
+  spdlog::warn("{}", message);  // said where the user is, not only in the report
+  warnings_.push_back(message);
+}
 
 void Report::SetMetric(const std::string& dotted_key, const nlohmann::json& value) {
   nlohmann::json* node = &metrics_;

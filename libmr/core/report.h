@@ -23,6 +23,7 @@ class Report {
   // Adds to the time spent in `part` (parts repeat across frames).
   void AddTiming(const std::string& part, double seconds);
   void Skip(const std::string& what, const std::string& why);
+  // Kept in the report and logged as a warning on stderr.
   void Warn(const std::string& message);
   // metrics["a"]["b"] = v for key "a.b".
   void SetMetric(const std::string& dotted_key, const nlohmann::json& value);

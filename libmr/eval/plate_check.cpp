@@ -320,7 +320,6 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     }
     const GainFit& fit = fits.back();
     if (!fit.ok) {
-      spdlog::warn("frame {}: no gain fit: {}", f, fit.why);
       report->Warn(fmt::format("frame {}: no gain fit: {}", f, fit.why));
     }
     const Image fitted = Scaled(real, fit.ok ? fit.gain : Rgb{1, 1, 1});

@@ -124,7 +124,6 @@ JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, Rend
     // Every input of every frame to render, checked before the first frame.
     ScopedTimer t(report, "check inputs");
     for (const std::string& w : CheckSceneInputs(scene, in.camera.width(), in.camera.height(), begin, end).warnings) {
-      spdlog::warn("{}", w);
       report->Warn(w);
     }
   }
@@ -440,7 +439,6 @@ void RenderJob::CheckCrossings(int f, const std::vector<std::string>* moved) {
       const std::string w = fmt::format(
           "frame {}: virtual object \"{}\" passes through real geometry ({} of its edges cross a real surface)", f,
           name, n);
-      spdlog::warn("{}", w);
       report_->Warn(w);
     }
   }

@@ -47,6 +47,8 @@ check "scene unknown key" 1 "mr-info: error: $tmp/scene.json: real.colour: unkno
 before=$(ls -A "$tmp" | wc -l)
 check "mr-board" 0 "" -- "$bin/mr-board" --inner-corners 10x10 --square-mm 30 --out "$tmp/board.svg"
 check "mr-board svg size" 0 'width="340mm"' -- cat "$tmp/board.svg"  # 11 x 30 mm + 2 x 5 mm margin
+check "mr-board: larger than A4 said" 0 "larger than A4 (210 x 297 mm): print it on A2" -- "$bin/mr-board" --inner-corners 10x10 --square-mm 30 --out "$tmp/board.svg"
+check "mr-board: the A4 board fits A4" 0 "fits A4" -- "$bin/mr-board" "$src/calib/boards/charuco-8x11-A4.json" --out "$tmp/board.svg"
 check "mr-board bad folder" 1 "does not exist" -- "$bin/mr-board" --inner-corners 10x10 --square-mm 30 --out "$tmp/no/board.svg"
 after=$(ls -A "$tmp" | wc -l)
 check "no stray files" 0 "" -- test "$after" -eq $((before + 1))
@@ -163,6 +165,7 @@ check "mr-lights" 0 "" -- "$bin/mr-lights" "$tmp/env.exr" --method median-cut --
 check "lights.json" 0 "lights: 16 (0 virtual)" -- "$bin/mr-info" "$tmp/lights.json"
 check "lights report" 0 '"irradiance_error"' -- cat "$tmp/lights-report.json"
 check "mr-lights blobs" 0 "" -- "$bin/mr-lights" "$tmp/cap/env.exr" --method blobs --count 4 --out "$tmp/blobs.json" --residual "$tmp/rest.exr" -q
+check "mr-lights: fewer than asked, said why" 0 "connected regions brighter than --threshold 20" -- "$bin/mr-lights" "$tmp/cap/env.exr" --method blobs --count 64 --threshold 20 --out "$tmp/blobs64.json"
 check "blobs name their residual" 0 '"map": "rest.exr"' -- cat "$tmp/blobs.json"
 sed 's|"environment": "env.exr"|"environment": "../rest.exr", "lights": "../blobs.json"|' "$tmp/cap/scene.json" > "$tmp/cap/scene-blobs.json"
 check "scene lit by the blobs and their residual" 0 "valid" -- "$bin/mr-info" "$tmp/cap/scene-blobs.json"

@@ -26,7 +26,6 @@ Usage: bench/asset_catcher_compare.py BIN_DIR MIRRORBALL_OUT OUT_DIR [--spp N] [
 """
 import json
 import os
-import shutil
 import subprocess
 import sys
 import time
@@ -35,35 +34,21 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, "..", "tests", "crosscheck"))
 sys.path.insert(0, HERE)
 os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
+from asset_plate_compare import setup, showcase  # noqa: E402
 
 
 def main():
-    bin_dir, mb, work = sys.argv[1], os.path.abspath(sys.argv[2]), os.path.abspath(sys.argv[3])
-    spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else 64
-    blender = shutil.which("blender")
-    if not blender:
-        print("SKIP: blender is not installed")
-        return 77
-    if not os.path.exists(os.path.join(mb, "scene-asset.json")):
-        print("SKIP: run examples/mirrorball/run.sh %s first" % mb)
-        return 77
-    import ast
-
+    s = setup(64)
+    if isinstance(s, int):
+        return s
+    bin_dir, mb, work, spp, blender = s
     import cv2
     import numpy as np
     from asset_compare import render_cycles_pair
     from mr_to_blender import env_for_blender
-    os.makedirs(work, exist_ok=True)
-    src = json.load(open(os.path.join(mb, "scene-asset.json")))
-    albedo = cv2.imread(os.path.join(mb, "counter-albedo.exr"), cv2.IMREAD_UNCHANGED)[:, :, ::-1]
-    rho = [float(x) for x in np.median(albedo.reshape(-1, 3), axis=0)]
-    asset = [v for v in src["virtual"] if v["name"] == "showcase"][0]
-    M = np.array(asset["transform"]["matrix"], float).reshape(4, 4)
-    glb = os.path.join(mb, asset["mesh"])
-    model = open(os.path.join(mb, src["camera"]["model"])).read()
-    cm = ast.literal_eval(model[model.index("{"):])
-    fx, fy, cx, cy = cm["intrinsics"]
-    w, h = cm["imagersize"]
+    sc = showcase(mb)
+    src, rho, asset, M, glb = sc["src"], sc["rho"], sc["asset"], sc["M"], sc["glb"]
+    fx, fy, cx, cy, w, h = (sc[k] for k in ("fx", "fy", "cx", "cy", "w", "h"))
 
     times = {}
     for seed, out in ((3, "mr"), (4, "mr2")) if "--reuse" not in sys.argv else ():

@@ -30,9 +30,11 @@ sys.path.insert(0, CROSS)
 os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
 
 
-def main():
+def setup(default_spp):
+    """The command line and the inputs' presence: (bin_dir, mirrorball_out,
+    work, spp, blender), or an exit code (77: skipped, and why printed)."""
     bin_dir, mb, work = sys.argv[1], os.path.abspath(sys.argv[2]), os.path.abspath(sys.argv[3])
-    spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else 256
+    spp = int(sys.argv[sys.argv.index("--spp") + 1]) if "--spp" in sys.argv else default_spp
     blender = shutil.which("blender")
     if not blender:
         print("SKIP: blender is not installed")
@@ -40,22 +42,41 @@ def main():
     if not os.path.exists(os.path.join(mb, "scene-asset.json")):
         print("SKIP: run examples/mirrorball/run.sh %s first" % mb)
         return 77
+    os.makedirs(work, exist_ok=True)
+    return bin_dir, mb, work, spp, blender
+
+
+def showcase(mb):
+    """What examples/mirrorball/run.sh step 7 wrote: its scene (src), the
+    counter's median de-lit albedo (rho), the showcase entry, its placement
+    M (4x4), the .glb, and the plate's pinhole (fx, fy, cx, cy, w, h)."""
+    import ast
+
     import cv2
     import numpy as np
-    from mr_to_blender import env_for_blender
-    from asset_compare import compare_in_region, render_cycles_pair
-    os.makedirs(work, exist_ok=True)
     src = json.load(open(os.path.join(mb, "scene-asset.json")))
     albedo = cv2.imread(os.path.join(mb, "counter-albedo.exr"), cv2.IMREAD_UNCHANGED)[:, :, ::-1]
-    rho = [float(x) for x in np.median(albedo.reshape(-1, 3), axis=0)]
     asset = [v for v in src["virtual"] if v["name"] == "showcase"][0]
-    M = np.array(asset["transform"]["matrix"], float).reshape(4, 4)
-    glb = os.path.join(mb, asset["mesh"])
     model = open(os.path.join(mb, src["camera"]["model"])).read()
-    import ast
     cm = ast.literal_eval(model[model.index("{"):])
     fx, fy, cx, cy = cm["intrinsics"]
     w, h = cm["imagersize"]
+    return dict(src=src, rho=[float(x) for x in np.median(albedo.reshape(-1, 3), axis=0)], asset=asset,
+                M=np.array(asset["transform"]["matrix"], float).reshape(4, 4), glb=os.path.join(mb, asset["mesh"]),
+                fx=fx, fy=fy, cx=cx, cy=cy, w=w, h=h)
+
+
+def main():
+    s = setup(256)
+    if isinstance(s, int):
+        return s
+    bin_dir, mb, work, spp, blender = s
+    import numpy as np
+    from mr_to_blender import env_for_blender
+    from asset_compare import compare_in_region, render_cycles_pair
+    sc = showcase(mb)
+    src, rho, M, glb = sc["src"], sc["rho"], sc["M"], sc["glb"]
+    fx, fy, cx, cy, w, h = (sc[k] for k in ("fx", "fy", "cx", "cy", "w", "h"))
 
     times = {}
     for seed, out in ((3, "mr"), (4, "mr2")):

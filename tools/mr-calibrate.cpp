@@ -56,7 +56,8 @@ int main(int argc, char** argv) {
   sph->add_option("--radius", so.radius_m, "The sphere's radius, metres (measured with calipers)")
       ->required()
       ->check(mr::kPositive);
-  sph->add_option("--circle", circle, "A first circle x,y,r px instead of the Hough transform")
+  sph->add_option("--circle", circle,
+                  "A first circle x,y,r px instead of the Hough transform (the rim's edges found in either polarity)")
       ->delimiter(',')
       ->expected(3);
   sph->add_option("--min-visible", so.min_visible, "Refuse when less of the silhouette is in the image")
@@ -67,7 +68,9 @@ int main(int argc, char** argv) {
       ->check(CLI::ExistingFile);
   sph->add_option("--board", board_file, "Board definition, for --world-board")->check(CLI::ExistingFile);
   sph->add_option("--out", out, "probe.json to write")->required();
-  sph->add_option("images", images, "Photographs of the sphere (camera and sphere fixed)")
+  sph->add_option("images", images,
+                  "Photographs of the sphere (camera and sphere fixed), or masks of its silhouette (two levels, "
+                  "either polarity: the sphere is the level less present on the border)")
       ->required()
       ->check(CLI::ExistingFile);
   return mr::RunTool("mr-calibrate", app, argc, argv, [&] {

@@ -206,12 +206,14 @@ void RunSphereCalibration(const SphereJob& job, Report* rep) {
                            {"rms_px", fit.rms_px},
                            {"correlation", fit.correlation},
                            {"visible_fraction", fit.visible_fraction},
-                           {"first_circle_px", {fit.first_circle.x(), fit.first_circle.y(), fit.first_circle.z()}}});
+                           {"first_circle_px", {fit.first_circle.x(), fit.first_circle.y(), fit.first_circle.z()}},
+                           {"silhouette", fit.silhouette}});
+      if (fit.mask_mismatch >= 0) per_image.back()["mask_mismatch"] = fit.mask_mismatch;
       spdlog::info(
           "{}: centre ({:.4f}, {:.4f}, {:.4f}) m, 1 sigma ({:.2g}, {:.2g}, {:.2g}) m; {} of {} edge points, "
-          "RMS {:.3f} px, {:.0f}% of the outline visible",
+          "RMS {:.3f} px, {:.0f}% of the outline visible; silhouette from {}",
           f, fit.centre.x(), fit.centre.y(), fit.centre.z(), s.x(), s.y(), s.z(), fit.inliers, fit.edge_points,
-          fit.rms_px, 100 * fit.visible_fraction);
+          fit.rms_px, 100 * fit.visible_fraction, fit.silhouette);
       if (fit.visible_fraction < 0.9)
         report.Warn(
             fmt::format("{}: only {:.0f}% of the sphere's outline is in the image; the distance to it is less "

@@ -22,7 +22,7 @@ namespace {
 // dynamic range; the linear one places the step without the log's bias
 // towards the darker side.
 struct LuminanceImage {
-  cv::Mat linear, log;
+  cv::Mat raw, linear, log;  // raw: unsmoothed
 };
 
 LuminanceImage LogLuminance(const Image& photo, const std::string& name) {
@@ -43,6 +43,7 @@ LuminanceImage LogLuminance(const Image& photo, const std::string& name) {
   if (!(peak > 0)) ThrowErrorAt(FileLoc{name}, "the photograph is black");
   const float floor = 1e-6f * peak;
   LuminanceImage out;
+  out.raw = L.clone();
   cv::GaussianBlur(L, out.linear, cv::Size(0, 0), 1.0);
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) L.at<float>(y, x) = std::log(std::max(floor, L.at<float>(y, x)));
@@ -69,7 +70,7 @@ struct Edge {
 // would leave the image are not visible; `visible` counts the others.
 std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& camera,
                               const std::vector<Eigen::Vector2d>& p, const std::vector<Eigen::Vector2d>& n,
-                              const std::vector<char>& ok, double band, int* visible) {
+                              const std::vector<char>& ok, double band, int polarity, int* visible) {
   const cv::Mat& L = lum.log;
   const double step = 0.5;
   const int m = static_cast<int>(std::ceil(band / step));
@@ -97,10 +98,11 @@ std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& came
     std::vector<double> g(static_cast<size_t>(2 * m + 1), 0.0);
     double gmax = 0;
     for (int i = g_lo; i <= g_hi; ++i) {
-      // Outward positive: the sphere reflects less than all (reflectance
-      // < 1), so at the rim the log luminance drops going inwards whatever
-      // the scene does further in.
-      g[static_cast<size_t>(i)] = std::max(0.0, v[static_cast<size_t>(i + 2)] - v[static_cast<size_t>(i)]);
+      // Outward positive (polarity +1): the sphere reflects less than all
+      // (reflectance < 1), so at the rim the log luminance drops going
+      // inwards whatever the scene does further in.  A mask or a ball lit
+      // brighter than its background steps the other way (polarity -1).
+      g[static_cast<size_t>(i)] = std::max(0.0, polarity * (v[static_cast<size_t>(i + 2)] - v[static_cast<size_t>(i)]));
       gmax = std::max(gmax, g[static_cast<size_t>(i)]);
     }
     // The outermost strong step: the reflection just inside the rim is the
@@ -122,7 +124,7 @@ std::vector<Edge> SearchEdges(const LuminanceImage& lum, const CameraModel& came
     for (int i = std::max(g_lo, best - 3); i <= std::min(g_hi, best + 3); ++i) {
       const Eigen::Vector2d q0 = p[k] + (i - m - 1) * step * n[k], q1 = p[k] + (i - m + 1) * step * n[k];
       gl[static_cast<size_t>(i)] =
-          std::max(0.0, Bilinear(lum.linear, q1.x(), q1.y()) - Bilinear(lum.linear, q0.x(), q0.y()));
+          std::max(0.0, polarity * (Bilinear(lum.linear, q1.x(), q1.y()) - Bilinear(lum.linear, q0.x(), q0.y())));
     }
     int lin = best;
     for (int i = std::max(g_lo + 1, best - 2); i <= std::min(g_hi - 1, best + 2); ++i)
@@ -246,10 +248,19 @@ void CirclePoints(const Eigen::Vector3d& c, int n, std::vector<Eigen::Vector2d>*
   }
 }
 
+struct FirstCircle {
+  Eigen::Vector3d circle = Eigen::Vector3d::Zero();  // x, y, r px
+  int polarity = 1;                                  // +1: darker inside the rim
+};
+
 // Hough candidates (OpenCV), each scored by the share of its whole outline
-// where the image darkens inwards (a mirror's rim): a sphere seen whole
-// beats a long arc of the scene (a fish-eye's horizon is a circle too).
-Eigen::Vector3d FirstCircle(const LuminanceImage& lum, const CameraModel& camera, const std::string& name) {
+// where the image steps at the rim one way: a sphere seen whole beats a
+// long arc of the scene (a fish-eye's horizon is a circle too).  A mirror
+// darkens inwards (polarity +1) and is searched first; a ball brighter
+// than its surroundings (-1) only where that finds none on a quarter of
+// its outline (a mirror's reflection just inside its rim steps both ways,
+// so the two are not compared candidate by candidate).
+FirstCircle HoughCircle(const LuminanceImage& lum, const CameraModel& camera, const std::string& name) {
   const cv::Mat& L = lum.log;
   // 8 bits over the 1st to 99th percentile of the log luminance: a sun
   // must not flatten the rest.
@@ -261,33 +272,103 @@ Eigen::Vector3d FirstCircle(const LuminanceImage& lum, const CameraModel& camera
   cv::medianBlur(g8, g8, 5);
   const int m = std::min(L.rows, L.cols);
   double best_score = 0;
-  Eigen::Vector3d best(0, 0, 0);
-  for (double votes : {60.0, 40.0, 25.0, 15.0}) {
-    std::vector<cv::Vec3f> circles;
-    cv::HoughCircles(g8, circles, cv::HOUGH_GRADIENT, 1.0, m / 10.0, 80, votes, std::max(6, m / 40),
-                     std::max(L.rows, L.cols) / 2);
-    for (size_t i = 0; i < std::min<size_t>(circles.size(), 8); ++i) {
-      const Eigen::Vector3d c(circles[i][0], circles[i][1], circles[i][2]);
-      const int n = Clamp(static_cast<int>(kTwoPi * c.z() / 2), 64, 720);
-      std::vector<Eigen::Vector2d> p, nrm;
-      CirclePoints(c, n, &p, &nrm);
-      int visible = 0;
-      const double score =
-          static_cast<double>(SearchEdges(lum, camera, p, nrm, std::vector<char>(static_cast<size_t>(n), 1),
-                                          std::max(2.0, 0.05 * c.z()), &visible)
-                                  .size()) /
-          n;
-      if (score > best_score) {
-        best_score = score;
-        best = c;
+  FirstCircle best;
+  for (int polarity : {1, -1}) {
+    for (double votes : {60.0, 40.0, 25.0, 15.0}) {
+      std::vector<cv::Vec3f> circles;
+      cv::HoughCircles(g8, circles, cv::HOUGH_GRADIENT, 1.0, m / 10.0, 80, votes, std::max(6, m / 40),
+                       std::max(L.rows, L.cols) / 2);
+      for (size_t i = 0; i < std::min<size_t>(circles.size(), 8); ++i) {
+        const Eigen::Vector3d c(circles[i][0], circles[i][1], circles[i][2]);
+        const int n = Clamp(static_cast<int>(kTwoPi * c.z() / 2), 64, 720);
+        std::vector<Eigen::Vector2d> p, nrm;
+        CirclePoints(c, n, &p, &nrm);
+        int visible = 0;
+        const double score =
+            static_cast<double>(SearchEdges(lum, camera, p, nrm, std::vector<char>(static_cast<size_t>(n), 1),
+                                            std::max(2.0, 0.05 * c.z()), polarity, &visible)
+                                    .size()) /
+            n;
+        if (score > best_score) {
+          best_score = score;
+          best = {c, polarity};
+        }
       }
+      if (best_score > 0.5) break;
     }
-    if (best_score > 0.5) break;
+    if (best_score >= 0.25) break;
   }
   if (best_score < 0.25)
     ThrowErrorAt(FileLoc{name},
                  "no circular silhouette found (Hough transform); give the sphere's circle with --circle x,y,r");
   return best;
+}
+
+// A silhouette mask: 90% of the pixels exactly at the darkest or the
+// brightest level, each level at least 0.1% (a photograph's noise never
+// does this; the rest is a mask's antialiased rim).  The sphere is the class with fewer pixels on the
+// image's border, its largest connected region the silhouette.
+struct MaskRegion {
+  cv::Mat region;  // CV_8U, 255 on the silhouette
+  FirstCircle first;
+  double area = 0;  // px
+};
+
+std::optional<MaskRegion> FindMask(const cv::Mat& raw, const std::string& name) {
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(raw, &lo, &hi);
+  if (!(hi > lo)) return std::nullopt;
+  int64_t at_lo = 0, at_hi = 0;
+  for (auto it = raw.begin<float>(); it != raw.end<float>(); ++it) {
+    at_lo += *it == lo;
+    at_hi += *it == hi;
+  }
+  const double n = static_cast<double>(raw.total());
+  if (at_lo + at_hi < 0.9 * n || at_lo < 1e-3 * n || at_hi < 1e-3 * n) return std::nullopt;
+  const cv::Mat bright = raw > 0.5 * (lo + hi);
+  int64_t border_bright = 0, border = 0;
+  for (int y = 0; y < raw.rows; ++y)
+    for (int x = 0; x < raw.cols; ++x)
+      if (y == 0 || x == 0 || y == raw.rows - 1 || x == raw.cols - 1) {
+        ++border;
+        border_bright += bright.at<uint8_t>(y, x) != 0;
+      }
+  MaskRegion m;
+  m.first.polarity = 2 * border_bright <= border ? -1 : 1;  // a bright ball steps down going outwards
+  const cv::Mat ball = m.first.polarity < 0 ? bright : ~bright;
+  cv::Mat labels, stats, centroids;
+  const int k = cv::connectedComponentsWithStats(ball, labels, stats, centroids, 8, CV_32S);
+  int best = 0;
+  for (int i = 1; i < k; ++i)
+    if (best == 0 || stats.at<int>(i, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = i;
+  if (best == 0) ThrowErrorAt(FileLoc{name}, "is a mask with no region in it");
+  m.area = stats.at<int>(best, cv::CC_STAT_AREA);
+  m.region = labels == best;
+  m.first.circle =
+      Eigen::Vector3d(centroids.at<double>(best, 0), centroids.at<double>(best, 1), std::sqrt(m.area / kPi));
+  return m;
+}
+
+// The mask against the fitted sphere's silhouette: the share of the
+// region's pixels more than 2 px outside or inside the fitted outline.
+// A disc under any lens leaves none but the corners of its pixels.
+double MaskMismatch(const MaskRegion& mask, const CameraModel& camera, const Eigen::Vector3d& axis, double alpha) {
+  std::vector<Eigen::Vector2d> p, nrm;
+  std::vector<char> ok;
+  Silhouette(camera, axis, alpha, 720, &p, &nrm, &ok);
+  std::vector<cv::Point> poly;
+  for (size_t i = 0; i < p.size(); ++i)
+    if (ok[i])
+      poly.emplace_back(static_cast<int>(std::lround(p[i].x() * 8)), static_cast<int>(std::lround(p[i].y() * 8)));
+  if (poly.size() < 3) return 1;
+  cv::Mat fitted = cv::Mat::zeros(mask.region.size(), CV_8U);
+  cv::fillPoly(fitted, std::vector<std::vector<cv::Point>>{poly}, cv::Scalar(255), cv::LINE_8, 3);
+  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5));
+  cv::Mat grown, shrunk;
+  cv::dilate(fitted, grown, kernel);
+  cv::erode(fitted, shrunk, kernel);
+  const double outside = cv::countNonZero(mask.region & ~grown), missing = cv::countNonZero(shrunk & ~mask.region);
+  return (outside + missing) / std::max(1.0, mask.area);
 }
 
 }  // namespace
@@ -307,7 +388,19 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
                  camera.width(), camera.height());
   const LuminanceImage L = LogLuminance(photo, name);
   SphereFit fit;
-  fit.first_circle = o.circle ? *o.circle : FirstCircle(L, camera, name);
+  // The first circle and the rim's polarity: a mask's region, a given
+  // circle, or the Hough transform.
+  const std::optional<MaskRegion> mask = FindMask(L.raw, name);
+  int polarity = mask ? mask->first.polarity : 1;
+  if (o.circle) {
+    fit.first_circle = *o.circle;
+  } else if (mask) {
+    fit.first_circle = mask->first.circle;
+  } else {
+    const FirstCircle fc = HoughCircle(L, camera, name);
+    fit.first_circle = fc.circle;
+    polarity = fc.polarity;
+  }
   const Eigen::Vector3d c0 = fit.first_circle;
   if (!(c0.z() >= 4))
     ThrowErrorAt(FileLoc{name}, "the sphere's circle has a radius of {:.1f} px; at least 4 px are needed", c0.z());
@@ -319,7 +412,24 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
   std::vector<char> ok(static_cast<size_t>(n), 1);
   CirclePoints(c0, n, &p, &nrm);
   int visible = 0;
-  std::vector<Edge> edges = SearchEdges(L, camera, p, nrm, ok, std::max(3.0, 0.2 * c0.z()), &visible);
+  const double band1 = std::max(3.0, 0.2 * c0.z());
+  std::vector<Edge> edges = SearchEdges(L, camera, p, nrm, ok, band1, polarity, &visible);
+  if (o.circle && !mask && edges.size() < std::max<size_t>(12, static_cast<size_t>(n / 4))) {
+    // A given circle says nothing of the polarity: as the Hough transform,
+    // brighter inside only where darker finds under a quarter of the rim.
+    int visible_b = 0;
+    std::vector<Edge> b = SearchEdges(L, camera, p, nrm, ok, band1, -1, &visible_b);
+    if (b.size() > edges.size()) {
+      edges = std::move(b);
+      polarity = -1;
+    }
+  }
+  fit.polarity = polarity;
+  fit.silhouette = fmt::format("{}: the sphere {} than its surroundings",
+                               mask       ? (o.circle ? "a mask, from the circle given" : "a mask")
+                               : o.circle ? "the circle given"
+                                          : "the Hough transform",
+                               polarity > 0 ? "darker" : "brighter");
   if (edges.size() < 12)
     ThrowErrorAt(FileLoc{name}, "only {} edge points found around the sphere's circle ({:.0f}, {:.0f}, r {:.0f} px)",
                  edges.size(), c0.x(), c0.y(), c0.z());
@@ -354,7 +464,7 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
     // Along the fitted cone's own silhouette, in a band of a few sigma.
     Silhouette(camera, axis, alpha, n, &p, &nrm, &ok);
     const double band = Clamp(4 * sigma * px_per_rad, 2.0, std::max(2.0, 0.1 * c0.z()));
-    edges = SearchEdges(L, camera, p, nrm, ok, band, &visible);
+    edges = SearchEdges(L, camera, p, nrm, ok, band, polarity, &visible);
     fit.visible_fraction = static_cast<double>(visible) / n;
     if (fit.visible_fraction < o.min_visible)
       ThrowErrorAt(FileLoc{name},
@@ -385,6 +495,14 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
                  2 * alpha / kDegToRad);
   if (fit.inliers < 12)
     ThrowErrorAt(FileLoc{name}, "only {} of {} edge points agree on one sphere", fit.inliers, fit.edge_points);
+  if (mask) {
+    fit.mask_mismatch = MaskMismatch(*mask, camera, axis, alpha);
+    if (fit.mask_mismatch > 0.02)
+      ThrowErrorAt(FileLoc{name},
+                   "is a mask, but its region is no sphere's silhouette: {:.1f}% of it lies more than 2 px from the "
+                   "fitted outline (at most 2% for a disc)",
+                   100 * fit.mask_mismatch);
+  }
   // Neighbouring edge points err together (the texture of the reflection
   // near the rim, the blur): the residuals' autocorrelation along the
   // silhouette, summed while positive, inflates the variance by the number

@@ -39,10 +39,18 @@ struct SphereFit {
   double visible_fraction = 0;  // of the fitted silhouette
   Eigen::Vector3d first_circle = Eigen::Vector3d::Zero();  // x, y, r px
   std::vector<Eigen::Vector2d> edges;                      // the inlier edge points, px
+  int polarity = 1;           // +1: the sphere darker than its surroundings at the rim (a mirror), -1 brighter
+  std::string silhouette;     // where the first circle came from and the polarity, in words
+  double mask_mismatch = -1;  // a mask: the share of its region > 2 px from the fitted outline; -1: no mask
 };
 
-// `name` names the photograph in messages.  Throws mr::Error with the
-// reason when no sphere is found or too little of it is visible.
+// `photo`: a photograph of the sphere, or a mask of its silhouette (nearly
+// every pixel at one of two levels, either polarity; the sphere is the
+// class less present on the image's border).  The rim is searched darker
+// inside (a mirror) first, brighter inside where that finds none; a mask
+// says its polarity.  `name` names the photograph in messages.  Throws
+// mr::Error with the reason when no sphere is found, too little of it is
+// visible, or a mask's region is not a sphere's silhouette.
 SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const SphereOptions& options,
                           const std::string& name);
 

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "core/math.h"
 
@@ -24,6 +25,17 @@ namespace {
 struct LuminanceImage {
   cv::Mat raw, linear, log;  // raw: unsmoothed
 };
+
+// Smoothed by a Gaussian of 1 px, linear and log (floored at 1e-6 of the peak).
+LuminanceImage Smoothed(cv::Mat L, float peak) {
+  LuminanceImage out;
+  out.raw = L.clone();
+  cv::GaussianBlur(L, out.linear, cv::Size(0, 0), 1.0);
+  const float floor = 1e-6f * peak;
+  for (auto it = L.begin<float>(); it != L.end<float>(); ++it) *it = std::log(std::max(floor, *it));
+  cv::GaussianBlur(L, out.log, cv::Size(0, 0), 1.0);
+  return out;
+}
 
 LuminanceImage LogLuminance(const Image& photo, const std::string& name) {
   const int W = photo.width(), H = photo.height();
@@ -41,13 +53,20 @@ LuminanceImage LogLuminance(const Image& photo, const std::string& name) {
       peak = std::max(peak, v);
     }
   if (!(peak > 0)) ThrowErrorAt(FileLoc{name}, "the photograph is black");
-  const float floor = 1e-6f * peak;
-  LuminanceImage out;
-  out.raw = L.clone();
-  cv::GaussianBlur(L, out.linear, cv::Size(0, 0), 1.0);
-  for (int y = 0; y < H; ++y)
-    for (int x = 0; x < W; ++x) L.at<float>(y, x) = std::log(std::max(floor, L.at<float>(y, x)));
-  cv::GaussianBlur(L, out.log, cv::Size(0, 0), 1.0);
+  return Smoothed(L, peak);
+}
+
+// A mask's levels in between as coverage in sRGB code values: how an 8-bit
+// mask is painted and antialiased (its decoded linear values would move the
+// rim by about 0.2 px towards the darker level, opposite ways for the two
+// polarities).
+LuminanceImage MaskCoverage(const cv::Mat& raw, double lo, double hi) {
+  cv::Mat c(raw.size(), CV_32F);
+  for (int y = 0; y < raw.rows; ++y)
+    for (int x = 0; x < raw.cols; ++x)
+      c.at<float>(y, x) = LinearToSrgb(static_cast<float>((raw.at<float>(y, x) - lo) / (hi - lo)));
+  LuminanceImage out = Smoothed(c, 1.0f);
+  out.raw = raw;
   return out;
 }
 
@@ -311,7 +330,8 @@ FirstCircle HoughCircle(const LuminanceImage& lum, const CameraModel& camera, co
 struct MaskRegion {
   cv::Mat region;  // CV_8U, 255 on the silhouette
   FirstCircle first;
-  double area = 0;  // px
+  double area = 0;        // px
+  double lo = 0, hi = 0;  // the two levels
 };
 
 std::optional<MaskRegion> FindMask(const cv::Mat& raw, const std::string& name) {
@@ -334,6 +354,8 @@ std::optional<MaskRegion> FindMask(const cv::Mat& raw, const std::string& name) 
         border_bright += bright.at<uint8_t>(y, x) != 0;
       }
   MaskRegion m;
+  m.lo = lo;
+  m.hi = hi;
   m.first.polarity = 2 * border_bright <= border ? -1 : 1;  // a bright ball steps down going outwards
   const cv::Mat ball = m.first.polarity < 0 ? bright : ~bright;
   cv::Mat labels, stats, centroids;
@@ -386,11 +408,12 @@ SphereFit FitMirrorSphere(const Image& photo, const CameraModel& camera, const S
   if (photo.width() != camera.width() || photo.height() != camera.height())
     ThrowErrorAt(FileLoc{name}, "is {}x{}; the camera model is for {}x{}", photo.width(), photo.height(),
                  camera.width(), camera.height());
-  const LuminanceImage L = LogLuminance(photo, name);
+  LuminanceImage L = LogLuminance(photo, name);
   SphereFit fit;
   // The first circle and the rim's polarity: a mask's region, a given
   // circle, or the Hough transform.
   const std::optional<MaskRegion> mask = FindMask(L.raw, name);
+  if (mask) L = MaskCoverage(L.raw, mask->lo, mask->hi);
   int polarity = mask ? mask->first.polarity : 1;
   if (o.circle) {
     fit.first_circle = *o.circle;

@@ -111,6 +111,7 @@ JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, Rend
     in.poses = LoadScenePoses(scene);
   }
   report->AddInput(scene.file.string());
+  report->SetMetric("camera_poses", ScenePoseSource(scene));
   const int n_frames = static_cast<int>(in.poses.size());
   int begin = frame_begin >= 0 ? frame_begin : scene.render.frame_begin;
   {

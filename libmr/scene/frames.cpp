@@ -10,6 +10,7 @@
 #include <tuple>
 #include <utility>
 
+#include "camera/camera_model.h"
 #include "camera/colmap_text.h"
 #include "camera/trajectory.h"
 #include "core/error.h"
@@ -119,9 +120,23 @@ bool ParseFrameRange(const std::string& s, int* begin, int* end, std::string* wh
   return true;
 }
 
+std::string ScenePoseSource(const Scene& s) {
+  if (!s.camera.poses) return "the camera model's extrinsics (the scene gives no camera.poses)";
+  return s.camera.poses_of_rig ? "camera.poses of the rig, composed with the camera model's extrinsics"
+                               : "camera.poses of the camera (the model's extrinsics unused)";
+}
+
 std::vector<Rigid3> LoadScenePoses(const Scene& s) {
   std::vector<Rigid3> world_from_cam;
-  if (!s.camera.poses) return {Rigid3()};
+  if (!s.camera.poses || s.camera.poses_of_rig) {
+    const Rigid3 ref_from_cam = CameraModel::Read(s.camera.model).cam_from_ref().Inverse();
+    if (!s.camera.poses) return {ref_from_cam};
+    Scene camera_poses = s;
+    camera_poses.camera.poses_of_rig = false;
+    std::vector<Rigid3> world_from_ref = LoadScenePoses(camera_poses);
+    for (Rigid3& p : world_from_ref) p = p * ref_from_cam;
+    return world_from_ref;
+  }
   switch (s.camera.pose_format) {
     case PoseFormat::kTum:
       for (const auto& p : ReadTum(*s.camera.poses).poses) world_from_cam.push_back(p.world_from_cam);

@@ -34,9 +34,16 @@ std::vector<fs::path> ListFrameFiles(const std::string& frames, const fs::path& 
 // ("\"5:2\": the range is empty").
 bool ParseFrameRange(const std::string& text, int* begin, int* end, std::string* why = nullptr);
 
-// The camera poses (world_from_cam) of the scene's frames; one identity pose
-// when the scene names none.
+// The camera poses (world_from_cam) of the scene's frames, by the one
+// convention every tool follows (docs/conventions.md, "A camera model's
+// extrinsics"): the model's extrinsics are cam_from_ref; without
+// camera.poses the reference is the world, one frame at
+// world_from_cam = ref_from_cam; with poses of the camera they are used as
+// they are (the extrinsics unused); with poses of the rig each is
+// world_from_ref and world_from_cam = world_from_ref * ref_from_cam.
 std::vector<Rigid3> LoadScenePoses(const Scene& scene);
+// Which of the three it was, in words, for reports.
+std::string ScenePoseSource(const Scene& scene);
 
 // The largest camera mr renders: 1e8 pixels (a 12K cinema frame is 8e7).  A
 // larger imager size is a corrupt or mistaken camera model, refused before

@@ -227,7 +227,10 @@ void ParseCamera(const Node& node, const fs::path& base, bool check, SceneCamera
     JsonSettings p(*poses);
     const JsonNode format = p.Require("format");
     const JsonNode path = p.Require("path");
+    std::string of = "camera";
+    p.OneOf("of", &of, {"camera", "rig"});
     p.Done();
+    c.poses_of_rig = of == "rig";
     const std::string fmt_name = format.OneOf({"tum", "7scenes", "colmap"});
     c.pose_format = fmt_name == "tum"       ? PoseFormat::kTum
                     : fmt_name == "7scenes" ? PoseFormat::k7Scenes

@@ -69,6 +69,7 @@ struct SceneCamera {
   std::string gains_scale = "render";
   std::optional<fs::path> poses;  // TUM file, 7-Scenes folder, or COLMAP text folder
   PoseFormat pose_format = PoseFormat::kTum;
+  bool poses_of_rig = false;  // the poses are the rig reference's (world_from_ref), not the camera's
   // Motion blur: the time the shutter is open, as a fraction of the frame
   // interval (0: none; 0.5 is a 180-degree shutter), centred on the frame;
   // the camera moves between neighbouring frames' poses over it.

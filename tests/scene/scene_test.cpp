@@ -4,7 +4,9 @@
 
 #include <cmath>
 
+#include "camera/camera_model.h"
 #include "core/error.h"
+#include "scene/frames.h"
 #include "test_util.h"
 
 namespace mr {
@@ -282,6 +284,43 @@ TEST_F(SceneFiles, TrajectoriesInterpolateAndRefuseTheAmbiguous) {
   EXPECT_TRUE(d.lighting.environment_per_frame);
   EXPECT_TRUE(d.lighting.lights_per_frame);
   EXPECT_FALSE(s.lighting.environment_per_frame);
+}
+
+// A model's extrinsics place the camera one way in every case (the reported
+// failure: without poses mr-render put the camera at the identity while
+// mr-probe used the extrinsics): without poses, world_from_cam is
+// ref_from_cam; with the camera's poses, the poses; with the rig's poses,
+// each composed with ref_from_cam.
+TEST_F(SceneFiles, ModelExtrinsicsPlaceTheCameraOneWay) {
+  Rigid3 cam_from_ref;
+  cam_from_ref.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(2.5, Eigen::Vector3d(1, 2, 3).normalized()));
+  cam_from_ref.translation = Eigen::Vector3d(0.1, -0.2, 0.3);
+  CameraModel("LENSMODEL_PINHOLE", {100, 100, 63.5, 47.5}, 128, 96, cam_from_ref)
+      .Write(dir_ / "cam.cameramodel", "test");
+  Rigid3 world_from_x;
+  world_from_x.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY()));
+  world_from_x.translation = Eigen::Vector3d(1, 2, 3);
+  const Eigen::Quaterniond& q = world_from_x.rotation;
+  WriteTextFile(dir_ / "traj.txt",
+                fmt::format("0 1 2 3 {:.17g} {:.17g} {:.17g} {:.17g}\n", q.x(), q.y(), q.z(), q.w()));
+  auto near = [](const Rigid3& a, const Rigid3& b) {
+    return (a.translation - b.translation).norm() < 1e-12 && a.rotation.angularDistance(b.rotation) < 1e-12;
+  };
+  Json j = Valid();
+  j["camera"].erase("poses");
+  Scene s = ParseScene(j, dir_.path(), "scene.json", true);
+  ASSERT_EQ(LoadScenePoses(s).size(), 1u);
+  EXPECT_TRUE(near(LoadScenePoses(s)[0], cam_from_ref.Inverse()));
+  EXPECT_NE(ScenePoseSource(s).find("extrinsics"), std::string::npos);
+  s = ParseScene(Valid(), dir_.path(), "scene.json", true);
+  ASSERT_EQ(LoadScenePoses(s).size(), 1u);
+  EXPECT_TRUE(near(LoadScenePoses(s)[0], world_from_x));
+  j = Valid();
+  j["camera"]["poses"]["of"] = "rig";
+  s = ParseScene(j, dir_.path(), "scene.json", true);
+  EXPECT_TRUE(near(LoadScenePoses(s)[0], world_from_x * cam_from_ref.Inverse()));
+  j["camera"]["poses"]["of"] = "sensor";
+  EXPECT_NE(ErrorOf(j).find("camera.poses.of"), std::string::npos) << ErrorOf(j);
 }
 
 TEST_F(SceneFiles, ReadSceneReportsSyntaxErrorsWithLine) {

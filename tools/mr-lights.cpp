@@ -36,7 +36,14 @@ int main(int argc, char** argv) {
       ->default_val("median-cut");
   app.add_option("--count", eo.count, "Number of lights (blobs: at most)")->default_val(16);
   app.add_option("--threshold", eo.threshold, "blobs: pixels above this times the mean radiance")->default_val(8);
-  app.add_option("--max-blob-sr", eo.max_blob_sr, "blobs: larger components split (steradians)")->default_val(0.05);
+  app.add_option("--saddle", eo.saddle,
+                 "blobs: two peaks of one bright region stay two lights where the light between them falls below "
+                 "this fraction of the dimmer peak")
+      ->default_val(0.5);
+  app.add_option("--max-blob-sr", eo.max_blob_sr,
+                 "blobs: a region whose core (the brightest pixels holding half its energy, twice over) is wider "
+                 "than this stays in the map with its shape (a window, a panel), steradians")
+      ->default_val(0.05);
   app.add_option("--sh-order", eo.sh_order, "Bands of the residual's spherical harmonics")->default_val(3);
   app.add_option("--residual", o.residual, "Write the map minus what the lights took (EXR)");
   app.add_option("--residual-width", o.residual_width, "Width of the residual map (energy-preserving downsampling)")

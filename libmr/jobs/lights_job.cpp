@@ -13,6 +13,7 @@
 #include "eval/plot.h"
 #include "light/environment.h"
 #include "light/lights_file.h"
+#include "probe/light_extraction.h"
 #include "scene/frames.h"
 
 namespace mr {
@@ -129,8 +130,8 @@ void LightsJob::OverTime() {
   std::vector<int> prev_ids;
   int next_id = 0, f = 0, kept = 0;
   const std::string options =
-      fmt::format("{} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold, eo.max_blob_sr, eo.sh_order, eo.seed,
-                  o_.residual_width, o_.match_deg, o_.residual.empty());
+      fmt::format("{} {} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold, eo.saddle, eo.max_blob_sr,
+                  eo.sh_order, eo.seed, o_.residual_width, o_.match_deg, o_.residual.empty());
   uint64_t key = HashCombine(0x6c6967687473ULL, HashString(options));
   for (;; ++f) {
     const std::string map_file = FramePath(o_.env, f).string();
@@ -273,14 +274,38 @@ void LightsJob::Once(const Image& env, const std::vector<double>& ref) {
                                           {"max_relative", e.lights.max_relative},
                                           {"rms_relative_with_residual_sh", e.with_residual.rms_relative},
                                           {"normals", o_.normals}});
-  if (static_cast<int>(n_lights) < eo.count)
-    report_->Warn(
-        eo.method == "blobs"
-            ? fmt::format("{} lights asked for, {} found: the map has only {} connected regions brighter than "
-                          "--threshold {:g} x its mean radiance (a lower threshold finds dimmer ones)",
-                          eo.count, n_lights, n_lights, eo.threshold)
-            : fmt::format("{} lights asked for, {} found: the map holds fewer distinct sources for method {}", eo.count,
-                          n_lights, eo.method));
+  if (eo.method == "blobs") {
+    report_->SetMetric("split_components", ex.split_components);
+    report_->SetMetric("wide_regions", ex.wide_regions);
+    if (ex.wide_regions > 0)
+      spdlog::info("{} region(s) wider than --max-blob-sr {:g} sr left in the map with their shape (windows, panels)",
+                   ex.wide_regions, eo.max_blob_sr);
+    if (MapEnergy(env) <= 0)
+      report_->Warn(fmt::format("{}: the map holds no light (every pixel is black): no lights", o_.env));
+    else if (n_lights == 0 && ex.wide_regions > 0)
+      report_->Warn(
+          fmt::format("{}: its {} bright region(s) are wider than --max-blob-sr {:g} sr (windows, sky, "
+                      "panels): they stay in the map with their shape, and no lights are written",
+                      o_.env, ex.wide_regions, eo.max_blob_sr));
+    else if (n_lights == 0)
+      report_->Warn(
+          fmt::format("{}: no region brighter than --threshold {:g} x the map's mean radiance: no lights "
+                      "(a lower threshold finds dimmer ones)",
+                      o_.env, eo.threshold));
+    else
+      spdlog::info(
+          "{} light(s), at most {} asked for: the map has {} regions brighter than --threshold {:g} x its "
+          "mean radiance{}{}",
+          n_lights, eo.count, ex.regions, eo.threshold,
+          ex.regions > static_cast<int>(n_lights) ? " (the dimmer ones stay in the residual)" : "",
+          ex.split_components > 0
+              ? fmt::format(", {} of them split where the light between two peaks falls below --saddle {:g}",
+                            ex.split_components, eo.saddle)
+              : std::string());
+  } else if (static_cast<int>(n_lights) < eo.count) {
+    report_->Warn(fmt::format("{} lights asked for, {} found: the map holds fewer distinct sources for method {}",
+                              eo.count, n_lights, eo.method));
+  }
   spdlog::info(
       "{}: {} lights ({}) in {:.3f} s take {:.1f}% of the energy; irradiance error {:.3g} (RMS), {:.3g} "
       "with the residual's SH",

@@ -4,7 +4,9 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <map>
 #include <queue>
+#include <set>
 
 #include <Eigen/Eigenvalues>
 
@@ -317,78 +319,121 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
   return lights;
 }
 
-std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold, double max_sr,
-                                  std::vector<uint8_t>* taken) {
-  const double mean = m.total / kFourPi;
-  std::vector<int> label(m.energy.size(), -1);
-  std::vector<std::vector<size_t>> comps;
-  for (size_t s = 0; s < label.size(); ++s) {
-    if (label[s] >= 0 || !(Luminance(m.radiance[s]) > threshold * mean)) continue;
-    const int id = static_cast<int>(comps.size());
-    comps.emplace_back();
-    std::vector<size_t> stack = {s};
-    label[s] = id;
-    while (!stack.empty()) {
-      const size_t p = stack.back();
-      stack.pop_back();
-      comps.back().push_back(p);
+// Blob segmentation at the scale of the light: the pixels brighter than
+// `threshold` times the map's mean, taken brightest first and joined to
+// their brighter neighbours' regions (union-find); where two regions meet,
+// they become one unless the light at the meeting pixel has fallen below
+// `saddle` times the dimmer region's peak.  A highlight with its glow, or
+// a flat panel with noise on it, is one region; two lamps whose glows
+// touch are two.  The regions, brightest (by energy) first, are the
+// lights, at most `count`, each a disc of its core; a region whose core is
+// wider than `max_sr` (a window, a panel: a disc would misplace its light)
+// stays in the map with its shape, as do the regions beyond `count`.
+// *n_regions: the regions; *split: the connected components that became
+// more than one light; *wide: the regions left in the map for their width.
+std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold, double saddle, double max_sr,
+                                  std::vector<uint8_t>* taken, int* n_regions, int* split, int* wide) {
+  const double cut = threshold * m.total / kFourPi;
+  const size_t n = m.energy.size();
+  std::vector<double> lum(n);
+  std::vector<size_t> bright;
+  for (size_t s = 0; s < n; ++s) {
+    lum[s] = Luminance(m.radiance[s]);
+    if (lum[s] > cut) bright.push_back(s);
+  }
+  std::sort(bright.begin(), bright.end(),
+            [&](size_t a, size_t b) { return lum[a] != lum[b] ? lum[a] > lum[b] : a < b; });
+  std::vector<int64_t> parent(n, -1);  // -1: not yet taken
+  std::vector<double> peak(n, 0.0);    // at a region's root
+  auto find = [](std::vector<int64_t>& up, int64_t i) {
+    while (up[static_cast<size_t>(i)] != i)
+      i = up[static_cast<size_t>(i)] = up[static_cast<size_t>(up[static_cast<size_t>(i)])];
+    return i;
+  };
+  std::vector<int64_t> roots;
+  for (size_t p : bright) {
+    const int x = static_cast<int>(p % m.w), y = static_cast<int>(p / m.w);
+    roots.clear();
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int yy = y + dy;
+        if (yy < 0 || yy >= m.h || (dx == 0 && dy == 0)) continue;
+        const size_t q = static_cast<size_t>(yy) * m.w + static_cast<size_t>((x + dx + m.w) % m.w);  // the seam wraps
+        if (parent[q] < 0) continue;
+        roots.push_back(find(parent, static_cast<int64_t>(q)));
+      }
+    const int64_t self = static_cast<int64_t>(p);
+    if (roots.empty()) {
+      parent[p] = self;
+      peak[p] = lum[p];
+      continue;
+    }
+    std::sort(roots.begin(), roots.end(), [&](int64_t a, int64_t b) {
+      return peak[static_cast<size_t>(a)] != peak[static_cast<size_t>(b)]
+                 ? peak[static_cast<size_t>(a)] > peak[static_cast<size_t>(b)]
+                 : a < b;
+    });
+    roots.erase(std::unique(roots.begin(), roots.end()), roots.end());
+    parent[p] = roots[0];
+    for (size_t k = 1; k < roots.size(); ++k)
+      if (lum[p] >= saddle * peak[static_cast<size_t>(roots[k])]) parent[static_cast<size_t>(roots[k])] = roots[0];
+  }
+  std::map<int64_t, std::vector<size_t>> regions;
+  for (size_t p : bright) regions[find(parent, static_cast<int64_t>(p))].push_back(p);
+  // The connected components (pixels joined through any neighbour), to
+  // count those that became several lights.
+  std::map<int64_t, std::set<int64_t>> comp_regions;
+  {
+    std::vector<int64_t> cparent(n, -1);
+    for (size_t p : bright) cparent[p] = static_cast<int64_t>(p);
+    for (size_t p : bright) {
       const int x = static_cast<int>(p % m.w), y = static_cast<int>(p / m.w);
       for (int dy = -1; dy <= 1; ++dy)
         for (int dx = -1; dx <= 1; ++dx) {
           const int yy = y + dy;
           if (yy < 0 || yy >= m.h) continue;
-          const int xx = (x + dx + m.w) % m.w;  // the longitude seam wraps
-          const size_t q = static_cast<size_t>(yy) * m.w + xx;
-          if (label[q] >= 0 || !(Luminance(m.radiance[q]) > threshold * mean)) continue;
-          label[q] = id;
-          stack.push_back(q);
+          const size_t q = static_cast<size_t>(yy) * m.w + static_cast<size_t>((x + dx + m.w) % m.w);
+          if (cparent[q] < 0) continue;
+          const int64_t a = find(cparent, static_cast<int64_t>(p)), b = find(cparent, static_cast<int64_t>(q));
+          if (a != b) cparent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
         }
     }
+    for (const auto& [r, px] : regions) comp_regions[find(cparent, r)].insert(r);
   }
-  // Components wider than `max_sr` split at their energy median across
-  // their widest spread (a disc is a poor model of a long window).
-  std::vector<std::vector<size_t>> parts;
-  std::function<void(std::vector<size_t>)> split = [&](std::vector<size_t> px) {
-    double omega = 0, e = 0;
-    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (size_t p : px) {
-      omega += m.omega[p];
-      e += m.energy[p];
-      centroid += m.omega[p] * m.dir[p];
-    }
-    if (omega <= max_sr || px.size() < 2) {
-      parts.push_back(std::move(px));
-      return;
-    }
-    centroid /= omega;
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (size_t p : px) cov += m.omega[p] * (m.dir[p] - centroid) * (m.dir[p] - centroid).transpose();
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-    const Eigen::Vector3d axis = eig.eigenvectors().col(2);
-    std::sort(px.begin(), px.end(), [&](size_t a, size_t b) { return m.dir[a].dot(axis) < m.dir[b].dot(axis); });
-    // Split by solid angle when the energy is flat, by energy otherwise.
-    double acc = 0;
-    size_t k = 0;
-    const bool by_energy = e > 0;
-    const double half = 0.5 * (by_energy ? e : omega);
-    while (k + 1 < px.size() && acc + (by_energy ? m.energy[px[k]] : m.omega[px[k]]) <= half)
-      acc += by_energy ? m.energy[px[k++]] : m.omega[px[k++]];
-    k = std::clamp<size_t>(k, 1, px.size() - 1);
-    split(std::vector<size_t>(px.begin(), px.begin() + static_cast<std::ptrdiff_t>(k)));
-    split(std::vector<size_t>(px.begin() + static_cast<std::ptrdiff_t>(k), px.end()));
-  };
-  for (auto& c : comps) split(std::move(c));
-  std::vector<std::pair<double, int>> order;
-  for (size_t c = 0; c < parts.size(); ++c) {
+  *n_regions = static_cast<int>(regions.size());
+  *split = 0;
+  for (const auto& [c, rs] : comp_regions) *split += rs.size() > 1;
+  std::vector<std::pair<double, int64_t>> order;
+  for (const auto& [r, px] : regions) {
     double e = 0;
-    for (size_t p : parts[c]) e += m.energy[p];
-    order.push_back({-e, static_cast<int>(c)});
+    for (size_t p : px) e += m.energy[p];
+    order.push_back({-e, r});
   }
   std::sort(order.begin(), order.end());
   std::vector<ExtractedLight> lights;
-  for (int k = 0; k < count && k < static_cast<int>(order.size()); ++k) {
-    const auto& px = parts[static_cast<size_t>(order[static_cast<size_t>(k)].second)];
-    lights.push_back(LightOfPixels(m, px, true));
+  *wide = 0;
+  for (size_t k = 0; k < order.size() && static_cast<int>(lights.size()) < count; ++k) {
+    const std::vector<size_t>& px = regions[order[k].second];
+    ExtractedLight l = LightOfPixels(m, px, true);
+    // Its disc: twice the solid angle of the brightest pixels that hold half
+    // its energy (a uniform disc's own; a lamp's glow, which holds little of
+    // the energy over much of the solid angle, does not widen it).
+    std::vector<size_t> by_lum = px;
+    std::sort(by_lum.begin(), by_lum.end(),
+              [&](size_t a, size_t b) { return lum[a] != lum[b] ? lum[a] > lum[b] : a < b; });
+    const double total = Luminance(l.power);
+    double acc = 0, omega = 0;
+    for (size_t p : by_lum) {
+      if (acc >= 0.5 * total) break;
+      acc += lum[p] * m.omega[p];
+      omega += m.omega[p];
+    }
+    l.disc_solid_angle = std::min(l.solid_angle, 2 * omega);
+    if (l.disc_solid_angle > max_sr) {  // a window, a panel: no disc; the map keeps its shape
+      ++*wide;
+      continue;
+    }
+    lights.push_back(l);
     for (size_t p : px) (*taken)[p] = 1;
   }
   return lights;
@@ -401,6 +446,7 @@ void ExtractOptions::Check() const {
     throw UsageError(fmt::format("method \"{}\" is not median-cut, variance-cut, importance or blobs", method));
   if (count < 1 || count > 1 << 20) throw UsageError(fmt::format("count {} not in [1, 2^20]", count));
   if (!(threshold > 0)) throw UsageError("threshold must be positive");
+  if (!(saddle > 0 && saddle <= 1)) throw UsageError(fmt::format("saddle {} is not in (0, 1]", saddle));
   if (!(max_blob_sr > 0)) throw UsageError("max_blob_sr must be positive");
   if (sh_order < 1 || sh_order > kMaxShOrder) throw UsageError(fmt::format("sh_order must be 1..{}", kMaxShOrder));
 }
@@ -418,7 +464,8 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& o) {
     ex.lights = Importance(m, o.count, o.seed);
     std::fill(taken.begin(), taken.end(), 1);
   } else {
-    ex.lights = Blobs(m, o.count, o.threshold, o.max_blob_sr, &taken);
+    ex.lights = Blobs(m, o.count, o.threshold, o.saddle, o.max_blob_sr, &taken, &ex.regions, &ex.split_components,
+                      &ex.wide_regions);
   }
   ex.residual = Image::Rgb(m.w, m.h);
   double left = 0;
@@ -486,13 +533,13 @@ std::vector<Light> ToLights(const Extraction& e, const std::string& prefix, cons
     l.type = LightType::kDistant;
     l.is_virtual = false;  // from the probe: part of the real scene
     l.direction = x.direction;
-    // A disc of the same solid angle, 2 pi (1 - cos r) = omega, and the same
+    // A disc of its disc solid angle, 2 pi (1 - cos r) = omega, and the same
     // mean radiance; lights.json's irradiance is what it gives a surface
     // facing it, radiance x pi sin^2 r (the power for a delta).
-    const double r = x.area ? std::acos(std::clamp(1 - x.solid_angle / kTwoPi, -1.0, 1.0)) : 0;
+    const double disc = x.DiscSolidAngle();
+    const double r = x.area ? std::acos(std::clamp(1 - disc / kTwoPi, -1.0, 1.0)) : 0;
     l.angular_radius_deg = r / kDegToRad;
-    l.irradiance =
-        x.area && x.solid_angle > 0 ? Eigen::Vector3d(x.power * (kPi * Square(std::sin(r)) / x.solid_angle)) : x.power;
+    l.irradiance = x.area && disc > 0 ? Eigen::Vector3d(x.power * (kPi * Square(std::sin(r)) / disc)) : x.power;
     l.solid_angle_sr = std::min(x.solid_angle, kFourPi);
     out.push_back(l);
   }
@@ -540,8 +587,8 @@ std::vector<double> LightsIrradiance(const Extraction& e, const std::vector<Eige
   std::vector<std::vector<Eigen::Vector3d>> disc(e.lights.size());
   for (size_t i = 0; i < e.lights.size(); ++i) {
     const ExtractedLight& l = e.lights[i];
-    if (!l.area || !(l.solid_angle > 0)) continue;
-    const double cos_r = std::clamp(1 - l.solid_angle / kTwoPi, -1.0, 1.0);
+    if (!l.area || !(l.DiscSolidAngle() > 0)) continue;
+    const double cos_r = std::clamp(1 - l.DiscSolidAngle() / kTwoPi, -1.0, 1.0);
     Eigen::Vector3d t, b;
     CoordinateSystem(l.direction, &t, &b);
     for (int a = 0; a < 16; ++a)

@@ -18,7 +18,8 @@ struct ExtractOptions {
   std::string method = "median-cut";  // median-cut, variance-cut, importance, blobs
   int count = 16;
   double threshold = 8;       // blobs: times the map's mean radiance
-  double max_blob_sr = 0.05;  // blobs: larger components split (a disc of 7.2 degrees)
+  double saddle = 0.5;        // blobs: two peaks stay two lights where the light between falls below this of the dimmer
+  double max_blob_sr = 0.05;  // blobs: a region whose core is wider stays in the map with its shape (7.2 degrees)
   int sh_order = 3;           // the residual's spherical harmonics
   uint32_t seed = 0;          // importance: the point set's scramble
   void Check() const;
@@ -28,7 +29,9 @@ struct ExtractedLight {
   Eigen::Vector3d direction = Eigen::Vector3d::UnitY();  // towards the light, world
   Eigen::Vector3d power = Eigen::Vector3d::Zero();  // integral of L dOmega, RGB: irradiance at normal incidence (W/m^2)
   double solid_angle = 0;                           // sr of the pixels it took
-  bool area = false;                                // a disc of that solid angle (blobs) or a delta
+  bool area = false;                                // a disc (blobs) or a delta
+  double disc_solid_angle = 0;                      // the disc's (blobs: from its core, not its glow); 0: solid_angle
+  double DiscSolidAngle() const { return disc_solid_angle > 0 ? disc_solid_angle : solid_angle; }
 };
 
 struct Extraction {
@@ -36,6 +39,9 @@ struct Extraction {
   Image residual;                            // the map minus what the lights took (R G B), same size
   std::vector<Eigen::Vector3d> residual_sh;  // its SH projection, sh_order^2 RGB coefficients
   double taken_fraction = 0;                 // of the map's luminance energy
+  int regions = 0;                           // blobs: the bright regions found (lights: at most `count` of them)
+  int split_components = 0;                  // blobs: connected bright regions that became several lights
+  int wide_regions = 0;                      // blobs: regions left in the map, wider than max_blob_sr
   double seconds = 0;
 };
 

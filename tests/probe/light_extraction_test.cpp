@@ -4,6 +4,7 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "core/sampling.h"
 #include "core/spherical.h"
 #include "light/environment.h"
 #include "light/lights_file.h"
@@ -94,7 +95,7 @@ TEST(Lights, TwelveDecadesOfDynamicRange) {
 
 // More lights approximate irradiance better: on the real probes, median and
 // variance cut fall below 2% RMS error by 64 lights and importance by 256;
-// and blobs with the residual's SH are within 3% with few lights.
+// and blobs with the residual's SH are within 3.5% with few lights.
 TEST(Lights, ErrorFallsWithCountOnRealProbes) {
   MR_REQUIRE_SHARED_DATA("probes-latlong");
   const std::vector<Eigen::Vector3d> normals = SphereNormals(512);
@@ -122,7 +123,12 @@ TEST(Lights, ErrorFallsWithCountOnRealProbes) {
     o.count = 8;
     const double blob = CompareIrradiance(LightsIrradiance(ExtractLights(env, o), normals, true), ref).rms_relative;
     std::printf("%s blobs + residual SH: %.4f\n", probe, blob);
-    EXPECT_LT(blob, 0.03);
+    // Measured 0.0043, 0.021, 0.030: pisa's and uffizi's bright sky and
+    // windows are one region each, wider than max_blob_sr, so they stay in
+    // the residual, whose order-3 SH is what this measures (it was 0.015
+    // and 0.022 when they were cut into 8 discs; the renderer samples the
+    // residual map itself, with the windows' shape).
+    EXPECT_LT(blob, 0.035);
   }
 }
 
@@ -166,6 +172,92 @@ TEST(Lights, BlobsAcrossTheSeam) {
   const std::vector<Light> lights = ToLights(ex);
   EXPECT_GT(lights[1].angular_radius_deg, 0);
   EXPECT_FALSE(lights[1].is_virtual);
+}
+
+// A map painted by a function of direction (radiance, grey), 512 x 256.
+template <typename F>
+Image PaintedMap(F radiance) {
+  Image env = Image::Rgb(512, 256);
+  for (int y = 0; y < 256; ++y)
+    for (int x = 0; x < 512; ++x) {
+      const float v = static_cast<float>(radiance(LatLongPixelToDirection(Eigen::Vector2d(x, y), 512, 256), x, y));
+      for (int c = 0; c < 3; ++c) env.at(x, y, c) = v;
+    }
+  return env;
+}
+
+Eigen::Vector3d Towards(double az_deg, double el_deg) {
+  const double a = az_deg * kDegToRad, e = el_deg * kDegToRad;
+  return Eigen::Vector3d(std::cos(e) * std::sin(a), std::sin(e), std::cos(e) * std::cos(a));
+}
+
+// A lamp: a disc of `radius_deg` at 1e4 and a glow around it falling as
+// the square of the angle (a lens's point spread: the bright region is
+// far wider than the lamp, a quarter of the energy in the glow).
+double Lamp(const Eigen::Vector3d& d, const Eigen::Vector3d& at, double radius_deg) {
+  const double a = AngleBetween(d, at) / kDegToRad;
+  return a <= radius_deg ? 1e4 : 1000 * std::pow(radius_deg / a, 2);
+}
+
+// One highlight, one light (the reported failure: every highlight with its
+// glow became two lights, the brighter 5.7 degrees off): a lamp of 2
+// degrees whose glow spans 0.1 sr is one light at its centre, a disc of
+// about its own size, asked for 4; two lamps 8 degrees apart whose glows
+// join are two; a noisy flat panel is one; a window and a bulb in one map:
+// the bulb a light, the window left in the map with its shape (not cut
+// into discs); a black map gives no lights.
+TEST(Lights, OneHighlightOneLight) {
+  ExtractOptions o;
+  o.method = "blobs";
+  o.count = 4;
+  const Eigen::Vector3d a = Towards(30, 40), b = Towards(38, 40);
+  {
+    const Extraction ex =
+        ExtractLights(PaintedMap([&](const Eigen::Vector3d& d, int, int) { return 1 + Lamp(d, a, 2); }), o);
+    ASSERT_EQ(ex.lights.size(), 1u);
+    EXPECT_LT(AngleBetween(ex.lights[0].direction, a) / kDegToRad, 0.2);  // a map pixel is 0.7 degrees
+    EXPECT_GT(ex.lights[0].solid_angle, 0.05);                            // the glow is taken, as one light
+    const double r = ToLights(ex)[0].angular_radius_deg;
+    std::printf("one lamp: %zu light, %.3f deg off, disc %.2f deg (lamp 2), region %.3f sr\n", ex.lights.size(),
+                AngleBetween(ex.lights[0].direction, a) / kDegToRad, r, ex.lights[0].solid_angle);
+    EXPECT_NEAR(r, 2.0, 0.6);
+  }
+  {
+    const Extraction ex = ExtractLights(
+        PaintedMap([&](const Eigen::Vector3d& d, int, int) { return 1 + Lamp(d, a, 1.5) + Lamp(d, b, 1.5); }), o);
+    ASSERT_EQ(ex.lights.size(), 2u);
+    EXPECT_EQ(ex.split_components, 1);
+    const double ea = std::min(AngleBetween(ex.lights[0].direction, a), AngleBetween(ex.lights[1].direction, a));
+    const double eb = std::min(AngleBetween(ex.lights[0].direction, b), AngleBetween(ex.lights[1].direction, b));
+    std::printf("two lamps 8 deg apart: %.2f and %.2f deg off\n", ea / kDegToRad, eb / kDegToRad);
+    EXPECT_LT(std::max(ea, eb) / kDegToRad, 0.75);  // each takes the glow on its side of the saddle: 0.22, 0.48
+  }
+  {
+    Pcg32 rng(9);
+    const Extraction ex =
+        ExtractLights(PaintedMap([&](const Eigen::Vector3d& d, int, int) {
+                        return 1 + (AngleBetween(d, a) < 5 * kDegToRad ? 500 * (0.8 + 0.4 * rng.NextFloat()) : 0);
+                      }),
+                      o);
+    EXPECT_EQ(ex.lights.size(), 1u) << "a noisy panel";
+  }
+  {
+    const Extraction ex = ExtractLights(PaintedMap([&](const Eigen::Vector3d& d, int, int) {
+                                          const bool window =
+                                              std::abs(std::atan2(d.x(), d.z()) / kDegToRad + 60) < 25 &&
+                                              std::abs(std::asin(d.y()) / kDegToRad - 20) < 15;
+                                          return 1 + (window ? 60 : 0) + Lamp(d, a, 1);
+                                        }),
+                                        o);
+    ASSERT_EQ(ex.lights.size(), 1u);
+    EXPECT_LT(AngleBetween(ex.lights[0].direction, a) / kDegToRad, 0.2);
+    EXPECT_EQ(ex.wide_regions, 1);
+  }
+  {
+    const Extraction ex = ExtractLights(Image::Rgb(64, 32), o);
+    EXPECT_TRUE(ex.lights.empty());
+    EXPECT_EQ(ex.taken_fraction, 0);
+  }
 }
 
 // lights.json keeps solid angles and the residual; bad maps are refused.

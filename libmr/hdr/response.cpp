@@ -6,6 +6,7 @@
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "core/json_node.h"
 #include "core/json_settings.h"
@@ -254,6 +255,17 @@ CameraResponse LinearResponse(int channels, int levels) {
       g[static_cast<size_t>(k)] = std::log(std::max(static_cast<double>(k), 1e-3) / (levels - 1));
     r.log_exposure.push_back(g);
   }
+  return r;
+}
+
+CameraResponse SrgbResponse(int channels, int levels) {
+  CameraResponse r = LinearResponse(channels, levels);
+  r.method = "srgb";
+  r.identity = false;
+  for (auto& g : r.log_exposure)
+    for (int k = 0; k < levels; ++k)
+      g[static_cast<size_t>(k)] = std::log(
+          std::max(static_cast<double>(SrgbToLinear(static_cast<float>(k) / (levels - 1))), 1e-3 / (levels - 1)));
   return r;
 }
 

@@ -45,6 +45,9 @@ struct CameraResponse {
 
 // X = z: what linear (float, or linear-encoded 16-bit) inputs have.
 CameraResponse LinearResponse(int channels, int levels = 256);
+// X = the sRGB decoding of z: a photograph stored as sRGB, taken as it says
+// (a phone's, without a measured response).
+CameraResponse SrgbResponse(int channels, int levels = 256);
 
 // One photograph of a bracket: normalised codes in [0, 1] (or linear
 // values for float inputs), its exposure time, and which pixels it saw

@@ -274,6 +274,18 @@ void LightsJob::Once(const Image& env, const std::vector<double>& ref) {
                                           {"max_relative", e.lights.max_relative},
                                           {"rms_relative_with_residual_sh", e.with_residual.rms_relative},
                                           {"normals", o_.normals}});
+  {
+    Json bounds = Json::array();
+    const std::vector<Light> named = ToLights(ex);
+    for (size_t i = 0; i < named.size(); ++i)
+      if (!named[i].strength_note.empty()) {
+        bounds.push_back({{"light", named[i].name}, {"clipped_share", ex.lights[i].clipped_share}});
+        report_->Warn(fmt::format("{}: {} (at {:.1f}, {:.1f}, {:.1f}): its strength is {}", o_.env, named[i].name,
+                                  ex.lights[i].direction.x(), ex.lights[i].direction.y(), ex.lights[i].direction.z(),
+                                  named[i].strength_note));
+      }
+    if (!bounds.empty()) report_->SetMetric("lower_bounds", bounds);
+  }
   if (eo.method == "blobs") {
     report_->SetMetric("split_components", ex.split_components);
     report_->SetMetric("wide_regions", ex.wide_regions);

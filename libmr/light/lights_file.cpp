@@ -28,6 +28,7 @@ Light ParseLight(const JsonNode& n, const std::string& default_name) {
   const auto name = s.Take("name");
   l.name = name ? name->String() : default_name;
   s.Bool("virtual", &l.is_virtual);
+  if (const auto lb = s.Take("lower_bound")) l.strength_note = lb->String();
   if (type == "point" || type == "spot") {
     l.type = type == "point" ? LightType::kPoint : LightType::kSpot;
     const JsonNode position = s.Require("position");
@@ -115,6 +116,7 @@ Json LightsToJson(const std::vector<Light>& lights, const std::string& comment) 
   Json list = Json::array();
   for (const Light& l : lights) {
     Json j = {{"name", l.name}, {"virtual", l.is_virtual}};
+    if (!l.strength_note.empty()) j["lower_bound"] = l.strength_note;
     switch (l.type) {
       case LightType::kPoint:
       case LightType::kSpot:

@@ -9,6 +9,9 @@
 //            irradiance `irradiance` (W/m^2) on a surface facing it; radius
 //            0 is a delta (directional) light.  The sun is 0.27 degrees.
 //
+// A light whose strength is only a lower bound (mr-lights: its region was
+// clipped in the photograph) says why in "lower_bound".
+//
 // Every light is real or virtual: a virtual light (a lamp that is part of
 // the inserted object) lights I_m only; a real one lights both I_m and I_r.
 #pragma once
@@ -37,6 +40,7 @@ struct Light {
   Eigen::Vector3d irradiance = Eigen::Vector3d::Zero();  // distant: W/m^2 at normal incidence
   double angular_radius_deg = 0;                         // distant: 0 = delta
   double solid_angle_sr = 0;  // distant: the map region it came from (mr-lights), 0 = unknown
+  std::string strength_note;  // "lower_bound" in lights.json: why its strength is only a lower bound (empty: measured)
 
   bool IsDelta() const { return type != LightType::kDistant || angular_radius_deg <= 0; }
 };

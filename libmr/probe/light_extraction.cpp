@@ -38,6 +38,7 @@ struct MapView {
   std::vector<Eigen::Vector3d> radiance;  // per pixel
   std::vector<double> omega, energy;      // solid angle, luminance x solid angle
   std::vector<Eigen::Vector3d> dir;
+  std::vector<float> clipped;  // the map's clipped.Y (empty: none)
   double total = 0;
   Eigen::Vector3d rgb(int x, int y) const { return radiance[static_cast<size_t>(y) * w + x]; }
 };
@@ -66,6 +67,11 @@ MapView View(const Image& env) {
       m.energy[i] = Luminance(L) * m.omega[i];
       m.dir[i] = LatLongPixelToDirection(Eigen::Vector2d(x, y), m.w, m.h);
     }
+  if (const int k = env.ChannelIndex("clipped.Y"); k >= 0) {
+    m.clipped.resize(n);
+    for (size_t i = 0; i < n; ++i)
+      m.clipped[i] = env.values()[i * static_cast<size_t>(env.channels()) + static_cast<size_t>(k)];
+  }
   std::vector<double> e = m.energy;
   std::sort(e.begin(), e.end());  // small first: the sum keeps the faint sky next to a sun
   for (double v : e) m.total += v;
@@ -168,11 +174,15 @@ ExtractedLight LightOfPixels(const MapView& m, const std::vector<size_t>& pixels
   ExtractedLight l;
   l.area = area;
   Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  double e = 0, e_clipped = 0;
   for (size_t i : pixels) {
     l.power += m.radiance[i] * m.omega[i];
     l.solid_angle += m.omega[i];
     centroid += m.energy[i] * m.dir[i];
+    e += m.energy[i];
+    if (!m.clipped.empty() && m.clipped[i] > 0) e_clipped += m.energy[i];
   }
+  l.clipped_share = e > 0 ? e_clipped / e : 0;
   if (centroid.norm() > 0)
     l.direction = centroid.normalized();
   else if (!pixels.empty()) {  // no energy (or it cancels): the pixels' mean direction
@@ -541,6 +551,11 @@ std::vector<Light> ToLights(const Extraction& e, const std::string& prefix, cons
     l.angular_radius_deg = r / kDegToRad;
     l.irradiance = x.area && disc > 0 ? Eigen::Vector3d(x.power * (kPi * Square(std::sin(r)) / disc)) : x.power;
     l.solid_angle_sr = std::min(x.solid_angle, kFourPi);
+    if (x.clipped_share > 0)
+      l.strength_note = fmt::format(
+          "a lower bound: {:.0f}% of its energy comes from pixels clipped in the photograph (their light above the "
+          "clip estimated from the glow, or not at all)",
+          100 * x.clipped_share);
     out.push_back(l);
   }
   return out;

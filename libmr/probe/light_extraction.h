@@ -32,6 +32,7 @@ struct ExtractedLight {
   bool area = false;                                // a disc (blobs) or a delta
   double disc_solid_angle = 0;                      // the disc's (blobs: from its core, not its glow); 0: solid_angle
   double DiscSolidAngle() const { return disc_solid_angle > 0 ? disc_solid_angle : solid_angle; }
+  double clipped_share = 0;  // of its energy from the map's clipped pixels (clipped.Y > 0): a lower bound
 };
 
 struct Extraction {
@@ -45,7 +46,8 @@ struct Extraction {
   double seconds = 0;
 };
 
-// `env`: R G B first (other layers ignored), finite and non-negative.
+// `env`: R G B first, finite and non-negative; a clipped.Y layer (mr-probe's)
+// marks each light's clipped share; other layers are ignored.
 Extraction ExtractLights(const Image& env, const ExtractOptions& options);
 
 // lights.json entries (distant lights, real): `name_prefix` + index, or

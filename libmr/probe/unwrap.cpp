@@ -6,6 +6,7 @@
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 
+#include "core/check.h"
 #include "core/error.h"
 #include "core/json.h"
 #include "core/json_node.h"
@@ -61,12 +62,20 @@ namespace {
 // photograph pixel (false: not seen); `factor` weights a direction's
 // confidence; `usable` marks photograph pixels that show the probe.
 template <typename ToPixel, typename Factor>
-Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eigen::Matrix3d& cam_from_env,
-               const UnwrapOptions& o, double gain, const ToPixel& to_pixel, const Factor& factor,
-               UnwrapReport* report) {
+Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const std::vector<uint8_t>* clipped,
+               const Eigen::Matrix3d& cam_from_env, const UnwrapOptions& o, double gain, const ToPixel& to_pixel,
+               const Factor& factor, UnwrapReport* report) {
   const int W = o.width, H = o.width / 2;
   const int pw = photo.width(), ph = photo.height();
-  Image env(W, H, {"R", "G", "B", "confidence.Y"});
+  int64_t n_clipped = 0;
+  if (clipped) {
+    MR_CHECK(clipped->size() == usable.size());
+    for (size_t i = 0; i < usable.size(); ++i) n_clipped += usable[i] && (*clipped)[i];
+  }
+  const bool with_clipped = n_clipped > 0;
+  Image env(W, H,
+            with_clipped ? std::vector<std::string>{"R", "G", "B", "confidence.Y", "clipped.Y"}
+                         : std::vector<std::string>{"R", "G", "B", "confidence.Y"});
   ParallelFor(0, H, [&](int64_t y) {
     for (int x = 0; x < W; ++x) {
       // The Jacobian in the map's angular units: steps of one map pixel's
@@ -101,7 +110,7 @@ Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eig
       const int rx = std::min(100, static_cast<int>(std::ceil(3 * std::sqrt(S(0, 0))))),
                 ry = std::min(100, static_cast<int>(std::ceil(3 * std::sqrt(S(1, 1)))));
       const int cx = static_cast<int>(std::lround(q0.x())), cy = static_cast<int>(std::lround(q0.y()));
-      double sum[3] = {0, 0, 0}, ws = 0, wall = 0;
+      double sum[3] = {0, 0, 0}, ws = 0, wall = 0, wclip = 0;
       for (int v = cy - ry; v <= cy + ry; ++v)
         for (int u = cx - rx; u <= cx + rx; ++u) {
           const Eigen::Vector2d dq(u - q0.x(), v - q0.y());
@@ -112,11 +121,13 @@ Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eig
           if (u < 0 || v < 0 || u >= pw || v >= ph || !usable[static_cast<size_t>(v) * pw + u]) continue;
           ws += wgt;
           for (int c = 0; c < 3; ++c) sum[c] += wgt * photo.at(u, v, c);
+          if (with_clipped && (*clipped)[static_cast<size_t>(v) * pw + u]) wclip += wgt;
         }
       if (!(ws > 0)) continue;
       for (int c = 0; c < 3; ++c) env.at(x, static_cast<int>(y), c) = static_cast<float>(gain * sum[c] / ws);
       env.at(x, static_cast<int>(y), 3) =
           static_cast<float>(std::abs(J.determinant()) * factor(cam_from_env * d_env) * ws / wall);
+      if (with_clipped) env.at(x, static_cast<int>(y), 4) = static_cast<float>(wclip / ws);
     }
   });
   if (report) {
@@ -132,6 +143,13 @@ Image Resample(const Image& photo, const std::vector<uint8_t>& usable, const Eig
         }
       }
     report->seen_fraction = seen / total;
+    report->clipped_pixels = n_clipped;
+    double clipped_sa = 0;
+    if (with_clipped)
+      for (int y = 0; y < H; ++y)
+        for (int x = 0; x < W; ++x)
+          if (env.at(x, y, 3) > 0 && env.at(x, y, 4) > 0) clipped_sa += LatLongPixelSolidAngle(x, y, W, H);
+    report->clipped_fraction = seen > 0 ? clipped_sa / seen : 0;
     report->blind_fraction = 1 - report->seen_fraction;
     if (!conf.empty()) {
       std::nth_element(conf.begin(), conf.begin() + static_cast<std::ptrdiff_t>(conf.size() / 2), conf.end());
@@ -158,7 +176,7 @@ void CheckPhoto(const Image& photo, const CameraModel& camera, const std::string
 }  // namespace
 
 Image UnwrapMirrorSphere(const Image& photo, const ProbeGeometry& probe, const UnwrapOptions& o,
-                         const std::string& name, UnwrapReport* report) {
+                         const std::string& name, UnwrapReport* report, const std::vector<uint8_t>* clipped) {
   o.Check();
   CheckPhoto(photo, probe.camera, name);
   const Eigen::Vector3d& c = probe.centre_cam;
@@ -179,7 +197,7 @@ Image UnwrapMirrorSphere(const Image& photo, const ProbeGeometry& probe, const U
   const Eigen::Vector3d towards_camera = -c.normalized();
   const double cone = o.camera_cone_deg * kDegToRad;
   return Resample(
-      photo, on_sphere, cam_from_env, o, 1.0 / o.reflectance,
+      photo, on_sphere, clipped, cam_from_env, o, 1.0 / o.reflectance,
       [&](const Eigen::Vector3d& d, Eigen::Vector2d* q) {
         Eigen::Vector3d p;
         return MirrorSpherePoint(c, R, d, &p) && probe.camera.Project(p, q);
@@ -195,7 +213,8 @@ Image UnwrapMirrorSphere(const Image& photo, const ProbeGeometry& probe, const U
 }
 
 Image UnwrapFisheye(const Image& photo, const CameraModel& camera, const Eigen::Matrix3d& world_from_cam,
-                    const UnwrapOptions& o, const std::string& name, UnwrapReport* report) {
+                    const UnwrapOptions& o, const std::string& name, UnwrapReport* report,
+                    const std::vector<uint8_t>* clipped) {
   o.Check();
   CheckPhoto(photo, camera, name);
   std::vector<uint8_t> imaged(static_cast<size_t>(photo.pixel_count()), 0);
@@ -207,7 +226,7 @@ Image UnwrapFisheye(const Image& photo, const CameraModel& camera, const Eigen::
   });
   const Eigen::Matrix3d cam_from_env = world_from_cam.transpose() * o.rotate.transpose();
   return Resample(
-      photo, imaged, cam_from_env, o, 1.0 / o.reflectance,
+      photo, imaged, clipped, cam_from_env, o, 1.0 / o.reflectance,
       [&](const Eigen::Vector3d& d, Eigen::Vector2d* q) {
         if (!camera.Project(d, q)) return false;
         return q->x() >= -0.5 && q->y() >= -0.5 && q->x() <= camera.width() - 0.5 && q->y() <= camera.height() - 0.5;
@@ -217,20 +236,29 @@ Image UnwrapFisheye(const Image& photo, const CameraModel& camera, const Eigen::
 
 Image MergeProbeViews(const std::vector<Image>& views) {
   if (views.empty()) ThrowError("no views to merge");
-  Image out(views[0].width(), views[0].height(), views[0].channel_names());
-  for (const Image& v : views)
-    if (v.width() != out.width() || v.height() != out.height() || v.channel_names() != out.channel_names())
+  bool any_clipped = false;
+  for (const Image& v : views) {
+    if (v.width() != views[0].width() || v.height() != views[0].height() || v.channels() < 4 ||
+        v.channel_names()[3] != "confidence.Y")
       ThrowError("probe views differ in size or layers");
+    any_clipped = any_clipped || v.ChannelIndex("clipped.Y") >= 0;
+  }
+  Image out(views[0].width(), views[0].height(),
+            any_clipped ? std::vector<std::string>{"R", "G", "B", "confidence.Y", "clipped.Y"}
+                        : std::vector<std::string>{"R", "G", "B", "confidence.Y"});
+  const int no = out.channels();
   for (int64_t p = 0; p < out.pixel_count(); ++p) {
-    double sum[3] = {0, 0, 0}, ws = 0;
+    double sum[3] = {0, 0, 0}, ws = 0, wclip = 0;
     for (const Image& v : views) {
-      const float* px = &v.values()[static_cast<size_t>(p * 4)];
+      const float* px = &v.values()[static_cast<size_t>(p * v.channels())];
       ws += px[3];
       for (int c = 0; c < 3; ++c) sum[c] += px[3] * px[c];
+      if (v.channels() > 4) wclip += px[3] * px[4];
     }
-    float* o = &out.values()[static_cast<size_t>(p * 4)];
+    float* o = &out.values()[static_cast<size_t>(p * no)];
     for (int c = 0; c < 3; ++c) o[c] = ws > 0 ? static_cast<float>(sum[c] / ws) : 0.0f;
     o[3] = static_cast<float>(ws);
+    if (any_clipped) o[4] = ws > 0 ? static_cast<float>(wclip / ws) : 0.0f;
   }
   return out;
 }

@@ -118,6 +118,10 @@ JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, Rend
     ScopedTimer t(report, "load");
     LoadRenderScene(scene, rs, std::min(begin, std::max(0, n_frames - 1)));  // the world of the first frame
   }
+  for (const LightSource& l : rs->lights())
+    if (!l.light().strength_note.empty())
+      report->Warn(fmt::format("light {}'s strength is {}: what it lights is too dark by what the clip hid",
+                               l.light().name, l.light().strength_note));
   int end = frame_end >= 0 ? frame_end : scene.render.frame_end;
   if (begin >= n_frames)
     throw UsageError(fmt::format("frame range {}:{} is empty (the scene has {} frames)", begin, end, n_frames));

@@ -4,8 +4,8 @@
 #include <gtest/gtest.h>
 
 #include "calib/probe_file.h"
-#include "core/image.h"
 #include "core/color.h"
+#include "core/image.h"
 #include "core/math.h"
 #include "core/report.h"
 #include "core/spherical.h"

@@ -9,6 +9,10 @@ namespace mr {
 
 LightSource::LightSource(const Light& light) : light_(light) {
   CoordinateSystem(light_.direction, &t_, &b_);
+  if (light_.type == LightType::kArea && light_.shape == AreaShape::kRect) {
+    t_ = (light_.axis - light_.axis.dot(light_.direction) * light_.direction).normalized();
+    b_ = light_.direction.cross(t_);
+  }
   if (light_.type == LightType::kSpot) {
     cos_cone_ = std::cos(light_.cone_deg * kDegToRad);
     cos_falloff_ = std::cos(light_.falloff_start_deg * kDegToRad);
@@ -46,6 +50,37 @@ bool LightSource::Sample(const Eigen::Vector3d& p, double u0, double u1, LightSa
       s->delta = true;
       return s->li.maxCoeff() > 0;
     }
+    case LightType::kArea: {
+      Eigen::Vector3d q = light_.position;
+      if (light_.shape == AreaShape::kRect) {
+        q += (u0 - 0.5) * light_.width * t_ + (u1 - 0.5) * light_.height * b_;
+      } else {
+        // Shirley-Chiu's concentric map: strata stay compact on the disc.
+        const double a = 2 * u0 - 1, b = 2 * u1 - 1;
+        double r = 0, phi = 0;
+        if (a != 0 || b != 0) {
+          if (std::abs(a) > std::abs(b)) {
+            r = a;
+            phi = 0.25 * kPi * (b / a);
+          } else {
+            r = b;
+            phi = 0.5 * kPi - 0.25 * kPi * (a / b);
+          }
+        }
+        q += 0.5 * light_.width * r * (std::cos(phi) * t_ + std::sin(phi) * b_);
+      }
+      const Eigen::Vector3d v = q - p;
+      const double d2 = v.squaredNorm();
+      if (!(d2 > 0)) return false;
+      s->distance = std::sqrt(d2);
+      s->wi = v / s->distance;
+      const double cos_l = -s->wi.dot(light_.direction);
+      if (cos_l <= 0) return false;
+      s->li = light_.radiance;
+      s->pdf = d2 / (light_.Area() * cos_l);
+      s->delta = true;
+      return s->li.maxCoeff() > 0;
+    }
     case LightType::kDistant: {
       s->distance = INFINITY;
       if (light_.angular_radius_deg <= 0) {
@@ -77,6 +112,23 @@ Eigen::Vector3d LightSource::EvalDistant(const Eigen::Vector3d& dir, double* pdf
   if (omc > one_minus_cos_max_) return Eigen::Vector3d::Zero();
   *pdf = 1 / (kTwoPi * one_minus_cos_max_);
   return radiance_;
+}
+
+Eigen::Vector3d LightSource::HitArea(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max,
+                                     double* t) const {
+  if (light_.type != LightType::kArea) return Eigen::Vector3d::Zero();
+  const double denom = d.dot(light_.direction);
+  if (!(denom < 0)) return Eigen::Vector3d::Zero();  // parallel, or from behind
+  const double tt = (light_.position - o).dot(light_.direction) / denom;
+  if (!(tt > 0 && tt < t_max)) return Eigen::Vector3d::Zero();
+  const Eigen::Vector3d q = o + tt * d - light_.position;
+  const double x = q.dot(t_), y = q.dot(b_);
+  const bool inside = light_.shape == AreaShape::kRect
+                          ? std::abs(x) <= 0.5 * light_.width && std::abs(y) <= 0.5 * light_.height
+                          : x * x + y * y <= 0.25 * light_.width * light_.width;
+  if (!inside) return Eigen::Vector3d::Zero();
+  *t = tt;
+  return light_.radiance;
 }
 
 }  // namespace mr

@@ -22,11 +22,20 @@ class LightSource {
   const Light& light() const { return light_; }
   bool is_virtual() const { return light_.is_virtual; }
   // Samples the light as seen from `p`; false when it sends nothing there.
+  // An area light: a uniform point of it (u0, u1 over its rectangle, or
+  // its disc by the concentric map), pdf in solid angle at p; `delta` is
+  // true for it too, since area lights are not geometry: only the rays
+  // next-event estimation never samples meet them (HitArea), so its
+  // samples take no MIS weight.
   bool Sample(const Eigen::Vector3d& p, double u0, double u1, LightSample* s) const;
   // Radiance of a distant disc light along world direction `dir` (zero
   // outside the disc and for delta lights), with the pdf Sample would have
   // given that direction.
   Eigen::Vector3d EvalDistant(const Eigen::Vector3d& dir, double* pdf) const;
+  // An area light met by the ray o + t d (d unit) at 0 < t < t_max from its
+  // emitting side: its radiance, *t set; zero otherwise (and for the other
+  // types).
+  Eigen::Vector3d HitArea(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, double* t) const;
 
  private:
   Light light_;

@@ -24,7 +24,7 @@ std::vector<double> ToJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z
 Light ParseLight(const JsonNode& n, const std::string& default_name) {
   JsonSettings s(n);
   Light l;
-  const std::string type = s.Require("type").OneOf({"point", "spot", "distant"});
+  const std::string type = s.Require("type").OneOf({"point", "spot", "distant", "area"});
   const auto name = s.Take("name");
   l.name = name ? name->String() : default_name;
   s.Bool("virtual", &l.is_virtual);
@@ -47,6 +47,37 @@ Light ParseLight(const JsonNode& n, const std::string& default_name) {
       l.cone_deg = cone->Number(1e-3, 90);
       l.falloff_start_deg = falloff ? falloff->Number(0, 90) : l.cone_deg;
       if (l.falloff_start_deg > l.cone_deg) falloff->Fail(fmt::format("must not exceed cone_deg ({})", l.cone_deg));
+    }
+  } else if (type == "area") {
+    l.type = LightType::kArea;
+    const JsonNode position = s.Require("position");
+    const JsonNode direction = s.Require("direction");
+    const JsonNode radiance = s.Require("radiance");
+    std::string shape = "rect";
+    s.OneOf("shape", &shape, {"rect", "disc"});
+    l.shape = shape == "rect" ? AreaShape::kRect : AreaShape::kDisc;
+    std::optional<JsonNode> width, height, radius, axis;
+    if (l.shape == AreaShape::kRect) {
+      width.emplace(s.Require("width"));
+      height.emplace(s.Require("height"));
+      if (const auto a = s.Take("axis")) axis.emplace(*a);
+    } else {
+      radius.emplace(s.Require("radius"));
+    }
+    s.Done();
+    l.position = position.Vec3(-kHuge, kHuge);
+    l.direction = UnitDirection(direction);
+    l.radiance = radiance.Vec3(0, kHuge);
+    if (l.shape == AreaShape::kRect) {
+      l.width = width->Number(1e-9, kHuge);
+      l.height = height->Number(1e-9, kHuge);
+      Eigen::Vector3d a = axis ? UnitDirection(*axis) : Eigen::Vector3d::UnitX();
+      if (!axis && std::abs(a.dot(l.direction)) > 0.9) a = Eigen::Vector3d::UnitZ();
+      a -= a.dot(l.direction) * l.direction;
+      if (!(a.norm() > 1e-6)) axis->Fail("must not be parallel to direction");
+      l.axis = a.normalized();
+    } else {
+      l.width = l.height = 2 * radius->Number(1e-9, kHuge);
     }
   } else {
     l.type = LightType::kDistant;
@@ -127,6 +158,20 @@ Json LightsToJson(const std::vector<Light>& lights, const std::string& comment) 
           j["direction"] = ToJson(l.direction);
           j["cone_deg"] = l.cone_deg;
           j["falloff_start_deg"] = l.falloff_start_deg;
+        }
+        break;
+      case LightType::kArea:
+        j["type"] = "area";
+        j["shape"] = l.shape == AreaShape::kRect ? "rect" : "disc";
+        j["position"] = ToJson(l.position);
+        j["direction"] = ToJson(l.direction);
+        j["radiance"] = ToJson(l.radiance);
+        if (l.shape == AreaShape::kRect) {
+          j["axis"] = ToJson(l.axis);
+          j["width"] = l.width;
+          j["height"] = l.height;
+        } else {
+          j["radius"] = 0.5 * l.width;
         }
         break;
       case LightType::kDistant:

@@ -8,6 +8,10 @@
 //            `direction` (pointing towards the light) that gives the
 //            irradiance `irradiance` (W/m^2) on a surface facing it; radius
 //            0 is a delta (directional) light.  The sun is 0.27 degrees.
+//   area:    a lamp panel, a window: a rectangle (`width` along `axis`,
+//            `height` across) or a disc (`radius`) centred at `position`,
+//            emitting `radiance` (W/(m^2 sr)) uniformly from the side
+//            `direction` points to (Lambertian, one-sided).
 //
 // A light whose strength is only a lower bound (mr-lights: its region was
 // clipped in the photograph) says why in "lower_bound".
@@ -27,7 +31,8 @@
 
 namespace mr {
 
-enum class LightType { kPoint, kSpot, kDistant };
+enum class LightType { kPoint, kSpot, kDistant, kArea };
+enum class AreaShape { kRect, kDisc };
 
 struct Light {
   std::string name;
@@ -41,8 +46,19 @@ struct Light {
   double angular_radius_deg = 0;                         // distant: 0 = delta
   double solid_angle_sr = 0;  // distant: the map region it came from (mr-lights), 0 = unknown
   std::string strength_note;  // "lower_bound" in lights.json: why its strength is only a lower bound (empty: measured)
+  AreaShape shape = AreaShape::kRect;                  // area
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();     // area, rect: along its width (made normal to `direction`)
+  double width = 0, height = 0;                        // area: rect's sides; disc: both the diameter
+  Eigen::Vector3d radiance = Eigen::Vector3d::Zero();  // area: W/(m^2 sr)
 
-  bool IsDelta() const { return type != LightType::kDistant || angular_radius_deg <= 0; }
+  // Point, spot and distant lights of radius 0: a single direction from any point.
+  bool IsDelta() const {
+    return type == LightType::kPoint || type == LightType::kSpot ||
+           (type == LightType::kDistant && angular_radius_deg <= 0);
+  }
+  double Area() const {
+    return shape == AreaShape::kRect ? width * height : 0.25 * 3.14159265358979324 * width * width;
+  }
 };
 
 // Parses and validates (unknown keys, ranges, zero-length directions are

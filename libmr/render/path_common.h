@@ -201,6 +201,31 @@ inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double 
   return L;
 }
 
+// Radiance of the area lights in `which` that the ray meets before t_max,
+// counted only on rays next-event estimation never samples: the camera's
+// (prev_pdf 0) and those after a delta or transmitted BSDF sample
+// (infinite): area lights are not geometry, so every other direction
+// towards them is next-event estimation's alone (LightSource::Sample).
+inline Eigen::Vector3d AreaLightsSeen(const RenderScene& scene, const Ray& ray, double t_max, double prev_pdf,
+                                      unsigned which) {
+  Eigen::Vector3d L = Eigen::Vector3d::Zero();
+  if (!scene.has_area_light() || !(prev_pdf == 0 || std::isinf(prev_pdf))) return L;
+  const Eigen::Vector3d o = ray.origin.cast<double>();
+  const Eigen::Vector3d dir = ray.direction.cast<double>();
+  const double len = dir.norm();
+  const Eigen::Vector3d d = dir / len;
+  double nearest = t_max * len, t = 0;
+  for (const LightSource& l : scene.lights()) {
+    if (!(which & LightBit(l))) continue;
+    const Eigen::Vector3d le = l.HitArea(o, d, nearest, &t);
+    if (le.maxCoeff() > 0) {
+      L = le;  // the nearest one met hides those behind it
+      nearest = t;
+    }
+  }
+  return L;
+}
+
 // A camera ray that meets nothing: what it sees of the environment and the
 // distant lights, the virtual lights in I_m only.
 inline void AddEscapedCameraRay(const RenderScene& scene, const Ray& ray, Eigen::Vector3d* mixed,

@@ -116,7 +116,10 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   for (;; ++depth) {
     Hit hit;
     ++*rays;
-    if (!Intersect(ray, &hit)) {
+    const bool found = Intersect(ray, &hit);
+    if (depth >= escape_from_depth)
+      L += beta.cwiseProduct(AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, lights));
+    if (!found) {
       if (depth >= escape_from_depth) L += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, lights));
       break;
     }
@@ -171,6 +174,14 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
     ++*rays;
     const bool found = Intersect(ray, &hit);
     if (depth == start_depth) out.first_t = hit.t;
+    if (depth >= escape_from_depth && (!found || !hit.is_virtual)) {  // (a virtual hit parts the paths below)
+      const Eigen::Vector3d a =
+          beta.cwiseProduct(AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kRealLights));
+      out.mixed += a;
+      out.real += a;
+      if (scene_.has_virtual())
+        out.mixed += beta.cwiseProduct(AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kVirtualLights));
+    }
     if (!found) {
       if (depth < escape_from_depth) return out;
       const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));

@@ -404,7 +404,8 @@ Bsdf RenderScene::DiffuseBsdfWith(uint32_t id, const Eigen::Vector3d& albedo) co
 void RenderScene::AddLight(const Light& light) {
   lights_.emplace_back(light);
   has_virtual_ = has_virtual_ || light.is_virtual;
-  has_distant_area_light_ = has_distant_area_light_ || !light.IsDelta();
+  has_distant_area_light_ = has_distant_area_light_ || (light.type == LightType::kDistant && !light.IsDelta());
+  has_area_light_ = has_area_light_ || light.type == LightType::kArea;
 }
 
 int64_t RenderScene::RealCrossings(size_t i) const {

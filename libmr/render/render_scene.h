@@ -85,6 +85,7 @@ class RenderScene {
   const EnvironmentMap& environment() const { return env_; }
   const std::vector<LightSource>& lights() const { return lights_; }
   bool has_distant_area_light() const { return has_distant_area_light_; }
+  bool has_area_light() const { return has_area_light_; }  // positioned (lights.json "area")
   const Material& material(uint32_t geometry_id) const { return surfaces_.at(geometry_id).material; }
   const Bsdf& bsdf(uint32_t geometry_id) const { return surfaces_.at(geometry_id).bsdf; }
   // The material's diffuse and glossy lobes alone (bsdf = their sum), for
@@ -181,7 +182,7 @@ class RenderScene {
   std::vector<std::vector<std::pair<int, int>>> virtual_edges_;  // each once
   std::vector<char> virtual_hidden_;
   bool closed_built_ = false;
-  bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false;
+  bool has_virtual_ = false, has_virtual_geometry_ = false, has_distant_area_light_ = false, has_area_light_ = false;
   double epsilon_ = 1e-5;
 };
 

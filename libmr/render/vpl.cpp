@@ -103,6 +103,9 @@ std::vector<Emitter> Emitters(const RenderScene& scene, const VplSettings& st, d
       case LightType::kDistant:
         p = Luminance(l.irradiance) * kPi * radius * radius;
         break;
+      case LightType::kArea:
+        p = Luminance(l.radiance) * kPi * l.Area();
+        break;
     }
     if (p > 0) emitters.push_back({static_cast<int>(i), p});
   }
@@ -197,6 +200,17 @@ bool StartLightPath(const RenderScene& scene, const VplSettings& st, const Emitt
       LightSample s;
       if (!ls.Sample(centre, u0, u1, &s)) return false;
       from_disc(s.wi, s.li / s.pdf);
+    } else if (l.type == LightType::kArea) {
+      // A uniform point of it (the sample seen from a point on its normal
+      // gives it), a cosine-weighted direction: flux L pi A per path.
+      LightSample s;
+      if (!ls.Sample(l.position + l.direction, u0, u1, &s)) return false;
+      origin = l.position + l.direction + s.distance * s.wi;
+      const auto c = SampleCosineHemisphere(u3, u4);
+      Eigen::Vector3d t, b;
+      CoordinateSystem(l.direction, &t, &b);
+      dir = (c[0] * t + c[1] * b + c[2] * l.direction).normalized();
+      flux = l.radiance * (kPi * l.Area() / (p_select * st.paths));
     } else {
       double pdf;
       if (l.type == LightType::kPoint) {
@@ -617,7 +631,7 @@ class VplShader {
       if (!st_.fixed_directions) break;
       if (l.light().type == LightType::kDistant) continue;  // directional VPLs
       LightSample ls;
-      if (!l.Sample(v.p, 0, 0, &ls)) continue;
+      if (!l.Sample(v.p, 0.5, 0.5, &ls)) continue;  // an area light: its centre
       const Eigen::Vector3d wi = v.frame.ToLocal(ls.wi);
       if (wi.z() <= 0) continue;
       push(bsdf.Eval(wo_l, wi).cwiseProduct(ls.li) * wi.z(), Eigen::Vector3d::Zero(), ls.wi, ls.distance * (1 - 1e-6),

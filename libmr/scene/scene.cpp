@@ -540,6 +540,7 @@ Light SceneVirtualLight::At(double frame) const {
   l.position = t * light.position;
   const Eigen::Vector3d d = t.rotation() * light.direction;
   if (d.norm() > 0) l.direction = d.normalized();
+  l.axis = t.rotation() * light.axis;
   return l;
 }
 

@@ -45,6 +45,13 @@ int main(int argc, char** argv) {
                  "than this stays in the map with its shape (a window, a panel), steradians")
       ->default_val(0.05);
   app.add_option("--sh-order", eo.sh_order, "Bands of the residual's spherical harmonics")->default_val(3);
+  app.add_option("--room", o.room,
+                 "blobs: the room's mesh; each light whose directions from the probe land on it becomes an area "
+                 "light there (lights.json \"area\"), the rest stay at infinity")
+      ->check(CLI::ExistingFile);
+  app.add_option("--probe-at", o.probe_at, "The probe's centre X,Y,Z in the map's frame (metres), for --room")
+      ->delimiter(',')
+      ->expected(3);
   app.add_option("--residual", o.residual, "Write the map minus what the lights took (EXR)");
   app.add_option("--residual-width", o.residual_width, "Width of the residual map (energy-preserving downsampling)")
       ->default_val(64);

@@ -11,6 +11,8 @@
 #include "core/hash.h"
 #include "core/image.h"
 #include "eval/plot.h"
+#include "geometry/mesh.h"
+#include "jobs/light_positions.h"
 #include "light/environment.h"
 #include "light/lights_file.h"
 #include "probe/light_extraction.h"
@@ -74,9 +76,11 @@ class LightsJob {
   const std::vector<Eigen::Vector3d>& dirs() const { return dirs_; }
 
  private:
-  LightsError WriteLights(const std::string& map_file, const std::string& out_file, const std::string& res_file,
-                          const Extraction& ex, const std::vector<double>& ref, const std::vector<int>* ids,
-                          const Json& source_extra = Json::object());
+  LightsError WriteLights(const Image& env, const std::string& map_file, const std::string& out_file,
+                          const std::string& res_file, const Extraction& ex, const std::vector<double>& ref,
+                          const std::vector<int>* ids, const Json& source_extra = Json::object());
+  std::vector<Light> Positioned(const Image& env, const Extraction& ex, std::vector<Light> lights);
+  std::optional<Mesh> room_;
   const LightsJobOptions& o_;
   Report* report_;
   const std::vector<Eigen::Vector3d> dirs_;
@@ -85,12 +89,39 @@ class LightsJob {
 // One map's lights (named by `ids` when given; over time the patterns'
 // folders are made), checked as mr-render reads them before anything is
 // written, and its residual map.
-LightsError LightsJob::WriteLights(const std::string& map_file, const std::string& out_file,
+// With --room: the lights that land on the room, placed there (the report
+// says what became of each).
+std::vector<Light> LightsJob::Positioned(const Image& env, const Extraction& ex, std::vector<Light> lights) {
+  if (o_.room.empty()) return lights;
+  if (!room_) {
+    ScopedTimer t(report_, "read room");
+    room_ = ReadMesh(o_.room);
+    report_->AddInput(o_.room);
+  }
+  PositionOptions po;
+  po.probe_centre = Eigen::Vector3d(o_.probe_at[0], o_.probe_at[1], o_.probe_at[2]);
+  PositionReport pr;
+  {
+    ScopedTimer t(report_, "position");
+    lights = PositionLights(env, ex, lights, *room_, po, &pr);
+  }
+  for (const std::string& n : pr.notes) spdlog::info("{}", n);
+  report_->SetMetric("positioned", {{"lights", pr.positioned},
+                                    {"distant", pr.distant},
+                                    {"positioned_share", pr.positioned_share},
+                                    {"distant_share", pr.distant_share},
+                                    {"notes", pr.notes}});
+  spdlog::info("{} light(s) placed in the room ({:.0f}% of the lights' energy), {} left at infinity", pr.positioned,
+               100 * pr.positioned_share, pr.distant);
+  return lights;
+}
+
+LightsError LightsJob::WriteLights(const Image& env, const std::string& map_file, const std::string& out_file,
                                    const std::string& res_file, const Extraction& ex, const std::vector<double>& ref,
                                    const std::vector<int>* ids, const Json& source_extra) {
   const bool make_dirs = ids != nullptr;
   const LightsError e = ErrorOf(ex, dirs_, ref);
-  std::vector<Light> lights = ToLights(ex, "light", ids);
+  std::vector<Light> lights = Positioned(env, ex, ToLights(ex, "light", ids));
   Json j = LightsToJson(lights, "mr-lights: " + o_.command_line);
   j["source"] = {{"method", o_.extract.method}, {"count", o_.extract.count}, {"map", map_file}};
   for (auto& [k, v] : source_extra.items()) j["source"][k] = v;
@@ -124,14 +155,15 @@ LightsError LightsJob::WriteLights(const std::string& map_file, const std::strin
 // it (a light's name depends on the frames before): a re-run keeps the
 // files whose key matches and redoes the rest.
 void LightsJob::OverTime() {
-  const ExtractOptions& eo = o_.extract;
+  ExtractOptions eo = o_.extract;
+  eo.keep_wide = !o_.room.empty();
   Json frames = Json::array();
   std::vector<ExtractedLight> prev;
   std::vector<int> prev_ids;
   int next_id = 0, f = 0, kept = 0;
-  const std::string options =
-      fmt::format("{} {} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold, eo.saddle, eo.max_blob_sr,
-                  eo.sh_order, eo.seed, o_.residual_width, o_.match_deg, o_.residual.empty());
+  const std::string options = fmt::format("{} {} {} {} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold,
+                                          eo.saddle, eo.max_blob_sr, eo.sh_order, eo.seed, o_.residual_width,
+                                          o_.match_deg, o_.residual.empty(), o_.room, fmt::join(o_.probe_at, ","));
   uint64_t key = HashCombine(0x6c6967687473ULL, HashString(options));
   for (;; ++f) {
     const std::string map_file = FramePath(o_.env, f).string();
@@ -177,7 +209,7 @@ void LightsJob::OverTime() {
       ref = MapIrradiance(env, dirs_);
     }
     const LightsError e =
-        WriteLights(map_file, out_file, res_file, ex, ref, &ids, Json{{"key", key_hex}, {"next_id", next_id}});
+        WriteLights(env, map_file, out_file, res_file, ex, ref, &ids, Json{{"key", key_hex}, {"next_id", next_id}});
     frames.push_back({{"frame", f},
                       {"lights", ex.lights.size()},
                       {"kept_identity", matched},
@@ -250,13 +282,14 @@ void LightsJob::Sweep(const Image& env, const std::vector<double>& ref) {
 
 // One map: its lights, residual and error.
 void LightsJob::Once(const Image& env, const std::vector<double>& ref) {
-  const ExtractOptions& eo = o_.extract;
+  ExtractOptions eo = o_.extract;
+  eo.keep_wide = !o_.room.empty();  // a panel or a window is placed in the room, not left in the map
   Extraction ex;
   {
     ScopedTimer t(report_, "extract");
     ex = ExtractLights(env, eo);
   }
-  const LightsError e = WriteLights(o_.env, o_.out, o_.residual, ex, ref, nullptr);
+  const LightsError e = WriteLights(env, o_.env, o_.out, o_.residual, ex, ref, nullptr);
   if (!o_.residual.empty() && ex.taken_fraction > 1 - 1e-12)
     report_->Skip("residual energy", "the lights took all of the map's energy (" + eo.method +
                                          "): the residual map is black and its SH zero");
@@ -344,6 +377,9 @@ void LightsJobOptions::Check() const {
   if (normals < 1) throw UsageError("--normals must be at least 1");
   if (match_deg < 0) throw UsageError("--match-deg must be 0 or more");
   extract.Check();
+  if (!room.empty() && probe_at.size() != 3) throw UsageError("--room needs --probe-at X,Y,Z (the probe's centre)");
+  if (!probe_at.empty() && room.empty()) throw UsageError("--probe-at needs --room MESH");
+  if (!room.empty() && extract.method != "blobs") throw UsageError("--room places blobs' lights: give --method blobs");
   if (sweep) (void)ParseCounts(counts);
   if (over_time()) {
     if (sweep) throw UsageError("--sweep takes one map, not a pattern");

@@ -20,6 +20,10 @@ struct LightsJobOptions {
   int normals = 1024;     // directions for the irradiance error
   double match_deg = 10;  // over time: a light this near one of the last frame keeps its name
   ExtractOptions extract;
+  // Lights where they are (blobs): the room's mesh and the probe's centre in
+  // the map's frame (the world, for mr-probe's maps); empty: all at infinity.
+  std::string room;
+  std::vector<double> probe_at;  // X,Y,Z metres
   // The sweep: every method at every count, into a CSV table and an SVG plot.
   bool sweep = false;
   std::vector<std::string> methods = {"median-cut", "variance-cut", "importance", "blobs"};
@@ -28,7 +32,8 @@ struct LightsJobOptions {
   std::string command_line;  // written into lights.json and the residual
 
   // UsageError naming the flag at fault (--out, --sweep, --residual-width,
-  // the patterns, --counts, and ExtractOptions::Check's).
+  // the patterns, --counts, --room without --probe-at or blobs, and
+  // ExtractOptions::Check's).
   void Check() const;
   bool over_time() const { return env.find('%') != std::string::npos; }
 };

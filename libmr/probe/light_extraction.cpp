@@ -342,7 +342,7 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
 // *n_regions: the regions; *split: the connected components that became
 // more than one light; *wide: the regions left in the map for their width.
 std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold, double saddle, double max_sr,
-                                  std::vector<uint8_t>* taken, int* n_regions, int* split, int* wide) {
+                                  bool keep_wide, std::vector<uint8_t>* taken, int* n_regions, int* split, int* wide) {
   const double cut = threshold * m.total / kFourPi;
   const size_t n = m.energy.size();
   std::vector<double> lum(n);
@@ -439,7 +439,8 @@ std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold,
       omega += m.omega[p];
     }
     l.disc_solid_angle = std::min(l.solid_angle, 2 * omega);
-    if (l.disc_solid_angle > max_sr) {  // a window, a panel: no disc; the map keeps its shape
+    l.pixels = px;
+    if (l.disc_solid_angle > max_sr && !keep_wide) {  // a window, a panel: no disc; the map keeps its shape
       ++*wide;
       continue;
     }
@@ -474,8 +475,8 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& o) {
     ex.lights = Importance(m, o.count, o.seed);
     std::fill(taken.begin(), taken.end(), 1);
   } else {
-    ex.lights = Blobs(m, o.count, o.threshold, o.saddle, o.max_blob_sr, &taken, &ex.regions, &ex.split_components,
-                      &ex.wide_regions);
+    ex.lights = Blobs(m, o.count, o.threshold, o.saddle, o.max_blob_sr, o.keep_wide, &taken, &ex.regions,
+                      &ex.split_components, &ex.wide_regions);
   }
   ex.residual = Image::Rgb(m.w, m.h);
   double left = 0;

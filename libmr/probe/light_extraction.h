@@ -4,6 +4,7 @@
 // docs/methods.md, "Light extraction".
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,7 @@ struct ExtractOptions {
   double threshold = 8;       // blobs: times the map's mean radiance
   double saddle = 0.5;        // blobs: two peaks stay two lights where the light between falls below this of the dimmer
   double max_blob_sr = 0.05;  // blobs: a region whose core is wider stays in the map with its shape (7.2 degrees)
+  bool keep_wide = false;     // blobs: wide regions become lights too (to be placed in the room: mr-lights --room)
   int sh_order = 3;           // the residual's spherical harmonics
   uint32_t seed = 0;          // importance: the point set's scramble
   void Check() const;
@@ -32,7 +34,8 @@ struct ExtractedLight {
   bool area = false;                                // a disc (blobs) or a delta
   double disc_solid_angle = 0;                      // the disc's (blobs: from its core, not its glow); 0: solid_angle
   double DiscSolidAngle() const { return disc_solid_angle > 0 ? disc_solid_angle : solid_angle; }
-  double clipped_share = 0;  // of its energy from the map's clipped pixels (clipped.Y > 0): a lower bound
+  double clipped_share = 0;    // of its energy from the map's clipped pixels (clipped.Y > 0): a lower bound
+  std::vector<size_t> pixels;  // blobs: the map pixels (y * width + x) it took
 };
 
 struct Extraction {

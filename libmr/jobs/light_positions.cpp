@@ -1,0 +1,164 @@
+#include "jobs/light_positions.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Eigenvalues>
+
+#include "core/check.h"
+#include "core/color.h"
+#include "core/math.h"
+#include "core/spherical.h"
+#include "geometry/embree_scene.h"
+
+namespace mr {
+
+namespace {
+
+struct SurfacePoint {
+  Eigen::Vector3d p, n;  // the point met, its surface's normal (towards the probe)
+  double lum = 0;        // the map pixel's luminance
+  double energy = 0;     // luminance x solid angle
+  double area = 0;       // the surface area the map pixel covers there, m^2
+};
+
+// The rectangle over `core` (area-weighted): centroid, the energy-weighted
+// mean normal, the in-plane principal axes; a uniform rectangle's side is
+// sqrt(12) times its standard deviation along it.
+Light FitRect(const std::vector<SurfacePoint>& core, const Light& named, double offset) {
+  double a = 0;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero(), n = Eigen::Vector3d::Zero();
+  for (const SurfacePoint& s : core) {
+    a += s.area;
+    c += s.area * s.p;
+    n += s.energy * s.n;
+  }
+  c /= a;
+  n.normalize();
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const SurfacePoint& s : core) {
+    Eigen::Vector3d q = s.p - c;
+    q -= q.dot(n) * n;
+    cov += s.area * q * q.transpose();
+  }
+  cov /= a;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+  Light l = named;
+  l.type = LightType::kArea;
+  l.shape = AreaShape::kRect;
+  l.position = c + offset * n;
+  l.direction = n;
+  l.axis = eig.eigenvectors().col(2);
+  // The pixels' centres spread a pixel less than the surface they cover
+  // (variance 1/12 of a pixel's side squared): added back.
+  const double px = std::sqrt(a / static_cast<double>(core.size()));
+  l.width = std::sqrt(12 * std::max(0.0, eig.eigenvalues()[2]) + px * px);
+  l.height = std::sqrt(12 * std::max(0.0, eig.eigenvalues()[1]) + px * px);
+  l.irradiance.setZero();
+  l.angular_radius_deg = 0;
+  return l;
+}
+
+// The solid angle the rectangle subtends at `p`, by 16 x 16 midpoints.
+double SolidAngleAt(const Light& l, const Eigen::Vector3d& p) {
+  const Eigen::Vector3d t = l.axis, b = l.direction.cross(t);
+  const double da = l.Area() / 256;
+  double omega = 0;
+  for (int j = 0; j < 16; ++j)
+    for (int i = 0; i < 16; ++i) {
+      const Eigen::Vector3d q =
+          l.position + ((i + 0.5) / 16 - 0.5) * l.width * t + ((j + 0.5) / 16 - 0.5) * l.height * b - p;
+      const double d2 = q.squaredNorm();
+      omega += std::max(0.0, -q.normalized().dot(l.direction)) * da / d2;
+    }
+  return omega;
+}
+
+}  // namespace
+
+std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const std::vector<Light>& lights,
+                                  const Mesh& room, const PositionOptions& o, PositionReport* report) {
+  MR_CHECK_EQ(lights.size(), ex.lights.size());
+  const int W = env.width(), H = env.height();
+  EmbreeScene embree;
+  embree.AddMesh(room, false);
+  embree.Commit();
+  std::vector<Light> out = lights;
+  double e_pos = 0, e_all = 0;
+  for (size_t i = 0; i < ex.lights.size(); ++i) {
+    const ExtractedLight& x = ex.lights[i];
+    const double e_light = Luminance(x.power);
+    e_all += e_light;
+    if (x.pixels.empty()) continue;
+    // Each pixel's ray from the probe's centre into the room.
+    std::vector<SurfacePoint> met;
+    double e_met = 0, e_total = 0;
+    for (size_t pix : x.pixels) {
+      const int px = static_cast<int>(pix % static_cast<size_t>(W)), py = static_cast<int>(pix / static_cast<size_t>(W));
+      const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(px, py), W, H);
+      const double omega = LatLongPixelSolidAngle(px, py, W, H);
+      SurfacePoint s;
+      s.lum = LuminanceF(env.at(px, py, 0), env.at(px, py, 1), env.at(px, py, 2));
+      s.energy = s.lum * omega;
+      e_total += s.energy;
+      Ray ray;
+      ray.origin = o.probe_centre.cast<float>();
+      ray.direction = d.cast<float>();
+      Hit hit;
+      if (!embree.Intersect(ray, &hit)) continue;
+      Eigen::Vector3d n = hit.geometric_normal.cast<double>().normalized();
+      if (n.dot(d) > 0) n = -n;
+      s.p = o.probe_centre + static_cast<double>(hit.t) * d;
+      s.n = n;
+      s.area = omega * static_cast<double>(hit.t) * hit.t / std::max(1e-3, -n.dot(d));
+      met.push_back(s);
+      e_met += s.energy;
+    }
+    if (!(e_total > 0) || e_met < o.min_hit_share * e_total) {
+      ++report->distant;
+      report->notes.push_back(fmt::format("{}: left at infinity: {:.0f}% of its light's rays leave the room",
+                                          lights[i].name, e_total > 0 ? 100 * (1 - e_met / e_total) : 100.0));
+      continue;
+    }
+    // Its core: the pixels at least half as bright as the dimmest of the
+    // brightest that hold half its energy (a lamp, not its glow; the whole
+    // of a flat panel, ties and all).
+    std::vector<std::pair<double, double>> by_lum;  // luminance, energy
+    for (const SurfacePoint& s : met) by_lum.emplace_back(s.lum, s.energy);
+    std::sort(by_lum.begin(), by_lum.end(), std::greater<>());
+    double acc = 0, l_half = 0;
+    for (const auto& [lum, e] : by_lum) {
+      acc += e;
+      l_half = lum;
+      if (acc >= 0.5 * e_met) break;
+    }
+    std::vector<SurfacePoint> core;
+    for (const SurfacePoint& s : met)
+      if (s.lum >= 0.5 * l_half) core.push_back(s);
+    Light l = FitRect(core, lights[i], o.offset_m);
+    // The radiance that sends the probe the light it saw: the region's
+    // power over the solid angle the rectangle subtends there.
+    const double omega = SolidAngleAt(l, o.probe_centre);
+    if (!(omega > 0)) {
+      ++report->distant;
+      report->notes.push_back(fmt::format("{}: left at infinity: the surface it lands on faces away", lights[i].name));
+      continue;
+    }
+    l.radiance = x.power / omega;
+    out[i] = l;
+    ++report->positioned;
+    e_pos += e_light;
+    report->notes.push_back(fmt::format(
+        "{}: an area light {:.3f} x {:.3f} m at ({:.3f}, {:.3f}, {:.3f}) facing ({:.2f}, {:.2f}, {:.2f}), {:.2f} m from "
+        "the probe",
+        l.name, l.width, l.height, l.position.x(), l.position.y(), l.position.z(), l.direction.x(), l.direction.y(),
+        l.direction.z(), (l.position - o.probe_centre).norm()));
+  }
+  report->positioned_share = e_all > 0 ? e_pos / e_all : 0;
+  report->distant_share = e_all > 0 ? 1 - report->positioned_share : 0;
+  return out;
+}
+
+}  // namespace mr

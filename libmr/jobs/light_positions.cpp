@@ -96,7 +96,8 @@ std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const 
     std::vector<SurfacePoint> met;
     double e_met = 0, e_total = 0;
     for (size_t pix : x.pixels) {
-      const int px = static_cast<int>(pix % static_cast<size_t>(W)), py = static_cast<int>(pix / static_cast<size_t>(W));
+      const int px = static_cast<int>(pix % static_cast<size_t>(W)),
+                py = static_cast<int>(pix / static_cast<size_t>(W));
       const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(px, py), W, H);
       const double omega = LatLongPixelSolidAngle(px, py, W, H);
       SurfacePoint s;
@@ -150,11 +151,12 @@ std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const 
     out[i] = l;
     ++report->positioned;
     e_pos += e_light;
-    report->notes.push_back(fmt::format(
-        "{}: an area light {:.3f} x {:.3f} m at ({:.3f}, {:.3f}, {:.3f}) facing ({:.2f}, {:.2f}, {:.2f}), {:.2f} m from "
-        "the probe",
-        l.name, l.width, l.height, l.position.x(), l.position.y(), l.position.z(), l.direction.x(), l.direction.y(),
-        l.direction.z(), (l.position - o.probe_centre).norm()));
+    report->notes.push_back(
+        fmt::format("{}: an area light {:.3f} x {:.3f} m at ({:.3f}, {:.3f}, {:.3f}) facing ({:.2f}, {:.2f}, {:.2f}), "
+                    "{:.2f} m from "
+                    "the probe",
+                    l.name, l.width, l.height, l.position.x(), l.position.y(), l.position.z(), l.direction.x(),
+                    l.direction.y(), l.direction.z(), (l.position - o.probe_centre).norm()));
   }
   report->positioned_share = e_all > 0 ? e_pos / e_all : 0;
   report->distant_share = e_all > 0 ? 1 - report->positioned_share : 0;

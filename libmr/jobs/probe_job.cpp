@@ -129,13 +129,14 @@ Image UnwrapPhoto(const ProbeJobOptions& o, const UnwrapOptions& uo, size_t i, J
                                    {"not_recovered_why", clipped.why_not}};
     report->Warn(fmt::format(
         "{}: {} pixels showing the probe are clipped ({}){}: the light there is {} (the map's clipped.Y layer; "
-        "mr-lights marks the lights over them); a bracket (mr-hdr) measures it",
+        "mr-lights marks the lights over them); {} measures it",
         photo_file, ur.clipped_pixels, clipped.how,
         clipped.regions > 0 ? fmt::format("; of the photograph's {} clipped highlights {} recovered from their glow",
                                           clipped.regions, clipped.recovered)
                             : std::string(),
         clipped.regions > 0 && clipped.recovered == clipped.regions ? "an estimate from the glow"
-                                                                    : "a lower bound where not recovered"));
+                                                                    : "a lower bound where not recovered",
+        info.decoded_from_ldr ? "a bracket (mr-hdr)" : "a shorter exposure in the bracket"));
   }
   spdlog::info("{}: {:.1f}% of the sphere of directions seen, median confidence {:.2f} px per map pixel", photo_file,
                100 * ur.seen_fraction, ur.median_confidence);

@@ -384,7 +384,7 @@ void RunPlateSphere(const ProbeSequenceOptions& o, Report* report) {
   const uint64_t video_key = scene.camera.frames_are_video ? ContentHash(*scene.camera.frames) : 0;
   std::vector<Json> frames;
   Image last;
-  int outside = 0, kept = 0;
+  int outside = 0, kept = 0, clipped_frames = 0;
   bool restoring = true;  // from the first frame on, while the maps' keys match
   Progress progress("plate frames", end - begin);
   for (int f = begin; f < end; ++f) {
@@ -414,12 +414,23 @@ void RunPlateSphere(const ProbeSequenceOptions& o, Report* report) {
       continue;
     }
     std::optional<Image> photo;
+    PhotoEncoding encoding;
     {
       ScopedTimer t(report, "read");
-      photo = reader.Photo(f);
+      photo = reader.Photo(f, &encoding);
     }
     if (!photo) ThrowErrorAt(FileLoc{scene.camera.frames->string()}, "frame {} is missing", f);
     const Image radiance = decoding.ForFrame(f).ToRadiance(*photo);
+    // Where the plate's codes clipped (8/16-bit plates, as mr-probe's
+    // photographs: 97% of full scale): counted on the sphere, a lower bound.
+    std::vector<uint8_t> clipped(static_cast<size_t>(photo->pixel_count()), 0);
+    if (encoding.has_codes) {
+      const Image codes = decoding.ForFrame(f).ToCodes(radiance, encoding);
+      for (int64_t p = 0; p < codes.pixel_count(); ++p)
+        for (int c = 0; c < 3; ++c)
+          if (codes.values()[static_cast<size_t>(p * codes.channels() + c)] >= 0.97f)
+            clipped[static_cast<size_t>(p)] = 1;
+    }
     ProbeGeometry g;
     g.path = o.scene;
     g.camera = cam;
@@ -435,7 +446,15 @@ void RunPlateSphere(const ProbeSequenceOptions& o, Report* report) {
     {
       ScopedTimer t(report, "unwrap");
       if (in_view) {
-        map = UnwrapMirrorSphere(radiance, g, o.unwrap, fmt::format("{} frame {}", o.scene.string(), f), &ur);
+        map = UnwrapMirrorSphere(radiance, g, o.unwrap, fmt::format("{} frame {}", o.scene.string(), f), &ur, &clipped);
+        if (ur.clipped_pixels > 0) {
+          ++clipped_frames;
+          Image rgbc(map.width(), map.height(), {"R", "G", "B", "confidence.Y"});  // the filter keeps four layers
+          for (int64_t p = 0; p < map.pixel_count(); ++p)
+            for (int c = 0; c < 4; ++c)
+              rgbc.values()[static_cast<size_t>(p * 4 + c)] = map.values()[static_cast<size_t>(p * map.channels() + c)];
+          map = std::move(rgbc);
+        }
       } else {  // nothing seen: every direction from history
         map = Image(o.unwrap.width, o.unwrap.width / 2, {"R", "G", "B", "confidence.Y"});
         ++outside;
@@ -460,6 +479,11 @@ void RunPlateSphere(const ProbeSequenceOptions& o, Report* report) {
   progress.Done();
   if (outside > 0)
     report->Warn(fmt::format("the sphere is out of view in {} frame(s): their maps are the earlier frames'", outside));
+  if (clipped_frames > 0)
+    report->Warn(
+        fmt::format("the sphere shows clipped plate pixels in {} frame(s): those directions are lower bounds "
+                    "(a shorter exposure, or an HDR plate, keeps the lamps)",
+                    clipped_frames));
   if (kept > 0)
     report->Skip("unwrapping and filtering",
                  fmt::format("{} plate frame(s): their maps are up to date (same inputs and options as the maps' "

@@ -726,6 +726,32 @@ void PlanPlateProbe(Plan& st, PipelineStage& s) {
   s.does = "the mirror sphere in each plate frame unwrapped from the frame's pose into a map";
 }
 
+// lighting.lights.place: the lights that land on the room placed there
+// (mr-lights --room): the probe's centre is the sphere in the plate's, in
+// the world of the room's mesh (fused, or the one real mesh given).
+// Returns the mesh, an input of the stage.
+fs::path PlaceLights(const Plan& st, const Node& lights, PipelineStage* s) {
+  if (!st.plate_sphere || !st.plate_sphere->centre)
+    lights.Child("place").Fail(
+        "lights are placed from the sphere in the plate (lighting.sphere_in_plate), whose centre is in the room's "
+        "world; a separate probe's world is its camera's");
+  if (st.light.environment_up || st.light.environment_rotation_deg)
+    lights.Child("place").Fail(
+        "placed lights stand in the world: the map must not be turned (environment_up, "
+        "environment_rotation_deg)");
+  fs::path mesh = st.fused_mesh;
+  if (mesh.empty()) {
+    const Json& reals = st.scene["real"];
+    if (!reals.is_array() || reals.size() != 1 || !reals[0].contains("mesh"))
+      lights.Child("place").Fail("lights are placed on one room mesh: give room.rgbd or a single room.real mesh");
+    mesh = (st.w / reals[0]["mesh"].get<std::string>()).lexically_normal();
+  }
+  const Eigen::Vector3d c = st.plate_sphere->centre->Vec3(-1e9, 1e9);
+  Append(&s->args, {"--method", "blobs", "--room", mesh.string(), "--probe-at",
+                    fmt::format("{:.9g},{:.9g},{:.9g}", c.x(), c.y(), c.z())});
+  return mesh;
+}
+
 // Lights extracted from the map (or a map per frame), and the scene's
 // lighting section.
 void PlanLights(Plan& st, PipelineStage& s) {
@@ -741,6 +767,8 @@ void PlanLights(Plan& st, PipelineStage& s) {
     const Node& l = *light.lights;
     JsonSettings ls(l);
     const OptNode options = ls.Take("options");
+    bool place = false;
+    ls.Bool("place", &place);
     ls.Done();
     if (IsVideoFile(st.env))
       l.Fail(
@@ -751,8 +779,10 @@ void PlanLights(Plan& st, PipelineStage& s) {
     const fs::path out = per_frame ? st.w / "lights" / "%05d.json" : st.w / "lights.json";
     const fs::path residual = per_frame ? st.w / "env-residual" / "%05d.exr" : st.w / "env-residual.exr";
     s.args = {st.env.string(), "--out", out.string(), "--residual", residual.string()};
+    const fs::path room_mesh = place ? PlaceLights(st, l, &s) : fs::path();
     Append(&s.args, st.pl.Options(options));
     s.inputs = {per_frame ? st.env.parent_path() : st.env};
+    if (!room_mesh.empty()) s.inputs.push_back(room_mesh);
     s.outputs = per_frame ? std::vector<fs::path>{st.w / "lights", st.w / "env-residual"}
                           : std::vector<fs::path>{out, residual};
     s.does = per_frame ? "lights extracted from each frame's map (a light keeps its name across frames); the scene "

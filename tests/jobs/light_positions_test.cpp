@@ -97,8 +97,8 @@ TEST(LightPositions, ACeilingPanelBecomesAnAreaLightWhereItIs) {
   const Eigen::Vector3d floor(1.0, 0.0, 1.0), up(0, 1, 0);
   const double truth = Irradiance(panel, floor, up), at_room = Irradiance(l, floor, up),
                at_infinity = Irradiance(distant[0], floor, up);
-  std::printf("floor 1.5 m from the probe: irradiance %.3f, placed %.3f (%+.1f%%), at infinity %.3f (%+.1f%%)\n",
-              truth, at_room, 100 * (at_room / truth - 1), at_infinity, 100 * (at_infinity / truth - 1));
+  std::printf("floor 1.5 m from the probe: irradiance %.3f, placed %.3f (%+.1f%%), at infinity %.3f (%+.1f%%)\n", truth,
+              at_room, 100 * (at_room / truth - 1), at_infinity, 100 * (at_infinity / truth - 1));
   EXPECT_NEAR(at_room, truth, 0.05 * truth);
   EXPECT_GT(std::abs(at_infinity - truth), std::abs(at_room - truth));
 }

@@ -48,6 +48,15 @@ TEST(LightsJob, OptionsNameTheFlagAtFault) {
   EXPECT_NE(message().find("--sweep"), std::string::npos);
   o.sweep = false;
   EXPECT_NE(message().find("patterns"), std::string::npos);
+  o.env = "env.exr";
+  o.room = "room.ply";
+  EXPECT_NE(message().find("--probe-at"), std::string::npos);
+  o.probe_at = {0, 1, 0};
+  EXPECT_NE(message().find("--method blobs"), std::string::npos);
+  o.extract.method = "blobs";
+  EXPECT_EQ(message(), "");
+  o.room.clear();
+  EXPECT_NE(message().find("--room"), std::string::npos);
 }
 
 // A map with one bright spot at column x.

@@ -200,6 +200,36 @@ TEST(PlanPipeline, CapturesTheLightFromTheSphereInThePlate) {
   EXPECT_NE(Stage(p, "probe").skip.find("plate_probe"), std::string::npos) << Stage(p, "probe").skip;
   EXPECT_NE(Stage(p, "hdr").skip.find("sphere in the plate"), std::string::npos) << Stage(p, "hdr").skip;
 
+  // lighting.lights.place: the lights that land on the room are placed there
+  // from the sphere's centre; with a separate probe (no shared world) or a
+  // turned map it is refused, naming the key.
+  WriteTextFile(dir / "placed.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"},
+    "lighting": {"sphere_in_plate": {"centre": [-0.42, 0.85, -0.22], "radius": 0.1},
+                 "lights": {"place": true, "options": {"count": 2}}},
+    "room": {"real": {"mesh": "room.ply"}},
+    "video": {"frames": "plate/%05d.exr", "frames_transfer": "linear", "poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}], "render": {"method": "pt"}})");
+  {
+    const Pipeline placed = PlanPipeline(dir / "placed.json");
+    const PipelineStage& l = Stage(placed, "lights");
+    const std::vector<std::string> tail(l.args.begin() + 5, l.args.end());
+    const std::vector<std::string> want_tail = {
+        "--method", "blobs", "--room", (dir / "room.ply").string(), "--probe-at", "-0.42,0.85,-0.22", "--count", "2"};
+    EXPECT_EQ(tail, want_tail);
+    EXPECT_NE(std::find(l.inputs.begin(), l.inputs.end(), dir / "room.ply"), l.inputs.end());
+  }
+  WriteTextFile(dir / "placed-env.json", R"({"version": 1, "camera": {"model": "cam.cameramodel"},
+    "lighting": {"environment": "room.ply", "lights": {"place": true}},
+    "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
+    "virtual": [{"mesh": "ball.ply"}]})");
+  try {
+    PlanPipeline(dir / "placed-env.json");
+    ADD_FAILURE() << "planned";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("lighting.lights.place"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sphere in the plate"), std::string::npos) << e.what();
+  }
   WriteTextFile(dir / "q.json", R"({"version": 1, "camera": {"model": "cam.cameramodel"},
     "lighting": {"sphere_in_plate": {"centre": [0, 1, 0], "radius": 0.1}},
     "room": {"rgbd": "rgbd"}, "video": {"frames": "plate/%05d.exr", "poses": {"fuse": true}},

@@ -328,11 +328,14 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
       const double c = (static_cast<double>(j / side) + rng.NextDouble()) / side;
       const double cos_t = 1 - a * (1 - cos_max), sin_t = SafeSqrt(1 - cos_t * cos_t), phi = kTwoPi * c;
       const Eigen::Vector3d d = cos_t * axis + sin_t * (std::cos(phi) * ft + std::sin(phi) * fb);
+      // An area light: each ray's deposit from its own point of it (the
+      // fan leaves its centre); point and spot lights ignore the two.
+      const double lu = rng.NextDouble(), lv = rng.NextDouble();
       inject(
           MakeRay(pos, d, kMaskAll), true, to_real,
           [&](const Eigen::Vector3d& p, float t) -> Eigen::Vector3d {
             LightSample ls;
-            if (!l.Sample(p, 0.5, 0.5, &ls) || !(ls.pdf > 0)) return Eigen::Vector3d::Zero();
+            if (!l.Sample(p, lu, lv, &ls) || !(ls.pdf > 0)) return Eigen::Vector3d::Zero();
             return ls.li / ls.pdf * (domega * static_cast<double>(t) * t);
           },
           &deposits[static_cast<size_t>(j)]);

@@ -256,7 +256,7 @@ TEST(Sphere, RealMirrorBallAtThreeExposures) {
   EXPECT_LT(*hi / *lo, 1.02);
 }
 
-// A silhouette drawn through the lens, 4x4 supersampled (its rim pixels
+// A silhouette drawn through the lens, 3x3 supersampled (its rim pixels
 // take levels in between, as a mask painted or thresholded with
 // antialiasing does: coverage in sRGB code values, decoded as an 8-bit PNG
 // is): `inside` says which rays are the shape's.  `coverage`: the share of
@@ -267,13 +267,13 @@ Image DrawSilhouette(const CameraModel& cam, float shape, float background, Insi
   for (int y = 0; y < cam.height(); ++y)
     for (int x = 0; x < cam.width(); ++x) {
       int in = 0;
-      for (int s = 0; s < 16; ++s) {
+      for (int s = 0; s < 9; ++s) {
         Eigen::Vector3d ray;
-        if (cam.Unproject(Eigen::Vector2d(x - 0.375 + 0.25 * (s % 4), y - 0.375 + 0.25 * (s / 4)), &ray))
+        if (cam.Unproject(Eigen::Vector2d(x - 1.0 / 3 + (s % 3) / 3.0, y - 1.0 / 3 + (s / 3) / 3.0), &ray))
           in += inside(ray.normalized());
       }
-      const float v = coverage ? static_cast<float>(in) / 16.0f
-                               : SrgbToLinear(background + (shape - background) * static_cast<float>(in) / 16.0f);
+      const float v = coverage ? static_cast<float>(in) / 9.0f
+                               : SrgbToLinear(background + (shape - background) * static_cast<float>(in) / 9.0f);
       for (int c = 0; c < 3; ++c) img.at(x, y, c) = v;
     }
   return img;
@@ -340,7 +340,7 @@ TEST(Sphere, MasksAndBallsOfEitherPolarity) {
 // A mask whose region is no sphere's silhouette (a square; a disc with a
 // bite out of it) is refused, saying so.
 TEST(Sphere, AMaskThatIsNoDiscIsRefused) {
-  const CameraModel cam("LENSMODEL_PINHOLE", {500, 500, 319.5, 239.5}, 640, 480);
+  const CameraModel cam("LENSMODEL_PINHOLE", {250, 250, 159.5, 119.5}, 320, 240);
   SphereOptions so;
   so.radius_m = 0.05;
   const Eigen::Vector3d centre(0, 0, 0.4);

@@ -143,6 +143,50 @@ TEST(Probe, UnwrapRecoversTheEnvironment) {
   EXPECT_GT(rep.seen_fraction, 0.9);
 }
 
+// A ball partly out of the frame (its centre 0.6 radii inside the right
+// edge): the directions it shows outside the image are unseen (confidence
+// 0, counted in blind_fraction), those it shows inside are as right as a
+// whole ball's, and a clipped mask over the rest of it marks nothing it
+// cannot see.
+TEST(Probe, BallPartlyOutOfTheFrame) {
+  const EnvironmentMap truth(SmoothSky(256, 128), "sky");
+  const CameraModel cam("LENSMODEL_OPENCV8", {1000, 1000, 159.5, 119.5, 0, 0, 0, 0, 0, 0, 0, 0}, 320, 240);
+  const double r_px = 1000 * 0.0254 / 0.3;  // about 85 px
+  const Eigen::Vector3d centre((319 - 0.6 * r_px - 159.5) * 0.3 / 1000, 0, 0.3);
+  const Image photo = RenderSphereView(truth, cam, centre, 0.0254, {});
+  UnwrapOptions uo;
+  uo.width = 128;
+  uo.reflectance = 0.6;
+  const ProbeGeometry g = Geometry(cam, centre, Eigen::Matrix3d::Identity());
+  UnwrapReport whole, part;
+  const Eigen::Vector3d inside_centre(0, 0, 0.3);
+  (void)UnwrapMirrorSphere(RenderSphereView(truth, cam, inside_centre, 0.0254, {}),
+                           Geometry(cam, inside_centre, Eigen::Matrix3d::Identity()), uo, "whole.exr", &whole);
+  std::vector<uint8_t> clipped(static_cast<size_t>(photo.pixel_count()), 1);  // "everything clipped"
+  const Image env = UnwrapMirrorSphere(photo, g, uo, "edge.exr", &part, &clipped);
+  const Errors e = Compare(env, truth, [&](const Eigen::Vector3d& d) {
+    Eigen::Vector3d p;
+    if (!MirrorSpherePoint(centre, g.radius_m, d, &p)) return false;
+    const double theta = std::acos(std::clamp((p - centre).normalized().dot(-centre.normalized()), -1.0, 1.0));
+    return theta < 0.6 * std::acos(g.radius_m / centre.norm()) &&
+           AngleBetween(d, Eigen::Vector3d(0, 0, -1)) > 20 * kDegToRad;
+  });
+  std::printf(
+      "partly out of the frame: %.1f%% seen (whole ball %.1f%%), median error %.4f over %d pixels, %lld clipped\n",
+      100 * part.seen_fraction, 100 * whole.seen_fraction, e.median, e.n, static_cast<long long>(part.clipped_pixels));
+  EXPECT_LT(part.seen_fraction, whole.seen_fraction - 0.1);
+  EXPECT_NEAR(part.blind_fraction, 1 - part.seen_fraction, 1e-12);
+  EXPECT_GT(e.n, 500);
+  EXPECT_LT(e.median, 0.02);
+  // Only the photograph's pixels that show the ball are counted, and the
+  // map is clipped only where it is seen.
+  EXPECT_GT(part.clipped_pixels, 0);
+  EXPECT_LT(part.clipped_pixels, static_cast<int64_t>(kPi * r_px * r_px));
+  for (int y = 0; y < env.height(); ++y)
+    for (int x = 0; x < env.width(); ++x)
+      if (env.at(x, y, 3) <= 0) ASSERT_EQ(env.at(x, y, 4), 0.0f) << x << " " << y;
+}
+
 // A 200-degree stereographic fish-eye looking down: directions up to 95
 // degrees from its axis (past its horizon) unwrap to within 2% (median);
 // every direction within 100 degrees is seen (the image circle), none

@@ -118,6 +118,19 @@ JobInputs LoadJobInputs(const Scene& scene, int frame_begin, int frame_end, Rend
     ScopedTimer t(report, "load");
     LoadRenderScene(scene, rs, std::min(begin, std::max(0, n_frames - 1)));  // the world of the first frame
   }
+  {
+    // What the lights are: placed in the room, at infinity, points.
+    int area = 0, distant = 0, point = 0, bounded = 0;
+    for (const LightSource& l : rs->lights()) {
+      area += l.light().type == LightType::kArea;
+      distant += l.light().type == LightType::kDistant;
+      point += l.light().type == LightType::kPoint || l.light().type == LightType::kSpot;
+      bounded += !l.light().strength_note.empty();
+    }
+    if (!rs->lights().empty())
+      report->SetMetric("lights",
+                        {{"area", area}, {"distant", distant}, {"point_or_spot", point}, {"lower_bounds", bounded}});
+  }
   for (const LightSource& l : rs->lights())
     if (!l.light().strength_note.empty())
       report->Warn(fmt::format("light {}'s strength is {}: what it lights is too dark by what the clip hid",

@@ -372,6 +372,39 @@ TEST(HdrRealData, MemorialChurch) {
               rr.rms_log, err[err.size() / 2], static_cast<long long>(rep.ghost_pixels));
   EXPECT_LT(err[err.size() / 2], 0.1);
   EXPECT_EQ(rep.censored_pixels, 0);
+
+  // The light clipped in every exposure, on real data: the six longest
+  // exposures alone (32 s to 1 s) clip the windows and lamps in all of
+  // them.  The censored pixels are flagged, and their energy (red) is
+  // bounded from below against the whole bracket's: the clipped value alone
+  // and with the glow fit, neither above it.  Measured: 7356 censored
+  // pixels in 172 regions, 13.4% of their energy either way (the glow fit
+  // takes 20 regions, but a stained-glass window is no blurred disc: the
+  // widest source that still clips adds next to nothing).
+  const std::vector<Exposure> longest(bracket.begin(), bracket.begin() + 6);
+  for (const bool fit : {false, true}) {
+    ExposureMergeOptions mo;
+    mo.fit_censored = fit;
+    MergeReport lrep;
+    const Image part = MergeExposures(longest, r, mo, &lrep);
+    const int sat = part.ChannelIndex("saturated.Y");
+    double e_part = 0, e_true = 0;
+    for (int64_t p = 0; p < part.pixel_count(); ++p)
+      if (part.values()[static_cast<size_t>(p * part.channels() + sat)] > 0) {
+        e_part += part.values()[static_cast<size_t>(p * part.channels())];
+        e_true += hdr.values()[static_cast<size_t>(p * hdr.channels())];
+      }
+    int fitted = 0;
+    for (const CensoredRegion& cr : lrep.regions) fitted += cr.fitted;
+    std::printf(
+        "memorial, 6 longest exposures, %s: %lld censored px in %zu regions (%d fitted), their energy %.3g of "
+        "the whole bracket's %.3g (%.3f)\n",
+        fit ? "glow fitted" : "lower bound", static_cast<long long>(lrep.censored_pixels), lrep.regions.size(), fitted,
+        e_part, e_true, e_part / e_true);
+    EXPECT_GT(lrep.censored_pixels, 1000);
+    EXPECT_LT(e_part, 1.05 * e_true);
+    EXPECT_GT(e_part, 0);
+  }
 }
 
 // The real mirror ball at 1/10, 1/40 and 1/160 s: crops of different

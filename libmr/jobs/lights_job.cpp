@@ -77,9 +77,10 @@ class LightsJob {
 
  private:
   LightsError WriteLights(const Image& env, const std::string& map_file, const std::string& out_file,
-                          const std::string& res_file, const Extraction& ex, const std::vector<double>& ref,
+                          const std::string& res_file, Extraction* ex, const std::vector<double>& ref,
                           const std::vector<int>* ids, const Json& source_extra = Json::object());
-  std::vector<Light> Positioned(const Image& env, const Extraction& ex, std::vector<Light> lights);
+  std::vector<Light> Positioned(const Image& env, Extraction* ex, std::vector<Light> lights);
+  std::vector<bool> dropped_;  // the last map's lights Positioned put back into the residual
   std::optional<Mesh> room_;
   const LightsJobOptions& o_;
   Report* report_;
@@ -88,10 +89,15 @@ class LightsJob {
 
 // One map's lights (named by `ids` when given; over time the patterns'
 // folders are made), checked as mr-render reads them before anything is
-// written, and its residual map.
+// written, and its residual map.  With --room, *ex loses the wide lights
+// that go back into the residual.
 // With --room: the lights that land on the room, placed there (the report
 // says what became of each).
-std::vector<Light> LightsJob::Positioned(const Image& env, const Extraction& ex, std::vector<Light> lights) {
+// A wide light that could not be placed (a window, the sky: its rays leave
+// the room) goes back into the residual map, which keeps its shape, instead
+// of becoming a disc at infinity.
+std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::vector<Light> lights) {
+  dropped_.assign(lights.size(), false);
   if (o_.room.empty()) return lights;
   if (!room_) {
     ScopedTimer t(report_, "read room");
@@ -103,25 +109,46 @@ std::vector<Light> LightsJob::Positioned(const Image& env, const Extraction& ex,
   PositionReport pr;
   {
     ScopedTimer t(report_, "position");
-    lights = PositionLights(env, ex, lights, *room_, po, &pr);
+    lights = PositionLights(env, *ex, lights, *room_, po, &pr);
   }
+  std::vector<bool> drop(lights.size(), false);
+  std::vector<Light> kept;
+  int returned = 0;
+  for (size_t i = 0; i < lights.size(); ++i) {
+    drop[i] = lights[i].type == LightType::kDistant && ex->lights[i].DiscSolidAngle() > o_.extract.max_blob_sr;
+    if (!drop[i]) {
+      kept.push_back(lights[i]);
+      continue;
+    }
+    ++returned;
+    pr.notes.push_back(
+        fmt::format("{}: wider than --max-blob-sr and not in the room (a window, the sky): left in the "
+                    "map with its shape",
+                    lights[i].name));
+  }
+  if (returned > 0) ReturnToResidual(env, drop, o_.extract.sh_order, ex);
+  dropped_ = drop;
+  lights = std::move(kept);
   for (const std::string& n : pr.notes) spdlog::info("{}", n);
   report_->SetMetric("positioned", {{"lights", pr.positioned},
-                                    {"distant", pr.distant},
+                                    {"distant", pr.distant - returned},
+                                    {"left_in_the_map", returned},
                                     {"positioned_share", pr.positioned_share},
                                     {"distant_share", pr.distant_share},
                                     {"notes", pr.notes}});
-  spdlog::info("{} light(s) placed in the room ({:.0f}% of the lights' energy), {} left at infinity", pr.positioned,
-               100 * pr.positioned_share, pr.distant);
+  spdlog::info(
+      "{} light(s) placed in the room ({:.0f}% of the lights' energy), {} left at infinity, {} left in the map",
+      pr.positioned, 100 * pr.positioned_share, pr.distant - returned, returned);
   return lights;
 }
 
 LightsError LightsJob::WriteLights(const Image& env, const std::string& map_file, const std::string& out_file,
-                                   const std::string& res_file, const Extraction& ex, const std::vector<double>& ref,
+                                   const std::string& res_file, Extraction* exp, const std::vector<double>& ref,
                                    const std::vector<int>* ids, const Json& source_extra) {
   const bool make_dirs = ids != nullptr;
+  std::vector<Light> lights = Positioned(env, exp, ToLights(*exp, "light", ids));
+  const Extraction& ex = *exp;
   const LightsError e = ErrorOf(ex, dirs_, ref);
-  std::vector<Light> lights = Positioned(env, ex, ToLights(ex, "light", ids));
   Json j = LightsToJson(lights, "mr-lights: " + o_.command_line);
   j["source"] = {{"method", o_.extract.method}, {"count", o_.extract.count}, {"map", map_file}};
   for (auto& [k, v] : source_extra.items()) j["source"][k] = v;
@@ -209,18 +236,21 @@ void LightsJob::OverTime() {
       ref = MapIrradiance(env, dirs_);
     }
     const LightsError e =
-        WriteLights(env, map_file, out_file, res_file, ex, ref, &ids, Json{{"key", key_hex}, {"next_id", next_id}});
+        WriteLights(env, map_file, out_file, res_file, &ex, ref, &ids, Json{{"key", key_hex}, {"next_id", next_id}});
+    std::vector<int> kept_ids;  // of the lights written (a window left in the map is not)
+    for (size_t i = 0; i < ids.size(); ++i)
+      if (!dropped_[i]) kept_ids.push_back(ids[i]);
     frames.push_back({{"frame", f},
                       {"lights", ex.lights.size()},
                       {"kept_identity", matched},
                       {"new", static_cast<int>(ex.lights.size()) - matched},
                       {"gone", static_cast<int>(prev.size()) - matched},
-                      {"ids", ids},
+                      {"ids", kept_ids},
                       {"taken_fraction", ex.taken_fraction},
                       {"irradiance_rms_relative", e.lights.rms_relative},
                       {"irradiance_rms_relative_with_residual_sh", e.with_residual.rms_relative}});
     prev = ex.lights;
-    prev_ids = ids;
+    prev_ids = kept_ids;
   }
   if (f == 0) ThrowErrorAt(FileLoc{FramePath(o_.env, 0).string()}, "no such file");
   if (kept > 0)
@@ -289,7 +319,7 @@ void LightsJob::Once(const Image& env, const std::vector<double>& ref) {
     ScopedTimer t(report_, "extract");
     ex = ExtractLights(env, eo);
   }
-  const LightsError e = WriteLights(env, o_.env, o_.out, o_.residual, ex, ref, nullptr);
+  const LightsError e = WriteLights(env, o_.env, o_.out, o_.residual, &ex, ref, nullptr);
   if (!o_.residual.empty() && ex.taken_fraction > 1 - 1e-12)
     report_->Skip("residual energy", "the lights took all of the map's energy (" + eo.method +
                                          "): the residual map is black and its SH zero");

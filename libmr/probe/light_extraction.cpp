@@ -10,6 +10,7 @@
 
 #include <Eigen/Eigenvalues>
 
+#include "core/check.h"
 #include "core/error.h"
 #include "core/math.h"
 #include "core/parallel.h"
@@ -450,6 +451,30 @@ std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold,
   return lights;
 }
 
+// The map less what the lights took (`taken`), its luminance share and its
+// SH projection.
+void FillResidual(const MapView& m, const std::vector<uint8_t>& taken, int sh_order, Extraction* ex) {
+  ex->residual = Image::Rgb(m.w, m.h);
+  double left = 0;
+  for (int y = 0; y < m.h; ++y)
+    for (int x = 0; x < m.w; ++x) {
+      const size_t i = static_cast<size_t>(y) * m.w + x;
+      if (taken[i]) continue;
+      for (int c = 0; c < 3; ++c) ex->residual.at(x, y, c) = static_cast<float>(m.radiance[i][c]);
+      left += m.energy[i];
+    }
+  ex->taken_fraction = m.total > 0 ? 1 - left / m.total : 0;
+  const int nsh = ShCount(sh_order);
+  ex->residual_sh.assign(static_cast<size_t>(nsh), Eigen::Vector3d::Zero());
+  std::vector<double> basis(static_cast<size_t>(nsh));
+  for (size_t i = 0; i < m.energy.size(); ++i) {
+    if (taken[i]) continue;
+    ShEvaluate(m.dir[i], sh_order, basis.data());
+    for (int k = 0; k < nsh; ++k)
+      ex->residual_sh[static_cast<size_t>(k)] += m.radiance[i] * (basis[static_cast<size_t>(k)] * m.omega[i]);
+  }
+}
+
 }  // namespace
 
 void ExtractOptions::Check() const {
@@ -478,27 +503,24 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& o) {
     ex.lights = Blobs(m, o.count, o.threshold, o.saddle, o.max_blob_sr, o.keep_wide, &taken, &ex.regions,
                       &ex.split_components, &ex.wide_regions);
   }
-  ex.residual = Image::Rgb(m.w, m.h);
-  double left = 0;
-  for (int y = 0; y < m.h; ++y)
-    for (int x = 0; x < m.w; ++x) {
-      const size_t i = static_cast<size_t>(y) * m.w + x;
-      if (taken[i]) continue;
-      for (int c = 0; c < 3; ++c) ex.residual.at(x, y, c) = static_cast<float>(m.radiance[i][c]);
-      left += m.energy[i];
-    }
-  ex.taken_fraction = m.total > 0 ? 1 - left / m.total : 0;
-  const int nsh = ShCount(o.sh_order);
-  ex.residual_sh.assign(static_cast<size_t>(nsh), Eigen::Vector3d::Zero());
-  std::vector<double> basis(static_cast<size_t>(nsh));
-  for (size_t i = 0; i < m.energy.size(); ++i) {
-    if (taken[i]) continue;
-    ShEvaluate(m.dir[i], o.sh_order, basis.data());
-    for (int k = 0; k < nsh; ++k)
-      ex.residual_sh[static_cast<size_t>(k)] += m.radiance[i] * (basis[static_cast<size_t>(k)] * m.omega[i]);
-  }
+  FillResidual(m, taken, o.sh_order, &ex);
   ex.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return ex;
+}
+
+void ReturnToResidual(const Image& env, const std::vector<bool>& drop, int sh_order, Extraction* ex) {
+  MR_CHECK_EQ(drop.size(), ex->lights.size());
+  const MapView m = View(env);
+  std::vector<uint8_t> taken(m.energy.size(), 0);
+  std::vector<ExtractedLight> kept;
+  for (size_t i = 0; i < drop.size(); ++i) {
+    MR_CHECK(!ex->lights[i].pixels.empty());  // blobs' lights know their pixels
+    if (drop[i]) continue;
+    for (size_t p : ex->lights[i].pixels) taken[p] = 1;
+    kept.push_back(std::move(ex->lights[i]));
+  }
+  ex->lights = std::move(kept);
+  FillResidual(m, taken, sh_order, ex);
 }
 
 std::vector<int> MatchLights(const std::vector<ExtractedLight>& previous, const std::vector<int>& previous_ids,

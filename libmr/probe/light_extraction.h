@@ -53,6 +53,12 @@ struct Extraction {
 // marks each light's clipped share; other layers are ignored.
 Extraction ExtractLights(const Image& env, const ExtractOptions& options);
 
+// Blobs' lights marked in `drop` (one flag a light) go back into the
+// residual map (its SH and taken_fraction recomputed from `env`, the map
+// they came from): a window or the sky that could not be placed in the
+// room keeps its shape there.
+void ReturnToResidual(const Image& env, const std::vector<bool>& drop, int sh_order, Extraction* ex);
+
 // lights.json entries (distant lights, real): `name_prefix` + index, or
 // + ids[index] when `ids` is given (one per light).
 std::vector<Light> ToLights(const Extraction& e, const std::string& name_prefix = "light",

@@ -2,6 +2,13 @@
 // probe map becomes an area light where it is in the room.
 #include "jobs/light_positions.h"
 
+#include "core/file.h"
+#include "core/image.h"
+#include "core/report.h"
+#include "jobs/lights_job.h"
+#include "light/lights_file.h"
+#include "test_util.h"
+
 #include <gtest/gtest.h>
 
 #include "core/color.h"
@@ -101,6 +108,47 @@ TEST(LightPositions, ACeilingPanelBecomesAnAreaLightWhereItIs) {
               at_room, 100 * (at_room / truth - 1), at_infinity, 100 * (at_infinity / truth - 1));
   EXPECT_NEAR(at_room, truth, 0.05 * truth);
   EXPECT_GT(std::abs(at_infinity - truth), std::abs(at_room - truth));
+}
+
+// mr-lights --room on a map with a panel straight up (over the ceiling the
+// room's mesh has) and a wide window to the side (where the mesh has no
+// wall: its rays leave the room): the panel becomes an area light, the
+// window goes back into the residual map with its shape, no disc at
+// infinity; lights and residual still hold the map's energy.
+TEST(LightPositions, AWindowThatLeavesTheRoomStaysInTheMap) {
+  test::TempDir dir;
+  WriteTextFile(dir / "ceiling.obj", "v -2 2.5 -2\nv 2 2.5 -2\nv 2 2.5 2\nv -2 2.5 2\nf 1 2 3\nf 1 3 4\n");
+  Image env = Image::Rgb(256, 128);
+  for (int y = 0; y < 128; ++y)
+    for (int x = 0; x < 256; ++x) {
+      const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), 256, 128);
+      const bool panel = AngleBetween(d, Eigen::Vector3d(0.2, 1, 0).normalized()) < 10 * kDegToRad;
+      const bool window = std::abs(d.y()) < 0.3 && std::abs(std::atan2(d.z(), d.x())) < 0.4 && d.x() > 0;
+      const float v = panel ? 200.0f : window ? 60.0f : 1.0f;
+      for (int c = 0; c < 3; ++c) env.at(x, y, c) = v;
+    }
+  WriteImage(dir / "env.exr", env);
+  LightsJobOptions o;
+  o.env = (dir / "env.exr").string();
+  o.out = (dir / "lights.json").string();
+  o.residual = (dir / "residual.exr").string();
+  o.residual_width = 256;
+  o.extract.method = "blobs";
+  o.room = (dir / "ceiling.obj").string();
+  o.probe_at = {0, 1, 0};
+  Report report;
+  RunLights(o, &report);
+  const std::vector<Light> lights = ReadLights(dir / "lights.json");
+  ASSERT_EQ(lights.size(), 1u);
+  EXPECT_EQ(lights[0].type, LightType::kArea);
+  EXPECT_EQ(report.metrics()["positioned"]["left_in_the_map"], 1);
+  const Image residual = ReadImage(dir / "residual.exr");
+  double window = 0;
+  for (int y = 0; y < 128; ++y)
+    for (int x = 0; x < 256; ++x)
+      if (residual.at(x, y, 0) > 30) window += LatLongPixelSolidAngle(x, y, 256, 128);
+  std::printf("the window's %.3f sr stays in the residual map\n", window);
+  EXPECT_GT(window, 0.3);
 }
 
 }  // namespace

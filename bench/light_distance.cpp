@@ -8,14 +8,11 @@
 
 #include "core/color.h"
 #include "core/math.h"
-#include "core/parallel.h"
-#include "core/sampling.h"
 #include "core/spherical.h"
 #include "geometry/primitives.h"
 #include "jobs/light_positions.h"
 #include "light/light_source.h"
 #include "probe/light_extraction.h"
-#include "render/path_common.h"
 #include "render/path_tracer.h"
 #include "render/render_scene.h"
 
@@ -23,17 +20,9 @@ namespace {
 
 using namespace mr;
 
-// Irradiance at p (normal n) from `l`, 32 x 32 stratified samples, unoccluded.
+// Irradiance at p (normal n) from `l`, unoccluded.
 double Irradiance(const Light& l, const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
-  const LightSource ls(l);
-  double e = 0;
-  for (int j = 0; j < 32; ++j)
-    for (int i = 0; i < 32; ++i) {
-      LightSample s;
-      if (!ls.Sample(p, (i + 0.5) / 32, (j + 0.5) / 32, &s)) continue;
-      e += Luminance(s.li) * std::max(0.0, s.wi.dot(n)) / s.pdf;
-    }
-  return e / 1024;
+  return UnoccludedIrradiance(LightSource(l), p, n);
 }
 
 }  // namespace
@@ -75,23 +64,10 @@ int main() {
                                      {"1 m, in a corner", Eigen::Vector3d(-0.7, 0.5, -0.7)}};
   PathTracerSettings st;
   st.max_depth = 3;
-  const DifferentialPathTracer pt(scene, st);
   std::printf("| probe | distant: RMS error of the panel's irradiance | placed | placed light's centre off |\n");
   std::printf("|---|---|---|---|\n");
   for (const Place& pl : places) {
-    const int W = 512, H = 256;
-    Image env = Image::Rgb(W, H);
-    ParallelFor(0, H, [&](int64_t y) {
-      for (int x = 0; x < W; ++x) {
-        const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H);
-        Eigen::Vector3d L = Eigen::Vector3d::Zero();
-        for (int s = 0; s < 16; ++s) {
-          Sampler rng = Sampler::Random(7, static_cast<uint64_t>((y * W + x) * 16 + s));
-          L += pt.Radiance(MakeRay(pl.at, d, kMaskAll), 0, rng) / 16;
-        }
-        for (int c = 0; c < 3; ++c) env.at(x, static_cast<int>(y), c) = static_cast<float>(L[c]);
-      }
-    });
+    const Image env = RenderProbeMap(scene, pl.at, 512, 16, st, 7);
     ExtractOptions eo;
     eo.method = "blobs";
     eo.count = 4;

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "core/color.h"
 #include "core/math.h"
 #include "core/spherical.h"
 
@@ -129,6 +130,17 @@ Eigen::Vector3d LightSource::HitArea(const Eigen::Vector3d& o, const Eigen::Vect
   if (!inside) return Eigen::Vector3d::Zero();
   *t = tt;
   return light_.radiance;
+}
+
+double UnoccludedIrradiance(const LightSource& l, const Eigen::Vector3d& p, const Eigen::Vector3d& n, int strata) {
+  double e = 0;
+  for (int j = 0; j < strata; ++j)
+    for (int i = 0; i < strata; ++i) {
+      LightSample s;
+      if (!l.Sample(p, (i + 0.5) / strata, (j + 0.5) / strata, &s)) continue;
+      e += Luminance(s.li) * std::max(0.0, s.wi.dot(n)) / s.pdf;
+    }
+  return e / (static_cast<double>(strata) * strata);
 }
 
 }  // namespace mr

@@ -45,4 +45,9 @@ class LightSource {
   Eigen::Vector3d t_, b_;  // frame around light_.direction
 };
 
+// The luminance irradiance `l` gives a surface at p with normal n, nothing
+// in between: strata x strata stratified light samples (a delta light's
+// one is exact).
+double UnoccludedIrradiance(const LightSource& l, const Eigen::Vector3d& p, const Eigen::Vector3d& n, int strata = 32);
+
 }  // namespace mr

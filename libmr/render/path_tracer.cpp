@@ -239,4 +239,23 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
   }
 }
 
+Image RenderProbeMap(const RenderScene& scene, const Eigen::Vector3d& centre, int width, int spp,
+                     const PathTracerSettings& settings, uint64_t seed) {
+  const int W = width, H = width / 2;
+  Image env = Image::Rgb(W, H);
+  const DifferentialPathTracer pt(scene, settings);
+  ParallelFor(0, H, [&](int64_t y) {
+    for (int x = 0; x < W; ++x) {
+      const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H);
+      Eigen::Vector3d L = Eigen::Vector3d::Zero();
+      for (int s = 0; s < spp; ++s) {
+        Sampler rng = Sampler::Random(seed, static_cast<uint64_t>((y * W + x) * spp + s));
+        L += pt.Radiance(MakeRay(centre, d, kMaskAll), 0, rng) / spp;
+      }
+      for (int c = 0; c < 3; ++c) env.at(x, static_cast<int>(y), c) = static_cast<float>(L[c]);
+    }
+  });
+  return env;
+}
+
 }  // namespace mr

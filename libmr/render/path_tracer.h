@@ -136,4 +136,11 @@ class DifferentialPathTracer {
   std::shared_ptr<PlateCounters> plate_counters_;
 };
 
+// The radiance arriving at `centre` from every direction, the scene with
+// everything in it: a width x width/2 lat-long map (core/spherical.h), each
+// pixel the mean of `spp` paths along its centre direction (a probe's
+// truth; area lights are seen exactly).  Deterministic for `seed`.
+Image RenderProbeMap(const RenderScene& scene, const Eigen::Vector3d& centre, int width, int spp,
+                     const PathTracerSettings& settings, uint64_t seed);
+
 }  // namespace mr

@@ -13,30 +13,19 @@
 
 #include "core/color.h"
 #include "core/math.h"
-#include "core/parallel.h"
-#include "core/sampling.h"
 #include "core/spherical.h"
 #include "geometry/primitives.h"
 #include "light/light_source.h"
-#include "render/path_common.h"
 #include "render/path_tracer.h"
 #include "render/render_scene.h"
 
 namespace mr {
 namespace {
 
-// Irradiance at p (normal n) from `l`, by 64 x 64 stratified light samples
-// (unoccluded: the room is an empty box).
+// Irradiance at p (normal n) from `l`, 64 x 64 stratified samples,
+// unoccluded (the room is an empty box).
 double Irradiance(const Light& l, const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
-  const LightSource ls(l);
-  double e = 0;
-  for (int j = 0; j < 64; ++j)
-    for (int i = 0; i < 64; ++i) {
-      LightSample s;
-      if (!ls.Sample(p, (i + 0.5) / 64, (j + 0.5) / 64, &s)) continue;
-      e += Luminance(s.li) * std::max(0.0, s.wi.dot(n)) / s.pdf;
-    }
-  return e / 4096;
+  return UnoccludedIrradiance(LightSource(l), p, n, 64);
 }
 
 // A 4 x 2.5 x 4 m room (albedo 0.5) lit by a 0.5 m ceiling panel, a probe
@@ -65,22 +54,9 @@ TEST(LightPositions, ACeilingPanelBecomesAnAreaLightWhereItIs) {
   scene.AddLight(panel);
   scene.Commit();
   const Eigen::Vector3d probe(-0.5, 1.0, -0.5);
-  const int W = 512, H = 256;
-  Image env = Image::Rgb(W, H);
   PathTracerSettings st;
   st.max_depth = 1;  // the walls' direct light: the panel itself is seen exactly (camera rays meet it)
-  const DifferentialPathTracer pt(scene, st);
-  ParallelFor(0, H, [&](int64_t y) {
-    for (int x = 0; x < W; ++x) {
-      const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H);
-      Eigen::Vector3d L = Eigen::Vector3d::Zero();
-      for (int s = 0; s < 4; ++s) {
-        Sampler rng = Sampler::Random(7, static_cast<uint64_t>((y * W + x) * 4 + s));
-        L += pt.Radiance(MakeRay(probe, d, kMaskAll), 0, rng) / 4;
-      }
-      for (int c = 0; c < 3; ++c) env.at(x, static_cast<int>(y), c) = static_cast<float>(L[c]);
-    }
-  });
+  const Image env = RenderProbeMap(scene, probe, 512, 4, st, 7);
   ExtractOptions eo;
   eo.method = "blobs";
   eo.count = 4;

@@ -727,8 +727,10 @@ void PlanPlateProbe(Plan& st, PipelineStage& s) {
 }
 
 // lighting.lights.place: the lights that land on the room placed there
-// (mr-lights --room): the probe's centre is the sphere in the plate's, in
-// the world of the room's mesh (fused, or the one real mesh given).
+// (mr-lights --room), and the rest of the map the room's own light
+// (scene.json lighting.probes): the probe's centre is the sphere in the
+// plate's, in the world of the room's mesh (fused, or the one real mesh
+// given).
 // Returns the mesh, an input of the stage.
 fs::path PlaceLights(const Plan& st, const Node& lights, PipelineStage* s) {
   if (!st.plate_sphere || !st.plate_sphere->centre)
@@ -789,6 +791,10 @@ void PlanLights(Plan& st, PipelineStage& s) {
                          "is lit by them and each frame's residual map"
                        : "lights extracted from the map; the scene is lit by them and the residual map";
     st.lighting = {{"environment", st.pl.Rel(residual)}, {"lights", st.pl.Rel(out)}};
+    if (place) {  // the rest of the map is the room's own light, seen from the sphere (lighting.probes)
+      const Eigen::Vector3d c = st.plate_sphere->centre->Vec3(-1e9, 1e9);
+      st.lighting["probes"] = Json::array({{{"at", {c.x(), c.y(), c.z()}}}});
+    }
   }
   // The map's orientation and scale: checked by the scene's parser.
   if (light.environment_up) st.lighting["environment_up"] = light.environment_up->json();

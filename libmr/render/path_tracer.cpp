@@ -11,18 +11,51 @@
 
 namespace mr {
 
-bool DifferentialPathTracer::PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset,
-                                           Eigen::Vector3d* L, int* rays) const {
+bool DifferentialPathTracer::PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n,
+                                           const Eigen::Vector3d& wo, double offset, Eigen::Vector3d* L,
+                                           int* rays) const {
   bool clipped = false;
-  for (size_t i = 0; i < settings_.plates.size(); ++i)
-    if (ViewRadiance(settings_.plates[i], p, n, offset, L, &clipped, rays)) {
-      ++plate_counters_->from_plate;
-      if (i > 0) ++plate_counters_->from_other_frames;
+  const PlateViews& views = settings_.plates;
+  if (settings_.plate_reflections)
+    for (size_t i = 0; i < views.size(); ++i)
+      if (!views[i].probe && ViewRadiance(views[i], p, n, offset, L, &clipped, rays)) {
+        ++plate_counters_->from_plate;
+        if (i > 0) ++plate_counters_->from_other_frames;
+        return true;
+      }
+  // The probes, nearest in direction first (a handful: selection; the
+  // views are at most kMaxPlateViews).
+  uint64_t tried = 0;
+  for (;;) {
+    size_t best = views.size();
+    double best_cos = -2;
+    for (size_t i = 0; i < views.size(); ++i) {
+      if (!views[i].probe || (tried >> i & 1)) continue;
+      const double c = (views[i].probe_centre - p).normalized().dot(wo);
+      if (c > best_cos) best_cos = c, best = i;
+    }
+    if (best == views.size()) break;
+    tried |= uint64_t{1} << best;
+    if (ProbeRadiance(views[best], p, n, offset, L, rays)) {
+      ++plate_counters_->from_probe;
       return true;
     }
+  }
   ++plate_counters_->rendered;
   if (clipped) ++plate_counters_->clipped;  // a clipped highlight: its true radiance is unknown, render it
   return false;
+}
+
+bool DifferentialPathTracer::ProbeRadiance(const PlateView& pv, const Eigen::Vector3d& p, const Eigen::Vector3d& n,
+                                           double offset, Eigen::Vector3d* L, int* rays) const {
+  const Eigen::Vector3d to_probe = pv.probe_centre - p;
+  const double dist = to_probe.norm();
+  if (!(dist > 1e-6) || n.dot(to_probe) <= 0) return false;  // the probe sees the surface's other side
+  Ray r = MakeRay(p + n * offset, to_probe / dist, kMaskReal, dist * (1 - 1e-6));
+  ++*rays;
+  if (Occluded(r)) return false;
+  *L = pv.probe->Eval(-to_probe / dist);
+  return L->allFinite();
 }
 
 bool DifferentialPathTracer::ViewRadiance(const PlateView& pv, const Eigen::Vector3d& p, const Eigen::Vector3d& n,
@@ -56,7 +89,7 @@ bool DifferentialPathTracer::ViewRadiance(const PlateView& pv, const Eigen::Vect
 
 bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::Vector3d& beta, int depth, Sampler& rng,
                                               int* rays, Eigen::Vector3d* L) const {
-  if (!settings_.plate_reflections || settings_.plates.empty()) return false;
+  if (settings_.plates.empty()) return false;
   // The real room as the plate shows it (emitted and reflected light
   // together), where the plate sees it and the surface is diffuse (a glossy
   // one sends other light towards the object than towards the plate's
@@ -66,7 +99,7 @@ bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::
     return false;
   }
   Eigen::Vector3d plate;
-  if (!PlateRadiance(v.p, v.frame.n, v.offset, &plate, rays)) return false;
+  if (!PlateRadiance(v.p, v.frame.n, v.wo_world, v.offset, &plate, rays)) return false;
   *L += beta.cwiseProduct(plate);
   // What the plate cannot show: the virtual objects' shadows on the point
   // and their lights, from its next-event estimate (the direct part of the
@@ -110,7 +143,7 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
   ray.mask = mask;
   const unsigned lights = mask == kMaskReal ? kRealLights : kAllLights;  // a real path sees no virtual light
-  const bool use_plate = mask == kMaskAll && settings_.plate_reflections && !settings_.plates.empty();
+  const bool use_plate = mask == kMaskAll && !settings_.plates.empty();
   // from_virtual: the ray leaves a virtual surface; refracted: through it
   bool refracted = false;
   for (;; ++depth) {

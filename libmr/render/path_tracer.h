@@ -42,7 +42,9 @@ struct PathTracerSettings {
   // first pass only (their I_m - I_r is exactly zero).
   bool skip_environment_pixels = true;
   // Reflections of the real room in virtual objects from the plate
-  // (PlateView) where it sees the room; `plates` is set per frame.
+  // (PlateView) where it sees the room; `plates` is set per frame.  It also
+  // holds the probes (PlateView::probe: the room's own light), taken
+  // whether or not plate_reflections is set.
   bool plate_reflections = true;
   PlateViews plates;
   // A real point's light that passed the real blockers is tested against
@@ -126,11 +128,17 @@ class DifferentialPathTracer {
   // The plate's radiance at real point `p` met from a virtual surface
   // (normal `n`, rays leaving it offset by `offset`) from the first plate
   // whose camera sees it unoccluded and unclipped (counted).
-  bool PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset, Eigen::Vector3d* L,
-                     int* rays) const;
+  // Then the probes' (PlateView::probe), nearest in direction to `wo` (towards
+  // where the ray came from) first.
+  bool PlateRadiance(const Eigen::Vector3d& p, const Eigen::Vector3d& n, const Eigen::Vector3d& wo, double offset,
+                     Eigen::Vector3d* L, int* rays) const;
   // The same from one plate; *clipped set where the plate sees it clipped.
   bool ViewRadiance(const PlateView& pv, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset,
                     Eigen::Vector3d* L, bool* clipped, int* rays) const;
+  // The same from one probe: its map in the direction from its centre to
+  // `p`, where it sees p unoccluded by real geometry.
+  bool ProbeRadiance(const PlateView& pv, const Eigen::Vector3d& p, const Eigen::Vector3d& n, double offset,
+                     Eigen::Vector3d* L, int* rays) const;
   const RenderScene& scene_;
   PathTracerSettings settings_;
   std::shared_ptr<PlateCounters> plate_counters_;

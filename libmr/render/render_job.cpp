@@ -68,6 +68,7 @@ uint64_t SceneInputsKey(const Scene& scene) {
     add(v.material.albedo_texture);
     add(v.formfactors);
   }
+  for (const SceneLighting::Probe& pr : scene.lighting.probes) add(pr.map);  // their centres: in the scene file
   return k;
 }
 
@@ -218,6 +219,8 @@ class RenderJob {
   Json AdvanceWorld(Frame* fr);
   void LoadPlates(Frame* fr);
   void AddNeighbourPlates(Frame* fr);
+  void LoadProbes();
+  void AddProbes(Frame* fr);
   std::unique_ptr<FrameMethod> RunPasses(Frame* fr, const FrameContext& fc, const FrameDecoding& dec);
   FrameImages Compose(const Frame& fr, FrameMethod* fm, const FrameDecoding& dec);
   void WriteFrame(const Frame& fr, FrameImages* im);
@@ -253,6 +256,8 @@ class RenderJob {
   std::optional<FrameReader> neighbour_frames_;
   std::map<int, DecodedPlate> neighbour_plates_;
   int64_t neighbours_still_ = 0, neighbours_without_gain_ = 0;
+  // lighting.probes' own maps (a probe without one takes the environment's).
+  std::vector<std::optional<EnvironmentMap>> probe_maps_;
   int still_frames_ = 0;  // with a shutter, over which the camera does not move
   Json frames_json_ = Json::array();
   fs::path review_sheet_;  // the last one written
@@ -279,6 +284,7 @@ RenderJob::RenderJob(const Scene& scene, const RenderOptions& o, Report* report)
   n_frames_ = static_cast<int>(in_.poses.size());
   decoding_ = FrameDecoding::FromScene(scene, report);
   for (int f = in_.begin; f < in_.end; ++f) (void)decoding_.ForFrame(f);  // a gain for every frame, before the first
+  LoadProbes();
   // The output folder only once every input is known to be sound: a refused
   // run leaves nothing behind, not even an empty folder.
   std::error_code ec;
@@ -597,6 +603,44 @@ void RenderJob::LoadPlates(Frame* fr) {
     fr->plates.push_back(ViewOf(*fr->plate, in_.camera, in_.poses[static_cast<size_t>(f)]));
   if (fr->plate && use_neighbours_) AddNeighbourPlates(fr);
   if (fr->ref && fr->photo) fr->region = ChangedRegion(*fr->ref, *fr->photo);
+  AddProbes(fr);
+}
+
+// lighting.probes' own maps, read and checked before anything is written.
+void RenderJob::LoadProbes() {
+  const std::vector<SceneLighting::Probe>& probes = scene_.lighting.probes;
+  for (const SceneLighting::Probe& pr : probes) {
+    if (!pr.map) {
+      probe_maps_.emplace_back();
+      continue;
+    }
+    ImageReadOptions opt;
+    opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
+    probe_maps_.emplace_back(EnvironmentMap(ReadImage(*pr.map, opt), pr.map->string(),
+                                            scene_.lighting.environment_scale, scene_.lighting.world_from_env));
+  }
+  if (probes.empty()) return;
+  report_->SetMetric("probes", static_cast<int64_t>(probes.size()));
+  const std::string m = method_name_;
+  if (m == "ic" || m == "vpl")
+    report_->Skip("the probes' radiance on " + m + "'s diffuse light",
+                  m + " takes the room's radiance from the probes on the glossy rays it traces from virtual surfaces; "
+                      "its diffuse light renders the room (use pt for the room's own light everywhere)");
+  else if (m != "pt")
+    report_->Skip("the probes' radiance", m + " renders the room's light; pt, ic and vpl take it from the probes");
+}
+
+// The probes where the light was captured: the room's own light
+// (PlateView::probe), after the plates.
+void RenderJob::AddProbes(Frame* fr) {
+  const std::vector<SceneLighting::Probe>& probes = scene_.lighting.probes;
+  MR_CHECK(fr->plates.size() + probes.size() <= kMaxPlateViews);
+  for (size_t i = 0; i < probes.size(); ++i) {
+    PlateView v;
+    v.probe = probe_maps_[i] ? &*probe_maps_[i] : &rs_.environment();
+    v.probe_centre = probes[i].at;
+    fr->plates.push_back(v);
+  }
 }
 
 // The neighbours' plates, nearest first; a camera that did not move sees

@@ -249,6 +249,7 @@ void ParseLighting(const Node& node, const fs::path& base, bool check, SceneLigh
   const auto rotation = l.Take("environment_rotation_deg");
   const auto up = l.Take("environment_up");
   const auto lights = l.Take("lights");
+  const auto probes = l.Take("probes");
   l.Done();
   // A file, or a printf pattern of one per frame.
   auto file_or_pattern = [&](const std::optional<JsonNode>& n, const char* what, std::optional<fs::path>* path,
@@ -274,6 +275,20 @@ void ParseLighting(const Node& node, const fs::path& base, bool check, SceneLigh
         lighting.world_from_env;
   }
   file_or_pattern(lights, "lights file", &lighting.lights, &lighting.lights_per_frame);
+  if (probes) {
+    if (!probes->json().is_array() || probes->json().empty() || probes->json().size() > 16)
+      probes->Fail("expected a list of 1 to 16 probes {at: [x, y, z], map}");
+    for (size_t i = 0; i < probes->json().size(); ++i) {
+      JsonSettings ps(probes->Index(i));
+      SceneLighting::Probe probe;
+      probe.at = ps.Require("at").Vec3(-kHuge, kHuge);
+      if (const auto map = ps.Take("map")) probe.map = ResolveFile(*map, base, check, "probe map");
+      ps.Done();
+      if (!probe.map && !lighting.environment)
+        probes->Index(i).Fail("a probe without a map takes the environment's, and the scene names none");
+      lighting.probes.push_back(probe);
+    }
+  }
 }
 
 // real: one {mesh, material} or a list of them (a room whose parts differ in material).

@@ -94,6 +94,17 @@ struct SceneLighting {
   Eigen::Matrix3d world_from_env = Eigen::Matrix3d::Identity();
   std::optional<fs::path> lights;  // lights.json from mr-lights; a pattern with lights_per_frame
   bool lights_per_frame = false;
+  // Where the light was captured (lighting.probes, at most 16): a ray from
+  // a virtual object that meets the real room takes the radiance the probe
+  // saw there instead of the rendered room's (render/plate_view.h,
+  // docs/methods.md "The room's own light").  `map`: a lat-long map in the
+  // environment's units and orientation (environment_scale and its
+  // rotation apply); none: the environment itself, the frame's own.
+  struct Probe {
+    Eigen::Vector3d at = Eigen::Vector3d::Zero();
+    std::optional<fs::path> map;
+  };
+  std::vector<Probe> probes;
 };
 
 struct SceneReal {

@@ -218,6 +218,8 @@ TEST(PlanPipeline, CapturesTheLightFromTheSphereInThePlate) {
         "--method", "blobs", "--room", (dir / "room.ply").string(), "--probe-at", "-0.42,0.85,-0.22", "--count", "2"};
     EXPECT_EQ(tail, want_tail);
     EXPECT_NE(std::find(l.inputs.begin(), l.inputs.end(), dir / "room.ply"), l.inputs.end());
+    // The rest of the map is the room's own light, seen from the sphere.
+    EXPECT_EQ(placed.scene["lighting"]["probes"], ParseJsonStrict(R"([{"at": [-0.42, 0.85, -0.22]}])", "want"));
   }
   WriteTextFile(dir / "placed-env.json", R"({"version": 1, "camera": {"model": "cam.cameramodel"},
     "lighting": {"environment": "room.ply", "lights": {"place": true}},

@@ -109,6 +109,26 @@ TEST_F(SceneFiles, AssetMeshesBringTheirMaterials) {
   EXPECT_FALSE(ParseScene(j, dir_.path(), "scene.json", true).virtuals[0].file_materials);
 }
 
+// lighting.probes: where the light was captured; a probe without its own
+// map takes the environment's.
+TEST_F(SceneFiles, ProbesNameWhereTheLightWasCaptured) {
+  Json j = Valid();
+  j["lighting"]["probes"] = Json::array({{{"at", {0.5, 1.0, -0.2}}}, {{"at", {1, 1, 1}}, {"map", "env.exr"}}});
+  const Scene s = ParseScene(j, dir_.path(), "scene.json", true);
+  ASSERT_EQ(s.lighting.probes.size(), 2u);
+  EXPECT_EQ(s.lighting.probes[0].at, Eigen::Vector3d(0.5, 1.0, -0.2));
+  EXPECT_FALSE(s.lighting.probes[0].map);
+  EXPECT_EQ(*s.lighting.probes[1].map, dir_ / "env.exr");
+  j["lighting"]["probes"] = Json::array({{{"at", {0, 1}}}});
+  EXPECT_EQ(ErrorOf(j), "scene.json: lighting.probes[0].at: expected 3 numbers in [-1e+30,1e+30], got 2");
+  j["lighting"]["probes"] = Json::object();
+  EXPECT_EQ(ErrorOf(j), "scene.json: lighting.probes: expected a list of 1 to 16 probes {at: [x, y, z], map}");
+  j["lighting"]["probes"] = Json::array({{{"at", {0, 1, 0}}}});
+  j["lighting"].erase("environment");
+  EXPECT_EQ(ErrorOf(j),
+            "scene.json: lighting.probes[0]: a probe without a map takes the environment's, and the scene names none");
+}
+
 TEST_F(SceneFiles, ErrorsNameTheKeyPath) {
   Json j = Valid();
   j["virtual"][1]["material"]["albedo"] = {0.1, 0.2, 0.3, 0.4};

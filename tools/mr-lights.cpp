@@ -52,7 +52,12 @@ int main(int argc, char** argv) {
   app.add_option("--probe-at", o.probe_at, "The probe's centre X,Y,Z in the map's frame (metres), for --room")
       ->delimiter(',')
       ->expected(3);
-  app.add_option("--residual", o.residual, "Write the map minus what the lights took (EXR)");
+  app.add_option("--residual", o.residual,
+                 "Write the map minus what the lights took (EXR); with --room only the directions that leave the "
+                 "room, the rest filled from the sky around them (the room's own light is --room-map's)");
+  app.add_option("--room-map", o.room_map,
+                 "With --room: write the map minus the lights at full size, what the probe saw of the room "
+                 "(scene.json lighting.probes' map)");
   app.add_option("--residual-width", o.residual_width, "Width of the residual map (energy-preserving downsampling)")
       ->default_val(64);
   app.add_option("--normals", o.normals, "Normal directions for the irradiance error")->default_val(1024);

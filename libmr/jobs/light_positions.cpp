@@ -163,4 +163,60 @@ std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const 
   return out;
 }
 
+Image SkyOnly(const Image& map, const Mesh& room, const Eigen::Vector3d& probe_centre, SkyReport* report) {
+  const int W = map.width(), H = map.height();
+  EmbreeScene embree;
+  embree.AddMesh(room, false);
+  embree.Commit();
+  std::vector<uint8_t> sky(static_cast<size_t>(W) * H, 0);
+  double e_room = 0, e_all = 0;
+  *report = SkyReport();
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      Ray ray;
+      ray.origin = probe_centre.cast<float>();
+      ray.direction = LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H).cast<float>();
+      Hit hit;
+      const bool in_room = embree.Intersect(ray, &hit);
+      sky[static_cast<size_t>(y) * W + x] = !in_room;
+      const double e =
+          LuminanceF(map.at(x, y, 0), map.at(x, y, 1), map.at(x, y, 2)) * LatLongPixelSolidAngle(x, y, W, H);
+      e_all += e;
+      if (in_room) e_room += e, ++report->room_pixels;
+    }
+  report->room_share = e_all > 0 ? e_room / e_all : 0;
+  Image out = Image::Rgb(W, H);
+  std::vector<int> rows_with_sky;
+  for (int y = 0; y < H; ++y) {
+    std::vector<int> cols;
+    for (int x = 0; x < W; ++x)
+      if (sky[static_cast<size_t>(y) * W + x]) cols.push_back(x);
+    if (cols.empty()) continue;
+    rows_with_sky.push_back(y);
+    // Around the circle: each room pixel between sky pixels a and b.
+    for (size_t k = 0; k < cols.size(); ++k) {
+      const int a = cols[k], b = cols[(k + 1) % cols.size()];
+      const int gap = ((b - a) % W + W) % W;  // W when a is the row's only sky pixel
+      for (int c = 0; c < 3; ++c) out.at(a, y, c) = map.at(a, y, c);
+      for (int j = 1; j < (gap == 0 ? W : gap); ++j) {
+        const double t = static_cast<double>(j) / (gap == 0 ? W : gap);
+        const int x = (a + j) % W;
+        for (int c = 0; c < 3; ++c)
+          out.at(x, y, c) = static_cast<float>((1 - t) * map.at(a, y, c) + t * map.at(b, y, c));
+      }
+    }
+  }
+  if (rows_with_sky.empty()) return Image::Rgb(W, H);  // nothing leaves the room
+  for (int y = 0, k = 0; y < H; ++y) {
+    while (k + 1 < static_cast<int>(rows_with_sky.size()) && std::abs(rows_with_sky[static_cast<size_t>(k) + 1] - y) <=
+                                                                 std::abs(rows_with_sky[static_cast<size_t>(k)] - y))
+      ++k;
+    const int from = rows_with_sky[static_cast<size_t>(k)];
+    if (from == y) continue;
+    for (int x = 0; x < W; ++x)
+      for (int c = 0; c < 3; ++c) out.at(x, y, c) = out.at(x, from, c);
+  }
+  return out;
+}
+
 }  // namespace mr

@@ -35,4 +35,18 @@ struct PositionReport {
 std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const std::vector<Light>& lights,
                                   const Mesh& room, const PositionOptions& options, PositionReport* report);
 
+struct SkyReport {
+  int64_t room_pixels = 0;  // whose rays from the probe's centre meet the room
+  double room_share = 0;    // of the map's energy (luminance x solid angle)
+};
+
+// The map's directions that leave the room, seen from the probe's centre:
+// the map at infinity that goes with the room's own light (scene.json
+// lighting.probes, docs/methods.md "The room's own light").  A pixel whose
+// ray from the centre meets the room takes the sky's radiance there,
+// interpolated along its row (in longitude, around the circle) between the
+// nearest pixels that leave the room; a row with none copies the nearest
+// row that has some; a map that sees nothing leave the room is black.
+Image SkyOnly(const Image& map, const Mesh& room, const Eigen::Vector3d& probe_centre, SkyReport* report);
+
 }  // namespace mr

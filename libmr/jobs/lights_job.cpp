@@ -77,10 +77,14 @@ class LightsJob {
 
  private:
   LightsError WriteLights(const Image& env, const std::string& map_file, const std::string& out_file,
-                          const std::string& res_file, Extraction* ex, const std::vector<double>& ref,
-                          const std::vector<int>* ids, const Json& source_extra = Json::object());
+                          const std::string& res_file, const std::string& room_file, Extraction* ex,
+                          const std::vector<double>& ref, const std::vector<int>* ids,
+                          const Json& source_extra = Json::object());
+  Image SplitRoomAndSky(bool keeps_room_map, Extraction* ex);
+  void WriteMap(const std::string& file, const Image& map, bool make_dirs);
   std::vector<Light> Positioned(const Image& env, Extraction* ex, std::vector<Light> lights);
-  std::vector<bool> dropped_;  // the last map's lights Positioned put back into the residual
+  std::vector<bool> dropped_;    // the last map's lights Positioned put back into the residual
+  double positioned_share_ = 0;  // of the last map's lights' energy, placed in the room
   std::optional<Mesh> room_;
   const LightsJobOptions& o_;
   Report* report_;
@@ -128,6 +132,7 @@ std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::
   }
   if (returned > 0) ReturnToResidual(env, drop, o_.extract.sh_order, ex);
   dropped_ = drop;
+  positioned_share_ = pr.positioned_share;
   lights = std::move(kept);
   for (const std::string& n : pr.notes) spdlog::info("{}", n);
   report_->SetMetric("positioned", {{"lights", pr.positioned},
@@ -142,11 +147,53 @@ std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::
   return lights;
 }
 
+// With --room: the residual (lights taken out) is what the probe saw of the
+// room, written whole to --room-map for lighting.probes, and the residual
+// keeps only the directions that leave the room (SkyOnly).  The report
+// says how the map's light was shared: placed lights, the room, infinity.
+// Returns the room's map (the residual before); empty without --room.
+Image LightsJob::SplitRoomAndSky(bool keeps_room_map, Extraction* ex) {
+  if (o_.room.empty()) return Image();
+  Image room_map = ex->residual;
+  SkyReport sr;
+  Image sky;
+  {
+    ScopedTimer t(report_, "sky");
+    sky = SkyOnly(ex->residual, *room_, Eigen::Vector3d(o_.probe_at[0], o_.probe_at[1], o_.probe_at[2]), &sr);
+  }
+  ReplaceResidual(sky, o_.extract.sh_order, ex);
+  const double rest = 1 - std::clamp(ex->taken_fraction, 0.0, 1.0);
+  const double placed = std::clamp(ex->taken_fraction, 0.0, 1.0) * positioned_share_;
+  report_->SetMetric("light_model", {{"placed", placed},
+                                     {"room", rest * sr.room_share},
+                                     {"infinity", std::max(0.0, 1 - placed - rest * sr.room_share)},
+                                     {"room_pixels", sr.room_pixels}});
+  spdlog::info(
+      "of the map's light: {:.0f}% placed lights, {:.0f}% the room's own (seen from the probe{}), {:.0f}% at "
+      "infinity",
+      100 * placed, 100 * rest * sr.room_share, keeps_room_map ? "" : "; no --room-map keeps it",
+      100 * std::max(0.0, 1 - placed - rest * sr.room_share));
+  return room_map;
+}
+
+void LightsJob::WriteMap(const std::string& file, const Image& map, bool make_dirs) {
+  ImageWriteOptions wo;
+  wo.tool = "mr-lights";
+  wo.command_line = o_.command_line;
+  wo.attributes["textureformat"] = "LatLong Environment";
+  std::error_code ec;
+  if (make_dirs && !fs::path(file).parent_path().empty()) fs::create_directories(fs::path(file).parent_path(), ec);
+  WriteImage(file, map, wo);
+  report_->AddOutput(file);
+}
+
 LightsError LightsJob::WriteLights(const Image& env, const std::string& map_file, const std::string& out_file,
-                                   const std::string& res_file, Extraction* exp, const std::vector<double>& ref,
-                                   const std::vector<int>* ids, const Json& source_extra) {
+                                   const std::string& res_file, const std::string& room_file, Extraction* exp,
+                                   const std::vector<double>& ref, const std::vector<int>* ids,
+                                   const Json& source_extra) {
   const bool make_dirs = ids != nullptr;
   std::vector<Light> lights = Positioned(env, exp, ToLights(*exp, "light", ids));
+  const Image room_map = SplitRoomAndSky(!room_file.empty(), exp);
   const Extraction& ex = *exp;
   const LightsError e = ErrorOf(ex, dirs_, ref);
   Json j = LightsToJson(lights, "mr-lights: " + o_.command_line);
@@ -159,17 +206,8 @@ LightsError LightsJob::WriteLights(const Image& env, const std::string& map_file
   if (!res_file.empty())
     j["residual"]["map"] = fs::relative(fs::absolute(res_file), fs::absolute(out_file).parent_path()).generic_string();
   ParseLights(j, out_file);  // what mr-render will read; checked before anything is written
-  if (!res_file.empty()) {
-    ImageWriteOptions wo;
-    wo.tool = "mr-lights";
-    wo.command_line = o_.command_line;
-    wo.attributes["textureformat"] = "LatLong Environment";
-    std::error_code ec;
-    if (make_dirs && !fs::path(res_file).parent_path().empty())
-      fs::create_directories(fs::path(res_file).parent_path(), ec);
-    WriteImage(res_file, DownsampleEnergy(ex.residual, o_.residual_width), wo);
-    report_->AddOutput(res_file);
-  }
+  if (!res_file.empty()) WriteMap(res_file, DownsampleEnergy(ex.residual, o_.residual_width), make_dirs);
+  if (!room_file.empty()) WriteMap(room_file, room_map, make_dirs);
   std::error_code ec;
   if (make_dirs && !fs::path(out_file).parent_path().empty())
     fs::create_directories(fs::path(out_file).parent_path(), ec);
@@ -188,9 +226,11 @@ void LightsJob::OverTime() {
   std::vector<ExtractedLight> prev;
   std::vector<int> prev_ids;
   int next_id = 0, f = 0, kept = 0;
-  const std::string options = fmt::format("{} {} {} {} {} {} {} {} {} {} {} {}", eo.method, eo.count, eo.threshold,
-                                          eo.saddle, eo.max_blob_sr, eo.sh_order, eo.seed, o_.residual_width,
-                                          o_.match_deg, o_.residual.empty(), o_.room, fmt::join(o_.probe_at, ","));
+  // With --room the residual is the sky alone ("sky").
+  const std::string options =
+      fmt::format("{} {} {} {} {} {} {} {} {} {} {} {}{}", eo.method, eo.count, eo.threshold, eo.saddle, eo.max_blob_sr,
+                  eo.sh_order, eo.seed, o_.residual_width, o_.match_deg, o_.residual.empty(), o_.room,
+                  fmt::join(o_.probe_at, ","), o_.room.empty() ? "" : " sky");
   uint64_t key = HashCombine(0x6c6967687473ULL, HashString(options));
   for (;; ++f) {
     const std::string map_file = FramePath(o_.env, f).string();
@@ -199,7 +239,10 @@ void LightsJob::OverTime() {
     const std::string key_hex = fmt::format("{:016x}", key);
     const std::string out_file = FramePath(o_.out, f).string();
     const std::string res_file = o_.residual.empty() ? "" : FramePath(o_.residual, f).string();
-    if (std::optional<Json> done = KeptLights(out_file, res_file, key_hex)) {
+    const std::string room_file = o_.room_map.empty() ? "" : FramePath(o_.room_map, f).string();
+    std::optional<Json> done = KeptLights(out_file, res_file, key_hex);
+    if (done && !room_file.empty() && !fs::is_regular_file(room_file)) done.reset();
+    if (done) {
       // Up to date: its lights carry the identities on.
       prev.clear();
       prev_ids.clear();
@@ -235,8 +278,8 @@ void LightsJob::OverTime() {
       ScopedTimer t(report_, "reference irradiance");
       ref = MapIrradiance(env, dirs_);
     }
-    const LightsError e =
-        WriteLights(env, map_file, out_file, res_file, &ex, ref, &ids, Json{{"key", key_hex}, {"next_id", next_id}});
+    const LightsError e = WriteLights(env, map_file, out_file, res_file, room_file, &ex, ref, &ids,
+                                      Json{{"key", key_hex}, {"next_id", next_id}});
     std::vector<int> kept_ids;  // of the lights written (a window left in the map is not)
     for (size_t i = 0; i < ids.size(); ++i)
       if (!dropped_[i]) kept_ids.push_back(ids[i]);
@@ -319,7 +362,7 @@ void LightsJob::Once(const Image& env, const std::vector<double>& ref) {
     ScopedTimer t(report_, "extract");
     ex = ExtractLights(env, eo);
   }
-  const LightsError e = WriteLights(env, o_.env, o_.out, o_.residual, &ex, ref, nullptr);
+  const LightsError e = WriteLights(env, o_.env, o_.out, o_.residual, o_.room_map, &ex, ref, nullptr);
   if (!o_.residual.empty() && ex.taken_fraction > 1 - 1e-12)
     report_->Skip("residual energy", "the lights took all of the map's energy (" + eo.method +
                                          "): the residual map is black and its SH zero");
@@ -410,11 +453,13 @@ void LightsJobOptions::Check() const {
   if (!room.empty() && probe_at.size() != 3) throw UsageError("--room needs --probe-at X,Y,Z (the probe's centre)");
   if (!probe_at.empty() && room.empty()) throw UsageError("--probe-at needs --room MESH");
   if (!room.empty() && extract.method != "blobs") throw UsageError("--room places blobs' lights: give --method blobs");
+  if (!room_map.empty() && room.empty()) throw UsageError("--room-map needs --room MESH and --probe-at");
   if (sweep) (void)ParseCounts(counts);
   if (over_time()) {
     if (sweep) throw UsageError("--sweep takes one map, not a pattern");
-    if (out.find('%') == std::string::npos || (!residual.empty() && residual.find('%') == std::string::npos))
-      throw UsageError("a pattern of maps needs patterns for --out and --residual (lights/%05d.json)");
+    if (out.find('%') == std::string::npos || (!residual.empty() && residual.find('%') == std::string::npos) ||
+        (!room_map.empty() && room_map.find('%') == std::string::npos))
+      throw UsageError("a pattern of maps needs patterns for --out, --residual and --room-map (lights/%05d.json)");
   }
 }
 

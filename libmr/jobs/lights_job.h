@@ -24,6 +24,11 @@ struct LightsJobOptions {
   // the map's frame (the world, for mr-probe's maps); empty: all at infinity.
   std::string room;
   std::vector<double> probe_at;  // X,Y,Z metres
+  // With `room`: the residual at full size, lights taken out (what the probe
+  // saw of the room: scene.json lighting.probes' map; a pattern with a
+  // pattern of maps); empty: none.  With `room` the residual keeps only the
+  // directions that leave the room (SkyOnly).
+  std::string room_map;
   // The sweep: every method at every count, into a CSV table and an SVG plot.
   bool sweep = false;
   std::vector<std::string> methods = {"median-cut", "variance-cut", "importance", "blobs"};

@@ -782,18 +782,23 @@ void PlanLights(Plan& st, PipelineStage& s) {
     const fs::path residual = per_frame ? st.w / "env-residual" / "%05d.exr" : st.w / "env-residual.exr";
     s.args = {st.env.string(), "--out", out.string(), "--residual", residual.string()};
     const fs::path room_mesh = place ? PlaceLights(st, l, &s) : fs::path();
+    // With placed lights the residual is the sky alone; what the sphere saw
+    // of the room is its own map (lighting.probes).
+    const fs::path room_map = per_frame ? st.w / "env-room" / "%05d.exr" : st.w / "env-room.exr";
+    if (place) Append(&s.args, {"--room-map", room_map.string()});
     Append(&s.args, st.pl.Options(options));
     s.inputs = {per_frame ? st.env.parent_path() : st.env};
     if (!room_mesh.empty()) s.inputs.push_back(room_mesh);
     s.outputs = per_frame ? std::vector<fs::path>{st.w / "lights", st.w / "env-residual"}
                           : std::vector<fs::path>{out, residual};
+    if (place) s.outputs.push_back(per_frame ? room_map.parent_path() : room_map);
     s.does = per_frame ? "lights extracted from each frame's map (a light keeps its name across frames); the scene "
                          "is lit by them and each frame's residual map"
                        : "lights extracted from the map; the scene is lit by them and the residual map";
     st.lighting = {{"environment", st.pl.Rel(residual)}, {"lights", st.pl.Rel(out)}};
     if (place) {  // the rest of the map is the room's own light, seen from the sphere (lighting.probes)
       const Eigen::Vector3d c = st.plate_sphere->centre->Vec3(-1e9, 1e9);
-      st.lighting["probes"] = Json::array({{{"at", {c.x(), c.y(), c.z()}}}});
+      st.lighting["probes"] = Json::array({{{"at", {c.x(), c.y(), c.z()}}, {"map", st.pl.Rel(room_map)}}});
     }
   }
   // The map's orientation and scale: checked by the scene's parser.

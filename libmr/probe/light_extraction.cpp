@@ -523,6 +523,13 @@ void ReturnToResidual(const Image& env, const std::vector<bool>& drop, int sh_or
   FillResidual(m, taken, sh_order, ex);
 }
 
+void ReplaceResidual(const Image& map, int sh_order, Extraction* ex) {
+  const double taken = ex->taken_fraction;
+  const MapView m = View(map);
+  FillResidual(m, std::vector<uint8_t>(m.energy.size(), 0), sh_order, ex);
+  ex->taken_fraction = taken;
+}
+
 std::vector<int> MatchLights(const std::vector<ExtractedLight>& previous, const std::vector<int>& previous_ids,
                              const std::vector<ExtractedLight>& current, double max_angle_deg, int* next_id,
                              int* matched) {

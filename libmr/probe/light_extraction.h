@@ -59,6 +59,12 @@ Extraction ExtractLights(const Image& env, const ExtractOptions& options);
 // room keeps its shape there.
 void ReturnToResidual(const Image& env, const std::vector<bool>& drop, int sh_order, Extraction* ex);
 
+// The residual replaced by `map` (R G B, finite and non-negative): the map
+// at infinity that goes with the room's own light (jobs/light_positions.h,
+// SkyOnly).  Its SH are recomputed; taken_fraction (the lights' share of
+// the map they came from) is kept.
+void ReplaceResidual(const Image& map, int sh_order, Extraction* ex);
+
 // lights.json entries (distant lights, real): `name_prefix` + index, or
 // + ids[index] when `ids` is given (one per light).
 std::vector<Light> ToLights(const Extraction& e, const std::string& name_prefix = "light",

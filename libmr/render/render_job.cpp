@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <map>
+#include <set>
 
 #include "core/error.h"
 #include "core/file.h"
@@ -68,7 +69,8 @@ uint64_t SceneInputsKey(const Scene& scene) {
     add(v.material.albedo_texture);
     add(v.formfactors);
   }
-  for (const SceneLighting::Probe& pr : scene.lighting.probes) add(pr.map);  // their centres: in the scene file
+  for (const SceneLighting::Probe& pr : scene.lighting.probes)  // their centres: in the scene file
+    if (!pr.map_per_frame) add(pr.map);
   return k;
 }
 
@@ -220,6 +222,7 @@ class RenderJob {
   void LoadPlates(Frame* fr);
   void AddNeighbourPlates(Frame* fr);
   void LoadProbes();
+  const EnvironmentMap& ProbeMap(const fs::path& file);
   void AddProbes(Frame* fr);
   std::unique_ptr<FrameMethod> RunPasses(Frame* fr, const FrameContext& fc, const FrameDecoding& dec);
   FrameImages Compose(const Frame& fr, FrameMethod* fm, const FrameDecoding& dec);
@@ -256,8 +259,8 @@ class RenderJob {
   std::optional<FrameReader> neighbour_frames_;
   std::map<int, DecodedPlate> neighbour_plates_;
   int64_t neighbours_still_ = 0, neighbours_without_gain_ = 0;
-  // lighting.probes' own maps (a probe without one takes the environment's).
-  std::vector<std::optional<EnvironmentMap>> probe_maps_;
+  // lighting.probes' own maps by file (a probe without one takes the environment's).
+  std::map<std::string, EnvironmentMap> probe_maps_;
   int still_frames_ = 0;  // with a shutter, over which the camera does not move
   Json frames_json_ = Json::array();
   fs::path review_sheet_;  // the last one written
@@ -318,6 +321,11 @@ uint64_t RenderJob::InputsKey(int f) const {
   k = HashCombine(k, EnvironmentKey(scene_, f));
   const std::optional<fs::path> lights = LightsAt(scene_, f);
   k = HashCombine(k, lights ? ContentHash(*lights) : 0);
+  for (const SceneLighting::Probe& pr : scene_.lighting.probes)
+    if (pr.map_per_frame) {
+      const std::optional<fs::path> p = PerFrameFile(*pr.map, f, nullptr);
+      k = HashCombine(k, p ? ContentHash(*p) : 0);
+    }
   return k;
 }
 
@@ -606,19 +614,13 @@ void RenderJob::LoadPlates(Frame* fr) {
   AddProbes(fr);
 }
 
-// lighting.probes' own maps, read and checked before anything is written.
+// lighting.probes' own maps (one file each: read and checked before
+// anything is written; patterns: per frame), and what the method does with
+// them.
 void RenderJob::LoadProbes() {
   const std::vector<SceneLighting::Probe>& probes = scene_.lighting.probes;
-  for (const SceneLighting::Probe& pr : probes) {
-    if (!pr.map) {
-      probe_maps_.emplace_back();
-      continue;
-    }
-    ImageReadOptions opt;
-    opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
-    probe_maps_.emplace_back(EnvironmentMap(ReadImage(*pr.map, opt), pr.map->string(),
-                                            scene_.lighting.environment_scale, scene_.lighting.world_from_env));
-  }
+  for (const SceneLighting::Probe& pr : probes)
+    if (pr.map && !pr.map_per_frame) (void)ProbeMap(*pr.map);
   if (probes.empty()) return;
   report_->SetMetric("probes", static_cast<int64_t>(probes.size()));
   const std::string m = method_name_;
@@ -630,17 +632,41 @@ void RenderJob::LoadProbes() {
     report_->Skip("the probes' radiance", m + " renders the room's light; pt, ic and vpl take it from the probes");
 }
 
+// A probe's map, read once (kept while frames use it).
+const EnvironmentMap& RenderJob::ProbeMap(const fs::path& file) {
+  auto it = probe_maps_.find(file.string());
+  if (it != probe_maps_.end()) return it->second;
+  ImageReadOptions opt;
+  opt.nonfinite = NonFinite::kAllow;  // EnvironmentMap names the first bad pixel itself
+  return probe_maps_
+      .emplace(file.string(), EnvironmentMap(ReadImage(file, opt), file.string(), scene_.lighting.environment_scale,
+                                             scene_.lighting.world_from_env))
+      .first->second;
+}
+
 // The probes where the light was captured: the room's own light
 // (PlateView::probe), after the plates.
 void RenderJob::AddProbes(Frame* fr) {
   const std::vector<SceneLighting::Probe>& probes = scene_.lighting.probes;
   MR_CHECK(fr->plates.size() + probes.size() <= kMaxPlateViews);
-  for (size_t i = 0; i < probes.size(); ++i) {
+  std::set<std::string> used;
+  for (const SceneLighting::Probe& pr : probes) {
     PlateView v;
-    v.probe = probe_maps_[i] ? &*probe_maps_[i] : &rs_.environment();
-    v.probe_centre = probes[i].at;
+    v.probe = &rs_.environment();
+    if (pr.map) {
+      fs::path file = *pr.map;
+      if (pr.map_per_frame) {
+        const std::optional<fs::path> p = PerFrameFile(*pr.map, fr->f, nullptr);
+        if (!p) ThrowErrorAt(FileLoc{pr.map->string()}, "no probe map for frame {} or any frame before it", fr->f);
+        file = *p;
+      }
+      v.probe = &ProbeMap(file);
+      used.insert(file.string());
+    }
+    v.probe_centre = pr.at;
     fr->plates.push_back(v);
   }
+  std::erase_if(probe_maps_, [&](const auto& kv) { return !used.count(kv.first); });
 }
 
 // The neighbours' plates, nearest first; a camera that did not move sees

@@ -282,7 +282,7 @@ void ParseLighting(const Node& node, const fs::path& base, bool check, SceneLigh
       JsonSettings ps(probes->Index(i));
       SceneLighting::Probe probe;
       probe.at = ps.Require("at").Vec3(-kHuge, kHuge);
-      if (const auto map = ps.Take("map")) probe.map = ResolveFile(*map, base, check, "probe map");
+      file_or_pattern(ps.Take("map"), "probe map", &probe.map, &probe.map_per_frame);
       ps.Done();
       if (!probe.map && !lighting.environment)
         probes->Index(i).Fail("a probe without a map takes the environment's, and the scene names none");

@@ -99,10 +99,12 @@ struct SceneLighting {
   // saw there instead of the rendered room's (render/plate_view.h,
   // docs/methods.md "The room's own light").  `map`: a lat-long map in the
   // environment's units and orientation (environment_scale and its
-  // rotation apply); none: the environment itself, the frame's own.
+  // rotation apply), or a printf pattern of one per frame (as environment);
+  // none: the environment itself, the frame's own.
   struct Probe {
     Eigen::Vector3d at = Eigen::Vector3d::Zero();
     std::optional<fs::path> map;
+    bool map_per_frame = false;
   };
   std::vector<Probe> probes;
 };

@@ -7,11 +7,15 @@
 #     true shades its facets flat, "normal_maps": false unlinks its normal
 #     maps), role: "real" | "virtual" (default
 #     real), world_from_object (4x4, mr's world; optional), albedo [3],
-#     specular [3] and roughness (optional: mr's GGX lobe)}]
+#     specular [3] and roughness (optional: mr's GGX lobe), emission [3]
+#     (optional: an emitter of that radiance from both sides instead, a lamp)}]
 #   environment: a lat-long EXR in mr's (OpenEXR's) convention
 #   env_rotation_deg: 90 (Blender's equirectangular lookup is a quarter turn
 #     from OpenEXR's: docs/benchmarks.md, "Cross-check against Blender Cycles")
 #   camera: {width, height, fx, fy, cx, cy} (a pinhole, mrcal's pixel centres)
+#     or {type: "equirect", width, height}: a lat-long panorama about the
+#     camera's forward axis, its up the camera's -y (Blender's pixel edges
+#     on the image's edges: bench/room_capture.py turns it into mr's map)
 #   world_from_cam: 4x4 (mr's camera frame: x right, y down, z forward; mr's
 #     world: y up.  Blender's world is z up: (x, y, z) -> (x, -z, y).)
 #   spp, max_depth, seed, threads
@@ -92,6 +96,12 @@ def material(m):
     if mode == "mask":
         emit = nodes.new("ShaderNodeEmission")
         emit.inputs["Color"].default_value = (1, 1, 1, 1)
+        links.new(emit.outputs["Emission"], surface)
+        return mat
+    if "emission" in m:
+        emit = nodes.new("ShaderNodeEmission")
+        emit.inputs["Color"].default_value = (*m["emission"], 1.0)
+        emit.inputs["Strength"].default_value = 1.0  # a mesh emitter's strength is its radiance
         links.new(emit.outputs["Emission"], surface)
         return mat
     # mr's BSDF (render/bsdf.cpp): albedo / pi + specular x GGX (alpha =
@@ -199,14 +209,18 @@ else:
 
 # The camera: a pinhole whose principal point may leave the centre
 # (Blender's shift, in units of the width with a horizontal sensor fit).
-if abs(cam_spec["fx"] - cam_spec["fy"]) > 1e-9 * cam_spec["fx"]:
-    raise SystemExit("blender_scene.py: fx != fy (Blender's camera has square pixels)")
 cam_data = bpy.data.cameras.new("cam")
-cam_data.sensor_fit = "HORIZONTAL"
-cam_data.sensor_width = 36.0
-cam_data.lens = cam_spec["fx"] * 36.0 / W
-cam_data.shift_x = ((W - 1) / 2 - cam_spec["cx"]) / W
-cam_data.shift_y = (cam_spec["cy"] - (H - 1) / 2) / W
+if cam_spec.get("type") == "equirect":
+    cam_data.type = "PANO"
+    cam_data.cycles.panorama_type = "EQUIRECTANGULAR"
+else:
+    if abs(cam_spec["fx"] - cam_spec["fy"]) > 1e-9 * cam_spec["fx"]:
+        raise SystemExit("blender_scene.py: fx != fy (Blender's camera has square pixels)")
+    cam_data.sensor_fit = "HORIZONTAL"
+    cam_data.sensor_width = 36.0
+    cam_data.lens = cam_spec["fx"] * 36.0 / W
+    cam_data.shift_x = ((W - 1) / 2 - cam_spec["cx"]) / W
+    cam_data.shift_y = (cam_spec["cy"] - (H - 1) / 2) / W
 cam_data.clip_start = 1e-3
 cam = bpy.data.objects.new("cam", cam_data)
 scene.collection.objects.link(cam)

@@ -112,8 +112,19 @@ TEST(LightPositions, AWindowThatLeavesTheRoomStaysInTheMap) {
   o.extract.method = "blobs";
   o.room = (dir / "ceiling.obj").string();
   o.probe_at = {0, 1, 0};
+  o.room_map = (dir / "room.exr").string();
   Report report;
   RunLights(o, &report);
+  // The room's map is the residual at full size: the ceiling seen from the
+  // probe (1), the panel taken out (0); the shares of the map's light add up.
+  const Image room = ReadImage(dir / "room.exr");
+  ASSERT_EQ(room.width(), 256);
+  const Eigen::Vector2d up = DirectionToLatLongPixel(Eigen::Vector3d(-0.3, 1, 0.3).normalized(), 256, 128);
+  EXPECT_FLOAT_EQ(room.at(static_cast<int>(up.x()), static_cast<int>(up.y()), 0), 1.0f);
+  const Json& share = report.metrics()["light_model"];
+  EXPECT_NEAR(share["placed"].get<double>() + share["room"].get<double>() + share["infinity"].get<double>(), 1, 1e-9);
+  EXPECT_GT(share["placed"].get<double>(), 0.1);
+  EXPECT_GT(share["room"].get<double>(), 0.03);  // the ceiling, radiance 1 over about 2.5 sr: 4.6%
   const std::vector<Light> lights = ReadLights(dir / "lights.json");
   ASSERT_EQ(lights.size(), 1u);
   EXPECT_EQ(lights[0].type, LightType::kArea);
@@ -125,6 +136,77 @@ TEST(LightPositions, AWindowThatLeavesTheRoomStaysInTheMap) {
       if (residual.at(x, y, 0) > 30) window += LatLongPixelSolidAngle(x, y, 256, 128);
   std::printf("the window's %.3f sr stays in the residual map\n", window);
   EXPECT_GT(window, 0.3);
+}
+
+// b's triangles added to a's (positions only).
+void Append(Mesh* a, const Mesh& b) {
+  const int base = static_cast<int>(a->positions.size());
+  a->positions.insert(a->positions.end(), b.positions.begin(), b.positions.end());
+  for (const Eigen::Vector3i& t : b.triangles) a->triangles.push_back(t + Eigen::Vector3i::Constant(base));
+}
+
+// The map at infinity keeps only the directions that leave the room: in a
+// room open at the top and at +x (a floor and three walls), seen from its
+// middle, every pixel whose ray meets a wall or the floor takes the sky of
+// its row (here the map's radiance depends on the latitude alone, so the
+// filled pixels are exactly the sky's), rows that see no sky copy the
+// nearest that does, and a closed box leaves nothing at infinity.
+TEST(LightPositions, OnlyWhatLeavesTheRoomStaysAtInfinity) {
+  Mesh room = Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2});  // floor
+  room.normals.clear();
+  for (const Mesh& wall :
+       {Quad({-2, 0, -2}, {-2, 0, 2}, {-2, 2, 2}, {-2, 2, -2}), Quad({-2, 0, 2}, {2, 0, 2}, {2, 2, 2}, {-2, 2, 2}),
+        Quad({-2, 0, -2}, {2, 0, -2}, {2, 2, -2}, {-2, 2, -2})})
+    Append(&room, wall);
+  const int W = 128, H = 65;
+  Image map = Image::Rgb(W, H), sky = Image::Rgb(W, H);
+  const Eigen::Vector3d centre(0, 1, 0);
+  // Where the ray leaves: above the walls' tops, or out of the open side.
+  auto leaves = [&](const Eigen::Vector3d& d) {
+    double t_exit = INFINITY;  // the box's x, z extent
+    for (int a : {0, 2})
+      if (std::abs(d[a]) > 1e-12) t_exit = std::min(t_exit, ((d[a] > 0 ? 2 : -2) - centre[a]) / d[a]);
+    const Eigen::Vector3d p = centre + t_exit * d;
+    if (d.y() < 0 && centre.y() / -d.y() < t_exit) return false;  // the floor first
+    return p.y() > 2 || (p.x() > 2 - 1e-9 && std::abs(p.z()) < 2);
+  };
+  int n_sky = 0;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H);
+      const float s = static_cast<float>(1.5 + d.y());
+      const bool out = leaves(d);
+      n_sky += out;
+      for (int c = 0; c < 3; ++c) map.at(x, y, c) = out ? s : 10.0f, sky.at(x, y, c) = s;
+    }
+  SkyReport r;
+  const Image got = SkyOnly(map, room, centre, &r);
+  EXPECT_NEAR(static_cast<double>(r.room_pixels), W * H - n_sky, 0.01 * W * H);  // rays along an edge may differ
+  EXPECT_GT(r.room_share, 0.5);
+  int checked = 0, copied = 0;
+  for (int y = 0; y < H; ++y) {
+    bool row_sky = false;
+    for (int x = 0; x < W; ++x) row_sky = row_sky || leaves(LatLongPixelToDirection(Eigen::Vector2d(x, y), W, H));
+    for (int x = 0; x < W; ++x) {
+      if (row_sky) {
+        ASSERT_NEAR(got.at(x, y, 0), sky.at(x, y, 0), 1e-5) << x << " " << y;
+        ++checked;
+      } else {
+        EXPECT_LT(got.at(x, y, 0), 10.0f);  // no wall at infinity
+        EXPECT_GT(got.at(x, y, 0), 0.0f);
+        ++copied;
+      }
+    }
+  }
+  EXPECT_GT(checked, W * H / 2);
+  EXPECT_GT(copied, 0);  // steeply down: the floor in every direction
+  // Closed: a lid on the box and a wall at +x.
+  Append(&room, Quad({-2, 2, -2}, {-2, 2, 2}, {2, 2, 2}, {2, 2, -2}));
+  Append(&room, Quad({2, 0, -2}, {2, 0, 2}, {2, 2, 2}, {2, 2, -2}));
+  const Image none = SkyOnly(map, room, centre, &r);
+  EXPECT_EQ(r.room_pixels, W * H);
+  EXPECT_DOUBLE_EQ(r.room_share, 1.0);
+  for (float v : none.values()) ASSERT_EQ(v, 0.0f);
 }
 
 }  // namespace

@@ -57,6 +57,9 @@ TEST(LightsJob, OptionsNameTheFlagAtFault) {
   EXPECT_EQ(message(), "");
   o.room.clear();
   EXPECT_NE(message().find("--room"), std::string::npos);
+  o.probe_at.clear();
+  o.room_map = "room.exr";
+  EXPECT_NE(message().find("--room-map needs --room"), std::string::npos);
 }
 
 // A map with one bright spot at column x.

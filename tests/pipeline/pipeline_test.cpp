@@ -214,12 +214,16 @@ TEST(PlanPipeline, CapturesTheLightFromTheSphereInThePlate) {
     const Pipeline placed = PlanPipeline(dir / "placed.json");
     const PipelineStage& l = Stage(placed, "lights");
     const std::vector<std::string> tail(l.args.begin() + 5, l.args.end());
-    const std::vector<std::string> want_tail = {
-        "--method", "blobs", "--room", (dir / "room.ply").string(), "--probe-at", "-0.42,0.85,-0.22", "--count", "2"};
+    const std::vector<std::string> want_tail = {"--method",   "blobs",
+                                                "--room",     (dir / "room.ply").string(),
+                                                "--probe-at", "-0.42,0.85,-0.22",
+                                                "--room-map", (placed.work / "env-room" / "%05d.exr").string(),
+                                                "--count",    "2"};
     EXPECT_EQ(tail, want_tail);
     EXPECT_NE(std::find(l.inputs.begin(), l.inputs.end(), dir / "room.ply"), l.inputs.end());
     // The rest of the map is the room's own light, seen from the sphere.
-    EXPECT_EQ(placed.scene["lighting"]["probes"], ParseJsonStrict(R"([{"at": [-0.42, 0.85, -0.22]}])", "want"));
+    EXPECT_EQ(placed.scene["lighting"]["probes"],
+              ParseJsonStrict(R"([{"at": [-0.42, 0.85, -0.22], "map": "env-room/%05d.exr"}])", "want"));
   }
   WriteTextFile(dir / "placed-env.json", R"({"version": 1, "camera": {"model": "cam.cameramodel"},
     "lighting": {"environment": "room.ply", "lights": {"place": true}},

@@ -331,7 +331,8 @@ std::vector<ExtractedLight> Importance(const MapView& m, int count, uint32_t see
 }
 
 // Blob segmentation at the scale of the light: the pixels brighter than
-// `threshold` times the map's mean, taken brightest first and joined to
+// `threshold` times the map's mean, and those clipped in the photograph
+// (clipped.Y > 0: their light is unknown above the clip), taken brightest first and joined to
 // their brighter neighbours' regions (union-find); where two regions meet,
 // they become one unless the light at the meeting pixel has fallen below
 // `saddle` times the dimmer region's peak.  A highlight with its glow, or
@@ -350,7 +351,9 @@ std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold,
   std::vector<size_t> bright;
   for (size_t s = 0; s < n; ++s) {
     lum[s] = Luminance(m.radiance[s]);
-    if (lum[s] > cut) bright.push_back(s);
+    // A clipped pixel is a light whatever its recorded value: only its
+    // lower bound is known (a lamp clipped at a value near the room's).
+    if (lum[s] > cut || (!m.clipped.empty() && m.clipped[s] > 0)) bright.push_back(s);
   }
   std::sort(bright.begin(), bright.end(),
             [&](size_t a, size_t b) { return lum[a] != lum[b] ? lum[a] > lum[b] : a < b; });
@@ -441,7 +444,11 @@ std::vector<ExtractedLight> Blobs(const MapView& m, int count, double threshold,
     }
     l.disc_solid_angle = std::min(l.solid_angle, 2 * omega);
     l.pixels = px;
-    if (l.disc_solid_angle > max_sr && !keep_wide) {  // a window, a panel: no disc; the map keeps its shape
+    // A clipped core is as wide as the lens's blur made the clip, not the
+    // light (a lamp 300 x over the clip on a 75-px ball: 0.065 sr): it is
+    // a light up to 4 x max_sr (a clipped window wider still stays in the map).
+    const double wide_sr = l.clipped_share > 0.5 ? 4 * max_sr : max_sr;
+    if (l.disc_solid_angle > wide_sr && !keep_wide) {  // a window, a panel: no disc; the map keeps its shape
       ++*wide;
       continue;
     }

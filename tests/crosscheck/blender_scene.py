@@ -8,7 +8,8 @@
 #     maps), role: "real" | "virtual" (default
 #     real), world_from_object (4x4, mr's world; optional), albedo [3],
 #     specular [3] and roughness (optional: mr's GGX lobe), emission [3]
-#     (optional: an emitter of that radiance from both sides instead, a lamp)}]
+#     (optional: an emitter of that radiance from both sides instead, a lamp),
+#     smooth (optional: shaded with normals interpolated from the faces', default flat)}]
 #   environment: a lat-long EXR in mr's (OpenEXR's) convention
 #   env_rotation_deg: 90 (Blender's equirectangular lookup is a quarter turn
 #     from OpenEXR's: docs/benchmarks.md, "Cross-check against Blender Cycles")
@@ -178,7 +179,13 @@ for m in spec["meshes"]:
     obj = bpy.context.selected_objects[0]
     obj.matrix_world = to_blender @ Matrix(m.get("world_from_object", Matrix.Identity(4)))
     for p in obj.data.polygons:
-        p.use_smooth = False  # flat shading, as mr
+        p.use_smooth = m.get("smooth", False)  # flat shading, as mr's flat meshes
+    if obj.data.has_custom_normals:
+        # The importer turns the file's normals with its axis change, which the
+        # matrix above replaces: a mirror sphere's highlight 2 degrees off.
+        # Smooth shading takes the faces' normals instead.
+        bpy.context.view_layer.objects.active = obj
+        bpy.ops.mesh.customdata_custom_splitnormals_clear()
     obj.data.materials.clear()
     obj.data.materials.append(material(m))
     if role == "real" and mode == "catcher":

@@ -260,6 +260,35 @@ TEST(Lights, OneHighlightOneLight) {
   }
 }
 
+// A lamp clipped in an 8-bit photograph may record no brighter than the
+// room around it (the chrome ball of bench/ball_pairs.py: a lamp 300 x the
+// room's light recorded at 2.5 x the map's mean): the clipped pixels are a
+// light whatever their value (a lower bound), found by blobs where the
+// threshold alone found none, even where the lens's blur made the clipped
+// core wider (0.077 sr here) than --max-blob-sr's lamp (0.05 sr for twice
+// its brightest half).
+TEST(Lights, AClippedLampIsALightWhateverItsRecordedValue) {
+  const Eigen::Vector3d a = Towards(30, 40);
+  Image env = PaintedMap([&](const Eigen::Vector3d& d, int, int) {
+    return AngleBetween(d, a) < 9 * kDegToRad ? 1.0 : 0.4;  // the clip at 1, widened by the lens's blur
+  });
+  ExtractOptions o;
+  o.method = "blobs";
+  o.count = 4;
+  EXPECT_TRUE(ExtractLights(env, o).lights.empty());  // without the clip's flag: the room's level
+  Image flagged(env.width(), env.height(), {"R", "G", "B", "clipped.Y"});
+  for (int y = 0; y < env.height(); ++y)
+    for (int x = 0; x < env.width(); ++x) {
+      for (int c = 0; c < 3; ++c) flagged.at(x, y, c) = env.at(x, y, c);
+      flagged.at(x, y, 3) = env.at(x, y, 0) >= 1.0f ? 1.0f : 0.0f;
+    }
+  const Extraction ex = ExtractLights(flagged, o);
+  ASSERT_EQ(ex.lights.size(), 1u);
+  EXPECT_LT(AngleBetween(ex.lights[0].direction, a) / kDegToRad, 0.5);
+  EXPECT_GT(ex.lights[0].clipped_share, 0.99);
+  EXPECT_FALSE(ToLights(ex)[0].strength_note.empty());
+}
+
 // lights.json keeps solid angles and the residual; bad maps are refused.
 TEST(Lights, FileAndBadInput) {
   const Image env = SkyWithSun(64, 32, 1.0, 1e3, 20, 6);

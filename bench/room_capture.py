@@ -143,6 +143,23 @@ def blender_latlong_to_mr(src, dst, W, H):
     cc.write_rgb(dst, row(v0) * (1 - fv) + row(v0 + 1) * fv)
 
 
+def room_spec(work, mesh):
+    """The capture's Blender spec (the plate's camera), the room's parts and the bunny's placement."""
+    parts, lamp = make_room(work)
+    cc.sky_with_sun(os.path.join(work, "sky.exr"), width=256, sun_ratio=0.0)
+    cc.env_for_blender(os.path.join(work, "sky.exr"), os.path.join(work, "sky-blender.exr"))
+    s = 2.0  # the bunny about 0.3 m tall, standing on the floor
+    bunny_m = [[s, 0, 0, 0.0], [0, s, 0, -0.0334 * s], [0, 0, s, 0.3], [0, 0, 0, 1]]
+    meshes = [{"name": n, "role": "real", "path": p, "albedo": alb} for n, p, alb in parts]
+    meshes.append({"name": "lamp", "role": "real", "path": lamp, "albedo": [0, 0, 0],
+                   "emission": [LAMP_RADIANCE] * 3})
+    meshes.append({"name": "bunny", "role": "virtual", "path": os.path.abspath(mesh), "albedo": [0.8, 0.7, 0.6],
+                   "world_from_object": bunny_m})
+    spec = {"meshes": meshes, "environment": os.path.join(work, "sky-blender.exr"), "env_rotation_deg": 0.0,
+            "camera": CAMERA, "world_from_cam": look_at(EYE, TARGET).tolist(), "max_depth": MAX_DEPTH, "seed": 1}
+    return spec, parts, bunny_m
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("bin_dir")
@@ -159,19 +176,8 @@ def main():
     bl = cc.Blender(work, a.threads)
     truth_spp, probe_w, probe_spp = (256, 256, 64) if a.quick else (1024, 512, 256)
     t0 = time.perf_counter()
-    parts, lamp = make_room(work)
-    cc.sky_with_sun(os.path.join(work, "sky.exr"), width=256, sun_ratio=0.0)
-    cc.env_for_blender(os.path.join(work, "sky.exr"), os.path.join(work, "sky-blender.exr"))
-    s = 2.0  # the bunny about 0.3 m tall, standing on the floor
-    bunny_m = [[s, 0, 0, 0.0], [0, s, 0, -0.0334 * s], [0, 0, s, 0.3], [0, 0, 0, 1]]
-    meshes = [{"name": n, "role": "real", "path": p, "albedo": alb} for n, p, alb in parts]
-    meshes.append({"name": "lamp", "role": "real", "path": lamp, "albedo": [0, 0, 0],
-                   "emission": [LAMP_RADIANCE] * 3})
-    meshes.append({"name": "bunny", "role": "virtual", "path": os.path.abspath(a.mesh), "albedo": [0.8, 0.7, 0.6],
-                   "world_from_object": bunny_m})
+    spec, parts, bunny_m = room_spec(work, a.mesh)
     cam_pose = look_at(EYE, TARGET)
-    spec = {"meshes": meshes, "environment": os.path.join(work, "sky-blender.exr"), "env_rotation_deg": 0.0,
-            "camera": CAMERA, "world_from_cam": cam_pose.tolist(), "max_depth": MAX_DEPTH, "seed": 1}
 
     # The plate and the truth (kept for later runs into the same folder).
     plate_path, truth_path = os.path.join(work, "plate", "00000.exr"), os.path.join(work, "truth.exr")

@@ -1,6 +1,7 @@
 #include "recon/albedo.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <map>
 
@@ -28,6 +29,19 @@ struct Obs {
   float w = 0;
   Eigen::Vector3f c = Eigen::Vector3f::Zero();
 };
+
+// Whether p lies on area light l's surface (within 5 cm of its plane and
+// of its outline): a lamp's own patch of the room's mesh.
+bool OnAreaLight(const Light& l, const Eigen::Vector3d& p) {
+  if (l.type != LightType::kArea) return false;
+  const double m = 0.05;
+  const Eigen::Vector3d n = l.direction.normalized();
+  const Eigen::Vector3d d = p - l.position;
+  if (std::abs(d.dot(n)) > m) return false;
+  if (l.shape == AreaShape::kDisc) return (d - d.dot(n) * n).norm() <= 0.5 * l.width + m;
+  const Eigen::Vector3d u = (l.axis - l.axis.dot(n) * n).normalized(), w = n.cross(u);
+  return std::abs(d.dot(u)) <= 0.5 * l.width + m && std::abs(d.dot(w)) <= 0.5 * l.height + m;
+}
 
 struct VertexObs {
   Obs obs[kMaxObs];
@@ -129,6 +143,7 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
   std::vector<Eigen::Vector3d> sum(nv, Eigen::Vector3d::Zero());
   std::vector<double> wsum(nv, 0.0);
   std::vector<VertexObs> obs(nv);
+  std::vector<std::atomic<int>> clipped_views(nv);  // views in which the vertex was clipped
   DepthReadOptions dopt;
   dopt.scale = seq.depth_scale;
   dopt.max_m = max_depth;
@@ -153,7 +168,8 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
       const float c = (R * mesh->normals[v]).dot(-pc.normalized());
       if (c < cos_max) return;
       Eigen::Vector3f col(color.at(u, y, 0), color.at(u, y, 1), color.at(u, y, 2));
-      // Saturated pixels say only "at least": left out.
+      // Saturated pixels say only "at least": left out (counted).
+      if (col.allFinite() && col.maxCoeff() >= kSaturated) ++clipped_views[v];
       if (!col.allFinite() || col.maxCoeff() >= kSaturated) return;
       col /= static_cast<float>(options.camera_scale);  // to the lighting's radiance unit
       sum[v] += c * col.cast<double>();
@@ -167,7 +183,9 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
       observed[v] = sum[v] / wsum[v];
       ++st.vertices_observed;
     } else {
-      observed[v] = mesh->colors.empty() ? Eigen::Vector3d::Zero().eval() : mesh->colors[v].cast<double>().eval();
+      // The fused voxel colour, in the camera's units like the observations.
+      observed[v] = mesh->colors.empty() ? Eigen::Vector3d::Zero().eval()
+                                         : (mesh->colors[v].cast<double>() / options.camera_scale).eval();
       ++st.vertices_unobserved;
     }
   }
@@ -180,6 +198,17 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
       for (const Light& l : ReadLights(options.lights)) lights.emplace_back(l);
     EnvironmentMap env;
     if (!options.env.empty()) env = EnvironmentMap(ReadImage(options.env), options.env);
+    // A lamp the camera clipped in every view: its light is a light of
+    // lights.json (placed where it is: mr-lights --room), not the clipped
+    // colour the room's rays would take from it a second time.
+    for (size_t v = 0; v < nv; ++v)
+      if (wsum[v] <= 0 && clipped_views[v] > 0)
+        for (const LightSource& ls : lights)
+          if (OnAreaLight(ls.light(), mesh->positions[v].cast<double>())) {
+            observed[v].setZero();
+            ++st.vertices_on_lights;
+            break;
+          }
     EmbreeScene scene;
     scene.AddMesh(*mesh, false);
     scene.Commit();
@@ -346,6 +375,7 @@ AlbedoStats ComputeAlbedo(const RgbdSequence& seq, const FuseResult& fused, doub
     report->SetMetric("albedo.vertices_unobserved", st.vertices_unobserved);
     report->SetMetric("albedo.delit", st.delit);
     report->SetMetric("albedo.albedo_above_1", st.albedo_clamped);
+    report->SetMetric("albedo.vertices_on_lights", st.vertices_on_lights);
     if (st.delit) {
       report->SetMetric("albedo.gain_range", {st.gain_min, st.gain_max});
       report->SetMetric("albedo.mean_irradiance", st.mean_irradiance);

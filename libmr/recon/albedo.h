@@ -9,7 +9,9 @@
 // where E is the irradiance ray traced over the reconstructed mesh (direct
 // light with shadow rays; indirect light from cosine-weighted hemisphere
 // rays that take the room's own observed radiance where they hit it, so
-// every bounce is included, and the map where they escape) and g_f is an
+// every bounce is included, and the map where they escape; a vertex clipped
+// in every view that lies on an area light of `lights` gives none of its
+// own: the light carries it) and g_f is an
 // unknown per-frame gain (auto exposure; the first frame's is 1).  Gains
 // and the albedo of a subset of well-observed vertices are solved jointly
 // with Ceres (Huber loss); every vertex's albedo then follows by iteratively
@@ -45,7 +47,8 @@ struct AlbedoStats {
   bool delit = false;
   double gain_min = 1, gain_max = 1;
   double mean_irradiance = 0;
-  int64_t albedo_clamped = 0;  // vertices whose albedo came out above 1
+  int64_t albedo_clamped = 0;      // vertices whose albedo came out above 1
+  int64_t vertices_on_lights = 0;  // clipped in every view and on an area light: no room light of their own
 };
 
 // Gives every vertex that is not `known` the mean of its known neighbours'

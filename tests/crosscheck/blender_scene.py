@@ -26,6 +26,9 @@
 #     "mask" (the virtual objects' coverage: real meshes held out, camera
 #     rays only; the image's alpha)
 #   plate: the photograph (linear EXR) for "catcher"
+#   depth: true (optional): also the depth pass, OUT a multilayer EXR
+#     (ViewLayer.Combined.RGBA, ViewLayer.Depth.Z: Cycles' distance along
+#     the camera's axis, metres)
 #   border: [x0, y0, x1, y1] (optional): render only these pixels (x0 <= x < x1,
 #     y0 <= y < y1, mr's pixels, y down); the rest of OUT is zero
 # Writes OUT (32-bit float EXR, RGBA) and OUT.json: {"render_seconds": the
@@ -257,6 +260,10 @@ if mode == "catcher":
     comp = tree.nodes.new("CompositorNodeComposite")
     comp.use_alpha = True
     tree.links.new(over.outputs["Image"], comp.inputs["Image"])
+
+if spec.get("depth", False):
+    bpy.context.view_layer.use_pass_z = True
+    scene.render.image_settings.file_format = "OPEN_EXR_MULTILAYER"
 
 t_setup = time.perf_counter() - t_start
 scene.render.filepath = out

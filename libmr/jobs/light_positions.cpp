@@ -185,12 +185,31 @@ Image SkyOnly(const Image& map, const Mesh& room, const Eigen::Vector3d& probe_c
       if (in_room) e_room += e, ++report->room_pixels;
     }
   report->room_share = e_all > 0 ? e_room / e_all : 0;
+  // The sky's radiance is taken from pixels whose 8 neighbours leave the
+  // room too: a pixel on an opening's edge holds some of the wall (the
+  // probe's pixel is an average over its footprint), and its mixed value
+  // spread along the row made a probe far from the opening 2x worse.  Where
+  // no pixel is that clear of the room, every one that leaves it is used.
+  std::vector<uint8_t> source(sky.size(), 0);
+  bool any_clear = false;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      bool clear = sky[static_cast<size_t>(y) * W + x] != 0;
+      for (int dy = -1; dy <= 1 && clear; ++dy)
+        for (int dx = -1; dx <= 1 && clear; ++dx) {
+          const int yy = std::clamp(y + dy, 0, H - 1), xx = (x + dx + W) % W;
+          clear = sky[static_cast<size_t>(yy) * W + xx] != 0;
+        }
+      source[static_cast<size_t>(y) * W + x] = clear;
+      any_clear = any_clear || clear;
+    }
+  if (!any_clear) source = sky;
   Image out = Image::Rgb(W, H);
   std::vector<int> rows_with_sky;
   for (int y = 0; y < H; ++y) {
     std::vector<int> cols;
     for (int x = 0; x < W; ++x)
-      if (sky[static_cast<size_t>(y) * W + x]) cols.push_back(x);
+      if (source[static_cast<size_t>(y) * W + x]) cols.push_back(x);
     if (cols.empty()) continue;
     rows_with_sky.push_back(y);
     // Around the circle: each room pixel between sky pixels a and b.

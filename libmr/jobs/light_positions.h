@@ -45,8 +45,10 @@ struct SkyReport {
 // lighting.probes, docs/methods.md "The room's own light").  A pixel whose
 // ray from the centre meets the room takes the sky's radiance there,
 // interpolated along its row (in longitude, around the circle) between the
-// nearest pixels that leave the room; a row with none copies the nearest
-// row that has some; a map that sees nothing leave the room is black.
+// nearest pixels that leave the room with all their neighbours (an
+// opening's edge pixel holds some of the wall: replaced too); a row with
+// none copies the nearest row that has some; a map that sees nothing leave
+// the room is black.
 Image SkyOnly(const Image& map, const Mesh& room, const Eigen::Vector3d& probe_centre, SkyReport* report);
 
 }  // namespace mr

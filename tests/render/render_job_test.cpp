@@ -284,6 +284,47 @@ TEST_F(Capture, NanInTheEnvironmentMapIsAClearError) {
   EXPECT_FALSE(fs::exists(d.path() / "out" / "00000.exr"));
 }
 
+// lighting.probes through the job: a probe at frame 0's camera (its map the
+// environment) gives the reflected points the plate does not see (behind
+// the camera), counted in the frame's report; the report names the
+// probes, vct says it renders the room instead, and a probe map with a
+// NaN pixel is refused naming it before anything is written.
+TEST_F(Capture, ProbesGiveTheRoomWhereThePlateDoesNot) {
+  Json j = ReadJsonFile(Cap() / "scene.json");
+  const Rigid3 pose = LoadScenePoses(ReadScene(Cap() / "scene.json"))[0];
+  j["lighting"]["probes"] = Json::array({{{"at", {pose.translation.x(), pose.translation.y(), pose.translation.z()}}}});
+  RenderOptions o;
+  o.spp = 4;
+  o.frame_end = 1;
+  o.method = "pt";
+  Report r("mr-render", "test");
+  RenderVariant(j, "probes", o, &r);
+  EXPECT_EQ(r.metrics()["probes"], 1);
+  const Json& pr = r.metrics()["frames"][0]["plate_reflections"];
+  std::printf("plate reflections: %s\n", pr.dump().c_str());
+  EXPECT_GT(pr["from_probe"].get<int64_t>(), 0);
+  EXPECT_GT(pr["from_plate"].get<int64_t>(), 0);
+  o.method = "vct";
+  Report rv("mr-render", "test");
+  RenderVariant(j, "probes", o, &rv);
+  bool said = false;
+  for (const auto& sk : rv.skipped()) said = said || sk["what"] == "the probes' radiance";
+  EXPECT_TRUE(said);
+  Image env = ReadImage(Cap() / "env.exr");
+  env.at(5, 2, 0) = std::numeric_limits<float>::infinity();
+  WriteImage(Cap() / "bad-probe.exr", env);
+  j["lighting"]["probes"][0]["map"] = "bad-probe.exr";
+  o.method = "pt";
+  Report rb("mr-render", "test");
+  try {
+    RenderVariant(j, "probes-bad", o, &rb);
+    ADD_FAILURE() << "a probe map with an infinite pixel was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("bad-probe.exr"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(dir_->path() / "probes-bad-pt" / "00000.exr"));
+}
+
 // A video input gives a video output; frames decode from the mp4 mr-synth wrote.
 TEST_F(Capture, VideoInVideoOut) {
   Json j = ReadJsonFile(Cap() / "scene.json");

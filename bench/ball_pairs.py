@@ -193,11 +193,8 @@ def main():
     pose = np.eye(4)
     pose[:3, :3] = np.diag([-1.0, -1.0, 1.0])  # looking along +z, image up world +y
     pose[2, 3] = CAM_Z
-    with open(os.path.join(out, "camera.cameramodel"), "w") as f:
-        # mrcal's extrinsics: rt_cam_ref (the world's origin in the camera: 1 m ahead; a half turn about z).
-        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
-                "'extrinsics': [ 0, 0, %r, 0, 0, %r ], 'imagersize': [ %d, %d ] }\n"
-                % (F, F, cam["cx"], cam["cy"], math.pi, -CAM_Z, W, H))
+    # mrcal's extrinsics: rt_cam_ref (the world's origin in the camera: 1 m ahead; a half turn about z).
+    cc.write_pinhole_cameramodel(os.path.join(out, "camera.cameramodel"), cam, (0, 0, math.pi, 0, 0, -CAM_Z))
     rows = []
     for name, lighting in LIGHTINGS.items():
         tag = name.replace(" ", "-")

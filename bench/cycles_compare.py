@@ -132,6 +132,14 @@ def read_cameramodel(path):
     return {"width": m["imagersize"][0], "height": m["imagersize"][1], "fx": fx, "fy": fy, "cx": cx, "cy": cy}
 
 
+def write_pinhole_cameramodel(path, cam, extrinsics=(0, 0, 0, 0, 0, 0)):
+    """An mrcal pinhole .cameramodel of `cam` ({width, height, fx, fy, cx, cy}); `extrinsics`: rt_cam_ref."""
+    with open(path, "w") as f:
+        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
+                "'extrinsics': [ %r, %r, %r, %r, %r, %r ], 'imagersize': [ %d, %d ] }\n"
+                % (cam["fx"], cam["fy"], cam["cx"], cam["cy"], *extrinsics, cam["width"], cam["height"]))
+
+
 def blender_spec(scene_path):
     """The Blender spec of an mr scene.json (meshes, materials, environment, frame 0's camera)."""
     d = os.path.dirname(os.path.abspath(scene_path))
@@ -182,10 +190,8 @@ def make_table_top(work, mesh):
     with open(os.path.join(work, "wall.obj"), "w") as f:
         f.write("v -3 0 0.6\nv 3 0 0.6\nv 3 2.5 0.6\nv -3 2.5 0.6\nf 1 2 3\nf 1 3 4\n")
     w, h, fx = 320, 240, 300.0
-    with open(os.path.join(work, "camera.cameramodel"), "w") as f:
-        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
-                "'extrinsics': [ 0, 0, 0, 0, 0, 0 ], 'imagersize': [ %d, %d ] }\n"
-                % (fx, fx, (w - 1) / 2, (h - 1) / 2, w, h))
+    write_pinhole_cameramodel(os.path.join(work, "camera.cameramodel"),
+                              {"width": w, "height": h, "fx": fx, "fy": fx, "cx": (w - 1) / 2, "cy": (h - 1) / 2})
     eye, target = np.array([0.15, 0.45, -0.9]), np.array([0.0, 0.12, 0.1])
     z = (target - eye) / np.linalg.norm(target - eye)
     x = np.cross(z, [0.0, 1.0, 0.0])  # camera x right, y down, z forward

@@ -229,10 +229,7 @@ def main():
           % (time.perf_counter() - t0, int(region.sum()), noise), flush=True)
 
     # mr's scene, lit three ways from each probe.
-    with open(os.path.join(work, "camera.cameramodel"), "w") as f:
-        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
-                "'extrinsics': [ 0, 0, 0, 0, 0, 0 ], 'imagersize': [ %d, %d ] }\n"
-                % (CAMERA["fx"], CAMERA["fy"], CAMERA["cx"], CAMERA["cy"], CAMERA["width"], CAMERA["height"]))
+    cc.write_pinhole_cameramodel(os.path.join(work, "camera.cameramodel"), CAMERA)
     with open(os.path.join(work, "trajectory.txt"), "w") as f:
         f.write(tum_line(cam_pose))
     base = {"version": 1,

@@ -100,11 +100,7 @@ def main():
     rec = os.path.join(work, "rgbd%d" % a.frames)
     os.makedirs(os.path.join(rec, "rgb"), exist_ok=True)
     os.makedirs(os.path.join(rec, "depth"), exist_ok=True)
-    cam = rc.CAMERA
-    with open(os.path.join(rec, "camera.cameramodel"), "w") as f:
-        f.write("{ 'lensmodel': 'LENSMODEL_PINHOLE', 'intrinsics': [ %r, %r, %r, %r ], "
-                "'extrinsics': [ 0, 0, 0, 0, 0, 0 ], 'imagersize': [ %d, %d ] }\n"
-                % (cam["fx"], cam["fy"], cam["cx"], cam["cy"], cam["width"], cam["height"]))
+    cc.write_pinhole_cameramodel(os.path.join(rec, "camera.cameramodel"), rc.CAMERA)
     bl = cc.Blender(rec, a.threads)
     tum = []
     clipped = 0

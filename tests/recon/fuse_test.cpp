@@ -348,6 +348,28 @@ TEST(Fuse, RealSevenScenesFramesTrackAgainstTheReference) {
   EXPECT_GT(m.triangle_count(), 10000u);
 }
 
+// `scene` recorded from 12 views on a circle (`radius` around the vertical
+// axis, at `height`) looking at `target`, colour path traced at `spp`,
+// fused along the true poses: *rec and *fused receive the recording and the
+// fusion's result; returns the mesh.
+Mesh RecordCircleAndFuse(const RenderScene& scene, double radius, double height, const Eigen::Vector3d& target, int spp,
+                         Recording* rec, FuseResult* fused) {
+  Trajectory path;
+  for (int i = 0; i < 12; ++i) {
+    const double a = kTwoPi * i / 12;
+    path.poses.push_back({i / 30.0, LookAt({radius * std::cos(a), height, radius * std::sin(a)}, target)});
+  }
+  RgbdSynthOptions o = SmallSensor(false);
+  o.color_spp = spp;
+  o.exposure = 1.0;
+  Record(rec, scene, path, o);
+  FuseOptions f;
+  f.poses = rec->truth;
+  TsdfVolume vol(TsdfOptions{});
+  *fused = Fuse(rec->seq, f, &vol);
+  return vol.ExtractMesh(MeshOptions{}, nullptr);
+}
+
 TEST(Albedo, DelitAlbedoRecoversTheTrueAlbedoUnderAKnownSky) {
   // A 2 m floor with a 40 cm box under a uniform sky of radiance 1, seen
   // whole from above, colour path traced: the observed radiance is albedo x
@@ -362,21 +384,9 @@ TEST(Albedo, DelitAlbedoRecoversTheTrueAlbedoUnderAKnownSky) {
   rs.AddReal(Box({-0.2f, 0, -0.2f}, {0.2f, 0.4f, 0.2f}), box);
   rs.SetEnvironment(EnvironmentMap::Constant(Eigen::Vector3d::Ones()));
   rs.Commit();
-  Trajectory path;
-  for (int i = 0; i < 12; ++i) {
-    const double a = kTwoPi * i / 12;
-    path.poses.push_back({i / 30.0, LookAt({1.6 * std::cos(a), 2.2, 1.6 * std::sin(a)}, {0, 0, 0})});
-  }
   Recording rec;
-  RgbdSynthOptions o = SmallSensor(false);
-  o.color_spp = 32;
-  o.exposure = 1.0;
-  Record(&rec, rs, path, o);
-  FuseOptions f;
-  f.poses = rec.truth;
-  TsdfVolume vol(TsdfOptions{});
-  const FuseResult r = Fuse(rec.seq, f, &vol);
-  Mesh m = vol.ExtractMesh(MeshOptions{}, nullptr);
+  FuseResult r;
+  Mesh m = RecordCircleAndFuse(rs, 1.6, 2.2, Eigen::Vector3d::Zero(), 32, &rec, &r);
   test::TempDir env_dir;
   WriteImage(env_dir / "sky.exr", Image::Rgb(32, 16, 1.0f));
   AlbedoOptions ao;
@@ -441,20 +451,9 @@ TEST(Albedo, AClippedLampIsNotLightTwice) {
   rs.AddReal(Quad({-1, 0, -1}, {-1, 0, 1}, {1, 0, 1}, {1, 0, -1}), floor);
   rs.AddReal(Quad({-0.3f, 0.8f, -0.3f}, {0.3f, 0.8f, -0.3f}, {0.3f, 0.8f, 0.3f}, {-0.3f, 0.8f, 0.3f}), lamp);
   rs.Commit();
-  Trajectory path;
-  for (int i = 0; i < 12; ++i) {
-    const double a = kTwoPi * i / 12;
-    path.poses.push_back({i / 30.0, LookAt({1.5 * std::cos(a), 0.45, 1.5 * std::sin(a)}, {0, 0.3, 0})});
-  }
   Recording rec;
-  RgbdSynthOptions o = SmallSensor(false);
-  o.color_spp = 64;
-  o.exposure = 1.0;
-  Record(&rec, rs, path, o);
-  FuseOptions f;
-  f.poses = rec.truth;
-  TsdfVolume vol(TsdfOptions{});
-  const FuseResult r = Fuse(rec.seq, f, &vol);
+  FuseResult r;
+  Mesh m = RecordCircleAndFuse(rs, 1.5, 0.45, Eigen::Vector3d(0, 0.3, 0), 64, &rec, &r);
   test::TempDir dir;
   Light panel;
   panel.type = LightType::kArea;
@@ -467,7 +466,6 @@ TEST(Albedo, AClippedLampIsNotLightTwice) {
   ao.frame_stride = 1;
   ao.lights = (dir / "lights.json").string();
   ao.rays = 128;
-  Mesh m = vol.ExtractMesh(MeshOptions{}, nullptr);
   Report rep;
   const AlbedoStats st = ComputeAlbedo(rec.seq, r, 10, ao, &m, &rep);
   std::vector<double> floor_r;

@@ -2,16 +2,45 @@
 
 #include <Eigen/SVD>
 
+#include <algorithm>
 #include <atomic>
 #include "core/error.h"
 #include "core/parallel.h"
 #include "core/sh.h"
+#include "core/spherical.h"
 #include "geometry/mesh.h"
 #include "render/render_scene.h"
 #include "scene/frames.h"
 #include "transfer/formfactor.h"
 
 namespace mr {
+
+Image AddLightsSeenFrom(const Image& env, const std::vector<LightSource>& lights, const Eigen::Vector3d& centre,
+                        const Eigen::Matrix3d& world_from_env, double scale, int strata) {
+  Image out = env;
+  const int r = out.ChannelIndex("R"), g = out.ChannelIndex("G"), b = out.ChannelIndex("B");
+  const int W = out.width(), H = out.height();
+  for (const LightSource& l : lights) {
+    const int n = l.light().IsDelta() ? 1 : strata;
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        LightSample s;
+        if (!l.Sample(centre, (i + 0.5) / n, (j + 0.5) / n, &s) || !(s.pdf > 0)) continue;
+        // li / pdf: a delta light's irradiance (pdf 1), else radiance over
+        // the solid-angle pdf; either way this sample's share of the
+        // irradiance integral, as a radiance over its pixel's solid angle.
+        const Eigen::Vector3d e = s.li / (s.pdf * n * n);
+        const Eigen::Vector2d px = DirectionToLatLongPixel(world_from_env.transpose() * s.wi, W, H);
+        const int x = std::clamp(static_cast<int>(std::lround(px.x())), 0, W - 1) % W;
+        const int y = std::clamp(static_cast<int>(std::lround(px.y())), 0, H - 1);
+        const double omega = LatLongPixelSolidAngle(x, y, W, H) * scale;
+        out.at(x, y, r) += static_cast<float>(e.x() / omega);
+        out.at(x, y, g) += static_cast<float>(e.y() / omega);
+        out.at(x, y, b) += static_cast<float>(e.z() / omega);
+      }
+  }
+  return out;
+}
 
 std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& rs, int spp, Report* report,
                                          int frame) {
@@ -50,8 +79,21 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
                       "unscaled mesh",
                       v.name));
     const Eigen::Matrix3d object_from_env = world_from_object_rot.transpose() * scene.lighting.world_from_env;
-    EnvironmentCoefficients ec =
-        ProjectEnvironment(env, env_name, t.header, object_from_env, scene.lighting.environment_scale);
+    // The lights as the object's centre sees them (the classic PRT
+    // approximation: lighting the same over the object), in the map.
+    Eigen::Vector3d lo = Eigen::Vector3d::Zero();
+    if (!mesh.positions.empty()) lo = mesh.positions[0].cast<double>();
+    Eigen::Vector3d hi = lo;
+    for (const auto& p : mesh.positions) {
+      lo = lo.cwiseMin(p.cast<double>());
+      hi = hi.cwiseMax(p.cast<double>());
+    }
+    const Eigen::Vector3d centre = v.WorldFromObjectAt(frame) * (0.5 * (lo + hi));
+    const Image lit = rs.lights().empty() ? Image()
+                                          : AddLightsSeenFrom(env, rs.lights(), centre, scene.lighting.world_from_env,
+                                                              scene.lighting.environment_scale);
+    EnvironmentCoefficients ec = ProjectEnvironment(rs.lights().empty() ? env : lit, env_name, t.header,
+                                                    object_from_env, scene.lighting.environment_scale);
     if (t.header.basis == TransferBasis::kSh) {
       // Bands that hold (almost) none of the environment's energy change nothing: dropped.
       // The dropped bands change a vertex by at most sqrt(1e-5) |T| |L| (Cauchy-Schwarz): 0.3%.
@@ -96,8 +138,9 @@ std::map<uint32_t, PrtObject> PreparePrt(const Scene& scene, const RenderScene& 
                "method prt shades the virtual objects only (no shadows or light on the "
                "room); pt renders their effect on the room");
   if (!rs.lights().empty())
-    report->Skip(fmt::format("{} lights of lights.json", rs.lights().size()),
-                 "method prt shades with the environment map only");
+    report->Skip(fmt::format("the {} lights' variation over each object", rs.lights().size()),
+                 "method prt takes the lights as each object's centre sees them (in its environment, "
+                 "docs/methods.md), unoccluded by the room");
   return out;
 }
 

@@ -5,14 +5,17 @@
 // the environment projected into the object's frame; camera samples that hit
 // an object take the barycentric blend of its triangle's vertices.  prt
 // shades the objects only: their shadows and light on the real room are not
-// rendered (I_m = I_r = the photograph outside the objects), and lights.json
-// lights are not included.  The report says so.
+// rendered (I_m = I_r = the photograph outside the objects), and lights.json's
+// lights (and the scene's virtual ones) enter as the object's centre sees
+// them, added to its environment (AddLightsSeenFrom).  The report says so.
 #pragma once
 
 #include <map>
 #include <vector>
 
+#include "core/image.h"
 #include "core/report.h"
+#include "light/light_source.h"
 #include "render/camera_sampler.h"
 #include "render/method.h"
 #include "render/path_tracer.h"
@@ -25,6 +28,16 @@ struct PrtObject {
   std::vector<Eigen::Vector3i> triangles;
   Eigen::Vector3d emission = Eigen::Vector3d::Zero();
 };
+
+// A copy of lat-long map `env` (world_from_env its orientation) with
+// `lights` added as the point `centre` sees them: each light's irradiance
+// integral at `centre`, over strata x strata stratified samples (a delta
+// light's one direction exact), goes into the pixel of each sample's
+// direction as radiance over that pixel's solid angle, in the map's units
+// before `scale` (lighting.environment_scale), so that a projection of the
+// map keeps its power.  The room does not occlude them (prt ignores it).
+Image AddLightsSeenFrom(const Image& env, const std::vector<LightSource>& lights, const Eigen::Vector3d& centre,
+                        const Eigen::Matrix3d& world_from_env, double scale, int strata = 16);
 
 // Loads every virtual object's .ffc (refusing a missing one or one computed
 // for another mesh), projects the environment and shades the vertices.

@@ -52,6 +52,11 @@ int main(int argc, char** argv) {
   app.add_option("--probe-at", o.probe_at, "The probe's centre X,Y,Z in the map's frame (metres), for --room")
       ->delimiter(',')
       ->expected(3);
+  app.add_option("--mirror-tolerance-deg", o.mirror_tolerance_deg,
+                 "With --room: a light landing where a brighter one's mirror direction points within this angle (plus "
+                 "its radius) is its reflection in a glossy surface, left to the room's own light, not placed")
+      ->default_val(5)
+      ->check(CLI::Range(0.0, 90.0));
   app.add_option("--residual", o.residual,
                  "Write the map minus what the lights took (EXR); with --room only the directions that leave the "
                  "room, the rest filled from the sky around them (the room's own light is --room-map's)");

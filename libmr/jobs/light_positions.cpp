@@ -76,6 +76,50 @@ double SolidAngleAt(const Light& l, const Eigen::Vector3d& p) {
   return omega;
 }
 
+// A highlight on a glossy surface (a lamp mirrored in a polished counter)
+// is not a light: a placed light whose mirror direction at its centre
+// (the ray from the probe reflected about its surface's normal) points at
+// a light of higher radiance, within that light's angular radius seen from
+// there plus o.mirror_tolerance_deg, is left to the room's own radiance
+// (report->reflections; the caller puts its pixels back in the map).
+// Returns the luminance power of the lights so unplaced.
+double MarkReflections(const Extraction& ex, const PositionOptions& o, std::vector<Light>* out,
+                       PositionReport* report) {
+  auto radiance = [&](size_t i) {
+    return Luminance(ex.lights[i].power) / std::max(1e-12, ex.lights[i].DiscSolidAngle());
+  };
+  double e = 0;
+  for (size_t i = 0; i < out->size(); ++i) {
+    const Light& l = (*out)[i];
+    if (l.type != LightType::kArea || ex.lights[i].pixels.empty()) continue;
+    const Eigen::Vector3d d = (l.position - o.probe_centre).normalized();
+    const Eigen::Vector3d m = d - 2 * d.dot(l.direction) * l.direction;
+    for (size_t j = 0; j < out->size(); ++j) {
+      if (j == i || !(radiance(j) > radiance(i))) continue;
+      const Light& s = (*out)[j];
+      Eigen::Vector3d to = s.direction;  // a distant light: towards it
+      double radius = s.angular_radius_deg * kPi / 180;
+      if (s.type == LightType::kArea) {
+        to = s.position - l.position;
+        radius = std::atan2(0.5 * std::hypot(s.width, s.height), to.norm());
+      } else if (s.type != LightType::kDistant) {
+        continue;
+      }
+      const double angle = std::acos(std::clamp(m.dot(to.normalized()), -1.0, 1.0));
+      if (angle > radius + o.mirror_tolerance_deg * kPi / 180) continue;
+      report->reflections.push_back(i);
+      --report->positioned;
+      e += Luminance(ex.lights[i].power);
+      report->notes.push_back(fmt::format(
+          "{}: a reflection of {} in the surface it lands on ({:.1f} degrees from its mirror direction): left to "
+          "the room's own light",
+          l.name, s.name, angle * 180 / kPi));
+      break;
+    }
+  }
+  return e;
+}
+
 }  // namespace
 
 std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const std::vector<Light>& lights,
@@ -158,6 +202,7 @@ std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const 
                     l.name, l.width, l.height, l.position.x(), l.position.y(), l.position.z(), l.direction.x(),
                     l.direction.y(), l.direction.z(), (l.position - o.probe_centre).norm()));
   }
+  e_pos -= MarkReflections(ex, o, &out, report);
   report->positioned_share = e_all > 0 ? e_pos / e_all : 0;
   report->distant_share = e_all > 0 ? 1 - report->positioned_share : 0;
   return out;

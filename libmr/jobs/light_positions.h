@@ -22,16 +22,23 @@ struct PositionOptions {
   Eigen::Vector3d probe_centre = Eigen::Vector3d::Zero();  // world, metres (the map's directions are world)
   double min_hit_share = 0.5;  // of a light's energy whose rays meet the room: less stays distant
   double offset_m = 0.01;      // the area light stands this far off the surface, into the room
+  // A placed light whose mirror direction points within this angle (plus
+  // the source's angular radius) at a brighter light is that light's
+  // reflection (a lamp in a polished counter), not a light.
+  double mirror_tolerance_deg = 5;
 };
 
 struct PositionReport {
   int positioned = 0, distant = 0;
   double positioned_share = 0, distant_share = 0;  // of the lights' energy
   std::vector<std::string> notes;                  // per light, what became of it
+  std::vector<size_t> reflections;                 // lights that are another's reflection: back to the map
 };
 
 // `env`: the map `ex` came from; `lights`: ToLights(ex) (their names and
-// notes kept).  Lights without pixels (not blobs) stay as they are.
+// notes kept).  Lights without pixels (not blobs) stay as they are.  A
+// light landing where a brighter one is mirrored (PositionOptions::
+// mirror_tolerance_deg) is listed in report->reflections, not placed.
 std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const std::vector<Light>& lights,
                                   const Mesh& room, const PositionOptions& options, PositionReport* report);
 

@@ -110,6 +110,7 @@ std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::
   }
   PositionOptions po;
   po.probe_centre = Eigen::Vector3d(o_.probe_at[0], o_.probe_at[1], o_.probe_at[2]);
+  po.mirror_tolerance_deg = o_.mirror_tolerance_deg;
   PositionReport pr;
   {
     ScopedTimer t(report_, "position");
@@ -118,7 +119,12 @@ std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::
   std::vector<bool> drop(lights.size(), false);
   std::vector<Light> kept;
   int returned = 0;
+  for (size_t i : pr.reflections) drop[i] = true;
   for (size_t i = 0; i < lights.size(); ++i) {
+    if (drop[i]) {
+      ++returned;
+      continue;
+    }
     drop[i] = lights[i].type == LightType::kDistant && ex->lights[i].DiscSolidAngle() > o_.extract.max_blob_sr;
     if (!drop[i]) {
       kept.push_back(lights[i]);
@@ -135,15 +141,18 @@ std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::
   positioned_share_ = pr.positioned_share;
   lights = std::move(kept);
   for (const std::string& n : pr.notes) spdlog::info("{}", n);
+  const int reflections = static_cast<int>(pr.reflections.size());
   report_->SetMetric("positioned", {{"lights", pr.positioned},
-                                    {"distant", pr.distant - returned},
+                                    {"distant", pr.distant - (returned - reflections)},
+                                    {"reflections", reflections},
                                     {"left_in_the_map", returned},
                                     {"positioned_share", pr.positioned_share},
                                     {"distant_share", pr.distant_share},
                                     {"notes", pr.notes}});
   spdlog::info(
-      "{} light(s) placed in the room ({:.0f}% of the lights' energy), {} left at infinity, {} left in the map",
-      pr.positioned, 100 * pr.positioned_share, pr.distant - returned, returned);
+      "{} light(s) placed in the room ({:.0f}% of the lights' energy), {} left at infinity, {} left in the map "
+      "({} of them reflections of another)",
+      pr.positioned, 100 * pr.positioned_share, pr.distant - (returned - reflections), returned, reflections);
   return lights;
 }
 

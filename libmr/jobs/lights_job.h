@@ -24,6 +24,9 @@ struct LightsJobOptions {
   // the map's frame (the world, for mr-probe's maps); empty: all at infinity.
   std::string room;
   std::vector<double> probe_at;  // X,Y,Z metres
+  // A placed light this near (degrees, plus the source's radius) the mirror
+  // direction of a brighter light is its reflection (PositionOptions).
+  double mirror_tolerance_deg = 5;
   // With `room`: the residual at full size, lights taken out (what the probe
   // saw of the room: scene.json lighting.probes' map; a pattern with a
   // pattern of maps); empty: none.  With `room` the residual keeps only the

@@ -18,6 +18,7 @@ namespace {
 
 PathTracerSettings TracerSettings(const IcSettings& s) {
   PathTracerSettings p;
+  p.mis_area_lights = false;  // its own vertices sample area lights by next-event estimation alone
   p.max_depth = s.max_depth;
   p.seed = s.seed;
   return p;

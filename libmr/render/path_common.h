@@ -201,27 +201,38 @@ inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double 
   return L;
 }
 
-// Radiance of the area lights in `which` that the ray meets before t_max,
-// counted only on rays next-event estimation never samples: the camera's
-// (prev_pdf 0) and those after a delta or transmitted BSDF sample
-// (infinite): area lights are not geometry, so every other direction
-// towards them is next-event estimation's alone (LightSource::Sample).
+// Radiance of the area lights in `which` that the ray meets before t_max.
+// Without `mis`, counted only on rays next-event estimation never samples:
+// the camera's (prev_pdf 0) and those after a delta or transmitted BSDF
+// sample (infinite), every other direction towards them being next-event
+// estimation's alone (LightSource::Sample, NextEvent's mis_area false).
+// With `mis` (pt, whose NextEvent weights its area samples), a BSDF-sampled
+// ray counts them too, weighted by the power heuristic against the light's
+// solid-angle pdf there, t^2 / (A cos): a glossy surface sees a lamp
+// through its own lobe instead of through rare light samples.
 inline Eigen::Vector3d AreaLightsSeen(const RenderScene& scene, const Ray& ray, double t_max, double prev_pdf,
-                                      unsigned which) {
+                                      unsigned which, bool mis = false) {
   Eigen::Vector3d L = Eigen::Vector3d::Zero();
-  if (!scene.has_area_light() || !(prev_pdf == 0 || std::isinf(prev_pdf))) return L;
+  const bool unsampled = prev_pdf == 0 || std::isinf(prev_pdf);
+  if (!scene.has_area_light() || !(unsampled || mis)) return L;
   const Eigen::Vector3d o = ray.origin.cast<double>();
   const Eigen::Vector3d dir = ray.direction.cast<double>();
   const double len = dir.norm();
   const Eigen::Vector3d d = dir / len;
   double nearest = t_max * len, t = 0;
+  const LightSource* met = nullptr;
   for (const LightSource& l : scene.lights()) {
     if (!(which & LightBit(l))) continue;
     const Eigen::Vector3d le = l.HitArea(o, d, nearest, &t);
     if (le.maxCoeff() > 0) {
       L = le;  // the nearest one met hides those behind it
       nearest = t;
+      met = &l;
     }
+  }
+  if (met && !unsampled) {
+    const double cos_l = -d.dot(met->light().direction);
+    L *= PowerHeuristic(prev_pdf, nearest * nearest / (met->light().Area() * cos_l));
   }
   return L;
 }
@@ -242,9 +253,12 @@ inline void AddEscapedCameraRay(const RenderScene& scene, const Ray& ray, Eigen:
 // a virtual object keep their streams aligned.
 // `mis`: weight the environment and disc-light samples against the BSDF's
 // pdf (false: light sampling alone, for methods that never count those
-// emitters through BSDF-sampled rays at this vertex).
+// emitters through BSDF-sampled rays at this vertex).  `mis_area`: weight
+// the area lights' samples too (the caller counts AreaLightsSeen with mis
+// on the BSDF-sampled ray that leaves this vertex: pt).
 template <class Emit>
-void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true) {
+void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
+               bool mis_area = false) {
   const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
   const Eigen::Vector3d& origin = v.origin;
   const EnvironmentMap& env = scene.environment();
@@ -272,7 +286,8 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit
     if (wi_l.z() <= 0) continue;
     const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
     if (f.maxCoeff() <= 0) continue;
-    const double w = ls.delta || !mis ? 1.0 : PowerHeuristic(ls.pdf, v.bsdf.Pdf(wo_l, wi_l));
+    const bool weighed = l.light().type == LightType::kArea ? mis && mis_area : mis && !ls.delta;
+    const double w = weighed ? PowerHeuristic(ls.pdf, v.bsdf.Pdf(wo_l, wi_l)) : 1.0;
     // A point light's shadow ray stops just short of it.
     const double tfar = std::isinf(ls.distance) ? INFINITY : ls.distance * (1 - 1e-6);
     emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / ls.pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),

@@ -104,19 +104,22 @@ bool DifferentialPathTracer::PlateAtRealPoint(const PathVertex& v, const Eigen::
   // What the plate cannot show: the virtual objects' shadows on the point
   // and their lights, from its next-event estimate (the direct part of the
   // difference the objects make there).
-  NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
-    ++*rays;
-    if (virtual_light) {
-      shadow.mask = kMaskAll;
-      if (!Occluded(shadow)) *L += beta.cwiseProduct(c);
-      return;
-    }
-    shadow.mask = kMaskReal;
-    if (Occluded(shadow)) return;
-    ++*rays;
-    shadow.mask = kMaskVirtual;
-    if (Occluded(shadow)) *L -= beta.cwiseProduct(c);
-  });
+  NextEvent(
+      scene_, v, rng,
+      [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+        ++*rays;
+        if (virtual_light) {
+          shadow.mask = kMaskAll;
+          if (!Occluded(shadow)) *L += beta.cwiseProduct(c);
+          return;
+        }
+        shadow.mask = kMaskReal;
+        if (Occluded(shadow)) return;
+        ++*rays;
+        shadow.mask = kMaskVirtual;
+        if (Occluded(shadow)) *L -= beta.cwiseProduct(c);
+      },
+      true, settings_.mis_area_lights);
   // The rest of the difference: the objects' occlusion of the point's
   // indirect light and of the sky's BSDF-sampled share, and the light they
   // bounce onto it.  Without it the plate's light is too bright where an
@@ -151,7 +154,8 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     ++*rays;
     const bool found = Intersect(ray, &hit);
     if (depth >= escape_from_depth)
-      L += beta.cwiseProduct(AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, lights));
+      L += beta.cwiseProduct(
+          AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, lights, settings_.mis_area_lights));
     if (!found) {
       if (depth >= escape_from_depth) L += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, lights));
       break;
@@ -169,12 +173,15 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
     from_virtual = hit.is_virtual;
     L += beta.cwiseProduct(v.emission);
     if (depth >= settings_.max_depth || v.bsdf.IsBlack()) break;
-    NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
-      if (virtual_light && !(lights & kVirtualLights)) return;
-      shadow.mask = mask;
-      ++*rays;
-      if (!Occluded(shadow)) L += beta.cwiseProduct(c);
-    });
+    NextEvent(
+        scene_, v, rng,
+        [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+          if (virtual_light && !(lights & kVirtualLights)) return;
+          shadow.mask = mask;
+          ++*rays;
+          if (!Occluded(shadow)) L += beta.cwiseProduct(c);
+        },
+        true, settings_.mis_area_lights);
     BsdfSample s;
     const double ul = rng.NextDouble();
     const auto [u0, u1] = rng.Next2D();
@@ -208,12 +215,13 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
     const bool found = Intersect(ray, &hit);
     if (depth == start_depth) out.first_t = hit.t;
     if (depth >= escape_from_depth && (!found || !hit.is_virtual)) {  // (a virtual hit parts the paths below)
-      const Eigen::Vector3d a =
-          beta.cwiseProduct(AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kRealLights));
+      const Eigen::Vector3d a = beta.cwiseProduct(
+          AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kRealLights, settings_.mis_area_lights));
       out.mixed += a;
       out.real += a;
       if (scene_.has_virtual())
-        out.mixed += beta.cwiseProduct(AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kVirtualLights));
+        out.mixed += beta.cwiseProduct(
+            AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kVirtualLights, settings_.mis_area_lights));
     }
     if (!found) {
       if (depth < escape_from_depth) return out;
@@ -239,23 +247,26 @@ PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d b
     out.real += e;
     if (depth >= settings_.max_depth || v.bsdf.IsBlack()) return out;
     const bool virtual_geometry = scene_.has_virtual_geometry();
-    NextEvent(scene_, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
-      if (virtual_light) {  // lights I_m only, blocked by anything
-        ++out.rays;
-        if (!Occluded(shadow)) out.mixed += beta.cwiseProduct(c);
-        return;
-      }
-      shadow.mask = kMaskReal;
-      ++out.rays;
-      if (Occluded(shadow)) return;  // st_r
-      out.real += beta.cwiseProduct(c);
-      if (virtual_geometry) {
-        const VirtualTest t = TestVirtualBlockers(scene_, shadow, settings_.cull_virtual_shadow_tests);
-        (t == VirtualTest::kSkipped ? out.virtual_tests_skipped : out.rays) += 1;
-        if (t == VirtualTest::kBlocked) return;  // st_rv = min(st_r, st_v)
-      }
-      out.mixed += beta.cwiseProduct(c);
-    });
+    NextEvent(
+        scene_, v, rng,
+        [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+          if (virtual_light) {  // lights I_m only, blocked by anything
+            ++out.rays;
+            if (!Occluded(shadow)) out.mixed += beta.cwiseProduct(c);
+            return;
+          }
+          shadow.mask = kMaskReal;
+          ++out.rays;
+          if (Occluded(shadow)) return;  // st_r
+          out.real += beta.cwiseProduct(c);
+          if (virtual_geometry) {
+            const VirtualTest t = TestVirtualBlockers(scene_, shadow, settings_.cull_virtual_shadow_tests);
+            (t == VirtualTest::kSkipped ? out.virtual_tests_skipped : out.rays) += 1;
+            if (t == VirtualTest::kBlocked) return;  // st_rv = min(st_r, st_v)
+          }
+          out.mixed += beta.cwiseProduct(c);
+        },
+        true, settings_.mis_area_lights);
     BsdfSample s;
     const double ul = rng.NextDouble();
     const auto [u0, u1] = rng.Next2D();

@@ -53,6 +53,12 @@ struct PathTracerSettings {
   // block it.  The result is the same either way (tested); false traces
   // every test (tests only).
   bool cull_virtual_shadow_tests = true;
+  // Area lights by both strategies, MIS-weighted: next-event samples and
+  // BSDF-sampled rays that meet them (AreaLightsSeen's mis), so a glossy
+  // surface sees a lamp through its lobe.  false: next-event estimation
+  // alone, for methods whose own vertices sample area lights so (ic, vpl)
+  // and continue through this tracer.
+  bool mis_area_lights = true;
 };
 
 struct PathSample {

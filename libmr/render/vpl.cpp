@@ -895,6 +895,7 @@ class VplShader {
 
 PathTracerSettings PlateTracerSettings(const VplSettings& s, const PlateViews& plates) {
   PathTracerSettings p;
+  p.mis_area_lights = false;  // its own vertices sample area lights by next-event estimation alone
   p.max_depth = s.max_depth;  // the difference path on from a plate's point (PlateAtRealPoint)
   p.plate_reflections = s.plate_reflections;
   p.plates = plates;

@@ -218,5 +218,48 @@ TEST(LightPositions, OnlyWhatLeavesTheRoomStaysAtInfinity) {
   for (float v : none.values()) ASSERT_EQ(v, 0.0f);
 }
 
+// A lamp mirrored in a polished floor (the mirror-ball plate's granite
+// counter) is not a second light: mr-lights --room places the panel on the
+// ceiling and leaves its reflection, 5 degrees across at a tenth of its
+// radiance where the floor mirrors it, to the room's own light (the room
+// map keeps it); without the check it became a lamp on the floor, lighting
+// the room a second time from below.
+TEST(LightPositions, AReflectionInTheFloorIsNotALight) {
+  test::TempDir dir;
+  WriteTextFile(dir / "room.obj",
+                "v -3 2.5 -3\nv 3 2.5 -3\nv 3 2.5 3\nv -3 2.5 3\nv -3 0 -3\nv 3 0 -3\nv 3 0 3\nv -3 0 3\n"
+                "f 1 2 3\nf 1 3 4\nf 5 7 6\nf 5 8 7\n");
+  Image env = Image::Rgb(256, 128);
+  const Eigen::Vector3d lamp = Eigen::Vector3d(0.3, 1.5, 0).normalized();    // (0.3, 2.5, 0) from (0, 1, 0)
+  const Eigen::Vector3d image = Eigen::Vector3d(0.3, -3.5, 0).normalized();  // its mirror image, (0.3, -2.5, 0)
+  for (int y = 0; y < 128; ++y)
+    for (int x = 0; x < 256; ++x) {
+      const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(x, y), 256, 128);
+      const float v = AngleBetween(d, lamp) < 8 * kDegToRad    ? 200.0f
+                      : AngleBetween(d, image) < 5 * kDegToRad ? 20.0f
+                                                               : 1.0f;
+      for (int c = 0; c < 3; ++c) env.at(x, y, c) = v;
+    }
+  WriteImage(dir / "env.exr", env);
+  LightsJobOptions o;
+  o.env = (dir / "env.exr").string();
+  o.out = (dir / "lights.json").string();
+  o.residual = (dir / "residual.exr").string();
+  o.extract.method = "blobs";
+  o.room = (dir / "room.obj").string();
+  o.probe_at = {0, 1, 0};
+  o.room_map = (dir / "room.exr").string();
+  Report report;
+  RunLights(o, &report);
+  const std::vector<Light> lights = ReadLights(dir / "lights.json");
+  ASSERT_EQ(lights.size(), 1u);
+  EXPECT_EQ(lights[0].type, LightType::kArea);
+  EXPECT_LT(lights[0].direction.y(), -0.99);  // on the ceiling, facing down
+  EXPECT_EQ(report.metrics()["positioned"]["reflections"], 1);
+  const Image room = ReadImage(dir / "room.exr");
+  const Eigen::Vector2d at = DirectionToLatLongPixel(image, 256, 128);
+  EXPECT_FLOAT_EQ(room.at(static_cast<int>(std::lround(at.x())), static_cast<int>(std::lround(at.y())), 0), 20.0f);
+}
+
 }  // namespace
 }  // namespace mr

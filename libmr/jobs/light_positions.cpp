@@ -12,6 +12,7 @@
 #include "core/math.h"
 #include "core/spherical.h"
 #include "geometry/embree_scene.h"
+#include "light/light_source.h"
 
 namespace mr {
 
@@ -76,6 +77,48 @@ double SolidAngleAt(const Light& l, const Eigen::Vector3d& p) {
   return omega;
 }
 
+// The blob's pixels that the placed rectangle does not cover, seen from
+// the probe (the lamp's glow: the lens's blur, not light in the room),
+// take the radiance of the pixels bordering the blob (their mean) in the
+// room's map, *fills; the light keeps the rest of the blob's power, so
+// that light and map still hold the map's energy.  A mirror then shows
+// the ceiling around the lamp instead of a dark ring where its glow was.
+void FillAroundTheLamp(const Image& env, const ExtractedLight& x, const Light& l, const Eigen::Vector3d& probe,
+                       Eigen::Vector3d* radiance, double omega,
+                       std::vector<std::pair<size_t, Eigen::Vector3f>>* fills) {
+  const int W = env.width(), H = env.height();
+  std::vector<char> in(static_cast<size_t>(W) * H, 0);
+  for (size_t p : x.pixels) in[p] = 1;
+  Eigen::Vector3d border = Eigen::Vector3d::Zero();
+  int nb = 0;
+  for (size_t p : x.pixels) {
+    const int px = static_cast<int>(p % static_cast<size_t>(W)), py = static_cast<int>(p / static_cast<size_t>(W));
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int yy = py + dy, xx = (px + dx + W) % W;
+        const size_t q = static_cast<size_t>(yy) * W + static_cast<size_t>(xx);
+        if (yy < 0 || yy >= H || in[q]) continue;
+        in[q] = 2;  // counted once
+        border += Eigen::Vector3d(env.at(xx, yy, 0), env.at(xx, yy, 1), env.at(xx, yy, 2));
+        ++nb;
+      }
+  }
+  if (nb == 0) return;
+  border /= nb;
+  const LightSource source(l);
+  Eigen::Vector3d filled = Eigen::Vector3d::Zero();
+  for (size_t p : x.pixels) {
+    const int px = static_cast<int>(p % static_cast<size_t>(W)), py = static_cast<int>(p / static_cast<size_t>(W));
+    const Eigen::Vector3d d = LatLongPixelToDirection(Eigen::Vector2d(px, py), W, H);
+    double t = 0;
+    if (source.HitArea(probe, d, INFINITY, &t).maxCoeff() > 0) continue;  // the lamp itself
+    fills->emplace_back(p, border.cast<float>());
+    filled += border * LatLongPixelSolidAngle(px, py, W, H);
+  }
+  // Never more than the blob held, channel by channel.
+  *radiance = (*radiance - filled / omega).cwiseMax(0.0);
+}
+
 // A highlight on a glossy surface (a lamp mirrored in a polished counter)
 // is not a light: a placed light whose mirror direction at its centre
 // (the ray from the probe reflected about its surface's normal) points at
@@ -108,6 +151,7 @@ double MarkReflections(const Extraction& ex, const PositionOptions& o, std::vect
       const double angle = std::acos(std::clamp(m.dot(to.normalized()), -1.0, 1.0));
       if (angle > radius + o.mirror_tolerance_deg * kPi / 180) continue;
       report->reflections.push_back(i);
+      report->fills[i].clear();
       --report->positioned;
       e += Luminance(ex.lights[i].power);
       report->notes.push_back(fmt::format(
@@ -130,6 +174,7 @@ std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const 
   embree.AddMesh(room, false);
   embree.Commit();
   std::vector<Light> out = lights;
+  report->fills.assign(lights.size(), {});
   double e_pos = 0, e_all = 0;
   for (size_t i = 0; i < ex.lights.size(); ++i) {
     const ExtractedLight& x = ex.lights[i];
@@ -192,6 +237,7 @@ std::vector<Light> PositionLights(const Image& env, const Extraction& ex, const 
       continue;
     }
     l.radiance = x.power / omega;
+    FillAroundTheLamp(env, x, l, o.probe_centre, &l.radiance, omega, &report->fills[i]);
     out[i] = l;
     ++report->positioned;
     e_pos += e_light;

@@ -33,6 +33,10 @@ struct PositionReport {
   double positioned_share = 0, distant_share = 0;  // of the lights' energy
   std::vector<std::string> notes;                  // per light, what became of it
   std::vector<size_t> reflections;                 // lights that are another's reflection: back to the map
+  // Per light, the room map's pixels (y * width + x) around a placed lamp
+  // that its rectangle does not cover (its glow), with the radiance they
+  // take (the blob's border): the light's radiance is less their energy.
+  std::vector<std::vector<std::pair<size_t, Eigen::Vector3f>>> fills;
 };
 
 // `env`: the map `ex` came from; `lights`: ToLights(ex) (their names and

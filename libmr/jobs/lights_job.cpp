@@ -137,6 +137,16 @@ std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::
                     lights[i].name));
   }
   if (returned > 0) ReturnToResidual(env, drop, o_.extract.sh_order, ex);
+  // A placed lamp's glow (its blob outside its rectangle) takes the
+  // radiance around it in the room's map (PositionReport::fills).
+  int64_t filled = 0;
+  for (size_t i = 0; i < pr.fills.size(); ++i)
+    for (const auto& [p, rgb] : pr.fills[i]) {
+      const int x = static_cast<int>(p % static_cast<size_t>(env.width())),
+                y = static_cast<int>(p / static_cast<size_t>(env.width()));
+      for (int c = 0; c < 3; ++c) ex->residual.at(x, y, c) = rgb[c];
+      ++filled;
+    }
   dropped_ = drop;
   positioned_share_ = pr.positioned_share;
   lights = std::move(kept);
@@ -147,6 +157,7 @@ std::vector<Light> LightsJob::Positioned(const Image& env, Extraction* ex, std::
                                     {"reflections", reflections},
                                     {"left_in_the_map", returned},
                                     {"positioned_share", pr.positioned_share},
+                                    {"glow_pixels_filled", filled},
                                     {"distant_share", pr.distant_share},
                                     {"notes", pr.notes}});
   spdlog::info(

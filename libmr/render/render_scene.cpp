@@ -434,6 +434,7 @@ void RenderScene::ClearLights() {
   lights_.clear();
   has_virtual_ = has_virtual_geometry_;
   has_distant_area_light_ = false;
+  has_area_light_ = false;
 }
 
 void RenderScene::Commit() {

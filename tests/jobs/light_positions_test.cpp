@@ -121,6 +121,18 @@ TEST(LightPositions, AWindowThatLeavesTheRoomStaysInTheMap) {
   ASSERT_EQ(room.width(), 256);
   const Eigen::Vector2d up = DirectionToLatLongPixel(Eigen::Vector3d(-0.3, 1, 0.3).normalized(), 256, 128);
   EXPECT_FLOAT_EQ(room.at(static_cast<int>(up.x()), static_cast<int>(up.y()), 0), 1.0f);
+  // The disc's rim, outside the rectangle fitted to it (sides sqrt(3) r),
+  // takes the ceiling's radiance around it, not a dark ring; the panel's
+  // centre stays taken out (the area light is it).
+  const Eigen::Vector3d panel = Eigen::Vector3d(0.2, 1, 0).normalized();
+  const Eigen::Vector3d rim = Eigen::AngleAxisd(9.5 * kDegToRad, Eigen::Vector3d::UnitZ()) * panel;
+  const Eigen::Vector2d at_rim = DirectionToLatLongPixel(rim, 256, 128),
+                        at_centre = DirectionToLatLongPixel(panel, 256, 128);
+  EXPECT_FLOAT_EQ(room.at(static_cast<int>(std::lround(at_rim.x())), static_cast<int>(std::lround(at_rim.y())), 0),
+                  1.0f);
+  EXPECT_FLOAT_EQ(
+      room.at(static_cast<int>(std::lround(at_centre.x())), static_cast<int>(std::lround(at_centre.y())), 0), 0.0f);
+  EXPECT_GT(report.metrics()["positioned"]["glow_pixels_filled"].get<int64_t>(), 0);
   const Json& share = report.metrics()["light_model"];
   EXPECT_NEAR(share["placed"].get<double>() + share["room"].get<double>() + share["infinity"].get<double>(), 1, 1e-9);
   EXPECT_GT(share["placed"].get<double>(), 0.1);

@@ -263,13 +263,16 @@ TEST(Lights, AGlossyPlaneSeesAnAreaLightThroughItsLobe) {
   panel.width = 0.8;
   panel.height = 0.5;
   panel.radiance = Eigen::Vector3d::Constant(10);
-  auto render = [&](bool mis, double* mean, double* var) {
+  auto render = [&](bool mis, bool virtual_plane, double* mean, double* var) {
     RenderScene scene;
     Material m;
     m.albedo.setZero();
     m.specular = Eigen::Vector3d::Constant(0.9);
     m.roughness = 0.05;
-    scene.AddReal(Plane(100), m);
+    if (virtual_plane)
+      scene.AddVirtual(Plane(100), Eigen::Affine3d::Identity(), m);
+    else
+      scene.AddReal(Plane(100), m);
     scene.AddLight(panel);
     scene.Commit();
     PathTracerSettings st;
@@ -291,9 +294,13 @@ TEST(Lights, AGlossyPlaneSeesAnAreaLightThroughItsLobe) {
     *mean = s / passes;
     *var = std::max(0.0, sq / passes - *mean * *mean);
   };
-  double m_nee = 0, v_nee = 0, m_mis = 0, v_mis = 0;
-  render(false, &m_nee, &v_nee);
-  render(true, &m_mis, &v_mis);
+  double m_nee = 0, v_nee = 0, m_mis = 0, v_mis = 0, m_virtual = 0, v_virtual = 0;
+  render(false, false, &m_nee, &v_nee);
+  render(true, false, &m_mis, &v_mis);
+  // A virtual near-mirror (the mixed path's own loop) the same.
+  render(true, true, &m_virtual, &v_virtual);
+  std::printf("virtual: %.4f (variance %.3g)\n", m_virtual, v_virtual);
+  EXPECT_NEAR(m_virtual, m_mis, 5 * std::sqrt((v_virtual + v_mis) / 64));
   std::printf("near-mirror under a panel: next-event only %.4f (variance %.3g), with MIS %.4f (variance %.3g)\n", m_nee,
               v_nee, m_mis, v_mis);
   EXPECT_NEAR(m_mis, m_nee, 5 * std::sqrt((v_nee + v_mis) / 64));

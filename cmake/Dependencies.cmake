@@ -61,7 +61,7 @@ if(NOT OpenMesh_FOUND AND NOT TARGET OpenMeshCore)
 endif()
 
 # OpenCV stays in the .cpp files of the stages that use it (calib/charuco.cpp).
-find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs videoio calib3d aruco photo)
+find_package(OpenCV 4 QUIET CONFIG COMPONENTS core imgproc imgcodecs videoio video calib3d aruco photo)
 mr_require(OpenCV_FOUND "libopencv-dev libopencv-contrib-dev" "OpenCV 4 with the contrib aruco module")
 
 find_package(Ceres QUIET CONFIG)

@@ -5,6 +5,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -13,6 +14,7 @@
 #include "core/error.h"
 #include "core/image_metrics.h"
 #include "core/progress.h"
+#include "eval/registration.h"
 #include "render/camera_sampler.h"
 #include "render/frame_io.h"
 #include "render/method.h"
@@ -124,7 +126,8 @@ struct ErrorSums {
 };
 struct Measured {
   ErrorSums room, region;
-  double ssim = 0;  // at the frame's own fitted gain
+  double ssim = 0;                  // at the frame's own fitted gain
+  RegistrationResult registration;  // the room rendered against the plate, in pixels
 };
 
 // OUT/NNNNN-rerender.png: the plate | the room rendered at the fitted gain |
@@ -169,6 +172,7 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
   Json frames_json = Json::array();
   double sum_relmse = 0, sum_ssim = 0, sum_region = 0;
   int n_measured = 0, n_region = 0, jumps = 0;
+  std::vector<double> reg_mean, reg_p90;  // the frames whose registration was measurable
   Rgb gmin{1e300, 1e300, 1e300}, gmax{0, 0, 0};
   size_t ki = 0;
   if (o.at_gain > 0) report->SetMetric("errors_at_gain", o.at_gain);
@@ -202,6 +206,11 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
         sum_ssim += m.ssim;
         ++n_measured;
       }
+      fj["registration"] = m.registration.ToJson();
+      if (m.registration.measurable) {
+        reg_mean.push_back(m.registration.mean_px);
+        reg_p90.push_back(m.registration.p90_px);
+      }
       if (m.region.n > 0) {
         fj["region_relmse"] = m.region.RelMse(g.gain);
         fj["region_pixels"] = m.region.n;
@@ -223,6 +232,22 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
     report->SetMetric("ssim", sum_ssim / n_measured);
   }
   if (n_region > 0) report->SetMetric("region_relmse", sum_region / n_region);
+  if (!reg_mean.empty()) {
+    double m = 0, p = 0;
+    for (size_t i = 0; i < reg_mean.size(); ++i) m += reg_mean[i], p = std::max(p, reg_p90[i]);
+    m /= static_cast<double>(reg_mean.size());
+    report->SetMetric("registration", {{"frames_measured", reg_mean.size()},
+                                       {"frames", measured.size()},
+                                       {"mean_px", m},
+                                       {"worst_mean_px", *std::max_element(reg_mean.begin(), reg_mean.end())},
+                                       {"worst_p90_px", p}});
+    spdlog::info(
+        "registration of the room to the plate: {:.2f} px mean over {} of {} frames (worst frame {:.2f}, "
+        "its 90th percentile up to {:.2f} px)",
+        m, reg_mean.size(), measured.size(), *std::max_element(reg_mean.begin(), reg_mean.end()), p);
+  } else if (!measured.empty()) {
+    report->Warn("registration in pixels: no frame measurable (" + measured.front().registration.why + ")");
+  }
   spdlog::info("plate gains: R {:.4g}..{:.4g}, G {:.4g}..{:.4g}, B {:.4g}..{:.4g} over {} frames, {} exposure jumps",
                gmin[0], gmax[0], gmin[1], gmax[1], gmin[2], gmax[2], gains.size(), jumps);
   if (n_measured > 0)
@@ -324,6 +349,10 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     }
     const Image fitted = Scaled(real, fit.ok ? fit.gain : Rgb{1, 1, 1});
     m.ssim = CompareImages(fitted, plate, &room).ssim;
+    {
+      ScopedTimer t(report, "registration");
+      m.registration = MeasureRegistration(real, plate, room);
+    }
     if (o.images) WriteRerenderSheet(o, decoding, enc, plate, fitted, room, fit, f, report);
     measured.push_back(std::move(m));
     progress.Update(f - begin + 1);

@@ -196,7 +196,7 @@ void ClampGradient(const Eigen::Vector3d& e, double radius, Eigen::Matrix3d* g) 
 
 }  // namespace
 
-void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
+void IrradianceCache::Evaluate(IcRecord* r, int frame, const DifferentialPathTracer* from_virtual) const {
   // Cosine-distributed directions in M x N strata of (sin^2 theta, phi)
   // (N ~ pi M, as Ward & Heckbert advise), the rest random; the record's
   // own stream.
@@ -224,7 +224,16 @@ void IrradianceCache::Evaluate(IcRecord* r, int frame) const {
     // Bounce 1 onwards of a differential path; escapes of the first segment
     // are direct light (the pixel's next-event estimate).
     const double pdf = d.z() * kInvPi;
-    PathSample ps = tracer_.TraceFrom(ray, Eigen::Vector3d::Ones(), pdf, 1, rng, 2);
+    PathSample ps;
+    if (r->on_virtual && from_virtual) {  // the plate's or a probe's radiance where the room is met
+      int nr = 0;
+      Hit first;
+      Ray probe_ray = ray;
+      if (scene_.embree().Intersect(probe_ray, &first)) ps.first_t = first.t;
+      ps.mixed = from_virtual->MixedRadianceFromVirtual(ray, Eigen::Vector3d::Ones(), pdf, 1, rng, &nr, 2);
+    } else {
+      ps = tracer_.TraceFrom(ray, Eigen::Vector3d::Ones(), pdf, 1, rng, 2);
+    }
     if (!ps.mixed.allFinite() || !ps.real.allFinite()) ps.mixed = ps.real = Eigen::Vector3d::Zero();
     em += ps.mixed;
     er += ps.real;
@@ -290,7 +299,14 @@ IcFrameRenderer::IcFrameRenderer(const RenderScene& scene, IrradianceCache* cach
       cache_(cache),
       camera_(camera),
       glossy_tracer_(scene, GlossyTracerSettings(cache->settings(), plates)),
-      frame_(frame) {}
+      frame_(frame) {
+  if (plates.empty()) return;
+  PathTracerSettings p = TracerSettings(cache->settings());
+  p.plate_reflections = cache->settings().plate_reflections;
+  p.plates = plates;
+  virtual_tracer_ = std::make_unique<DifferentialPathTracer>(scene, p);
+  virtual_tracer_->ShareCountersWith(glossy_tracer_);
+}
 
 void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
   const IcRecord& r = cache_->records_[index];
@@ -434,7 +450,7 @@ void IcFrameRenderer::RefreshRecords() {
       if (frame_ - cache_->records_[i].evaluated_frame >= st.t_max || cache_->records_[i].stale) due.push_back(i);
     ParallelFor(0, static_cast<int64_t>(due.size()), [&](int64_t j) {
       IcRecord* r = &cache_->records_[due[static_cast<size_t>(j)]];
-      cache_->Evaluate(r, frame_);
+      cache_->Evaluate(r, frame_, virtual_tracer_.get());
       cache_->ClampGradients(r);
     });
     reevaluated_ = static_cast<int64_t>(due.size());
@@ -541,8 +557,9 @@ void IcFrameRenderer::AddRecordsWhereMissing() {
       }
     if (added.empty()) break;
     ++miss_passes_;
-    ParallelFor(0, static_cast<int64_t>(added.size()),
-                [&](int64_t j) { cache_->Evaluate(&cache_->records_[added[static_cast<size_t>(j)]], frame_); });
+    ParallelFor(0, static_cast<int64_t>(added.size()), [&](int64_t j) {
+      cache_->Evaluate(&cache_->records_[added[static_cast<size_t>(j)]], frame_, virtual_tracer_.get());
+    });
     // R_i: half the least hit distance (Tabellion & Lamorlette), clamped by
     // the neighbours (R_i <= R_j + |x_i - x_j|) and to the pixel limits.
     for (size_t i : added) {

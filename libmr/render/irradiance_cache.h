@@ -9,6 +9,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -106,8 +107,11 @@ class IrradianceCache {
   const IcSettings& settings() const { return settings_; }
   const std::vector<IcRecord>& records() const { return records_; }
   // Integrates E_m, E_r, their gradients and R_i at the record's point
-  // with its own stream.
-  void Evaluate(IcRecord* record, int frame) const;
+  // with its own stream.  `from_virtual` (a tracer holding the frame's
+  // plates and probes): a record on a virtual surface gathers its mixed
+  // light through it, the plate or a probe's radiance where a gather ray
+  // meets the real room (as pt: docs/methods.md, "The room's own light").
+  void Evaluate(IcRecord* record, int frame, const DifferentialPathTracer* from_virtual = nullptr) const;
   // Limits the gradients to what the record's reach (R_i after the clamps)
   // allows: within it no channel changes by more than its value.
   void ClampGradients(IcRecord* record) const;
@@ -199,6 +203,9 @@ class IcFrameRenderer : public PixelLoopMethod {
   IrradianceCache* cache_;
   CameraModel camera_;  // a copy: renderers may outlive the caller's model
   DifferentialPathTracer glossy_tracer_;
+  // Records on virtual surfaces gather through it: the plates and probes
+  // (null without any).
+  std::unique_ptr<DifferentialPathTracer> virtual_tracer_;
   int frame_;
   int64_t new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0, outside_influence_ = 0, evicted_ = 0;
   // Seconds of the frame's parts: G-buffer, records (re-evaluation, splats, miss

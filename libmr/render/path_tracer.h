@@ -75,6 +75,8 @@ class DifferentialPathTracer {
   DifferentialPathTracer(const RenderScene& scene, const PathTracerSettings& settings)
       : scene_(scene), settings_(settings), plate_counters_(std::make_shared<PlateCounters>()) {}
   const PlateCounters& plate_counters() const { return *plate_counters_; }
+  // Counts its plate lookups in `other`'s counters (a method's tracers, one report).
+  void ShareCountersWith(const DifferentialPathTracer& other) { plate_counters_ = other.plate_counters_; }
   const RenderScene& scene() const { return scene_; }
   PathSample Trace(const Ray& primary, Sampler& rng) const {
     return TraceFrom(primary, Eigen::Vector3d::Ones(), 0, 0, rng);
@@ -102,9 +104,10 @@ class DifferentialPathTracer {
   // Radiance arriving along `ray`, which leaves a virtual surface, in the
   // scene with everything in it, times beta: the plate where it sees the
   // real point met (PlateView), else rendered.
+  // `escape_from_depth` as TraceFrom's.
   Eigen::Vector3d MixedRadianceFromVirtual(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, int depth,
-                                           Sampler& rng, int* rays) const {
-    return TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, rays, 0, true);
+                                           Sampler& rng, int* rays, int escape_from_depth = 0) const {
+    return TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, rays, escape_from_depth, true);
   }
   // At real vertex `v`, met at bounce `depth` by a mixed ray leaving a
   // virtual surface: adds to *L beta times the plate's radiance there plus

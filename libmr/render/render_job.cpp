@@ -624,11 +624,11 @@ void RenderJob::LoadProbes() {
   if (probes.empty()) return;
   report_->SetMetric("probes", static_cast<int64_t>(probes.size()));
   const std::string m = method_name_;
-  if (m == "ic" || m == "vpl")
-    report_->Skip("the probes' radiance on " + m + "'s diffuse light",
-                  m + " takes the room's radiance from the probes on the glossy rays it traces from virtual surfaces; "
-                      "its diffuse light renders the room (use pt for the room's own light everywhere)");
-  else if (m != "pt")
+  if (m == "vpl")
+    report_->Skip("the probes' radiance on vpl's diffuse light",
+                  "vpl takes the room's radiance from the probes on the glossy rays it traces from virtual surfaces; "
+                  "its diffuse light renders the room (pt and ic take the room's own light everywhere)");
+  else if (m != "pt" && m != "ic")
     report_->Skip("the probes' radiance", m + " renders the room's light; pt, ic and vpl take it from the probes");
 }
 

@@ -55,7 +55,10 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
       "and outlying pixels left out; standard error by a delete-one-tile jackknife), smooths the gains\n"
       "over time without crossing exposure jumps, and reports the re-rendering error after the fit\n"
       "(relMSE, SSIM, and relMSE around the virtual objects). Writes OUT/gains.json, which scene.json's\n"
-      "camera.gains names so that mr-render lights the objects in the plate's units (docs/radiometry.md).");
+      "camera.gains names so that mr-render lights the objects in the plate's units (docs/radiometry.md).\n"
+      "Each fitted frame's registration is measured in pixels (dense flow between the rendered room and\n"
+      "the plate); with --refine-poses each fitted frame's pose is refined until the room falls on the\n"
+      "plate, and the registration measured again (docs/methods.md, \"Registration in pixels\").");
   plate->fallthrough();
   plate->add_option("SCENE", pj.scene, "scene.json with a plate (camera.frames)")->required()->check(CLI::ExistingFile);
   plate->add_option("--out", po_plate.out, "Output folder")->required();
@@ -84,6 +87,12 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
                    "Measure the errors at this gain (all channels and frames: a hand-set exposure) instead of\n"
                    "the fitted ones, to compare the two; the fitted gains are still written")
       ->check(mr::kPositive);
+  plate->add_option("--refine-poses", po_plate.refine_poses,
+                    "Refine each fitted frame's pose against the room and write every pose here (TUM, one line\n"
+                    "per frame in frame order: scene.json's camera.poses)");
+  plate->add_option("--refine-rounds", po_plate.refine.rounds, "Render, match and solve rounds of --refine-poses")
+      ->default_val(2)
+      ->check(CLI::Range(1, 10));
   plate->add_flag("--images", po_plate.images,
                   "Write OUT/NNNNN-rerender.png per fitted frame: plate | room rendered at the gain | difference |\n"
                   "pixels compared");

@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 
+#include "camera/trajectory.h"
 #include "core/color.h"
 #include "core/contact_sheet.h"
 #include "core/error.h"
@@ -128,6 +130,8 @@ struct Measured {
   ErrorSums room, region;
   double ssim = 0;                  // at the frame's own fitted gain
   RegistrationResult registration;  // the room rendered against the plate, in pixels
+  PoseRefinement refinement;        // with refine_poses
+  RegistrationResult registration_after;
 };
 
 // OUT/NNNNN-rerender.png: the plate | the room rendered at the fitted gain |
@@ -173,6 +177,7 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
   double sum_relmse = 0, sum_ssim = 0, sum_region = 0;
   int n_measured = 0, n_region = 0, jumps = 0;
   std::vector<double> reg_mean, reg_p90;  // the frames whose registration was measurable
+  std::vector<double> reg_after;          // after refinement, the frames refined
   Rgb gmin{1e300, 1e300, 1e300}, gmax{0, 0, 0};
   size_t ki = 0;
   if (o.at_gain > 0) report->SetMetric("errors_at_gain", o.at_gain);
@@ -207,6 +212,12 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
         ++n_measured;
       }
       fj["registration"] = m.registration.ToJson();
+      if (!o.refine_poses.empty()) {
+        Json rj = m.refinement.ToJson();
+        rj["registration_after"] = m.registration_after.ToJson();
+        fj["pose_refinement"] = rj;
+        if (m.refinement.refined && m.registration_after.measurable) reg_after.push_back(m.registration_after.mean_px);
+      }
       if (m.registration.measurable) {
         reg_mean.push_back(m.registration.mean_px);
         reg_p90.push_back(m.registration.p90_px);
@@ -248,12 +259,41 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
   } else if (!measured.empty()) {
     report->Warn("registration in pixels: no frame measurable (" + measured.front().registration.why + ")");
   }
+  if (!o.refine_poses.empty()) {
+    double a = 0;
+    for (double v : reg_after) a += v;
+    report->SetMetric("pose_refinement", {{"frames_refined", reg_after.size()},
+                                          {"mean_px_after", reg_after.empty() ? 0.0 : a / reg_after.size()},
+                                          {"poses", o.refine_poses.string()}});
+    spdlog::info("poses refined against the room: {} of {} frames, registration {:.2f} px mean after", reg_after.size(),
+                 measured.size(), reg_after.empty() ? 0.0 : a / reg_after.size());
+  }
   spdlog::info("plate gains: R {:.4g}..{:.4g}, G {:.4g}..{:.4g}, B {:.4g}..{:.4g} over {} frames, {} exposure jumps",
                gmin[0], gmax[0], gmin[1], gmax[1], gmin[2], gmax[2], gains.size(), jumps);
   if (n_measured > 0)
     spdlog::info("re-rendering error after the fit: relMSE {:.4g}, SSIM {:.4f}{}", sum_relmse / n_measured,
                  sum_ssim / n_measured,
                  n_region > 0 ? fmt::format(", around the objects relMSE {:.4g}", sum_region / n_region) : "");
+}
+
+// Every pose of the scene, the refined frames' replaced and the frames in
+// [begin, end) between them corrected as their nearest refined frame was
+// (its correction in the camera's frame), as TUM in frame order.
+void WriteRefinedPoses(const PlateCheckOptions& o, const std::vector<Rigid3>& poses,
+                       const std::map<int, Rigid3>& refined, int begin, int end, Report* report) {
+  Trajectory t;
+  for (size_t i = 0; i < poses.size(); ++i) {
+    const int f = static_cast<int>(i);
+    Rigid3 p = poses[i];
+    if (!refined.empty() && f >= begin && f < end) {
+      auto it = refined.lower_bound(f);
+      if (it == refined.end() || (it != refined.begin() && f - std::prev(it)->first < it->first - f)) --it;
+      p = p * (poses[static_cast<size_t>(it->first)].Inverse() * it->second);
+    }
+    t.poses.push_back({static_cast<double>(f), p});
+  }
+  WriteTum(o.refine_poses, t);
+  report->AddOutput(o.refine_poses.string());
 }
 
 }  // namespace
@@ -305,6 +345,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
   std::vector<int> frame_ids;
   std::vector<GainFit> fits;
   std::vector<Measured> measured;  // per rendered frame
+  std::map<int, Rigid3> refined;   // frame -> its refined pose
   Progress progress("plate fit", end - begin);
   for (int f = begin; f < end; ++f) {
     frame_ids.push_back(f);
@@ -353,6 +394,23 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       ScopedTimer t(report, "registration");
       m.registration = MeasureRegistration(real, plate, room);
     }
+    if (!o.refine_poses.empty()) {
+      ScopedTimer t(report, "pose refinement");
+      auto render = [&](const Rigid3& p) {
+        const FrameContext fc{rs, camera, p, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
+        std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
+        fr->RenderPass(o.spp);
+        return fr->Real();
+      };
+      auto pixels = [&](const Rigid3& p) { return RoomPixels(rs, camera, p); };
+      m.refinement = RefinePose(render, pixels, rs, camera, pose, plate, o.refine);
+      if (m.refinement.refined) {
+        m.registration_after = MeasureRegistration(render(m.refinement.pose), plate, pixels(m.refinement.pose));
+        refined[f] = m.refinement.pose;
+      } else {
+        report->Warn(fmt::format("frame {}: pose not refined: {}", f, m.refinement.why));
+      }
+    }
     if (o.images) WriteRerenderSheet(o, decoding, enc, plate, fitted, room, fit, f, report);
     measured.push_back(std::move(m));
     progress.Update(f - begin + 1);
@@ -365,6 +423,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
                               o.command_line, scene.file.string(), o.method, o.spp));
   report->AddOutput(gains_path.string());
 
+  if (!o.refine_poses.empty()) WriteRefinedPoses(o, poses, refined, begin, end, report);
   MR_CHECK_EQ(gains.size(), fits.size());  // SmoothGains: one gain per frame
   ReportErrors(o, gains, fits, measured, begin, gains_path, report);
   spdlog::info("gains: {}", gains_path.string());

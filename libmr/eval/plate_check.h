@@ -13,6 +13,7 @@
 #include <string>
 
 #include "core/report.h"
+#include "eval/registration.h"
 #include "render/radiometry.h"
 #include "scene/scene.h"
 
@@ -33,6 +34,13 @@ struct PlateCheckOptions {
   // hand-set exposure) instead of the fitted ones, to compare the two; the
   // fitted gains are still written.
   double at_gain = 0;
+  // Non-empty: each fitted frame's pose is refined against the room
+  // (eval/registration.h, RefinePose) and every pose of the scene written
+  // here (TUM, camera-to-world, one line per frame in frame order: the
+  // frames between fitted ones take their nearest fitted frame's
+  // correction); the report gives each frame's registration after.
+  fs::path refine_poses;
+  PoseRefineOptions refine;
   std::string tool = "mr-eval", command_line;
 
   // UsageError naming the flag: --out missing, --spp or --stride below 1, an

@@ -2,98 +2,18 @@
 
 #include <fmt/format.h>
 
-#include <opencv2/imgproc.hpp>
-#include <opencv2/video/tracking.hpp>
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
+#include "camera/camera_model.h"
 #include "core/check.h"
+#include "render/render_scene.h"
 
 namespace mr {
-
-namespace {
-
-// Grey (the channels' mean; one channel as is), non-finite pixels 0 and
-// marked in *bad.
-cv::Mat1f Grey(const Image& img, cv::Mat1b* bad) {
-  cv::Mat1f g(img.height(), img.width(), 0.0f);
-  *bad = cv::Mat1b(img.height(), img.width(), uchar{0});
-  const int nc = std::min(3, img.channels());
-  for (int y = 0; y < img.height(); ++y)
-    for (int x = 0; x < img.width(); ++x) {
-      float s = 0;
-      for (int c = 0; c < nc; ++c) s += img.at(x, y, c);
-      if (!std::isfinite(s)) {
-        (*bad)(y, x) = 1;
-        continue;
-      }
-      g(y, x) = s / static_cast<float>(nc);
-    }
-  return g;
-}
-
-// (g - local mean) / local standard deviation, Gaussian sigma 8 px; the
-// deviation floored at 2% of the image's mean so that a flat region's
-// noise is not blown up into texture.
-cv::Mat1f Normalised(const cv::Mat1f& g) {
-  cv::Mat1f mu, mu2;
-  cv::GaussianBlur(g, mu, cv::Size(0, 0), 8);
-  cv::GaussianBlur(g.mul(g), mu2, cv::Size(0, 0), 8);
-  const float floor = std::max(1e-12f, 0.02f * static_cast<float>(cv::mean(g)[0]));
-  cv::Mat1f z(g.size());
-  for (int y = 0; y < g.rows; ++y)
-    for (int x = 0; x < g.cols; ++x) {
-      const float var = std::max(0.0f, mu2(y, x) - mu(y, x) * mu(y, x));
-      z(y, x) = (g(y, x) - mu(y, x)) / std::max(std::sqrt(var), floor);
-    }
-  return z;
-}
-
-cv::Mat1b Bytes(const cv::Mat1f& z) {
-  cv::Mat1b b(z.size());
-  for (int y = 0; y < z.rows; ++y)
-    for (int x = 0; x < z.cols; ++x) b(y, x) = cv::saturate_cast<uchar>(128 + 32 * z(y, x));
-  return b;
-}
-
-cv::Mat2f Flow(const cv::Mat1b& a, const cv::Mat1b& b) {
-  cv::Ptr<cv::DISOpticalFlow> dis = cv::DISOpticalFlow::create(cv::DISOpticalFlow::PRESET_MEDIUM);
-  cv::Mat2f flow;
-  dis->calc(a, b, flow);
-  return flow;
-}
-
-// The structure tensor's smaller eigenvalue (gradients per pixel, Gaussian sigma 2 px).
-cv::Mat1f Texture(const cv::Mat1f& z) {
-  cv::Mat1f gx, gy;
-  cv::Scharr(z, gx, CV_32F, 1, 0, 1.0 / 32);
-  cv::Scharr(z, gy, CV_32F, 0, 1, 1.0 / 32);
-  cv::Mat1f jxx, jyy, jxy;
-  cv::GaussianBlur(gx.mul(gx), jxx, cv::Size(0, 0), 2);
-  cv::GaussianBlur(gy.mul(gy), jyy, cv::Size(0, 0), 2);
-  cv::GaussianBlur(gx.mul(gy), jxy, cv::Size(0, 0), 2);
-  cv::Mat1f lmin(z.size());
-  for (int y = 0; y < z.rows; ++y)
-    for (int x = 0; x < z.cols; ++x) {
-      const float h = 0.5f * (jxx(y, x) + jyy(y, x)), d = 0.5f * (jxx(y, x) - jyy(y, x));
-      lmin(y, x) = h - std::sqrt(d * d + jxy(y, x) * jxy(y, x));
-    }
-  return lmin;
-}
-
-Eigen::Vector2f Bilinear(const std::vector<Eigen::Vector2f>& f, int w, int h, double x, double y) {
-  x = std::clamp(x, 0.0, w - 1.0);
-  y = std::clamp(y, 0.0, h - 1.0);
-  const int x0 = std::min(static_cast<int>(x), w - 2 < 0 ? 0 : w - 2),
-            y0 = std::min(static_cast<int>(y), h - 2 < 0 ? 0 : h - 2);
-  const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
-  const float ax = static_cast<float>(x - x0), ay = static_cast<float>(y - y0);
-  auto at = [&](int xx, int yy) { return f[static_cast<size_t>(yy) * w + xx]; };
-  return (1 - ay) * ((1 - ax) * at(x0, y0) + ax * at(x1, y0)) + ay * ((1 - ax) * at(x0, y1) + ax * at(x1, y1));
-}
-
-}  // namespace
 
 Json RegistrationResult::ToJson() const {
   Json j = {{"measurable", measurable}, {"region_pixels", region_pixels}, {"usable_pixels", usable_pixels}};
@@ -110,55 +30,33 @@ Json RegistrationResult::ToJson() const {
 
 RegistrationResult MeasureRegistration(const Image& rendered, const Image& plate, const Image& where,
                                        const RegistrationOptions& o) {
-  MR_CHECK(rendered.width() == plate.width() && rendered.height() == plate.height());
-  MR_CHECK(where.width() == plate.width() && where.height() == plate.height());
+  const FlowField mt = MatchImages(rendered, plate, &where, o.flow);
   const int w = plate.width(), h = plate.height();
   RegistrationResult r;
-  cv::Mat1b bad_a, bad_b;
-  const cv::Mat1f za = Normalised(Grey(rendered, &bad_a)), zb = Normalised(Grey(plate, &bad_b));
-  cv::Mat1b region(h, w, uchar{0});
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x)
-      if (where.at(x, y, 0) > 0 && !bad_a(y, x) && !bad_b(y, x)) region(y, x) = 255;
-  r.region_pixels = cv::countNonZero(region);
-  if (o.border_px > 0)
-    cv::erode(region, region,
-              cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * o.border_px + 1, 2 * o.border_px + 1)));
-  const cv::Mat1b ba = Bytes(za), bb = Bytes(zb);
-  const cv::Mat2f fwd = Flow(ba, bb), bwd = Flow(bb, ba);
-  const cv::Mat1f tex_a = Texture(za), tex_b = Texture(zb);
+  r.region_pixels = mt.region_pixels;
+  r.usable_pixels = static_cast<int64_t>(mt.usable.size());
+  if (r.usable_pixels < o.min_pixels) {
+    r.why = r.region_pixels == 0 ? "the room covers no pixel of the frame"
+            : mt.textured < o.min_pixels
+                ? fmt::format("textureless: {} of the room's {} pixels carry texture or edges (at least {} needed)",
+                              mt.textured, r.region_pixels, o.min_pixels)
+                : fmt::format("{} of the room's {} textured pixels agree forward and back (at least {} needed)",
+                              r.usable_pixels, mt.textured, o.min_pixels);
+    return r;
+  }
   std::vector<float> mags;
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   const int tiles_x = (w + o.tile_px - 1) / o.tile_px, tiles_y = (h + o.tile_px - 1) / o.tile_px;
   std::vector<double> tile_sum(static_cast<size_t>(tiles_x) * tiles_y, 0.0);
   std::vector<int> tile_n(tile_sum.size(), 0);
-  int64_t textured = 0;
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      if (!region(y, x)) continue;
-      if (std::min(tex_a(y, x), tex_b(y, x)) < o.min_texture) continue;
-      ++textured;
-      const cv::Vec2f f = fwd(y, x);
-      const int xb = std::clamp(static_cast<int>(std::lround(x + f[0])), 0, w - 1),
-                yb = std::clamp(static_cast<int>(std::lround(y + f[1])), 0, h - 1);
-      const cv::Vec2f b = bwd(yb, xb);
-      if (std::hypot(f[0] + b[0], f[1] + b[1]) > o.consistency_px) continue;
-      const float m = std::hypot(f[0], f[1]);
-      mags.push_back(m);
-      sum += Eigen::Vector2d(f[0], f[1]);
-      const size_t t = static_cast<size_t>(y / o.tile_px) * tiles_x + static_cast<size_t>(x / o.tile_px);
-      tile_sum[t] += m;
-      ++tile_n[t];
-    }
-  r.usable_pixels = static_cast<int64_t>(mags.size());
-  if (r.usable_pixels < o.min_pixels) {
-    r.why = r.region_pixels == 0 ? "the room covers no pixel of the frame"
-            : textured < o.min_pixels
-                ? fmt::format("textureless: {} of the room's {} pixels carry texture or edges (at least {} needed)",
-                              textured, r.region_pixels, o.min_pixels)
-                : fmt::format("{} of the room's {} textured pixels agree forward and back (at least {} needed)",
-                              r.usable_pixels, textured, o.min_pixels);
-    return r;
+  for (const Eigen::Vector2i& p : mt.usable) {
+    const Eigen::Vector2f f = mt.flow[static_cast<size_t>(p.y()) * w + p.x()];
+    const float m = f.norm();
+    mags.push_back(m);
+    sum += f.cast<double>();
+    const size_t t = static_cast<size_t>(p.y() / o.tile_px) * tiles_x + static_cast<size_t>(p.x() / o.tile_px);
+    tile_sum[t] += m;
+    ++tile_n[t];
   }
   r.measurable = true;
   double total = 0;
@@ -183,22 +81,137 @@ RegistrationResult MeasureRegistration(const Image& rendered, const Image& plate
   return r;
 }
 
-std::vector<Eigen::Vector2f> PlateFlow(const Image& a, const Image& b) {
-  MR_CHECK(a.width() == b.width() && a.height() == b.height());
-  cv::Mat1b bad_a, bad_b;
-  const cv::Mat2f f = Flow(Bytes(Normalised(Grey(a, &bad_a))), Bytes(Normalised(Grey(b, &bad_b))));
-  std::vector<Eigen::Vector2f> out(static_cast<size_t>(a.width()) * a.height());
-  for (int y = 0; y < a.height(); ++y)
-    for (int x = 0; x < a.width(); ++x) out[static_cast<size_t>(y) * a.width() + x] = {f(y, x)[0], f(y, x)[1]};
-  return out;
+double Swim(const FlowField& flow, const Eigen::Vector2d& from, const Eigen::Vector2d& to) {
+  if (!(from.x() >= 0 && from.y() >= 0 && from.x() <= flow.width - 1 && from.y() <= flow.height - 1))
+    return std::numeric_limits<double>::quiet_NaN();
+  return (to - from - flow.At(from.x(), from.y()).cast<double>()).norm();
 }
 
-double Swim(const std::vector<Eigen::Vector2f>& flow, int width, int height, const Eigen::Vector2d& from,
-            const Eigen::Vector2d& to) {
-  if (!(from.x() >= 0 && from.y() >= 0 && from.x() <= width - 1 && from.y() <= height - 1))
-    return std::numeric_limits<double>::quiet_NaN();
-  const Eigen::Vector2f f = Bilinear(flow, width, height, from.x(), from.y());
-  return (to - from - f.cast<double>()).norm();
+namespace {
+
+// pose * Exp(delta): delta = (rotation vector, translation) in the camera's frame.
+Rigid3 Step(const Rigid3& pose, const Eigen::Matrix<double, 6, 1>& delta) {
+  const Eigen::Vector3d w = delta.head<3>();
+  const double a = w.norm();
+  const Eigen::Quaterniond q = a > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(a, w / a)) : Eigen::Quaterniond::Identity();
+  return pose * Rigid3(q, delta.tail<3>());
+}
+
+// The matches' residuals (projection - observed), 2 per point; a point that
+// does not project gives a large residual (weighed down by Huber).
+Eigen::VectorXd Residuals(const CameraModel& camera, const Rigid3& pose, const std::vector<Eigen::Vector3d>& X,
+                          const std::vector<Eigen::Vector2d>& u) {
+  const Rigid3 cam_from_world = pose.Inverse();
+  Eigen::VectorXd r(2 * static_cast<Eigen::Index>(X.size()));
+  for (size_t i = 0; i < X.size(); ++i) {
+    Eigen::Vector2d q;
+    if (!camera.Project(cam_from_world * X[i], &q)) q = u[i] + Eigen::Vector2d(1e3, 1e3);
+    r.segment<2>(2 * static_cast<Eigen::Index>(i)) = q - u[i];
+  }
+  return r;
+}
+
+double WeightedRms(const Eigen::VectorXd& r, double k) {
+  double s = 0, wsum = 0;
+  for (Eigen::Index i = 0; i < r.size() / 2; ++i) {
+    const double e = r.segment<2>(2 * i).norm(), w = e <= k ? 1 : k / e;
+    s += w * e * e;
+    wsum += w;
+  }
+  return wsum > 0 ? std::sqrt(s / wsum) : 0;
+}
+
+// Gauss-Newton with Huber weights (IRLS) from `pose`.
+Rigid3 Solve(const CameraModel& camera, Rigid3 pose, const std::vector<Eigen::Vector3d>& X,
+             const std::vector<Eigen::Vector2d>& u, double k) {
+  for (int it = 0; it < 15; ++it) {
+    const Eigen::VectorXd r = Residuals(camera, pose, X, u);
+    Eigen::MatrixXd J(r.size(), 6);
+    for (int j = 0; j < 6; ++j) {
+      Eigen::Matrix<double, 6, 1> d = Eigen::Matrix<double, 6, 1>::Zero();
+      d[j] = 1e-6;
+      J.col(j) = (Residuals(camera, Step(pose, d), X, u) - r) / 1e-6;
+    }
+    Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+    Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+    for (Eigen::Index i = 0; i < r.size() / 2; ++i) {
+      const double e = r.segment<2>(2 * i).norm(), w = e <= k ? 1 : k / e;
+      const auto Ji = J.middleRows<2>(2 * i);
+      H += w * Ji.transpose() * Ji;
+      g += w * Ji.transpose() * r.segment<2>(2 * i);
+    }
+    const Eigen::Matrix<double, 6, 1> step = -H.ldlt().solve(g);
+    if (!step.allFinite()) break;
+    pose = Step(pose, step);
+    if (step.norm() < 1e-9) break;
+  }
+  return pose;
+}
+
+}  // namespace
+
+Json PoseRefinement::ToJson() const {
+  Json j = {{"refined", refined}, {"points", points}};
+  if (!refined) j["why"] = why;
+  j["rms_before_px"] = rms_before_px;
+  j["rms_after_px"] = rms_after_px;
+  j["rotation_deg"] = rotation_deg;
+  j["translation_m"] = translation_m;
+  return j;
+}
+
+PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
+                          const std::function<Image(const Rigid3&)>& room, const RenderScene& rs,
+                          const CameraModel& camera, const Rigid3& pose, const Image& plate,
+                          const PoseRefineOptions& o) {
+  PoseRefinement out;
+  out.pose = pose;
+  Rigid3 current = pose;
+  for (int round = 0; round < o.rounds; ++round) {
+    const Image where = room(current);
+    const FlowField mt = MatchImages(render(current), plate, &where, o.matching.flow);
+    if (static_cast<int>(mt.usable.size()) < o.matching.min_pixels) {
+      out.why = fmt::format("{} usable matches (at least {} needed: a textureless view)", mt.usable.size(),
+                            o.matching.min_pixels);
+      return out;
+    }
+    // The matches' 3D points: the rays through the rendered pixels' centres.
+    const size_t every = std::max<size_t>(1, mt.usable.size() / static_cast<size_t>(o.max_points));
+    std::vector<Eigen::Vector3d> X;
+    std::vector<Eigen::Vector2d> u;
+    for (size_t i = 0; i < mt.usable.size(); i += every) {
+      const Eigen::Vector2i& p = mt.usable[i];
+      Eigen::Vector3d dir;
+      if (!camera.Unproject(p.cast<double>(), &dir)) continue;
+      Ray ray;
+      ray.origin = current.translation.cast<float>();
+      ray.direction = (current.rotation * dir).normalized().cast<float>();
+      ray.mask = kMaskReal;
+      Hit hit;
+      if (!rs.embree().Intersect(ray, &hit)) continue;
+      X.push_back(current.translation + static_cast<double>(hit.t) * ray.direction.cast<double>());
+      u.push_back(p.cast<double>() + mt.flow[static_cast<size_t>(p.y()) * camera.width() + p.x()].cast<double>());
+    }
+    if (X.size() < 6) {
+      out.why = "the matches meet no room geometry";
+      return out;
+    }
+    if (round == 0) out.rms_before_px = WeightedRms(Residuals(camera, current, X, u), o.huber_px);
+    current = Solve(camera, current, X, u, o.huber_px);
+    out.points = static_cast<int>(X.size());
+    out.rms_after_px = WeightedRms(Residuals(camera, current, X, u), o.huber_px);
+  }
+  const Rigid3 step = pose.Inverse() * current;
+  out.rotation_deg = Eigen::AngleAxisd(step.rotation).angle() * 180 / std::numbers::pi;
+  out.translation_m = step.translation.norm();
+  if (out.rotation_deg > o.max_rotation_deg || out.translation_m > o.max_translation_m) {
+    out.why = fmt::format("the step ({:.2f} degrees, {:.3f} m) is larger than --max-step allows: the matches failed",
+                          out.rotation_deg, out.translation_m);
+    return out;
+  }
+  out.pose = current;
+  out.refined = true;
+  return out;
 }
 
 }  // namespace mr

@@ -1,34 +1,31 @@
 // Registration in pixels: how far the real room, rendered through a
 // frame's pose, sits from the plate (mr-eval plate, per frame), and how far
 // an object standing on the room swims against the plate between frames
-// (mr-render, per frame).  Both come from dense optical flow (OpenCV's DIS,
-// Kroeger et al. 2016) on locally normalised grey images: each pixel's
-// grey value less its neighbourhood's mean, over its neighbourhood's
-// standard deviation (Gaussian, sigma 8 px), so that the rendered room and
-// the photograph, which differ in exposure, shading and white balance,
-// are compared by their edges and texture.  The method, its limits and the
-// figures measured: docs/methods.md, "Registration in pixels".
+// (mr-render, per frame).  Both come from dense optical flow on locally
+// normalised images (core/optical_flow.h), which compares the rendered
+// room and the photograph by their edges and texture.  The method, its
+// limits and the figures measured: docs/methods.md, "Registration in
+// pixels".
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
 #include <Eigen/Core>
 
+#include "camera/pose.h"
 #include "core/image.h"
 #include "core/json.h"
+#include "core/optical_flow.h"
 
 namespace mr {
 
+class CameraModel;
+class RenderScene;
+
 struct RegistrationOptions {
-  // Pixels whose flow forward and back disagree by more than this are
-  // left out (occlusions, repeated texture, the flow's failures).
-  double consistency_px = 1.0;
-  // Pixels whose normalised image's structure tensor (Gaussian, sigma 2 px)
-  // has its smaller eigenvalue below this carry no measurable displacement
-  // (a flat wall, an edge's direction along itself).
-  double min_texture = 0.02;
-  int border_px = 4;     // of the measured region, eroded away (silhouettes)
+  FlowOptions flow;
   int tile_px = 32;      // the tiles the standard error is taken over
   int min_pixels = 200;  // fewer usable pixels: not measurable
 };
@@ -50,15 +47,45 @@ struct RegistrationResult {
 RegistrationResult MeasureRegistration(const Image& rendered, const Image& plate, const Image& where,
                                        const RegistrationOptions& options = {});
 
-// Dense flow from grey image `a` to `b` (the plate at two frames, locally
-// normalised as above): per pixel (dx, dy), row-major, width x height.
-std::vector<Eigen::Vector2f> PlateFlow(const Image& a, const Image& b);
-
 // The swim of a point that stands on the room: where the poses carry its
 // projection (`from` in frame f to `to` in frame f + 1) against where the
-// plate's own content there moved (the flow at `from`, bilinear): |to -
-// from - flow(from)| in pixels.  NaN when `from` lies outside the image.
-double Swim(const std::vector<Eigen::Vector2f>& flow, int width, int height, const Eigen::Vector2d& from,
-            const Eigen::Vector2d& to);
+// plate's own content there moved (`flow`: MatchImages of the two plate
+// frames, at `from`): |to - from - flow(from)| in pixels.  NaN when `from`
+// lies outside the image.
+double Swim(const FlowField& flow, const Eigen::Vector2d& from, const Eigen::Vector2d& to);
+
+// Pose refinement against the room (issue 40): the room rendered through
+// the pose is matched to the plate (DenseMatches, as MeasureRegistration),
+// each match a 3D point on the room (the ray through the rendered pixel)
+// against the plate pixel it moved to; the pose that projects the points
+// onto their plate pixels is found by Gauss-Newton with Huber weights
+// (a right-multiplied step in the camera's frame, numeric derivatives
+// through CameraModel::Project), and the round repeats from the new pose
+// (the flow is surer the smaller the displacement).  The intrinsics stay.
+struct PoseRefineOptions {
+  int rounds = 2;
+  int max_points = 3000;                                  // matches a round, a regular subsample of the usable ones
+  double huber_px = 2.0;                                  // residuals beyond weigh as |r| (the flow's failures)
+  double max_rotation_deg = 10, max_translation_m = 0.3;  // a larger step: refused, the input kept
+  RegistrationOptions matching;
+};
+
+struct PoseRefinement {
+  Rigid3 pose;  // refined; the input where not
+  bool refined = false;
+  std::string why;                             // where not
+  int points = 0;                              // matches of the last round
+  double rms_before_px = 0, rms_after_px = 0;  // those matches' reprojection RMS (Huber-weighted)
+  double rotation_deg = 0, translation_m = 0;  // the step from the input
+  Json ToJson() const;
+};
+
+// `render(pose)`: the room alone through `pose` (any units); `room(pose)`:
+// > 0 where it covers the pixel (RoomPixels); `rs`: the room, for the
+// matches' 3D points (its real geometry).
+PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
+                          const std::function<Image(const Rigid3&)>& room, const RenderScene& rs,
+                          const CameraModel& camera, const Rigid3& pose, const Image& plate,
+                          const PoseRefineOptions& options = {});
 
 }  // namespace mr

@@ -22,6 +22,7 @@
 #include "render/grain.h"
 #include "render/method.h"
 #include "render/render_scene.h"
+#include "render/swim.h"
 #include "render/world.h"
 #include "scene/frames.h"
 
@@ -251,6 +252,7 @@ class RenderJob {
   std::unique_ptr<VideoWriter> video_out_;
   fs::path video_path_;
   std::optional<WorldTracker> world_;
+  std::optional<SwimMeter> swim_;  // with a plate and virtual objects
   bool copy_through_ = false;
   int world_kept_ = 0, world_changed_ = 0;
   // Neighbouring frames' plates for reflections the frame's own does not see.
@@ -432,6 +434,8 @@ void RenderJob::PrepareWorldAndMethod() {
                   "no virtual object can change any frame: frames are copied through from the photographs");
     return;
   }
+  // Only over several frames of a plate: one frame has no motion to swim against.
+  if (decoding_.photograph && !scene_.virtuals.empty() && in_.end - resumed_end_ > 1) swim_.emplace(scene_, in_.camera);
   const JobContext job = JobAt(resumed_end_);
   if (info_.prepare_timing.empty()) {
     method_->Prepare(job);
@@ -855,6 +859,8 @@ void RenderJob::RenderFrame(int f) {
              {"copied_through", !fm},
              {"environment_pixels_sampled_once", env_pixels}};
   if (!world_json.is_null()) fj["world"] = world_json;
+  if (swim_ && fr.plate)
+    if (Json sw = swim_->Frame(f, pose, fr.plate->radiance); !sw.is_null()) fj["swim_px"] = std::move(sw);
   if (fm && scene_.render.adaptive_threshold > 0) {
     double total = 0;
     for (float c : im.samples.values()) total += c;
@@ -876,6 +882,15 @@ void RenderJob::RenderFrame(int f) {
 // What the job skipped over all frames, the method's own summary, and the
 // job's figures.
 void RenderJob::Summarize() {
+  if (swim_) {
+    const Json sw = swim_->Summary();
+    if (!sw.empty()) {
+      report_->SetMetric("swim", sw);
+      for (const auto& [name, v] : sw.items())
+        spdlog::info("swim of \"{}\" against the plate: {:.2f} px RMS, {:.2f} px at most, over {} frame steps", name,
+                     v["rms_px"].get<double>(), v["max_px"].get<double>(), v["frames"].get<int>());
+    }
+  }
   if (still_frames_ > 0)
     report_->Skip(fmt::format("motion blur in {} frames", still_frames_),
                   "the camera does not move over their shutter intervals: the blur is exactly none");

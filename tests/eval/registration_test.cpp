@@ -4,6 +4,10 @@
 // measured; the swim of a point against the plate's own motion.
 #include "eval/registration.h"
 
+#include "camera/camera_model.h"
+#include "geometry/primitives.h"
+#include "render/render_scene.h"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -11,6 +15,8 @@
 
 namespace mr {
 namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
 
 // A smooth texture: 60 sinusoids of wavelengths 6 to 40 px, evaluated at
 // (x - dx, y - dy) (its content moved by (dx, dy)), times `gain` plus
@@ -90,12 +96,89 @@ TEST(Registration, ATexturelessFrameSaysSo) {
 // swims by the plate's motion.
 TEST(Registration, SwimIsThePosesMotionLessThePlates) {
   const int w = 320, h = 240;
-  const std::vector<Eigen::Vector2f> flow =
-      PlateFlow(Texture(w, h, 0, 0, Eigen::Vector3d::Ones(), 0), Texture(w, h, 3, 1, Eigen::Vector3d::Ones(), 0));
+  const FlowField flow = MatchImages(Texture(w, h, 0, 0, Eigen::Vector3d::Ones(), 0),
+                                     Texture(w, h, 3, 1, Eigen::Vector3d::Ones(), 0), nullptr);
   const Eigen::Vector2d at(160, 120);
-  EXPECT_LT(Swim(flow, w, h, at, at + Eigen::Vector2d(3, 1)), 0.1);
-  EXPECT_NEAR(Swim(flow, w, h, at, at), std::hypot(3.0, 1.0), 0.1);
-  EXPECT_TRUE(std::isnan(Swim(flow, w, h, Eigen::Vector2d(-5, 10), at)));
+  EXPECT_LT(Swim(flow, at, at + Eigen::Vector2d(3, 1)), 0.1);
+  EXPECT_NEAR(Swim(flow, at, at), std::hypot(3.0, 1.0), 0.1);
+  EXPECT_TRUE(std::isnan(Swim(flow, Eigen::Vector2d(-5, 10), at)));
+}
+
+// A box room whose walls carry a texture in world coordinates, "rendered"
+// by casting each pixel's ray and shading the point it meets (no light
+// transport: the refinement sees only geometry and texture), the plate
+// the same through the true pose at another exposure.  From a pose 1.5
+// degrees and 4 cm off, RefinePose comes back within 0.1 degree and 1 cm,
+// and the registration measured after it is under 0.3 px (measured: 0.008
+// degree, 0.3 mm, 13.8 px before and 0.01 px after).
+TEST(Registration, RefinePoseBringsTheRoomBackOntoThePlate) {
+  RenderScene rs;
+  Material m;
+  rs.AddReal(Box({-2, 0, -3}, {2, 2.5f, 2}), m);
+  rs.Commit();
+  const CameraModel camera("LENSMODEL_PINHOLE", {300, 300, 159.5, 119.5}, 320, 240);
+  // 30 waves in random 3D directions, wavelengths 8 to 25 cm (12 to 50 px
+  // on walls 1.5 to 3.5 m away): texture in every direction on every wall.
+  std::mt19937 rng(11);
+  std::normal_distribution<double> n01;
+  std::uniform_real_distribution<double> u01;
+  std::vector<std::pair<Eigen::Vector3d, double>> waves;
+  for (int i = 0; i < 30; ++i) {
+    const Eigen::Vector3d k =
+        Eigen::Vector3d(n01(rng), n01(rng), n01(rng)).normalized() * (6.2831853 / (0.08 + 0.17 * u01(rng)));
+    waves.emplace_back(k, 6.2831853 * u01(rng));
+  }
+  auto shade = [&](const Eigen::Vector3d& p) {
+    double v = 0;
+    for (const auto& [k, phase] : waves) v += std::sin(k.dot(p) + phase);
+    return 1 + 0.08 * v;
+  };
+  auto render = [&](const Rigid3& pose) {
+    Image img(320, 240, {"R", "G", "B"});
+    for (int y = 0; y < 240; ++y)
+      for (int x = 0; x < 320; ++x) {
+        Eigen::Vector3d dir;
+        if (!camera.Unproject(Eigen::Vector2d(x, y), &dir)) continue;
+        Ray ray;
+        ray.origin = pose.translation.cast<float>();
+        ray.direction = (pose.rotation * dir).normalized().cast<float>();
+        ray.mask = kMaskReal;
+        Hit hit;
+        if (!rs.embree().Intersect(ray, &hit)) continue;
+        const double v = shade(pose.translation + static_cast<double>(hit.t) * ray.direction.cast<double>());
+        for (int c = 0; c < 3; ++c) img.at(x, y, c) = static_cast<float>(v);
+      }
+    return img;
+  };
+  auto room = [&](const Rigid3&) { return Image(320, 240, {"Y"}, 1.0f); };
+  const Rigid3 truth(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())),
+                     Eigen::Vector3d(0.2, 1.3, 0.5));
+  Image plate = render(truth);
+  int lit = 0;
+  for (float v : plate.values()) lit += v > 0;
+  ASSERT_GT(lit, 3 * 320 * 200) << "the room is not rendered";
+  for (float& v : plate.values()) v *= 2.5f;
+  const Rigid3 off =
+      truth * Rigid3(Eigen::Quaterniond(Eigen::AngleAxisd(1.5 * kDeg, Eigen::Vector3d(0.3, 1, 0.2).normalized())),
+                     Eigen::Vector3d(0.03, -0.02, 0.02));
+  const RegistrationResult before = MeasureRegistration(render(off), plate, room(off));
+  const PoseRefinement r = RefinePose(render, room, rs, camera, off, plate);
+  ASSERT_TRUE(r.refined) << r.why;
+  const Rigid3 err = truth.Inverse() * r.pose;
+  const double err_deg = Eigen::AngleAxisd(err.rotation).angle() / kDeg;
+  const RegistrationResult after = MeasureRegistration(render(r.pose), plate, room(r.pose));
+  std::printf(
+      "refined from 1.5 deg / 4 cm: %.3f deg, %.4f m off; matches %d, RMS %.2f -> %.2f px; registration %.2f -> %.2f "
+      "px\n",
+      err_deg, err.translation.norm(), r.points, r.rms_before_px, r.rms_after_px, before.mean_px, after.mean_px);
+  EXPECT_LT(err_deg, 0.1);
+  EXPECT_LT(err.translation.norm(), 0.01);
+  EXPECT_GT(before.mean_px, 5);
+  EXPECT_LT(after.mean_px, 0.3);
+  // A plate of nothing (textureless): not refined, and the reason given.
+  const PoseRefinement none = RefinePose(render, room, rs, camera, off, Image(320, 240, {"R", "G", "B"}, 1.0f));
+  EXPECT_FALSE(none.refined);
+  EXPECT_NE(none.why.find("textureless"), std::string::npos) << none.why;
 }
 
 }  // namespace

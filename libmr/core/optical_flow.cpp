@@ -97,6 +97,22 @@ Eigen::Vector2f Bilinear(const std::vector<Eigen::Vector2f>& f, int w, int h, do
 
 Eigen::Vector2f FlowField::At(double x, double y) const { return Bilinear(flow, width, height, x, y); }
 
+bool FlowField::MedianNear(double x, double y, double radius, int min_pixels, Eigen::Vector2f* out) const {
+  std::vector<float> fx, fy;
+  for (const Eigen::Vector2i& p : usable)
+    if ((p.cast<double>() - Eigen::Vector2d(x, y)).squaredNorm() <= radius * radius) {
+      const Eigen::Vector2f& f = flow[static_cast<size_t>(p.y()) * width + p.x()];
+      fx.push_back(f.x());
+      fy.push_back(f.y());
+    }
+  if (static_cast<int>(fx.size()) < std::max(1, min_pixels)) return false;
+  const auto mid = static_cast<std::ptrdiff_t>(fx.size() / 2);
+  std::nth_element(fx.begin(), fx.begin() + mid, fx.end());
+  std::nth_element(fy.begin(), fy.begin() + mid, fy.end());
+  *out = {fx[static_cast<size_t>(mid)], fy[static_cast<size_t>(mid)]};
+  return true;
+}
+
 FlowField MatchImages(const Image& a, const Image& b, const Image* where, const FlowOptions& o) {
   MR_CHECK(a.width() == b.width() && a.height() == b.height());
   MR_CHECK(!where || (where->width() == a.width() && where->height() == a.height()));

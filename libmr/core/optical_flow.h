@@ -36,6 +36,9 @@ struct FlowField {
   std::vector<Eigen::Vector2i> usable;           // the pixels (x, y) whose flow is a measurement
   int64_t region_pixels = 0, textured = 0;       // in `where`; of those, textured in both
   Eigen::Vector2f At(double x, double y) const;  // bilinear, clamped to the image
+  // The median of the usable pixels' flow within `radius` px of (x, y)
+  // (each component's); false when fewer than `min_pixels` are there.
+  bool MedianNear(double x, double y, double radius, int min_pixels, Eigen::Vector2f* out) const;
 };
 
 // The flow from `a` to `b` (one size; R G B first or one channel; any

@@ -277,18 +277,33 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
 }
 
 // Every pose of the scene, the refined frames' replaced and the frames in
-// [begin, end) between them corrected as their nearest refined frame was
-// (its correction in the camera's frame), as TUM in frame order.
+// [begin, end) between them corrected by the refined frames' corrections
+// (each in the camera's frame) interpolated in time (slerp and lerp; the
+// nearest one's beyond the first and last), so that no frame jumps where
+// the correction changes; as TUM in frame order.
 void WriteRefinedPoses(const PlateCheckOptions& o, const std::vector<Rigid3>& poses,
                        const std::map<int, Rigid3>& refined, int begin, int end, Report* report) {
+  auto correction = [&](std::map<int, Rigid3>::const_iterator it) {
+    return poses[static_cast<size_t>(it->first)].Inverse() * it->second;
+  };
   Trajectory t;
   for (size_t i = 0; i < poses.size(); ++i) {
     const int f = static_cast<int>(i);
     Rigid3 p = poses[i];
     if (!refined.empty() && f >= begin && f < end) {
-      auto it = refined.lower_bound(f);
-      if (it == refined.end() || (it != refined.begin() && f - std::prev(it)->first < it->first - f)) --it;
-      p = p * (poses[static_cast<size_t>(it->first)].Inverse() * it->second);
+      const auto hi = refined.lower_bound(f);
+      Rigid3 c;
+      if (hi == refined.end()) {
+        c = correction(std::prev(hi));
+      } else if (hi->first == f || hi == refined.begin()) {
+        c = correction(hi);
+      } else {
+        const auto lo = std::prev(hi);
+        const double a = static_cast<double>(f - lo->first) / (hi->first - lo->first);
+        const Rigid3 c0 = correction(lo), c1 = correction(hi);
+        c = Rigid3(c0.rotation.slerp(a, c1.rotation), (1 - a) * c0.translation + a * c1.translation);
+      }
+      p = p * c;
     }
     t.poses.push_back({static_cast<double>(f), p});
   }

@@ -37,8 +37,8 @@ struct PlateCheckOptions {
   // Non-empty: each fitted frame's pose is refined against the room
   // (eval/registration.h, RefinePose) and every pose of the scene written
   // here (TUM, camera-to-world, one line per frame in frame order: the
-  // frames between fitted ones take their nearest fitted frame's
-  // correction); the report gives each frame's registration after.
+  // frames between refined ones take their corrections interpolated);
+  // the report gives each frame's registration after.
   fs::path refine_poses;
   PoseRefineOptions refine;
   std::string tool = "mr-eval", command_line;

@@ -94,8 +94,11 @@ void WriteSceneJson(const Pipeline& p) {
     r["material"]["albedo_from_vertex_colors"] = true;
   }
   CheckRenderSettings(ParseScene(scene, p.work, (p.work / "scene.json").string(), true));
+  const Json plate = PlateScene(scene);
+  // The refined poses do not exist yet (the radiometry stage makes them).
+  if (!p.refined_poses.empty()) scene["camera"]["poses"] = {{"format", "tum"}, {"path", p.refined_poses}};
   WriteTextFile(p.work / "scene.json", scene.dump(2) + "\n");
-  WriteTextFile(p.work / "scene-plate.json", PlateScene(scene).dump(2) + "\n");
+  WriteTextFile(p.work / "scene-plate.json", plate.dump(2) + "\n");
 }
 
 }  // namespace

@@ -45,6 +45,10 @@ struct Pipeline {
   Json json;
   Json scene;           // the scene.json that the scene stage writes (paths relative to work)
   fs::path fused_room;  // the room mesh mr-fuse makes, if any: its mean albedo goes into scene.json
+  // video.refine_poses: the poses the radiometry stage refines (relative to
+  // work), which scene.json's camera.poses names (scene-plate.json keeps
+  // the registered ones it refines from).
+  std::string refined_poses;
   std::vector<PipelineStage> stages;
 };
 

@@ -52,7 +52,7 @@ struct RoomBlock {
   OptNode real, rgbd, options;
 };
 struct VideoBlock {
-  OptNode frames, frames_transfer, exposure, response, gains, poses;
+  OptNode frames, frames_transfer, exposure, response, gains, poses, refine_poses;
 };
 struct OutputsBlock {
   OptNode render, sweep;
@@ -191,6 +191,7 @@ struct Plan {
   VideoBlock video;
   Json camera;
   fs::path gains_dir, fitted_gains;
+  fs::path refined_poses;  // video.refine_poses: the radiometry stage's, which the render takes
   std::string gains_skip;
   std::vector<std::string> gains_options;
   bool use_gains = false;
@@ -556,6 +557,14 @@ void ReadGains(Plan& st) {
   }
   st.use_gains = st.gains_skip.empty() && apply_gains;
   if (st.use_gains) st.camera["gains"] = st.pl.Rel(st.fitted_gains);
+  // video.refine_poses: the radiometry stage (mr-eval plate) refines each
+  // fitted frame's pose against the room and the render takes its poses.
+  if (video.refine_poses && video.refine_poses->Bool()) {
+    if (!st.gains_skip.empty())
+      video.refine_poses->Fail("refining the poses is the plate check's (mr-eval plate), which does not run here: " +
+                               st.gains_skip);
+    st.refined_poses = st.gains_dir / "poses.tum";
+  }
 }
 
 // The video section: the scene's camera (model, frames, exposure,
@@ -567,7 +576,8 @@ void ReadVideo(Plan& st) {
               .exposure = vs.Take("exposure"),
               .response = vs.Take("response"),
               .gains = vs.Take("gains"),
-              .poses = vs.Take("poses")};
+              .poses = vs.Take("poses"),
+              .refine_poses = vs.Take("refine_poses")};
   vs.Done();
   const VideoBlock& video = st.video;
   st.camera = {{"model", st.pl.Rel(st.camera_model)}};
@@ -681,6 +691,10 @@ void PlanRegister(Plan& st, PipelineStage& s) {
   }
   if (!st.poses.empty()) st.camera["poses"] = {{"format", "tum"}, {"path", st.pl.Rel(st.poses)}};
   st.scene["camera"] = st.camera;
+  if (!st.refined_poses.empty()) {
+    if (st.poses.empty()) video.refine_poses->Fail("refining the poses needs the video's poses (video.poses)");
+    st.p->refined_poses = st.pl.Rel(st.refined_poses);
+  }
 }
 
 // The mirror sphere in the plate: each frame's sphere pixels unwrapped from
@@ -905,6 +919,7 @@ void PlanRadiometry(Plan& st, PipelineStage& s) {
   // (written beside scene.json by the scene stage).
   const fs::path plate_scene = st.w / "scene-plate.json";
   s.args = {"plate", plate_scene.string(), "--out", st.gains_dir.string()};
+  if (!st.refined_poses.empty()) Append(&s.args, {"--refine-poses", st.refined_poses.string()});
   Append(&s.args, st.gains_options);
   s.inputs = {plate_scene};
   Append(&s.inputs, st.per_frame);
@@ -926,6 +941,7 @@ void PlanRender(Plan& st, PipelineStage& s) {
   s.inputs = {st.scene_file};
   Append(&s.inputs, st.per_frame);
   if (st.use_gains) s.inputs.push_back(st.fitted_gains);
+  if (!st.refined_poses.empty()) s.inputs.push_back(st.refined_poses);
   s.outputs = {st.w / "render"};
   s.does = fmt::format("the virtual objects rendered into every frame ({}) and composited", st.method);
 }

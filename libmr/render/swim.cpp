@@ -49,7 +49,15 @@ Json SwimMeter::Frame(int f, const Rigid3& world_from_cam, const Image& plate) {
       if (!o.v->WorldFromObjectAt(f - 1).isApprox(o.v->WorldFromObjectAt(f), 1e-12)) continue;  // it moves
       const std::optional<Eigen::Vector2d> from = Contact(o, f - 1, last_pose_), to = Contact(o, f, world_from_cam);
       if (!from || !to) continue;
-      const double swim = (*to - *from - flow.At(from->x(), from->y()).cast<double>()).norm();
+      // The plate's motion around the contact point: the median of the
+      // measurable flow within 24 px (the table under the object; a lone
+      // pixel's flow can be the flow's failure).
+      Eigen::Vector2f moved;
+      if (!flow.MedianNear(from->x(), from->y(), 24, 20, &moved)) {
+        ++o.unmeasured;
+        continue;
+      }
+      const double swim = (*to - *from - moved.cast<double>()).norm();
       o.swims.push_back(swim);
       out[o.name] = swim;
     }
@@ -66,8 +74,10 @@ Json SwimMeter::Summary() const {
     if (o.swims.empty()) continue;
     double sq = 0, worst = 0;
     for (double s : o.swims) sq += s * s, worst = std::max(worst, s);
-    out[o.name] = {
-        {"rms_px", std::sqrt(sq / static_cast<double>(o.swims.size()))}, {"max_px", worst}, {"frames", o.swims.size()}};
+    out[o.name] = {{"rms_px", std::sqrt(sq / static_cast<double>(o.swims.size()))},
+                   {"max_px", worst},
+                   {"frames", o.swims.size()},
+                   {"unmeasured", o.unmeasured}};
   }
   return out;
 }

@@ -5,10 +5,9 @@
 // of its vertices within 1% of its height of its lowest, along the world's
 // up) projected through the previous and this frame's poses, against the
 // plate's own motion there (dense flow between the two plates,
-// core/optical_flow.h): |moved by the poses - moved in the plate| in
-// pixels.  With exact poses it is the flow's error (~0.1 px); pose errors
-// that change from frame to frame show as swim.  docs/methods.md,
-// "Registration in pixels".
+// core/optical_flow.h; the median of the measurable flow within 24 px of
+// the contact point): |moved by the poses - moved in the plate| in pixels.  With exact poses it is the flow's error
+// (~0.1 px); pose errors that change from frame to frame show as swim.  docs/methods.md, "Registration in pixels".
 #pragma once
 
 #include <optional>
@@ -44,6 +43,7 @@ class SwimMeter {
     const SceneVirtual* v;
     std::vector<Eigen::Vector3d> vertices;
     std::vector<double> swims;
+    int unmeasured = 0;  // frame steps where the plate's flow around it was not measurable
   };
   std::optional<Eigen::Vector2d> Contact(const Object& o, int f, const Rigid3& world_from_cam) const;
 

@@ -301,6 +301,17 @@ TEST(PlanPipeline, FitsThePlatesGainsUnlessToldOtherwise) {
   p = plan(R"(, "frames_transfer": "linear", "gains": {"apply": true, "scale": "room"})");
   EXPECT_EQ(p.scene["camera"]["gains"], "radiometry/gains.json");
   EXPECT_EQ(p.scene["camera"]["gains_scale"], "room");
+  // video.refine_poses: the plate check refines them, the render takes them
+  // (scene-plate.json keeps the registered ones it refines from).
+  p = plan(R"(, "refine_poses": true)");
+  const auto& ra = Stage(p, "radiometry").args;
+  const auto it = std::find(ra.begin(), ra.end(), "--refine-poses");
+  ASSERT_NE(it, ra.end());
+  EXPECT_EQ(*std::next(it), (dir.path() / "work" / "radiometry" / "poses.tum").string());
+  EXPECT_EQ(p.refined_poses, "radiometry/poses.tum");
+  const auto& rin = Stage(p, "render").inputs;
+  EXPECT_NE(std::find(rin.begin(), rin.end(), dir.path() / "work" / "radiometry" / "poses.tum"), rin.end());
+  EXPECT_THROW(plan(R"(, "refine_poses": true, "gains": false)"), Error);  // no plate check to refine them
 }
 
 TEST(PlanPipeline, ErrorsNameTheFileAndKey) {

@@ -138,7 +138,7 @@ struct Measured {
 // their difference | the pixels compared.
 void WriteRerenderSheet(const PlateCheckOptions& o, const FrameDecoding& decoding, const PhotoEncoding& enc,
                         const Image& plate, const Image& fitted, const Image& room, const GainFit& fit, int f,
-                        Report* report) {
+                        const Measured& m, Report* report) {
   // Shown as the plate's own code values: through the response (or the
   // linear transfer) the frames were decoded with; display-space plates
   // and float ones through sRGB.
@@ -153,7 +153,12 @@ void WriteRerenderSheet(const PlateCheckOptions& o, const FrameDecoding& decodin
   const Image diff_panel = SignedDifferencePanel(diff, 0.25);
   const Rgb g = fit.ok ? fit.gain : Rgb{1, 1, 1};
   const Image sheet =
-      ContactSheet({{&plate_srgb, fmt::format("plate, frame {}", f)},
+      ContactSheet({{&plate_srgb, fmt::format("plate, frame {}; registration {}", f,
+                                              !m.registration.measurable ? std::string("not measurable")
+                                              : m.refinement.refined
+                                                  ? fmt::format("{:.1f} px, refined {:.1f} px", m.registration.mean_px,
+                                                                m.registration_after.mean_px)
+                                                  : fmt::format("{:.1f} px", m.registration.mean_px))},
                     {&fitted_srgb, fmt::format("room rendered, x ({:.3g}, {:.3g}, {:.3g})", g[0], g[1], g[2])},
                     {&diff_panel, "rendered - plate (codes), +-0.25"},
                     {&room, "pixels compared (the room)"}},
@@ -426,7 +431,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
         report->Warn(fmt::format("frame {}: pose not refined: {}", f, m.refinement.why));
       }
     }
-    if (o.images) WriteRerenderSheet(o, decoding, enc, plate, fitted, room, fit, f, report);
+    if (o.images) WriteRerenderSheet(o, decoding, enc, plate, fitted, room, fit, f, m, report);
     measured.push_back(std::move(m));
     progress.Update(f - begin + 1);
   }

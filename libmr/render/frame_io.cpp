@@ -265,7 +265,8 @@ void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, c
 }
 
 fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate, const Image& composite,
-                          const Image& mask, bool photograph, const std::string& tool, Report* report) {
+                          const Image& mask, bool photograph, const std::string& tool, Report* report,
+                          const std::string& note) {
   Image d = composite;
   for (size_t i = 0; i < d.values().size(); ++i) d.values()[i] -= plate.values()[i];
   // Scaled to what the object does to the plate around it (its shadow and
@@ -287,7 +288,7 @@ fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate
   double scale = 0;
   const Image diff = SignedDifferencePanel(d, around, &scale);
   const Image sheet = ContactSheet({{&plate, photograph ? "plate" : "I_r (no plate: rendered room)"},
-                                    {&composite, "composite"},
+                                    {&composite, note.empty() ? std::string("composite") : "composite; " + note},
                                     {&diff, fmt::format("composite - plate, x{:.3g}", 0.5 / scale)},
                                     {&mask, "mask (virtual object)"}},
                                    2);

@@ -127,8 +127,11 @@ Image ReadReferenceFrame(const fs::path& path, int width, int height);
 // object does around it: its shadow and bounce light) | the mask, labelled.  The plate
 // and composite are code values (ToCodes); without a photograph the plate
 // is the rendered room I_r.  Returns its path.
+// `note`: added to the composite's caption (the objects' swim against the
+// plate).
 fs::path WriteReviewSheet(const fs::path& out_dir, int frame, const Image& plate_codes, const Image& composite_codes,
-                          const Image& mask, bool photograph, const std::string& tool, Report* report);
+                          const Image& mask, bool photograph, const std::string& tool, Report* report,
+                          const std::string& note = "");
 
 // True when frame `frame`'s files (EXR, and PNG when the scene writes it) are
 // in `out_dir` and the EXR was written with `provenance` (WriteFrameFiles'

@@ -192,8 +192,9 @@ class RenderJob {
     std::optional<Image> photo, ref, region;
     std::optional<DecodedPlate> plate;  // prt's background; pt's and ic's reflections
     PlateViews plates;
-    double seconds = 0;  // the method's own time on the frame
-    int done = 0;        // samples per pixel rendered
+    double seconds = 0;       // the method's own time on the frame
+    int done = 0;             // samples per pixel rendered
+    std::string review_note;  // on the review sheet: the objects' swim
   };
   // The images a frame writes.
   struct FrameImages {
@@ -808,8 +809,8 @@ void RenderJob::WriteFrame(const Frame& fr, FrameImages* im) {
   if (video_out_) video_out_->WriteCodes(codes);
   if (scene_.output.review) {
     const Image plate_codes = decoding_.ToCodes(fr.photo ? decoding_.ToRadiance(*fr.photo) : im->real, fr.encoding);
-    review_sheet_ =
-        WriteReviewSheet(out_dir_, fr.f, plate_codes, codes, im->mask, fr.photo.has_value(), o_.tool, report_);
+    review_sheet_ = WriteReviewSheet(out_dir_, fr.f, plate_codes, codes, im->mask, fr.photo.has_value(), o_.tool,
+                                     report_, fr.review_note);
   }
 }
 
@@ -860,7 +861,12 @@ void RenderJob::RenderFrame(int f) {
              {"environment_pixels_sampled_once", env_pixels}};
   if (!world_json.is_null()) fj["world"] = world_json;
   if (swim_ && fr.plate)
-    if (Json sw = swim_->Frame(f, pose, fr.plate->radiance); !sw.is_null()) fj["swim_px"] = std::move(sw);
+    if (Json sw = swim_->Frame(f, pose, fr.plate->radiance); !sw.is_null()) {
+      for (const auto& [name, px] : sw.items())
+        fr.review_note +=
+            fmt::format("{}swim {} {:.1f} px", fr.review_note.empty() ? "" : ", ", name, px.get<double>());
+      fj["swim_px"] = std::move(sw);
+    }
   if (fm && scene_.render.adaptive_threshold > 0) {
     double total = 0;
     for (float c : im.samples.values()) total += c;

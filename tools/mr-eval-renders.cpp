@@ -47,6 +47,7 @@ CLI::App* AddSweep(CLI::App& app, mr::SweepJobOptions& sjo) {
 
 CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
   mr::PlateCheckOptions& po_plate = pj.plate;
+  static std::string refine_mode;
   CLI::App* plate = app.add_subcommand(
       "plate",
       "The plate's radiometric fit and the capture chain's error on real frames: renders the real room\n"
@@ -90,6 +91,13 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
   plate->add_option("--refine-poses", po_plate.refine_poses,
                     "Refine each fitted frame's pose against the room and write every pose here (TUM, one line\n"
                     "per frame in frame order: scene.json's camera.poses)");
+  plate
+      ->add_option("--refine-mode", refine_mode,
+                   "--refine-poses: shared (one correction for every frame: the camera's offset from the room,\n"
+                   "the registered motion kept) or frame (each fitted frame its own: the objects may swim)")
+      ->check(CLI::IsMember({"shared", "frame"}))
+      ->default_val("shared")
+      ->each([&po_plate](const std::string& v) { po_plate.refine_shared = v == "shared"; });
   plate->add_option("--refine-rounds", po_plate.refine.rounds, "Render, match and solve rounds of --refine-poses")
       ->default_val(2)
       ->check(CLI::Range(1, 10));

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <numbers>
 
@@ -316,6 +317,62 @@ void WriteRefinedPoses(const PlateCheckOptions& o, const std::vector<Rigid3>& po
   report->AddOutput(o.refine_poses.string());
 }
 
+// --refine-poses with one correction shared by the frames: solved from the
+// matches the fitted frames' renders gave (`matches`, frames
+// `frame_ids`), then o.refine.rounds - 1 times again from the frames
+// rendered through their corrected poses; each frame's registration is
+// measured again through its corrected pose into *measured, and *refined
+// gets every fitted frame's corrected pose.
+void RefineShared(const Scene& scene, const PlateCheckOptions& o, const CameraModel& camera,
+                  const std::vector<Rigid3>& poses, int begin, std::vector<RoomMatches> matches,
+                  const std::vector<int>& frame_ids, RenderMethod* method, RenderScene* rs, FrameReader* frames,
+                  const FrameDecoding& decoding, std::vector<Measured>* measured, std::map<int, Rigid3>* refined,
+                  Report* report) {
+  // Each fitted frame again, in order: its plate, the room through pose * c.
+  auto each_frame = [&](const Rigid3& c,
+                        const std::function<void(size_t, const Image&, const Image&, const Image&)>& use) {
+    WorldTracker world(scene, *rs, begin);
+    for (size_t i = 0; i < frame_ids.size(); ++i) {
+      const int f = frame_ids[i];
+      if (const WorldChange wc = world.Advance(f, rs); wc.any())
+        method->WorldChanged(JobContext{scene, *rs, camera, o.spp, begin, true, report, f}, wc);
+      const Rigid3 pose = poses[static_cast<size_t>(f)] * c;
+      PhotoEncoding enc;
+      const Image plate = decoding.ToPlateLinear(*frames->Photo(f, &enc));
+      const FrameContext fc{*rs, camera, pose, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
+      std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
+      fr->RenderPass(o.spp);
+      use(i, plate, fr->Real(), RoomPixels(*rs, camera, pose));
+    }
+  };
+  PoseRefinement c = SolveCorrection(camera, matches, Rigid3(), o.refine);
+  for (int round = 1; round < o.refine.rounds && c.refined; ++round) {
+    const double rms_before = c.rms_before_px;
+    each_frame(c.pose, [&](size_t i, const Image& plate, const Image& real, const Image& room) {
+      matches[i] =
+          MatchRoom(real, room, *rs, camera, poses[static_cast<size_t>(frame_ids[i])] * c.pose, plate, o.refine);
+      matches[i].pose = poses[static_cast<size_t>(frame_ids[i])];  // the correction is solved from the input poses
+    });
+    c = SolveCorrection(camera, matches, c.pose, o.refine);
+    c.rms_before_px = rms_before;
+  }
+  if (!c.refined) {
+    report->Warn("poses not refined: " + c.why);
+    for (Measured& m : *measured) m.refinement = c;
+    return;
+  }
+  spdlog::info(
+      "one correction for the {} fitted frames: {:.2f} degrees, {:.3f} m; the matches' RMS {:.2f} -> {:.2f} px",
+      frame_ids.size(), c.rotation_deg, c.translation_m, c.rms_before_px, c.rms_after_px);
+  each_frame(c.pose, [&](size_t i, const Image& plate, const Image& real, const Image& room) {
+    Measured& m = (*measured)[i];
+    m.refinement = c;
+    m.refinement.pose = poses[static_cast<size_t>(frame_ids[i])] * c.pose;
+    m.registration_after = MeasureRegistration(real, plate, room);
+    (*refined)[frame_ids[i]] = m.refinement.pose;
+  });
+}
+
 }  // namespace
 
 void PlateCheckOptions::Check() const {
@@ -364,8 +421,10 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
 
   std::vector<int> frame_ids;
   std::vector<GainFit> fits;
-  std::vector<Measured> measured;  // per rendered frame
-  std::map<int, Rigid3> refined;   // frame -> its refined pose
+  std::vector<Measured> measured;   // per rendered frame
+  std::map<int, Rigid3> refined;    // frame -> its refined pose
+  std::vector<RoomMatches> shared;  // refine_shared: each fitted frame's matches
+  std::vector<int> shared_frames;
   Progress progress("plate fit", end - begin);
   for (int f = begin; f < end; ++f) {
     frame_ids.push_back(f);
@@ -414,7 +473,11 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       ScopedTimer t(report, "registration");
       m.registration = MeasureRegistration(real, plate, room);
     }
-    if (!o.refine_poses.empty()) {
+    if (!o.refine_poses.empty() && o.refine_shared) {
+      ScopedTimer t(report, "pose refinement");
+      shared.push_back(MatchRoom(real, room, rs, camera, pose, plate, o.refine));
+      shared_frames.push_back(f);
+    } else if (!o.refine_poses.empty()) {
       ScopedTimer t(report, "pose refinement");
       auto render = [&](const Rigid3& p) {
         const FrameContext fc{rs, camera, p, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
@@ -443,6 +506,11 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
                               o.command_line, scene.file.string(), o.method, o.spp));
   report->AddOutput(gains_path.string());
 
+  if (!o.refine_poses.empty() && o.refine_shared) {
+    ScopedTimer t(report, "pose refinement");
+    RefineShared(scene, o, camera, poses, begin, shared, shared_frames, method.get(), &rs, &frames, decoding, &measured,
+                 &refined, report);
+  }
   if (!o.refine_poses.empty()) WriteRefinedPoses(o, poses, refined, begin, end, report);
   MR_CHECK_EQ(gains.size(), fits.size());  // SmoothGains: one gain per frame
   ReportErrors(o, gains, fits, measured, begin, gains_path, report);

@@ -41,6 +41,12 @@ struct PlateCheckOptions {
   // the report gives each frame's registration after.
   fs::path refine_poses;
   PoseRefineOptions refine;
+  // true: one correction shared by every frame (pose * c: the camera's
+  // offset from the room, which keeps the registered motion and so adds no
+  // swim); false: each fitted frame its own (the registration falls
+  // further, but the frames' independent errors make the objects swim:
+  // docs/benchmarks.md).
+  bool refine_shared = true;
   std::string tool = "mr-eval", command_line;
 
   // UsageError naming the flag: --out missing, --spp or --stride below 1, an

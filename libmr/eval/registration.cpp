@@ -97,16 +97,21 @@ Rigid3 Step(const Rigid3& pose, const Eigen::Matrix<double, 6, 1>& delta) {
   return pose * Rigid3(q, delta.tail<3>());
 }
 
-// The matches' residuals (projection - observed), 2 per point; a point that
-// does not project gives a large residual (weighed down by Huber).
-Eigen::VectorXd Residuals(const CameraModel& camera, const Rigid3& pose, const std::vector<Eigen::Vector3d>& X,
-                          const std::vector<Eigen::Vector2d>& u) {
-  const Rigid3 cam_from_world = pose.Inverse();
-  Eigen::VectorXd r(2 * static_cast<Eigen::Index>(X.size()));
-  for (size_t i = 0; i < X.size(); ++i) {
-    Eigen::Vector2d q;
-    if (!camera.Project(cam_from_world * X[i], &q)) q = u[i] + Eigen::Vector2d(1e3, 1e3);
-    r.segment<2>(2 * static_cast<Eigen::Index>(i)) = q - u[i];
+// The matches' residuals (projection - observed), 2 per point, with every
+// group's pose corrected by `c` (pose * c); a point that does not project
+// gives a large residual (weighed down by Huber).
+Eigen::VectorXd Residuals(const CameraModel& camera, const std::vector<RoomMatches>& groups, const Rigid3& c) {
+  Eigen::Index n = 0;
+  for (const RoomMatches& g : groups) n += 2 * static_cast<Eigen::Index>(g.X.size());
+  Eigen::VectorXd r(n);
+  Eigen::Index k = 0;
+  for (const RoomMatches& g : groups) {
+    const Rigid3 cam_from_world = (g.pose * c).Inverse();
+    for (size_t i = 0; i < g.X.size(); ++i, k += 2) {
+      Eigen::Vector2d q;
+      if (!camera.Project(cam_from_world * g.X[i], &q)) q = g.u[i] + Eigen::Vector2d(1e3, 1e3);
+      r.segment<2>(k) = q - g.u[i];
+    }
   }
   return r;
 }
@@ -121,16 +126,15 @@ double WeightedRms(const Eigen::VectorXd& r, double k) {
   return wsum > 0 ? std::sqrt(s / wsum) : 0;
 }
 
-// Gauss-Newton with Huber weights (IRLS) from `pose`.
-Rigid3 Solve(const CameraModel& camera, Rigid3 pose, const std::vector<Eigen::Vector3d>& X,
-             const std::vector<Eigen::Vector2d>& u, double k) {
+// Gauss-Newton with Huber weights (IRLS) for the correction c, from `c`.
+Rigid3 Solve(const CameraModel& camera, const std::vector<RoomMatches>& groups, Rigid3 c, double k) {
   for (int it = 0; it < 15; ++it) {
-    const Eigen::VectorXd r = Residuals(camera, pose, X, u);
+    const Eigen::VectorXd r = Residuals(camera, groups, c);
     Eigen::MatrixXd J(r.size(), 6);
     for (int j = 0; j < 6; ++j) {
       Eigen::Matrix<double, 6, 1> d = Eigen::Matrix<double, 6, 1>::Zero();
       d[j] = 1e-6;
-      J.col(j) = (Residuals(camera, Step(pose, d), X, u) - r) / 1e-6;
+      J.col(j) = (Residuals(camera, groups, Step(c, d)) - r) / 1e-6;
     }
     Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
     Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
@@ -142,10 +146,10 @@ Rigid3 Solve(const CameraModel& camera, Rigid3 pose, const std::vector<Eigen::Ve
     }
     const Eigen::Matrix<double, 6, 1> step = -H.ldlt().solve(g);
     if (!step.allFinite()) break;
-    pose = Step(pose, step);
+    c = Step(c, step);
     if (step.norm() < 1e-9) break;
   }
-  return pose;
+  return c;
 }
 
 }  // namespace
@@ -160,57 +164,92 @@ Json PoseRefinement::ToJson() const {
   return j;
 }
 
+RoomMatches MatchRoom(const Image& rendered, const Image& where, const RenderScene& rs, const CameraModel& camera,
+                      const Rigid3& pose, const Image& plate, const PoseRefineOptions& o) {
+  RoomMatches m;
+  m.pose = pose;
+  const FlowField mt = MatchImages(rendered, plate, &where, o.matching.flow);
+  if (static_cast<int>(mt.usable.size()) < o.matching.min_pixels) {
+    m.why = fmt::format("{} usable matches (at least {} needed: a textureless view)", mt.usable.size(),
+                        o.matching.min_pixels);
+    return m;
+  }
+  // The matches' 3D points: the rays through the rendered pixels' centres.
+  const size_t every = std::max<size_t>(1, mt.usable.size() / static_cast<size_t>(o.max_points));
+  for (size_t i = 0; i < mt.usable.size(); i += every) {
+    const Eigen::Vector2i& p = mt.usable[i];
+    Eigen::Vector3d dir;
+    if (!camera.Unproject(p.cast<double>(), &dir)) continue;
+    Ray ray;
+    ray.origin = pose.translation.cast<float>();
+    ray.direction = (pose.rotation * dir).normalized().cast<float>();
+    ray.mask = kMaskReal;
+    Hit hit;
+    if (!rs.embree().Intersect(ray, &hit)) continue;
+    m.X.push_back(pose.translation + static_cast<double>(hit.t) * ray.direction.cast<double>());
+    m.u.push_back(p.cast<double>() + mt.flow[static_cast<size_t>(p.y()) * camera.width() + p.x()].cast<double>());
+  }
+  if (m.X.size() < 6) {
+    m.X.clear();
+    m.u.clear();
+    m.why = "the matches meet no room geometry";
+  }
+  return m;
+}
+
+PoseRefinement SolveCorrection(const CameraModel& camera, const std::vector<RoomMatches>& groups, const Rigid3& start,
+                               const PoseRefineOptions& o) {
+  PoseRefinement out;
+  std::vector<RoomMatches> used;
+  for (const RoomMatches& g : groups)
+    if (!g.X.empty()) used.push_back(g);
+  if (used.empty()) {
+    out.why = groups.empty() ? "no frame" : groups.front().why;
+    return out;
+  }
+  for (const RoomMatches& g : used) out.points += static_cast<int>(g.X.size());
+  out.rms_before_px = WeightedRms(Residuals(camera, used, start), o.huber_px);
+  const Rigid3 c = Solve(camera, used, start, o.huber_px);
+  out.rms_after_px = WeightedRms(Residuals(camera, used, c), o.huber_px);
+  out.rotation_deg = Eigen::AngleAxisd(c.rotation).angle() * 180 / std::numbers::pi;
+  out.translation_m = c.translation.norm();
+  out.pose = c;
+  if (out.rotation_deg > o.max_rotation_deg || out.translation_m > o.max_translation_m) {
+    out.why = fmt::format("the step ({:.2f} degrees, {:.3f} m) is larger than --max-step allows: the matches failed",
+                          out.rotation_deg, out.translation_m);
+    out.pose = Rigid3();
+    return out;
+  }
+  out.refined = true;
+  return out;
+}
+
 PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
                           const std::function<Image(const Rigid3&)>& room, const RenderScene& rs,
                           const CameraModel& camera, const Rigid3& pose, const Image& plate,
                           const PoseRefineOptions& o) {
   PoseRefinement out;
-  out.pose = pose;
-  Rigid3 current = pose;
+  Rigid3 c;  // the correction so far: pose * c
+  double rms_before = -1;
   for (int round = 0; round < o.rounds; ++round) {
-    const Image where = room(current);
-    const FlowField mt = MatchImages(render(current), plate, &where, o.matching.flow);
-    if (static_cast<int>(mt.usable.size()) < o.matching.min_pixels) {
-      out.why = fmt::format("{} usable matches (at least {} needed: a textureless view)", mt.usable.size(),
-                            o.matching.min_pixels);
+    const Rigid3 current = pose * c;
+    RoomMatches m = MatchRoom(render(current), room(current), rs, camera, current, plate, o);
+    if (m.X.empty()) {
+      out.why = m.why;
+      out.pose = pose;
       return out;
     }
-    // The matches' 3D points: the rays through the rendered pixels' centres.
-    const size_t every = std::max<size_t>(1, mt.usable.size() / static_cast<size_t>(o.max_points));
-    std::vector<Eigen::Vector3d> X;
-    std::vector<Eigen::Vector2d> u;
-    for (size_t i = 0; i < mt.usable.size(); i += every) {
-      const Eigen::Vector2i& p = mt.usable[i];
-      Eigen::Vector3d dir;
-      if (!camera.Unproject(p.cast<double>(), &dir)) continue;
-      Ray ray;
-      ray.origin = current.translation.cast<float>();
-      ray.direction = (current.rotation * dir).normalized().cast<float>();
-      ray.mask = kMaskReal;
-      Hit hit;
-      if (!rs.embree().Intersect(ray, &hit)) continue;
-      X.push_back(current.translation + static_cast<double>(hit.t) * ray.direction.cast<double>());
-      u.push_back(p.cast<double>() + mt.flow[static_cast<size_t>(p.y()) * camera.width() + p.x()].cast<double>());
-    }
-    if (X.size() < 6) {
-      out.why = "the matches meet no room geometry";
+    m.pose = pose;  // the correction is solved from the input pose
+    out = SolveCorrection(camera, {m}, c, o);
+    if (rms_before < 0) rms_before = out.rms_before_px;
+    if (!out.refined) {
+      out.pose = pose;
       return out;
     }
-    if (round == 0) out.rms_before_px = WeightedRms(Residuals(camera, current, X, u), o.huber_px);
-    current = Solve(camera, current, X, u, o.huber_px);
-    out.points = static_cast<int>(X.size());
-    out.rms_after_px = WeightedRms(Residuals(camera, current, X, u), o.huber_px);
+    c = out.pose;
   }
-  const Rigid3 step = pose.Inverse() * current;
-  out.rotation_deg = Eigen::AngleAxisd(step.rotation).angle() * 180 / std::numbers::pi;
-  out.translation_m = step.translation.norm();
-  if (out.rotation_deg > o.max_rotation_deg || out.translation_m > o.max_translation_m) {
-    out.why = fmt::format("the step ({:.2f} degrees, {:.3f} m) is larger than --max-step allows: the matches failed",
-                          out.rotation_deg, out.translation_m);
-    return out;
-  }
-  out.pose = current;
-  out.refined = true;
+  out.rms_before_px = rms_before;
+  out.pose = pose * c;
   return out;
 }
 

@@ -80,6 +80,29 @@ struct PoseRefinement {
   Json ToJson() const;
 };
 
+// One frame's matches: 3D points on the room (X, world) and the plate
+// pixels they moved to (u), found from the room rendered through `pose`.
+struct RoomMatches {
+  Rigid3 pose;
+  std::vector<Eigen::Vector3d> X;
+  std::vector<Eigen::Vector2d> u;
+  std::string why;  // when there are none
+};
+// `rendered`: the room alone through `pose`; `where`: > 0 where it covers
+// the pixel.
+RoomMatches MatchRoom(const Image& rendered, const Image& where, const RenderScene& rs, const CameraModel& camera,
+                      const Rigid3& pose, const Image& plate, const PoseRefineOptions& options = {});
+
+// The correction c (in the camera's frame, right-multiplied: each group's
+// pose * c) that best projects every group's points onto their plate
+// pixels, from `start`.  One group: a frame's own refinement (RefinePose);
+// several: one correction shared by the frames (the camera's offset from
+// the room's frame: a sensor's depth-to-colour extrinsic, the similarity's
+// error), which keeps the frames' motion as registered.  PoseRefinement::pose
+// is c; rotation_deg and translation_m are c's.
+PoseRefinement SolveCorrection(const CameraModel& camera, const std::vector<RoomMatches>& groups, const Rigid3& start,
+                               const PoseRefineOptions& options = {});
+
 // `render(pose)`: the room alone through `pose` (any units); `room(pose)`:
 // > 0 where it covers the pixel (RoomPixels); `rs`: the room, for the
 // matches' 3D points (its real geometry).

@@ -175,6 +175,25 @@ TEST(Registration, RefinePoseBringsTheRoomBackOntoThePlate) {
   EXPECT_LT(err.translation.norm(), 0.01);
   EXPECT_GT(before.mean_px, 5);
   EXPECT_LT(after.mean_px, 0.3);
+  // One correction shared by two frames that share one error (the camera's
+  // offset from the room): solved from both frames' matches at once, both
+  // come back.
+  const Rigid3 offset(Eigen::Quaterniond(Eigen::AngleAxisd(1.0 * kDeg, Eigen::Vector3d(1, 0.4, 0).normalized())),
+                      Eigen::Vector3d(0.02, 0.01, -0.03));
+  const Rigid3 truth2 = truth * Rigid3(Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY())),
+                                       Eigen::Vector3d(0.3, 0, -0.2));
+  std::vector<RoomMatches> groups;
+  for (const Rigid3& t : {truth, truth2}) {
+    const Rigid3 given = t * offset;
+    groups.push_back(MatchRoom(render(given), room(given), rs, camera, given, render(t)));
+  }
+  const PoseRefinement shared = SolveCorrection(camera, groups, Rigid3());
+  ASSERT_TRUE(shared.refined) << shared.why;
+  for (const auto& [t, g] : {std::pair{truth, groups[0]}, std::pair{truth2, groups[1]}}) {
+    const Rigid3 e = t.Inverse() * (g.pose * shared.pose);
+    EXPECT_LT(Eigen::AngleAxisd(e.rotation).angle() / kDeg, 0.1);
+    EXPECT_LT(e.translation.norm(), 0.01);
+  }
   // A plate of nothing (textureless): not refined, and the reason given.
   const PoseRefinement none = RefinePose(render, room, rs, camera, off, Image(320, 240, {"R", "G", "B"}, 1.0f));
   EXPECT_FALSE(none.refined);

@@ -124,4 +124,14 @@ print("plate gains (fitted, no hand-set exposure): R %.3f..%.3f G %.3f..%.3f B %
          p["exposure_jumps"]))
 print("capture chain re-rendering the plate: relMSE %.4g, SSIM %.3f, around the bunny relMSE %.4g (%s/radiometry/*-rerender.png)"
       % (p["relmse"], p["ssim"], p.get("region_relmse", float("nan")), w))
+g = p.get("registration")
+if g:
+    print("registration in pixels (the room rendered against the plate): %.1f px mean over %d frames, worst frame %.1f"
+          % (g["mean_px"], g["frames_measured"], g["worst_mean_px"]))
+pr = p.get("pose_refinement")
+if pr:
+    print("after refining the poses against the room: %.1f px mean over %d frames" % (pr["mean_px_after"], pr["frames_refined"]))
+s = json.load(open(w + "/reports/render.json"))["metrics"].get("swim", {})
+for name, v in s.items():
+    print("swim of the %s against the plate: %.2f px RMS, %.2f at most, over %d frame steps" % (name, v["rms_px"], v["max_px"], v["frames"]))
 PYR

@@ -94,10 +94,19 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
   plate
       ->add_option("--refine-mode", refine_mode,
                    "--refine-poses: shared (one correction for every frame: the camera's offset from the room,\n"
-                   "the registered motion kept) or frame (each fitted frame its own: the objects may swim)")
-      ->check(CLI::IsMember({"shared", "frame"}))
+                   "the registered motion kept), frame (each fitted frame its own: the objects may swim) or\n"
+                   "smooth (each frame's own, averaged over the fitted frames around it: --refine-smooth)")
+      ->check(CLI::IsMember({"shared", "frame", "smooth"}))
       ->default_val("shared")
-      ->each([&po_plate](const std::string& v) { po_plate.refine_shared = v == "shared"; });
+      ->each([&po_plate](const std::string& v) {
+        po_plate.refine_shared = v == "shared";
+        if (v == "smooth" && po_plate.refine_smooth_frames <= 0) po_plate.refine_smooth_frames = 2;
+        if (v != "smooth") po_plate.refine_smooth_frames = 0;
+      });
+  plate
+      ->add_option("--refine-smooth", po_plate.refine_smooth_frames,
+                   "--refine-mode smooth: the Gaussian's sigma, in fitted frames (default 2)")
+      ->check(CLI::Range(0.1, 1e6));
   plate->add_option("--refine-rounds", po_plate.refine.rounds, "Render, match and solve rounds of --refine-poses")
       ->default_val(2)
       ->check(CLI::Range(1, 10));

@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <numbers>
+#include <optional>
 
 #include "camera/trajectory.h"
 #include "core/color.h"
@@ -317,33 +318,44 @@ void WriteRefinedPoses(const PlateCheckOptions& o, const std::vector<Rigid3>& po
   report->AddOutput(o.refine_poses.string());
 }
 
-// --refine-poses with one correction shared by the frames: solved from the
-// matches the fitted frames' renders gave (`matches`, frames
-// `frame_ids`), then o.refine.rounds - 1 times again from the frames
-// rendered through their corrected poses; each frame's registration is
-// measured again through its corrected pose into *measured, and *refined
-// gets every fitted frame's corrected pose.
+// Each fitted frame (`frame_ids`) again, in order: its plate and the room
+// rendered through poses[f] * correction(i), handed to `use`.
+void EachFittedFrame(const Scene& scene, const PlateCheckOptions& o, const CameraModel& camera,
+                     const std::vector<Rigid3>& poses, int begin, const std::vector<int>& frame_ids,
+                     RenderMethod* method, RenderScene* rs, FrameReader* frames, const FrameDecoding& decoding,
+                     Report* report, const std::function<Rigid3(size_t)>& correction,
+                     const std::function<void(size_t, const Image&, const Image&, const Image&)>& use) {
+  WorldTracker world(scene, *rs, begin);
+  for (size_t i = 0; i < frame_ids.size(); ++i) {
+    const int f = frame_ids[i];
+    if (const WorldChange wc = world.Advance(f, rs); wc.any())
+      method->WorldChanged(JobContext{scene, *rs, camera, o.spp, begin, true, report, f}, wc);
+    const Rigid3 pose = poses[static_cast<size_t>(f)] * correction(i);
+    PhotoEncoding enc;
+    const Image plate = decoding.ToPlateLinear(*frames->Photo(f, &enc));
+    const FrameContext fc{*rs, camera, pose, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
+    std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
+    fr->RenderPass(o.spp);
+    use(i, plate, fr->Real(), RoomPixels(*rs, camera, pose));
+  }
+}
+
+// --refine-mode shared: one correction for the frames, solved from the
+// matches the fitted frames' renders gave (`matches`, frames `frame_ids`),
+// then o.refine.rounds - 1 times again from the frames rendered through
+// their corrected poses; each frame's registration is measured again
+// through its corrected pose into *measured, and *refined gets every
+// fitted frame's corrected pose.
 void RefineShared(const Scene& scene, const PlateCheckOptions& o, const CameraModel& camera,
                   const std::vector<Rigid3>& poses, int begin, std::vector<RoomMatches> matches,
                   const std::vector<int>& frame_ids, RenderMethod* method, RenderScene* rs, FrameReader* frames,
                   const FrameDecoding& decoding, std::vector<Measured>* measured, std::map<int, Rigid3>* refined,
                   Report* report) {
-  // Each fitted frame again, in order: its plate, the room through pose * c.
   auto each_frame = [&](const Rigid3& c,
                         const std::function<void(size_t, const Image&, const Image&, const Image&)>& use) {
-    WorldTracker world(scene, *rs, begin);
-    for (size_t i = 0; i < frame_ids.size(); ++i) {
-      const int f = frame_ids[i];
-      if (const WorldChange wc = world.Advance(f, rs); wc.any())
-        method->WorldChanged(JobContext{scene, *rs, camera, o.spp, begin, true, report, f}, wc);
-      const Rigid3 pose = poses[static_cast<size_t>(f)] * c;
-      PhotoEncoding enc;
-      const Image plate = decoding.ToPlateLinear(*frames->Photo(f, &enc));
-      const FrameContext fc{*rs, camera, pose, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
-      std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
-      fr->RenderPass(o.spp);
-      use(i, plate, fr->Real(), RoomPixels(*rs, camera, pose));
-    }
+    EachFittedFrame(
+        scene, o, camera, poses, begin, frame_ids, method, rs, frames, decoding, report, [&](size_t) { return c; },
+        use);
   };
   PoseRefinement c = SolveCorrection(camera, matches, Rigid3(), o.refine);
   for (int round = 1; round < o.refine.rounds && c.refined; ++round) {
@@ -371,6 +383,40 @@ void RefineShared(const Scene& scene, const PlateCheckOptions& o, const CameraMo
     m.registration_after = MeasureRegistration(real, plate, room);
     (*refined)[frame_ids[i]] = m.refinement.pose;
   });
+}
+
+// --refine-mode smooth: each fitted frame's own correction (already in
+// *refined), averaged over the fitted frames around it with Gaussian
+// weights (sigma o.refine_smooth_frames fitted frames; rotations by their
+// normalised, sign-aligned quaternion mean), so that the frames' own
+// errors do not make the objects swim; the registration is measured again
+// through the smoothed poses.
+void SmoothCorrections(const Scene& scene, const PlateCheckOptions& o, const CameraModel& camera,
+                       const std::vector<Rigid3>& poses, int begin, const std::vector<int>& frame_ids,
+                       RenderMethod* method, RenderScene* rs, FrameReader* frames, const FrameDecoding& decoding,
+                       std::vector<Measured>* measured, std::map<int, Rigid3>* refined, Report* report) {
+  std::vector<std::optional<Rigid3>> own(frame_ids.size());  // each fitted frame's own correction
+  bool any = false;
+  for (size_t i = 0; i < frame_ids.size(); ++i)
+    if (const auto it = refined->find(frame_ids[i]); it != refined->end()) {
+      own[i] = poses[static_cast<size_t>(frame_ids[i])].Inverse() * it->second;
+      any = true;
+    }
+  if (!any) return;
+  const std::vector<Rigid3> smooth = SmoothOverTime(own, o.refine_smooth_frames);
+  refined->clear();
+  EachFittedFrame(
+      scene, o, camera, poses, begin, frame_ids, method, rs, frames, decoding, report,
+      [&](size_t i) { return smooth[i]; },
+      [&](size_t i, const Image& plate, const Image& real, const Image& room) {
+        Measured& m = (*measured)[i];
+        m.refinement.refined = true;
+        m.refinement.pose = poses[static_cast<size_t>(frame_ids[i])] * smooth[i];
+        m.refinement.rotation_deg = Eigen::AngleAxisd(smooth[i].rotation).angle() * 180 / std::numbers::pi;
+        m.refinement.translation_m = smooth[i].translation.norm();
+        m.registration_after = MeasureRegistration(real, plate, room);
+        (*refined)[frame_ids[i]] = m.refinement.pose;
+      });
 }
 
 }  // namespace
@@ -424,6 +470,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
   std::vector<Measured> measured;   // per rendered frame
   std::map<int, Rigid3> refined;    // frame -> its refined pose
   std::vector<RoomMatches> shared;  // refine_shared: each fitted frame's matches
+  std::vector<int> fitted_frames;
   std::vector<int> shared_frames;
   Progress progress("plate fit", end - begin);
   for (int f = begin; f < end; ++f) {
@@ -436,6 +483,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       continue;
     }
     const Rigid3& pose = poses[static_cast<size_t>(f)];
+    fitted_frames.push_back(f);
     if (const WorldChange wc = world.Advance(f, &rs); wc.any())
       method->WorldChanged(JobContext{scene, rs, camera, o.spp, begin, true, report, f}, wc);
     PhotoEncoding enc;
@@ -510,6 +558,10 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     ScopedTimer t(report, "pose refinement");
     RefineShared(scene, o, camera, poses, begin, shared, shared_frames, method.get(), &rs, &frames, decoding, &measured,
                  &refined, report);
+  } else if (!o.refine_poses.empty() && o.refine_smooth_frames > 0) {
+    ScopedTimer t(report, "pose refinement");
+    SmoothCorrections(scene, o, camera, poses, begin, fitted_frames, method.get(), &rs, &frames, decoding, &measured,
+                      &refined, report);
   }
   if (!o.refine_poses.empty()) WriteRefinedPoses(o, poses, refined, begin, end, report);
   MR_CHECK_EQ(gains.size(), fits.size());  // SmoothGains: one gain per frame

@@ -47,6 +47,9 @@ struct PlateCheckOptions {
   // further, but the frames' independent errors make the objects swim:
   // docs/benchmarks.md).
   bool refine_shared = true;
+  // Not shared, > 0: each frame's correction averaged over the fitted
+  // frames around it (Gaussian, sigma in fitted frames): --refine-mode smooth.
+  double refine_smooth_frames = 0;
   std::string tool = "mr-eval", command_line;
 
   // UsageError naming the flag: --out missing, --spp or --stride below 1, an

@@ -253,4 +253,28 @@ PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
   return out;
 }
 
+std::vector<Rigid3> SmoothOverTime(const std::vector<std::optional<Rigid3>>& c, double sigma) {
+  const Rigid3* first = nullptr;
+  for (const auto& ci : c)
+    if (ci && !first) first = &*ci;
+  MR_CHECK(first != nullptr && sigma > 0);
+  std::vector<Rigid3> out(c.size());
+  for (size_t i = 0; i < c.size(); ++i) {
+    Eigen::Vector4d q = Eigen::Vector4d::Zero();
+    Eigen::Vector3d t = Eigen::Vector3d::Zero();
+    double wsum = 0;
+    for (size_t k = 0; k < c.size(); ++k) {
+      if (!c[k]) continue;
+      const double d = (static_cast<double>(k) - static_cast<double>(i)) / sigma, w = std::exp(-0.5 * d * d);
+      Eigen::Vector4d qk = c[k]->rotation.coeffs();
+      if (qk.dot(first->rotation.coeffs()) < 0) qk = -qk;
+      q += w * qk;
+      t += w * c[k]->translation;
+      wsum += w;
+    }
+    out[i] = wsum > 0 ? Rigid3(Eigen::Quaterniond(q / wsum), t / wsum) : *first;
+  }
+  return out;
+}
+
 }  // namespace mr

@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -110,5 +111,12 @@ PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
                           const std::function<Image(const Rigid3&)>& room, const RenderScene& rs,
                           const CameraModel& camera, const Rigid3& pose, const Image& plate,
                           const PoseRefineOptions& options = {});
+
+// Corrections over a sequence of frames (nullopt: none for that frame)
+// averaged with Gaussian weights over the frames around each (sigma in
+// frames; rotations by their normalised, sign-aligned quaternion mean,
+// translations by their mean): every frame gets one.  At least one must be
+// given.
+std::vector<Rigid3> SmoothOverTime(const std::vector<std::optional<Rigid3>>& corrections, double sigma);
 
 }  // namespace mr

@@ -97,7 +97,7 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
                    "the registered motion kept), frame (each fitted frame its own: the objects may swim) or\n"
                    "smooth (each frame's own, averaged over the fitted frames around it: --refine-smooth)")
       ->check(CLI::IsMember({"shared", "frame", "smooth"}))
-      ->default_val("shared")
+      ->default_val("smooth")
       ->each([&po_plate](const std::string& v) {
         po_plate.refine_shared = v == "shared";
         if (v == "smooth" && po_plate.refine_smooth_frames <= 0) po_plate.refine_smooth_frames = 2;

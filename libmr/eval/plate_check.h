@@ -44,12 +44,13 @@ struct PlateCheckOptions {
   // true: one correction shared by every frame (pose * c: the camera's
   // offset from the room, which keeps the registered motion and so adds no
   // swim); false: each fitted frame its own (the registration falls
-  // further, but the frames' independent errors make the objects swim:
-  // docs/benchmarks.md).
-  bool refine_shared = true;
+  // further, but the frames' independent errors make the objects swim),
+  // smoothed over time by default (docs/benchmarks.md: on the kitchen the
+  // smoothed corrections lower the registration most without swim).
+  bool refine_shared = false;
   // Not shared, > 0: each frame's correction averaged over the fitted
   // frames around it (Gaussian, sigma in fitted frames): --refine-mode smooth.
-  double refine_smooth_frames = 0;
+  double refine_smooth_frames = 2;
   std::string tool = "mr-eval", command_line;
 
   // UsageError naming the flag: --out missing, --spp or --stride below 1, an

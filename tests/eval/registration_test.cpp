@@ -10,6 +10,8 @@
 
 #include <gtest/gtest.h>
 
+#include "ray_cast_image.h"
+
 #include <cmath>
 #include <optional>
 #include <random>
@@ -134,23 +136,7 @@ TEST(Registration, RefinePoseBringsTheRoomBackOntoThePlate) {
     for (const auto& [k, phase] : waves) v += std::sin(k.dot(p) + phase);
     return 1 + 0.08 * v;
   };
-  auto render = [&](const Rigid3& pose) {
-    Image img(320, 240, {"R", "G", "B"});
-    for (int y = 0; y < 240; ++y)
-      for (int x = 0; x < 320; ++x) {
-        Eigen::Vector3d dir;
-        if (!camera.Unproject(Eigen::Vector2d(x, y), &dir)) continue;
-        Ray ray;
-        ray.origin = pose.translation.cast<float>();
-        ray.direction = (pose.rotation * dir).normalized().cast<float>();
-        ray.mask = kMaskReal;
-        Hit hit;
-        if (!rs.embree().Intersect(ray, &hit)) continue;
-        const double v = shade(pose.translation + static_cast<double>(hit.t) * ray.direction.cast<double>());
-        for (int c = 0; c < 3; ++c) img.at(x, y, c) = static_cast<float>(v);
-      }
-    return img;
-  };
+  auto render = [&](const Rigid3& pose) { return test::RayCastImage(rs, camera, pose, shade); };
   auto room = [&](const Rigid3&) { return Image(320, 240, {"Y"}, 1.0f); };
   const Rigid3 truth(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitY())),
                      Eigen::Vector3d(0.2, 1.3, 0.5));

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include "ray_cast_image.h"
+
 #include <cmath>
 
 #include "core/file.h"
@@ -40,23 +42,7 @@ TEST(Swim, AnObjectOnTheFloorMovesAsTheFloorDoes) {
     }
     return 1 + 0.08 * v;
   };
-  auto plate = [&](const Rigid3& pose) {
-    Image img(320, 240, {"R", "G", "B"});
-    for (int y = 0; y < 240; ++y)
-      for (int x = 0; x < 320; ++x) {
-        Eigen::Vector3d dir;
-        if (!camera.Unproject(Eigen::Vector2d(x, y), &dir)) continue;
-        Ray ray;
-        ray.origin = pose.translation.cast<float>();
-        ray.direction = (pose.rotation * dir).normalized().cast<float>();
-        ray.mask = kMaskReal;
-        Hit hit;
-        if (!floor.embree().Intersect(ray, &hit)) continue;
-        const float v = static_cast<float>(shade(pose.translation + hit.t * ray.direction.cast<double>()));
-        for (int c = 0; c < 3; ++c) img.at(x, y, c) = v;
-      }
-    return img;
-  };
+  auto plate = [&](const Rigid3& pose) { return test::RayCastImage(floor, camera, pose, shade); };
   // A camera 1.2 m up, looking down 35 degrees at the cube, moving 3 cm
   // sideways a frame (camera frame: x right, y down, z forward).
   auto pose_at = [](int f) {

@@ -436,7 +436,12 @@ void RenderJob::PrepareWorldAndMethod() {
     return;
   }
   // Only over several frames of a plate: one frame has no motion to swim against.
-  if (decoding_.photograph && !scene_.virtuals.empty() && in_.end - resumed_end_ > 1) swim_.emplace(scene_, in_.camera);
+  if (decoding_.photograph && !scene_.virtuals.empty()) {
+    if (in_.end - resumed_end_ > 1)
+      swim_.emplace(scene_, in_.camera);
+    else
+      report_->Skip("the objects' swim against the plate", "one frame rendered: no motion between frames to measure");
+  }
   const JobContext job = JobAt(resumed_end_);
   if (info_.prepare_timing.empty()) {
     method_->Prepare(job);

@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
         ->check(CLI::ExistingPath);
     c->add_option("--out", o.out, "TUM poses to write (world_from_cam, timestamp = frame number)")->required();
     c->add_option("--camera-out", o.camera_out, "The video camera's .cameramodel to write");
+    c->add_option("--points-out", o.points_out,
+                  "COLMAP's well-observed 3D points (track and error as --mesh's), moved into the room's frame, "
+                  "as a PLY point cloud (mr-planes)");
     c->add_option("--mesh", o.meshes,
                   "Align (or refine the alignment) by COLMAP's 3D points "
                   "against this room mesh (repeatable: merged)")

@@ -13,6 +13,7 @@
 #include <map>
 #include <set>
 
+#include "core/color.h"
 #include "core/error.h"
 #include "core/math.h"
 #include "core/process.h"
@@ -312,6 +313,31 @@ Similarity3 RefineByMesh(const ColmapModel& model, const RegisterOptions& o, con
   return world_from_colmap;
 }
 
+// The well-observed points in the room's frame (RegisterOptions::out_points).
+void WritePoints(const ColmapModel& model, const Similarity3& world_from_colmap, const RegisterOptions& o,
+                 Report* report) {
+  Mesh cloud;
+  Mesh::Scalar track{"track", {}}, error{"error_px", {}};
+  for (const auto& [id, p] : model.points3d) {
+    if (static_cast<int>(p.track.size()) < o.mesh_fit.min_track || !(p.error <= o.mesh_fit.max_error_px)) continue;
+    cloud.positions.push_back(world_from_colmap.Apply(p.xyz).cast<float>());
+    Eigen::Vector3f c;
+    for (int k = 0; k < 3; ++k) c[k] = SrgbToLinear(static_cast<float>(p.rgb[k]) / 255.0f);
+    cloud.colors.push_back(c);
+    track.values.push_back(static_cast<float>(p.track.size()));
+    error.values.push_back(static_cast<float>(p.error));
+  }
+  if (cloud.positions.empty())
+    throw Error(FileLoc{}, fmt::format("the COLMAP model has no well-observed 3D points to write (track >= {}, "
+                                       "error <= {} px)",
+                                       o.mesh_fit.min_track, o.mesh_fit.max_error_px));
+  cloud.scalars = {std::move(track), std::move(error)};
+  WritePly(o.out_points, cloud, "COLMAP's 3D points in the room's frame (mr-register)");
+  report->SetMetric("points.written", static_cast<int64_t>(cloud.positions.size()));
+  report->SetMetric("points.in_model", static_cast<int64_t>(model.points3d.size()));
+  report->AddOutput(o.out_points.string());
+}
+
 // Every frame's pose: registered ones moved, the rest interpolated.
 Trajectory EveryFramePose(const std::map<int, Rigid3>& colmap_poses, const Similarity3& world_from_colmap,
                           int frames_wanted, Report* report) {
@@ -465,6 +491,7 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
     if (!f.empty() && !f.parent_path().empty()) fs::create_directories(f.parent_path(), ec);
   WriteTum(o.out_poses, out);
   report->AddOutput(o.out_poses.string());
+  if (!o.out_points.empty()) WritePoints(model, world_from_colmap, o, report);
   if (!o.out_camera.empty()) {
     ToCameraModel(cam).Write(o.out_camera, o.note);
     report->AddOutput(o.out_camera.string());

@@ -112,6 +112,10 @@ struct RegisterOptions {
   double max_rotation_rmse_deg = 10;
   double max_centre_median_fraction = 0.1;  // of the trajectory's extent (bounding-box diagonal)
   fs::path out_poses, out_camera;
+  // COLMAP's well-observed 3D points (mesh_fit's min_track and
+  // max_error_px), moved by the alignment, as a PLY point cloud: colours
+  // (sRGB decoded to linear) and the scalars track and error_px (mr-planes).
+  fs::path out_points;
   std::string note;  // provenance for the written camera model
 
   // UsageError naming the flag: an unknown --match, --mesh without --trajectory

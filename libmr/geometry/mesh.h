@@ -50,6 +50,7 @@ enum class BadVertices {
 
 struct MeshReadOptions {
   BadVertices nonfinite = BadVertices::kReject;
+  bool points = false;  // a point cloud: a file without faces is read (its vertices), not refused
 };
 
 // What the reader found and did; nothing is dropped without a count here.

@@ -407,7 +407,8 @@ Mesh ReadMesh(const fs::path& path, const MeshReadOptions& options, MeshReadRepo
   if (report.nonfinite_vertices)
     report.notes.push_back(fmt::format("{}: {} vertices have non-finite coordinates; dropped the {} faces using them",
                                        name, report.nonfinite_vertices, report.faces_dropped_for_nonfinite));
-  if (mesh.triangles.empty()) ThrowErrorAt(loc, "mesh has no usable triangles");
+  if (mesh.triangles.empty() && !options.points) ThrowErrorAt(loc, "mesh has no usable triangles");
+  if (mesh.positions.empty()) ThrowErrorAt(loc, "the file holds no vertices");
   if (report_out) *report_out = report;
   return mesh;
 }

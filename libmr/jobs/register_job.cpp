@@ -51,6 +51,7 @@ RegisterOptions AlignOptions(const RegisterJobOptions& o, Report* report) {
   if (!o.meshes.empty()) ro.mesh = MergedMeshes(o.meshes, report);
   if (!o.initial.empty()) ro.initial = InitialSimilarity(o.initial);
   ro.out_camera = o.camera_out;
+  ro.out_points = o.points_out;
   ro.note = "written by mr-register (" + o.command_line + ")";
   return ro;
 }

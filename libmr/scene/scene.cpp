@@ -6,6 +6,7 @@
 #include <optional>
 #include <set>
 
+#include "camera/camera_model.h"
 #include "core/error.h"
 #include "core/json_node.h"
 #include "core/json_settings.h"
@@ -76,20 +77,27 @@ Eigen::Vector3d ParseScale(const Node& n, double lo) {
   return n.Vec3(lo, kHuge);
 }
 
-// `rest_on`, when the block has it, receives its node (the placement is
-// resolved against the real meshes by RestOnTheRoom).
-Eigen::Affine3d ParseTransform(const Node& n, std::optional<Node>* rest_on = nullptr) {
+// `rest_on` and `at_pixel`, when the block has one, receive its node (the
+// placement is resolved against the real meshes by RestOnTheRoom).
+Eigen::Affine3d ParseTransform(const Node& n, std::optional<Node>* rest_on = nullptr,
+                               std::optional<Node>* at_pixel = nullptr) {
   JsonSettings s(n);
   const auto matrix = s.Take("matrix");
   const auto translation = s.Take("translation");
   const auto rotation = s.Take("rotation_deg");
   const auto scale = s.Take("scale");
   const auto rest = rest_on ? s.Take("rest_on") : std::nullopt;
+  const auto pixel = at_pixel ? s.Take("at_pixel") : std::nullopt;
   s.Done();
+  if (rest && pixel) pixel->Fail("give either rest_on or at_pixel, not both");
   if (rest) {
     if (matrix || translation) rest->Fail("give either rest_on or translation/matrix, not both");
     rest->Vec3(-kHuge, kHuge);
     *rest_on = *rest;
+  }
+  if (pixel) {
+    if (matrix || translation) pixel->Fail("give either at_pixel or translation/matrix, not both");
+    *at_pixel = *pixel;
   }
   if (matrix) {
     if (translation || rotation || scale) n.Fail("give either matrix or translation/rotation_deg/scale, not both");
@@ -332,34 +340,46 @@ SceneVirtualLight ParseVirtualLight(const Node& o, size_t i) {
   return vl;
 }
 
-// transform.rest_on: the object (its rotation and scale applied) moved so
-// that its lowest point along the world's up (lighting.up, default +y) rests
-// on the first real surface below the given point, its bounding box
-// centred on the point across up.  Needs the files (skipped unchecked).
-void RestOnTheRoom(const Node& rest_on, const Scene& scene, bool check, SceneVirtual* sv) {
-  if (!check) return;
-  const Eigen::Vector3d p = rest_on.Vec3(-kHuge, kHuge);
-  const Eigen::Vector3d up = (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
-  if (scene.reals.empty()) rest_on.Fail("there is no real mesh to rest the object on");
-  // The first real surface below p: the nearest hit of the ray p - t up, t > 0.
-  double best = std::numeric_limits<double>::infinity();
+// The nearest hit of the ray o + t d (t > 0) on the scene's real meshes:
+// its distance t and the hit triangle's unit normal; t infinite on none.
+struct RealHit {
+  double t = std::numeric_limits<double>::infinity();
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+};
+RealHit FirstRealHit(const Scene& scene, const Eigen::Vector3d& o, const Eigen::Vector3d& d) {
+  RealHit best;
   for (const SceneReal& r : scene.reals) {
     const Mesh m = ReadMesh(r.mesh);
     for (const Eigen::Vector3i& t : m.triangles) {
       const Eigen::Vector3d a = m.positions[static_cast<size_t>(t[0])].cast<double>();
       const Eigen::Vector3d e1 = m.positions[static_cast<size_t>(t[1])].cast<double>() - a;
       const Eigen::Vector3d e2 = m.positions[static_cast<size_t>(t[2])].cast<double>() - a;
-      const Eigen::Vector3d q = (-up).cross(e2);
+      const Eigen::Vector3d q = d.cross(e2);
       const double det = e1.dot(q);
       if (std::abs(det) < 1e-18) continue;
-      const Eigen::Vector3d s = p - a;
+      const Eigen::Vector3d s = o - a;
       const double u = s.dot(q) / det;
       const Eigen::Vector3d r2 = s.cross(e1);
-      const double v = (-up).dot(r2) / det;
-      const double d = e2.dot(r2) / det;
-      if (u >= 0 && v >= 0 && u + v <= 1 && d > 0 && d < best) best = d;
+      const double v = d.dot(r2) / det;
+      const double dist = e2.dot(r2) / det;
+      if (u >= 0 && v >= 0 && u + v <= 1 && dist > 0 && dist < best.t) {
+        best.t = dist;
+        best.normal = e1.cross(e2).normalized();
+      }
     }
   }
+  return best;
+}
+
+// transform.rest_on: the object (its rotation and scale applied) moved so
+// that its lowest point along the world's up (lighting.up, default +y) rests
+// on the first real surface below the given point, its bounding box
+// centred on the point across up.  Needs the files (skipped unchecked).
+void RestOnTheRoom(const Node& rest_on, const Eigen::Vector3d& p, const Scene& scene, bool check, SceneVirtual* sv) {
+  if (!check) return;
+  const Eigen::Vector3d up = (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
+  if (scene.reals.empty()) rest_on.Fail("there is no real mesh to rest the object on");
+  const double best = FirstRealHit(scene, p, -up).t;
   if (!std::isfinite(best))
     rest_on.Fail(
         fmt::format("no real surface below [{:.4g}, {:.4g}, {:.4g}] (along -up, up = [{:.3g}, {:.3g}, {:.3g}])", p.x(),
@@ -382,6 +402,46 @@ void RestOnTheRoom(const Node& rest_on, const Scene& scene, bool check, SceneVir
   sv->rests_on = hit;
 }
 
+// transform.at_pixel {frame, pixel: [x, y]}: the object stood upright on
+// the real surface seen at that pixel of that frame (the ray through it by
+// the scene's camera model and the frame's pose), as rest_on stands it on
+// the point; a surface steeper than kMaxStandDeg from level is refused.
+constexpr double kMaxStandDeg = 30;
+void StandAtPixel(const Node& at_pixel, const Scene& scene, bool check, SceneVirtual* sv) {
+  JsonSettings s(at_pixel);
+  const JsonNode frame_node = s.Require("frame");
+  const JsonNode pixel_node = s.Require("pixel");
+  s.Done();
+  const auto frame = static_cast<size_t>(frame_node.Integer(0, 10000000));
+  const std::vector<double> q = pixel_node.Numbers(2, -kHuge, kHuge);
+  if (!check) return;
+  const CameraModel camera = CameraModel::Read(scene.camera.model);
+  if (q[0] < -0.5 || q[1] < -0.5 || q[0] > camera.width() - 0.5 || q[1] > camera.height() - 0.5)
+    pixel_node.Fail(
+        fmt::format("({}, {}) is outside the camera's {}x{} image", q[0], q[1], camera.width(), camera.height()));
+  const std::vector<Rigid3> poses = LoadScenePoses(scene);
+  if (frame >= poses.size())
+    frame_node.Fail(fmt::format("frame {} has no pose (the camera has {})", frame, poses.size()));
+  Eigen::Vector3d dir;
+  if (!camera.Unproject(Eigen::Vector2d(q[0], q[1]), &dir))
+    pixel_node.Fail("the camera model cannot unproject this pixel");
+  const Rigid3& world_from_cam = poses[frame];
+  const Eigen::Vector3d o = world_from_cam.translation, d = (world_from_cam.rotation * dir).normalized();
+  if (scene.reals.empty()) at_pixel.Fail("there is no real mesh to stand the object on");
+  const RealHit hit = FirstRealHit(scene, o, d);
+  if (!std::isfinite(hit.t)) pixel_node.Fail("the ray through this pixel meets no real surface");
+  const Eigen::Vector3d up = (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
+  const double tilt = std::acos(std::min(1.0, std::abs(hit.normal.dot(up)))) * 180 / 3.14159265358979323846;
+  if (tilt > kMaxStandDeg)
+    pixel_node.Fail(
+        fmt::format("the surface seen here is {:.0f} degrees from level (a wall?): an object cannot stand "
+                    "on it (at most {:.0f})",
+                    tilt, kMaxStandDeg));
+  // A point just above the surface, so that rest_on's ray down finds it.
+  const Eigen::Vector3d p = o + hit.t * d;
+  RestOnTheRoom(at_pixel, p + 1e-4 * std::max(1.0, p.norm()) * up, scene, check, sv);
+}
+
 // A virtual object: a mesh placed by a transform or a trajectory; `names`
 // holds the names taken so far.
 SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, bool check, std::set<std::string>* names,
@@ -399,9 +459,10 @@ SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, b
   if (!names->insert(sv.name).second) (name ? *name : o).Fail(fmt::format("name \"{}\" is used twice", sv.name));
   sv.mesh = ResolveFile(mesh, base, check, "mesh");
   if (transform && trajectory) trajectory->Fail("give either transform or trajectory, not both");
-  std::optional<Node> rest_on;
-  if (transform) sv.world_from_object = ParseTransform(*transform, &rest_on);
-  if (rest_on) RestOnTheRoom(*rest_on, scene, check, &sv);
+  std::optional<Node> rest_on, at_pixel;
+  if (transform) sv.world_from_object = ParseTransform(*transform, &rest_on, &at_pixel);
+  if (rest_on) RestOnTheRoom(*rest_on, rest_on->Vec3(-kHuge, kHuge), scene, check, &sv);
+  if (at_pixel) StandAtPixel(*at_pixel, scene, check, &sv);
   if (trajectory) {
     sv.keyframes = ParseTrajectory(*trajectory);
     sv.world_from_object = sv.WorldFromObjectAt(sv.keyframes.front().frame);

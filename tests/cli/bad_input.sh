@@ -190,6 +190,13 @@ printf '# cameras\n1 PINHOLE 64 48 50 50 32 24\n' > "$d/colmap/cameras.txt"
 bad "COLMAP: empty model" 1 "colmap/images.txt: the COLMAP model has no registered images" -- "$bin/mr-register" align "$d/colmap" --trajectory "$cap/trajectory.txt" --out "$out/p.txt"
 printf '1 PINHOLE 64 48 50 50 32 24\n\001\002\033[31mred\377\376\n' > "$d/colmap/cameras.txt"
 bad "COLMAP: binary bytes not echoed" 1 "cameras.txt:2" -- "$bin/mr-register" align "$d/colmap" --trajectory "$cap/trajectory.txt" --out "$out/p.txt"
+# mr-planes: a cloud on no plane (scattered points), and a PLY with no vertices.
+{ printf 'ply\nformat ascii 1.0\nelement vertex 200\nproperty float x\nproperty float y\nproperty float z\nend_header\n'
+  for i in $(seq 0 199); do echo "$(( (i * 37) % 101 )).$((i % 7)) $(( (i * 53) % 97 )).$((i % 5)) $(( (i * 71) % 89 )).$((i % 3))"; done; } > "$d/cloud.ply"
+printf '0 0 0 0 0 0 0 1\n' > "$d/one.tum"
+bad "planes: points on no plane" 1 "the points support no plane" -- "$bin/mr-planes" "$d/cloud.ply" --poses "$d/one.tum" --out "$out/room.ply"
+printf 'ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\nproperty float z\nend_header\n' > "$d/empty.ply"
+bad "planes: no vertices" 1 "empty.ply: mesh has no vertices" -- "$bin/mr-planes" "$d/empty.ply" --poses "$d/one.tum" --out "$out/room.ply"
 mkdir -p "$d/noboard"
 cp "$cap/photos/00000.png" "$d/noboard/a.png"; cp "$cap/photos/00001.png" "$d/noboard/b.png"
 bad "calibrate: no board in view" 1 "usable views of the board" -- "$bin/mr-calibrate" camera --board "$src/calib/boards/chessboard-8x6.json" --out "$out/c.cameramodel" "$d/noboard/a.png" "$d/noboard/b.png"

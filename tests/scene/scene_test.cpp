@@ -226,6 +226,45 @@ TEST_F(SceneFiles, RestOnPutsTheObjectOnTheSurfaceBelow) {
   EXPECT_NE(ErrorOf(j).find("no real surface below"), std::string::npos) << ErrorOf(j);
 }
 
+// transform.at_pixel: the object stood on the real surface seen at a pixel
+// of a frame, through the camera model and that frame's pose.  A camera
+// 1.5 m over a table top at y = 0.7 (frame 1 of two: the first pose is
+// elsewhere), looking straight down: the pixel 100 px right of the centre
+// sees x = 0.5 + 100 / 500 * 0.8 = 0.66 on the table.  A pixel that sees the
+// wall, or nothing, is an error naming the key.
+TEST_F(SceneFiles, AtPixelStandsTheObjectOnTheSurfaceSeenThere) {
+  WriteTextFile(dir_ / "room.obj",
+                "v -5 0 -5\nv 5 0 -5\nv 5 0 5\nv -5 0 5\nv 0 0.7 0\nv 1 0.7 0\nv 1 0.7 1\nv 0 0.7 1\n"
+                "v 0.9 0 -5\nv 0.9 0 5\nv 0.9 3 5\nv 0.9 3 -5\n"
+                "f 1 3 2\nf 1 4 3\nf 5 7 6\nf 5 8 7\nf 9 10 11\nf 9 11 12\n");
+  WriteTextFile(dir_ / "box.obj", "v -1 -2 -1\nv 1 -2 -1\nv 1 0 3\nv -1 0 3\nf 1 2 3\nf 1 3 4\n");
+  CameraModel("LENSMODEL_PINHOLE", {500, 500, 319.5, 239.5}, 640, 480).Write(dir_ / "cam.cameramodel");
+  // Looking down -y: camera x = world x, camera y = world z, z forward = -y.
+  const double h = 0.5 * std::sqrt(0.5);
+  WriteTextFile(dir_ / "traj.txt", fmt::format("0 5 5 5 0 0 0 1\n1 0.5 2.2 0.5 {} 0 0 {}\n", h * 2, h * 2));
+  Json j = Valid();
+  j["real"]["mesh"] = "room.obj";
+  j["virtual"][0]["mesh"] = "box.obj";
+  j["virtual"][0]["transform"] = {{"at_pixel", {{"frame", 1}, {"pixel", {419.5, 239.5}}}}, {"scale", 0.1}};
+  Scene s = ParseScene(j, dir_.path(), "scene.json", true);
+  ASSERT_TRUE(s.virtuals[0].rests_on);
+  EXPECT_LT((*s.virtuals[0].rests_on - Eigen::Vector3d(0.5 + 0.2 * 1.5, 0.7, 0.5)).norm(), 1e-4)
+      << s.virtuals[0].rests_on->transpose();
+  // The box's bottom centre (0, -2, 1) at that point.
+  EXPECT_LT((s.virtuals[0].world_from_object * Eigen::Vector3d(0, -2, 1) - *s.virtuals[0].rests_on).norm(), 1e-3);
+  j["virtual"][0]["transform"]["at_pixel"]["pixel"] = {619.5, 239.5};  // x = 1.1: the wall at x = 0.9
+  EXPECT_NE(ErrorOf(j).find("at_pixel.pixel: the surface seen here is 90 degrees from level"), std::string::npos)
+      << ErrorOf(j);
+  j["virtual"][0]["transform"]["at_pixel"]["pixel"] = {700, 239.5};
+  EXPECT_NE(ErrorOf(j).find("outside the camera's 640x480 image"), std::string::npos) << ErrorOf(j);
+  j["virtual"][0]["transform"]["at_pixel"] = {{"frame", 0}, {"pixel", {319.5, 239.5}}};  // looks along +z, at nothing
+  EXPECT_NE(ErrorOf(j).find("meets no real surface"), std::string::npos) << ErrorOf(j);
+  j["virtual"][0]["transform"]["at_pixel"] = {{"frame", 2}, {"pixel", {319.5, 239.5}}};
+  EXPECT_NE(ErrorOf(j).find("frame 2 has no pose (the camera has 2)"), std::string::npos) << ErrorOf(j);
+  j["virtual"][0]["transform"]["rest_on"] = {0.5, 2.0, 0.5};
+  EXPECT_NE(ErrorOf(j).find("give either rest_on or at_pixel"), std::string::npos) << ErrorOf(j);
+}
+
 // A trajectory (docs/conventions.md, "Object trajectories"): keyframes by
 // frame, translation and scale linear between them, rotation slerp the
 // shorter way (350 degrees after 0 is 10 degrees back), held before the first

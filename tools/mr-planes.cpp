@@ -43,8 +43,8 @@ int main(int argc, char** argv) {
       ->delimiter(',')
       ->expected(3);
   app.add_option("--height", o.height,
-                 "Scale points and poses so the cameras' mean centre is this many metres over the support "
-                 "plane (0: the points are in metres)")
+                 "Scale points and poses so the cameras' mean centre is this many metres over the lowest level "
+                 "plane below them, the floor where one is seen (0: the points are in metres)")
       ->default_val(0);
   app.add_option("--out", o.out, "The room's mesh (PLY, albedo as vertex colours)")->required();
   app.add_option("--world", o.world,
@@ -65,6 +65,9 @@ int main(int argc, char** argv) {
   app.add_option("--snap-deg", po.snap_deg, "Planes within this of level or upright are made exactly so")
       ->default_val(po.snap_deg);
   app.add_option("--seed", po.seed, "RANSAC's seed")->default_val(po.seed);
+  app.add_flag("--keep-slanted", po.keep_slanted,
+               "Keep planes neither level nor upright (dropped by default: in a room they are mostly fits across "
+               "two surfaces)");
   app.add_option("--cell", mo.cell, "Grid spacing of the meshed planes (m)")->default_val(mo.cell);
   app.add_option("--grow", mo.grow, "Surface reaches this far from a plane's points (m)")->default_val(mo.grow);
   return mr::RunTool("mr-planes", app, argc, argv, [&] {

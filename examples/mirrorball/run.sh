@@ -75,7 +75,11 @@ cat > plate.cameramodel <<'CAM'
 CAM
 echo "0 0 0 0 0 0 0 1" > poses.txt  # the camera is the world frame
 
-# 3. The local scene, by hand: the counter is a plane 0.35 m below the camera
+# 3. The local scene, by hand (mr-planes needs points that two or more
+# views with parallax triangulate; this is one photograph, and the ball's
+# crops are blurred close-ups of the ball: docs/benchmarks.md). The objects
+# are stood on it at pixels of the plate (transform.at_pixel), so that they
+# rest on the counter exactly: the counter is a plane 0.35 m below the camera
 # (the scale is a choice: it sets the objects' size), the camera pitched
 # 26 degrees down (where the counter's edge meets the room in the ball's
 # reflection, 0.21 of its radius below the centre: 2 asin(0.21) = 24 degrees,
@@ -122,10 +126,13 @@ with open("ball.obj", "w") as out:
             c, d = a + n, b + n
             out.write("f %d %d %d\nf %d %d %d\n" % (a, b, d, a, d, c))
 R = np.stack([right, up, np.cross(right, up)], axis=1)   # object +y up
-def transform(scale, at, base):
-    M = np.eye(4); M[:3, :3] = scale * R
-    M[:3, 3] = foot + at[0] * right + at[1] * fwd - R @ np.array([0, base * scale, 0])
-    return {"matrix": [float(x) for x in M.reshape(-1)]}
+# Each object stood on the counter seen at a pixel of the plate (scene.json's
+# transform.at_pixel, along the counter's up: the world here is the camera's
+# frame, whose +y is the environment's up, not the room's).
+def standing(scale, pixel):
+    ry = math.asin(-R[2, 0]); rx = math.atan2(R[2, 1], R[2, 2]); rz = math.atan2(R[1, 0], R[0, 0])  # R = Rz Ry Rx
+    return {"at_pixel": {"frame": 0, "pixel": pixel, "up": [float(x) for x in up]},
+            "rotation_deg": [math.degrees(rx), math.degrees(ry), math.degrees(rz)], "scale": scale}
 scene = {
     "version": 1,
     "comment": "examples/mirrorball/run.sh: a bunny and a chrome ball on a real granite counter, lit by a real mirror ball",
@@ -135,9 +142,9 @@ scene = {
     "lighting": {"environment": "env.exr"},
     "real": {"mesh": "counter.obj", "material": {"albedo": [0.5, 0.5, 0.5]}},
     "virtual": [
-        {"name": "bunny", "mesh": sys.argv[1], "transform": transform(1.0, (-0.08, 0.55), 0.0334),
+        {"name": "bunny", "mesh": sys.argv[1], "transform": standing(1.0, [176, 378]),
          "material": {"albedo": [0.75, 0.72, 0.68]}},
-        {"name": "chrome", "mesh": "ball.obj", "transform": transform(0.05, (0.16, 0.45), -1.0),
+        {"name": "chrome", "mesh": "ball.obj", "transform": standing(0.05, [388, 428]),
          "material": {"albedo": [0, 0, 0], "specular": [0.9, 0.9, 0.9], "roughness": 0.02}}],
     "render": {"method": "pt", "spp": 256, "seed": 1},
     # One photograph cannot tell the granite's speckle from sensor noise

@@ -65,40 +65,20 @@ write_pipeline() {  # write_pipeline TRANSFORM_JSON
 }
 JSON
 }
-# First the room and the poses; then the bunny is placed on the fused mesh.
-write_pipeline '{"translation": [0, 0, 1.5]}'
-"$bin/mr-pipeline" "$out/pipeline.json" --until register
-transform=$(/usr/bin/python3 - "$out/work/room/room.ply" "$kitchen/gravity-direction.txt" <<'PY'
-# The bunny upright (its +y against gravity, which 7-Scenes gives in the
-# first camera's frame, the fused room's world frame), standing on the
-# up-facing surface point nearest the first image's centre, 0.8 to 2.5 m away.
-import json, sys
+# The bunny upright (its +y against gravity) on the table top seen at pixel
+# (330, 300) of the first frame (scene.json's transform.at_pixel: the ray
+# through that pixel meets the fused room; the same pixel places it on the
+# planes of examples/real/no-depth.sh).
+transform=$(/usr/bin/python3 - "$up" <<'PY'
+import json, math, sys
 import numpy as np
-# mr-fuse writes binary little-endian PLY with per-vertex normals.
-with open(sys.argv[1], "rb") as f:
-    props, count = [], 0
-    while True:
-        line = f.readline().decode("ascii").split()
-        if line[:2] == ["element", "vertex"]: count, reading = int(line[2]), True
-        elif line[:1] == ["element"]: reading = False
-        elif line[:1] == ["property"] and reading: props.append((line[2], {"float": "<f4", "uchar": "u1"}[line[1]]))
-        elif line[:1] == ["end_header"]: break
-    vert = np.frombuffer(f.read(count * np.dtype(props).itemsize), dtype=np.dtype(props), count=count)
-v = np.stack([vert["x"], vert["y"], vert["z"]], axis=1).astype(float)
-n = np.stack([vert["nx"], vert["ny"], vert["nz"]], axis=1).astype(float)
-g = np.loadtxt(sys.argv[2]); g /= np.linalg.norm(g)
-up = -g
-d = np.linalg.norm(v, axis=1)
-ok = (n @ up > 0.9) & (d > 0.8) & (d < 2.5) & (v[:, 2] > 0)
-if not ok.any(): sys.exit("no up-facing surface in front of the first camera")
-off = np.linalg.norm(v[:, :2] / v[:, 2:3], axis=1)  # distance from the image centre (tan)
-p = v[ok][np.argmin(off[ok])]
-y = up; x = np.cross(y, [0, 0, 1.0]); x /= np.linalg.norm(x); z = np.cross(x, y)
+y = np.array(json.loads(sys.argv[1])); y /= np.linalg.norm(y)
+x = np.cross(y, [0, 0, 1.0]); x /= np.linalg.norm(x); z = np.cross(x, y)
 R = np.stack([x, y, z], axis=1)   # object y -> up
-s = 1.5                           # the bunny, 23 cm tall
-t = p - R @ np.array([0, 0.0334 * s, 0])  # its base (lowest y, 0.0334 m) on the surface
-M = np.eye(4); M[:3, :3] = s * R; M[:3, 3] = t
-print(json.dumps({"matrix": [float(a) for a in M.reshape(-1)]}))
+# R = Rz Ry Rx (scene.json's rotation_deg order)
+ry = math.asin(-R[2, 0]); rx = math.atan2(R[2, 1], R[2, 2]); rz = math.atan2(R[1, 0], R[0, 0])
+print(json.dumps({"at_pixel": {"frame": 0, "pixel": [330, 300]},
+                  "rotation_deg": [math.degrees(rx), math.degrees(ry), math.degrees(rz)], "scale": 1.5}))
 PY
 )
 write_pipeline "$transform"

@@ -173,6 +173,10 @@ PlaneSet DetectPlanes(const std::vector<Eigen::Vector3d>& points, const std::vec
   for (Plane& p : found) {
     Snap(points, pool, set.up, options, &p);
     if (p.inliers.size() < needed) continue;
+    if (p.kind == "slanted" && set.up.squaredNorm() > 0 && !options.keep_slanted) {
+      set.dropped.push_back(std::move(p));  // its points stay for the planes after it
+      continue;
+    }
     if (!viewpoints.empty() && p.normal.dot(eye) < p.offset) {
       p.normal = -p.normal;
       p.offset = -p.offset;

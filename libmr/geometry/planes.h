@@ -35,6 +35,11 @@ struct PlaneOptions {
   Eigen::Vector3d up_hint = Eigen::Vector3d::Zero();
   double up_hint_deg = 45;  // a camera pitched down 35 degrees at a table is 35 off
   double snap_deg = 10;     // horizontal / vertical within this are made exact
+  // With gravity known, planes neither level nor upright (within snap_deg)
+  // are dropped unless kept: an indoor room's large surfaces are level or
+  // upright, and a tilted plane through sparse points is more often a fit
+  // across two of them (a counter's top and its front) than a ramp.
+  bool keep_slanted = false;
   uint64_t seed = 1;
 
   void Check() const;  // UsageError naming the option at fault
@@ -50,7 +55,8 @@ struct Plane {
 };
 
 struct PlaneSet {
-  std::vector<Plane> planes;  // largest first
+  std::vector<Plane> planes;   // largest first
+  std::vector<Plane> dropped;  // slanted planes left out (PlaneOptions::keep_slanted)
   Eigen::Vector3d up = Eigen::Vector3d::Zero();
   std::string up_from;  // "plane" (the largest level one), "hint" or "none"
   int points = 0, unexplained = 0;

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "camera/camera_model.h"
 #include "camera/trajectory.h"
@@ -46,11 +47,15 @@ Eigen::Vector3d MeanCentre(const Trajectory& t) {
   return c / static_cast<double>(t.poses.size());
 }
 
-// The largest level plane below `eye`, or nullptr.
+// The lowest level plane below `eye` (the floor where one is seen), or
+// nullptr.
 const Plane* SupportPlane(const PlaneSet& set, const Eigen::Vector3d& eye) {
+  const Plane* lowest = nullptr;
   for (const Plane& p : set.planes)
-    if (p.kind == "horizontal" && p.normal.dot(set.up) > 0 && p.normal.dot(eye) > p.offset) return &p;
-  return nullptr;
+    if (p.kind == "horizontal" && p.normal.dot(set.up) > 0 && p.normal.dot(eye) > p.offset &&
+        (!lowest || p.normal.dot(eye) - p.offset > lowest->normal.dot(eye) - lowest->offset))
+      lowest = &p;
+  return lowest;
 }
 
 // --height: the scale that puts the cameras' mean centre `height` metres
@@ -72,7 +77,9 @@ double ScaleForHeight(const std::vector<Eigen::Vector3d>& pts, const Trajectory&
   const PlaneSet set = DetectPlanes(pts, centres, first);
   const Plane* support = SupportPlane(set, eye);
   if (!support)
-    ThrowErrorAt(FileLoc{o.points}, "--height: no level plane below the cameras to measure the height from");
+    ThrowErrorAt(FileLoc{o.points},
+                 "--height: no level plane below the cameras to measure the height from "
+                 "(the report lists the planes found)");
   const double h = support->normal.dot(eye) - support->offset;
   if (!(h > 0)) ThrowErrorAt(FileLoc{o.points}, "--height: the cameras are on the support plane");
   report->SetMetric("scale.measured_height_units", h);
@@ -89,6 +96,7 @@ void AlbedoFromFrames(const PlanesJobOptions& o, const Trajectory& poses, Mesh* 
   scene.Commit();
   const size_t n = mesh->vertex_count();
   std::vector<std::vector<Eigen::Vector3f>> seen(n);
+  std::vector<char> oblique(n, 0);  // in some frame's view, but only beyond max_view_deg
   ImageReadOptions ro;
   ro.default_ldr_transfer = o.transfer == "linear" ? Transfer::kLinear : Transfer::kSrgb;
   int used = 0;
@@ -114,7 +122,7 @@ void AlbedoFromFrames(const PlanesJobOptions& o, const Trajectory& poses, Mesh* 
           const Eigen::Vector3d p = mesh->positions[i].cast<double>();
           const Eigen::Vector3d to_eye = eye - p;
           const double d = to_eye.norm();
-          if (!(mesh->normals[i].cast<double>().dot(to_eye) > cos_max * d)) return;
+          if (!(mesh->normals[i].cast<double>().dot(to_eye) > 0)) return;  // behind the plane
           Eigen::Vector2d q;
           if (!camera.Project(cam_from_world * p, &q)) return;
           const int x = static_cast<int>(std::lround(q.x())), y = static_cast<int>(std::lround(q.y()));
@@ -125,12 +133,18 @@ void AlbedoFromFrames(const PlanesJobOptions& o, const Trajectory& poses, Mesh* 
           ray.tnear = static_cast<float>(1e-4 * std::max(1.0, d));
           ray.tfar = static_cast<float>(d * (1 - 1e-4));
           if (scene.Occluded(ray)) return;
+          if (!(mesh->normals[i].cast<double>().dot(to_eye) > cos_max * d)) {
+            ok[i] = 2;  // in view, but too oblique
+            return;
+          }
           colour[i] = Eigen::Vector3f(img.at(x, y, 0), img.at(x, y, 1), img.at(x, y, 2));
           ok[i] = colour[i].allFinite() && colour[i].maxCoeff() < 0.999f;  // clipped views say nothing
         },
         1024);
-    for (size_t i = 0; i < n; ++i)
-      if (ok[i]) seen[i].push_back(colour[i]);
+    for (size_t i = 0; i < n; ++i) {
+      if (ok[i] == 1) seen[i].push_back(colour[i]);
+      if (ok[i] == 2) oblique[i] = 1;
+    }
     ++used;
     progress.Update(static_cast<int64_t>(f) + 1);
   }
@@ -151,8 +165,26 @@ void AlbedoFromFrames(const PlanesJobOptions& o, const Trajectory& poses, Mesh* 
   const int64_t filled = FillFromNeighbours(mesh->triangles, known, Eigen::Vector3d::Constant(0.5), &albedo, &isolated);
   mesh->colors.resize(n);
   for (size_t i = 0; i < n; ++i) mesh->colors[i] = albedo[i].cwiseMax(0).cwiseMin(1).cast<float>();
+  const auto observed = std::count(known.begin(), known.end(), true);
+  // A plane that the frames reach mostly at grazing angles only: its colour
+  // is mostly its neighbours'.
+  const std::vector<float>& plane = mesh->scalars.front().values;
+  std::map<int, std::pair<int64_t, int64_t>> reach;  // plane: (seen, in view only obliquely)
+  for (size_t i = 0; i < n; ++i) {
+    auto& r = reach[static_cast<int>(plane[i])];
+    if (known[i])
+      ++r.first;
+    else if (oblique[i])
+      ++r.second;
+  }
+  for (const auto& [pi, r] : reach)
+    if (r.second > r.first)
+      report->Warn(
+          fmt::format("albedo: plane {} is in view mostly at grazing angles: {} of its vertices are seen "
+                      "only beyond {} degrees from its normal, {} within (they give the rest their colour)",
+                      pi, r.second, o.max_view_deg, r.first));
   report->SetMetric("albedo.frames_used", used);
-  report->SetMetric("albedo.vertices_observed", static_cast<int64_t>(std::count(known.begin(), known.end(), true)));
+  report->SetMetric("albedo.vertices_observed", static_cast<int64_t>(observed));
   report->SetMetric("albedo.vertices_from_neighbours", filled);
   report->SetMetric("albedo.vertices_isolated", isolated);
 }
@@ -218,6 +250,10 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
   }
   if (room.triangles.empty())
     ThrowErrorAt(FileLoc{o.points}, "no plane kept a part with {} points (--min-points)", o.mesh.min_points);
+  if (const Plane* support = SupportPlane(set, MeanCentre(poses))) {
+    report->SetMetric("support.plane", static_cast<int>(support - set.planes.data()));
+    report->SetMetric("support.camera_height", support->normal.dot(MeanCentre(poses)) - support->offset);
+  }
   report->SetMetric("up.direction", {set.up.x(), set.up.y(), set.up.z()});
   report->SetMetric("up.from", set.up_from);
   report->SetMetric("up.from_hint_deg", std::acos(std::clamp(set.up.dot(po.up_hint), -1.0, 1.0)) / kDeg);
@@ -226,6 +262,11 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
   nlohmann::json planes = nlohmann::json::array();
   for (size_t i = 0; i < set.planes.size(); ++i) planes.push_back(PlaneJson(set.planes[i], kept[i]));
   report->SetMetric("planes", planes);
+  nlohmann::json dropped = nlohmann::json::array();
+  for (const Plane& p : set.dropped) dropped.push_back(PlaneJson(p, 0));
+  report->SetMetric("dropped_slanted", dropped);
+  if (!set.dropped.empty())
+    spdlog::info("mr-planes: {} slanted planes left out (--keep-slanted keeps them)", set.dropped.size());
   report->SetMetric("mesh.vertices", static_cast<int64_t>(room.vertex_count()));
   report->SetMetric("mesh.triangles", static_cast<int64_t>(room.triangle_count()));
   report->SetMetric("mesh.area", room.SurfaceArea());

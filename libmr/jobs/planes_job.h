@@ -23,7 +23,8 @@ struct PlanesJobOptions {
   double max_view_deg = 80;       // albedo: views more oblique than this are left out
   std::vector<double> up;         // a gravity hint (3 numbers); empty: the cameras' mean up
   // Metres from the cameras' mean centre down to the support plane (the
-  // largest level plane below them): the points and poses are scaled so
+  // lowest level plane below them: the floor where one is seen): the points
+  // and poses are scaled so
   // (a model in COLMAP's arbitrary units); 0: the points are in metres.
   double height = 0;
   // The frame of what is written: "points" (the points' and poses' own) or

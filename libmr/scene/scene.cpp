@@ -375,9 +375,13 @@ RealHit FirstRealHit(const Scene& scene, const Eigen::Vector3d& o, const Eigen::
 // that its lowest point along the world's up (lighting.up, default +y) rests
 // on the first real surface below the given point, its bounding box
 // centred on the point across up.  Needs the files (skipped unchecked).
-void RestOnTheRoom(const Node& rest_on, const Eigen::Vector3d& p, const Scene& scene, bool check, SceneVirtual* sv) {
+Eigen::Vector3d WorldUp(const Scene& scene) {
+  return (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
+}
+
+void RestOnTheRoom(const Node& rest_on, const Eigen::Vector3d& p, const Eigen::Vector3d& up, const Scene& scene,
+                   bool check, SceneVirtual* sv) {
   if (!check) return;
-  const Eigen::Vector3d up = (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
   if (scene.reals.empty()) rest_on.Fail("there is no real mesh to rest the object on");
   const double best = FirstRealHit(scene, p, -up).t;
   if (!std::isfinite(best))
@@ -402,18 +406,26 @@ void RestOnTheRoom(const Node& rest_on, const Eigen::Vector3d& p, const Scene& s
   sv->rests_on = hit;
 }
 
-// transform.at_pixel {frame, pixel: [x, y]}: the object stood upright on
-// the real surface seen at that pixel of that frame (the ray through it by
-// the scene's camera model and the frame's pose), as rest_on stands it on
-// the point; a surface steeper than kMaxStandDeg from level is refused.
+// transform.at_pixel {frame, pixel: [x, y], up}: the object stood upright
+// (along `up`, default the world's) on the real surface seen at that pixel
+// of that frame (the ray through it by the scene's camera model and the
+// frame's pose), as rest_on stands it on the point; a surface steeper than
+// kMaxStandDeg from level is refused.
 constexpr double kMaxStandDeg = 30;
 void StandAtPixel(const Node& at_pixel, const Scene& scene, bool check, SceneVirtual* sv) {
   JsonSettings s(at_pixel);
   const JsonNode frame_node = s.Require("frame");
   const JsonNode pixel_node = s.Require("pixel");
+  const auto up_node = s.Take("up");
   s.Done();
   const auto frame = static_cast<size_t>(frame_node.Integer(0, 10000000));
   const std::vector<double> q = pixel_node.Numbers(2, -kHuge, kHuge);
+  Eigen::Vector3d up = WorldUp(scene);
+  if (up_node) {
+    up = up_node->Vec3(-kHuge, kHuge);
+    if (!(up.norm() > 0)) up_node->Fail("up must not be zero");
+    up.normalize();
+  }
   if (!check) return;
   const CameraModel camera = CameraModel::Read(scene.camera.model);
   if (q[0] < -0.5 || q[1] < -0.5 || q[0] > camera.width() - 0.5 || q[1] > camera.height() - 0.5)
@@ -430,7 +442,6 @@ void StandAtPixel(const Node& at_pixel, const Scene& scene, bool check, SceneVir
   if (scene.reals.empty()) at_pixel.Fail("there is no real mesh to stand the object on");
   const RealHit hit = FirstRealHit(scene, o, d);
   if (!std::isfinite(hit.t)) pixel_node.Fail("the ray through this pixel meets no real surface");
-  const Eigen::Vector3d up = (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
   const double tilt = std::acos(std::min(1.0, std::abs(hit.normal.dot(up)))) * 180 / 3.14159265358979323846;
   if (tilt > kMaxStandDeg)
     pixel_node.Fail(
@@ -439,7 +450,7 @@ void StandAtPixel(const Node& at_pixel, const Scene& scene, bool check, SceneVir
                     tilt, kMaxStandDeg));
   // A point just above the surface, so that rest_on's ray down finds it.
   const Eigen::Vector3d p = o + hit.t * d;
-  RestOnTheRoom(at_pixel, p + 1e-4 * std::max(1.0, p.norm()) * up, scene, check, sv);
+  RestOnTheRoom(at_pixel, p + 1e-4 * std::max(1.0, p.norm()) * up, up, scene, check, sv);
 }
 
 // A virtual object: a mesh placed by a transform or a trajectory; `names`
@@ -461,7 +472,7 @@ SceneVirtual ParseVirtualObject(const Node& o, size_t i, const fs::path& base, b
   if (transform && trajectory) trajectory->Fail("give either transform or trajectory, not both");
   std::optional<Node> rest_on, at_pixel;
   if (transform) sv.world_from_object = ParseTransform(*transform, &rest_on, &at_pixel);
-  if (rest_on) RestOnTheRoom(*rest_on, rest_on->Vec3(-kHuge, kHuge), scene, check, &sv);
+  if (rest_on) RestOnTheRoom(*rest_on, rest_on->Vec3(-kHuge, kHuge), WorldUp(scene), scene, check, &sv);
   if (at_pixel) StandAtPixel(*at_pixel, scene, check, &sv);
   if (trajectory) {
     sv.keyframes = ParseTrajectory(*trajectory);

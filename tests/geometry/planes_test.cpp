@@ -128,3 +128,35 @@ TEST(Planes, WithoutAHintNothingIsTurned) {
 
 }  // namespace
 }  // namespace mr
+
+namespace mr {
+namespace {
+
+// A ramp tilted 30 degrees among the level and upright planes: left out by
+// default (listed as dropped), kept when asked.
+TEST(Planes, SlantedPlanesAreDroppedUnlessKept) {
+  SparseRoom room = MakeRoom(9);
+  Pcg32 rng(4);
+  const double t = 30 * kDeg;
+  for (int i = 0; i < 400; ++i) {
+    const double u = rng.NextDouble(), v = rng.NextDouble();
+    room.points.push_back(room.world_from_room *
+                          Eigen::Vector3d(0.6 + 0.6 * u, 0.1 + 0.6 * v * std::sin(t), 0.5 + 0.6 * v * std::cos(t)));
+  }
+  PlaneOptions o;
+  o.up_hint = room.world_from_room.col(1);
+  const PlaneSet dropped = DetectPlanes(room.points, {}, o);
+  ASSERT_EQ(dropped.dropped.size(), 1u);
+  EXPECT_EQ(dropped.dropped[0].kind, "slanted");
+  EXPECT_EQ(dropped.planes.size(), 3u);
+  o.keep_slanted = true;
+  const PlaneSet kept = DetectPlanes(room.points, {}, o);
+  EXPECT_TRUE(kept.dropped.empty());
+  ASSERT_EQ(kept.planes.size(), 4u);
+  int slanted = 0;
+  for (const Plane& p : kept.planes) slanted += p.kind == "slanted";
+  EXPECT_EQ(slanted, 1);
+}
+
+}  // namespace
+}  // namespace mr

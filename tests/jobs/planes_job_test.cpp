@@ -109,6 +109,34 @@ TEST_F(PlanesJob, PlanesAndTheirColoursFromTheFrames) {
   EXPECT_GT(table, 100);
   EXPECT_GT(floor, 100);
   EXPECT_GT(m["albedo"]["vertices_observed"].get<int64_t>(), 0);
+  EXPECT_TRUE(report.warnings().empty());
+}
+
+// A floor seen only at grazing angles (cameras 0.1 m over it, looking level
+// at the wall): its plane is still found from its points, but the frames see
+// only a strip of it within 80 degrees of its normal (0.25 to 0.57 m ahead),
+// so most of its vertices take their neighbours' colour and the report
+// warns.  (The frames' content does not matter here, only which vertices
+// the views reach.)
+TEST_F(PlanesJob, APlaneSeenAtGrazingAnglesIsFoundAndItsColourReportedUnseen) {
+  Trajectory poses;
+  for (int f = 0; f < 3; ++f)  // looking along -z, level: x right, y down
+    poses.poses.push_back(
+        {static_cast<double>(f), Rigid3(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitX())),
+                                        Eigen::Vector3d(-0.3 + 0.3 * f, 0.1, 1.2))});
+  WriteTum(dir_ / "level.tum", poses);
+  PlanesJobOptions o = options_;
+  o.poses = (dir_ / "level.tum").string();
+  o.up = {0, 1, 0};
+  Report report;
+  RunPlanes(o, &report);
+  const nlohmann::json& m = report.metrics();
+  ASSERT_GE(m["planes"].size(), 2u);
+  EXPECT_EQ(m["planes"][0]["kind"], "horizontal");  // the floor, most points
+  EXPECT_NEAR(m["planes"][0]["offset"].get<double>(), 0, 0.002);
+  ASSERT_EQ(report.warnings().size(), 1u);
+  EXPECT_NE(report.warnings()[0].find("plane 0 is in view mostly at grazing angles"), std::string::npos)
+      << report.warnings()[0];
 }
 
 // A model in COLMAP's units (0.37 of a metre, turned, moved): --height 1.6

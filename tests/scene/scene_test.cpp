@@ -252,7 +252,13 @@ TEST_F(SceneFiles, AtPixelStandsTheObjectOnTheSurfaceSeenThere) {
       << s.virtuals[0].rests_on->transpose();
   // The box's bottom centre (0, -2, 1) at that point.
   EXPECT_LT((s.virtuals[0].world_from_object * Eigen::Vector3d(0, -2, 1) - *s.virtuals[0].rests_on).norm(), 1e-3);
+  // Stood along another up: the wall is then the floor (up = -x, towards the camera's side).
   j["virtual"][0]["transform"]["at_pixel"]["pixel"] = {619.5, 239.5};  // x = 1.1: the wall at x = 0.9
+  j["virtual"][0]["transform"]["at_pixel"]["up"] = {-1, 0, 0};
+  s = ParseScene(j, dir_.path(), "scene.json", true);
+  ASSERT_TRUE(s.virtuals[0].rests_on);
+  EXPECT_NEAR(s.virtuals[0].rests_on->x(), 0.9, 1e-6);
+  j["virtual"][0]["transform"]["at_pixel"].erase("up");
   EXPECT_NE(ErrorOf(j).find("at_pixel.pixel: the surface seen here is 90 degrees from level"), std::string::npos)
       << ErrorOf(j);
   j["virtual"][0]["transform"]["at_pixel"]["pixel"] = {700, 239.5};

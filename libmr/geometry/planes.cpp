@@ -136,7 +136,8 @@ PlaneSet DetectPlanes(const std::vector<Eigen::Vector3d>& points, const std::vec
   std::vector<int> pool(points.size());
   std::iota(pool.begin(), pool.end(), 0);
   std::vector<Plane> found;
-  while (static_cast<int>(found.size()) < options.max_planes && pool.size() >= needed) {
+  // Twice the planes kept are looked for: slanted ones may be dropped below.
+  while (static_cast<int>(found.size()) < 2 * options.max_planes && pool.size() >= needed) {
     Plane p = RansacPlane(points, pool, options, static_cast<int>(found.size()));
     if (p.inliers.size() < needed) break;
     pool = Without(pool, p.inliers);
@@ -171,6 +172,7 @@ PlaneSet DetectPlanes(const std::vector<Eigen::Vector3d>& points, const std::vec
   for (const Eigen::Vector3d& v : viewpoints) eye += v;
   if (!viewpoints.empty()) eye /= static_cast<double>(viewpoints.size());
   for (Plane& p : found) {
+    if (static_cast<int>(set.planes.size()) == options.max_planes) break;
     Snap(points, pool, set.up, options, &p);
     if (p.inliers.size() < needed) continue;
     if (p.kind == "slanted" && set.up.squaredNorm() > 0 && !options.keep_slanted) {

@@ -28,8 +28,8 @@ struct PlaneOptions {
   double distance = 0.02;      // inlier distance, in the points' units
   int min_points = 60;         // a plane (and each part of it) needs this many inliers
   double min_fraction = 0.02;  // ... and this fraction of all the points
-  int max_planes = 8;
-  int hypotheses = 3000;  // RANSAC hypotheses per plane
+  int max_planes = 8;          // kept (slanted ones dropped do not count)
+  int hypotheses = 3000;       // RANSAC hypotheses per plane
   // Gravity: the hint (any length; zero: none, no plane is turned) and how
   // far from it the plane that fixes `up` may be.
   Eigen::Vector3d up_hint = Eigen::Vector3d::Zero();

@@ -241,6 +241,53 @@ TEST(AlignColmapModel, RefusesAModelThatDoesNotFit) {
   EXPECT_FALSE(fs::exists(dir / "poses.txt"));  // nothing written
 }
 
+// Without a trajectory a model is unchecked, but a video's camera moves
+// smoothly: a model whose steps jump to 3x the median between two frames
+// (its scale folds there) is warned of; a smooth one is not.  And the points
+// are written moved by the alignment (here: none, COLMAP's frame).
+TEST(AlignColmapModel, WarnsOfAModelWhoseScaleFoldsWithoutATrajectory) {
+  test::TempDir dir;
+  auto make = [&](double jump) {
+    ColmapModel model;
+    model.cameras[1] = ColmapCamera{1, "PINHOLE", 160, 120, {150, 151, 79.5, 59.5}};
+    double x = 0;
+    for (int f = 0; f < 10; ++f) {
+      x += (f == 5 ? jump : 1.0) * 0.1;
+      ColmapImage im;
+      im.id = f + 1;
+      im.camera_id = 1;
+      im.name = fmt::format("{:05d}.png", f);
+      im.cam_from_world = Rigid3(Eigen::Quaterniond::Identity(), Eigen::Vector3d(x, 0, 0)).Inverse();
+      model.images[im.id] = im;
+    }
+    ColmapPoint3D p;
+    p.id = 1;
+    p.xyz = Eigen::Vector3d(1, 2, 3);
+    p.rgb[0] = 255;
+    p.error = 0.5;
+    p.track = {{1, 0}, {2, 0}, {3, 0}};
+    model.points3d[1] = p;
+    return model;
+  };
+  RegisterOptions o;
+  o.out_poses = dir / "poses.txt";
+  o.out_points = dir / "points.ply";
+  Report smooth;
+  AlignColmapModel(make(1.0), o, &smooth);
+  EXPECT_TRUE(smooth.warnings().empty());
+  EXPECT_NEAR(smooth.metrics()["model"]["step_ratio_max"].get<double>(), 1.0, 1e-6);
+  MeshReadOptions read;
+  read.points = true;
+  const Mesh cloud = ReadMesh(dir / "points.ply", read);
+  ASSERT_EQ(cloud.vertex_count(), 1u);
+  EXPECT_TRUE(cloud.positions[0].isApprox(Eigen::Vector3f(1, 2, 3)));
+  EXPECT_NEAR(cloud.colors[0].x(), 1.0, 1e-6);
+  Report folded;
+  AlignColmapModel(make(3.0), o, &folded);
+  ASSERT_EQ(folded.warnings().size(), 1u);
+  EXPECT_NE(folded.warnings()[0].find("after frame 5 is 3.0x the median"), std::string::npos) << folded.warnings()[0];
+}
+
 TEST(RunColmap, RealKitchenFramesAlignToTheirPoses) {
   const auto data = test::SharedData("rgbd-7scenes-kitchen");
   if (data.empty()) return;

@@ -122,7 +122,8 @@ TEST(Registration, ATexturelessFrameSaysSo) {
 
 // The swim: a point whose projection the poses move exactly as the plate's
 // content moved has none; one the poses hold still while the plate moves
-// swims by the plate's motion.
+// swims by the plate's motion; an exposure jump between the frames changes
+// neither.
 TEST(Registration, SwimIsThePosesMotionLessThePlates) {
   const int w = 320, h = 240;
   const FlowField flow = MatchImages(Texture(w, h, 0, 0, Eigen::Vector3d::Ones(), 0),
@@ -131,6 +132,13 @@ TEST(Registration, SwimIsThePosesMotionLessThePlates) {
   EXPECT_LT(Swim(flow, at, at + Eigen::Vector2d(3, 1)), 0.1);
   EXPECT_NEAR(Swim(flow, at, at), std::hypot(3.0, 1.0), 0.1);
   EXPECT_TRUE(std::isnan(Swim(flow, Eigen::Vector2d(-5, 10), at)));
+  // An exposure jump between the two plate frames (2.5x brighter, tinted:
+  // auto exposure catching up) changes nothing: the flow compares locally
+  // normalised images.
+  const FlowField jump = MatchImages(Texture(w, h, 0, 0, Eigen::Vector3d::Ones(), 0),
+                                     Texture(w, h, 3, 1, Eigen::Vector3d(2.5, 2.3, 2.0), 0.02), nullptr);
+  EXPECT_LT(Swim(jump, at, at + Eigen::Vector2d(3, 1)), 0.1);
+  EXPECT_NEAR(Swim(jump, at, at), std::hypot(3.0, 1.0), 0.1);
 }
 
 // A box room whose walls carry a texture in world coordinates, "rendered"

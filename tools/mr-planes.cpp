@@ -48,10 +48,11 @@ int main(int argc, char** argv) {
       ->default_val(0);
   app.add_option("--out", o.out, "The room's mesh (PLY, albedo as vertex colours)")->required();
   app.add_option("--world", o.world,
-                 "Frame of the outputs: points (the input's) or first-camera (the first pose's camera frame, "
-                 "as mr-fuse's room; --up is then in the input's frame)")
+                 "Frame of the outputs: points (the input's), first-camera (the first pose's camera frame, "
+                 "as mr-fuse's room) or gravity (that frame turned so that up is +y, the scene's default up); "
+                 "--up is in the input's frame")
       ->default_val("points")
-      ->check(CLI::IsMember({"points", "first-camera"}));
+      ->check(CLI::IsMember({"points", "first-camera", "gravity"}));
   app.add_option("--poses-out", o.poses_out, "The poses as written (scaled by --height, moved by --world)");
   app.add_option("--distance", po.distance, "Inlier distance to a plane (m)")->default_val(po.distance);
   app.add_option("--min-points", po.min_points, "Points a plane and each of its parts needs")

@@ -31,9 +31,10 @@ void PlanesJobOptions::Check() const {
                       Eigen::Vector3d(up[0], up[1], up[2]).norm() == 0))
     throw UsageError("--up: three numbers, not all zero");
   if (!(height >= 0 && std::isfinite(height))) throw UsageError("--height must be 0 (none) or positive");
-  if (world != "points" && world != "first-camera") throw UsageError("--world: points or first-camera");
+  if (world != "points" && world != "first-camera" && world != "gravity")
+    throw UsageError("--world: points, first-camera or gravity");
   if ((height > 0 || world != "points") && poses_out.empty())
-    throw UsageError("--height and --world first-camera move the poses: give --poses-out");
+    throw UsageError("--height and --world first-camera or gravity move the poses: give --poses-out");
   if (!(mesh.cell > 0) || !(mesh.grow >= 0)) throw UsageError("--cell must be positive and --grow not negative");
 }
 
@@ -189,6 +190,25 @@ void AlbedoFromFrames(const PlanesJobOptions& o, const Trajectory& poses, Mesh* 
   report->SetMetric("albedo.vertices_isolated", isolated);
 }
 
+// --world gravity: the first camera's frame turned about its centre so that
+// up is +y, its right (x) made level: x right, y up, z towards the viewer
+// (the environment's default up, docs/conventions.md).
+void TurnToGravity(PlaneSet* set, std::vector<Eigen::Vector3d>* pts, Trajectory* poses) {
+  const Eigen::Vector3d up = set->up;
+  Eigen::Vector3d right = poses->poses.front().world_from_cam.rotation * Eigen::Vector3d::UnitX();
+  right = (right - right.dot(up) * up).normalized();
+  Eigen::Matrix3d r;  // rows: the new axes in the old frame
+  r.row(0) = right.transpose();
+  r.row(1) = up.transpose();
+  r.row(2) = right.cross(up).transpose();
+  const Eigen::Quaterniond q(r);
+  for (Eigen::Vector3d& p : *pts) p = q * p;
+  for (TimedPose& p : poses->poses) p.world_from_cam = Rigid3(q, Eigen::Vector3d::Zero()) * p.world_from_cam;
+  for (std::vector<Plane>* list : {&set->planes, &set->dropped})
+    for (Plane& p : *list) p.normal = q * p.normal;  // offsets: the turn is about the origin
+  set->up = Eigen::Vector3d::UnitY();
+}
+
 nlohmann::json PlaneJson(const Plane& p, int kept) {
   return {{"kind", p.kind},          {"normal", {p.normal.x(), p.normal.y(), p.normal.z()}},
           {"offset", p.offset},      {"inliers", p.inliers.size()},
@@ -210,7 +230,7 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
   if (poses.poses.empty()) ThrowErrorAt(FileLoc{o.poses}, "no poses");
   report->AddInput(o.poses);
   Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();  // the input's frame to the output's
-  if (o.world == "first-camera") {
+  if (o.world != "points") {
     const Rigid3 cam0_from_world = poses.poses.front().world_from_cam.Inverse();
     turn = cam0_from_world.rotation;
     for (Eigen::Vector3d& p : pts) p = cam0_from_world * p;
@@ -242,6 +262,8 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
     ScopedTimer t(report, "planes");
     set = DetectPlanes(pts, centres, po);
   }
+  const double from_hint_deg = std::acos(std::clamp(set.up.dot(po.up_hint), -1.0, 1.0)) / kDeg;
+  if (o.world == "gravity") TurnToGravity(&set, &pts, &poses);
   std::vector<int> kept;
   Mesh room;
   {
@@ -256,7 +278,7 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
   }
   report->SetMetric("up.direction", {set.up.x(), set.up.y(), set.up.z()});
   report->SetMetric("up.from", set.up_from);
-  report->SetMetric("up.from_hint_deg", std::acos(std::clamp(set.up.dot(po.up_hint), -1.0, 1.0)) / kDeg);
+  report->SetMetric("up.from_hint_deg", from_hint_deg);
   report->SetMetric("points.total", set.points);
   report->SetMetric("points.unexplained", set.unexplained);
   nlohmann::json planes = nlohmann::json::array();
@@ -286,8 +308,7 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
     report->AddOutput(o.poses_out);
   }
   spdlog::info("mr-planes: {} planes (up from {}, {:.1f} deg from the hint), {} of {} points unexplained, {:.2f} m2",
-               set.planes.size(), set.up_from, std::acos(std::clamp(set.up.dot(po.up_hint), -1.0, 1.0)) / kDeg,
-               set.unexplained, set.points, room.SurfaceArea());
+               set.planes.size(), set.up_from, from_hint_deg, set.unexplained, set.points, room.SurfaceArea());
   for (size_t i = 0; i < set.planes.size(); ++i) {
     const Plane& p = set.planes[i];
     spdlog::info(

@@ -27,9 +27,10 @@ struct PlanesJobOptions {
   // and poses are scaled so
   // (a model in COLMAP's arbitrary units); 0: the points are in metres.
   double height = 0;
-  // The frame of what is written: "points" (the points' and poses' own) or
+  // The frame of what is written: "points" (the points' and poses' own),
   // "first-camera" (the first pose's camera frame, as mr-fuse's room: x
-  // right, y down, z forward; the report's up is in it).
+  // right, y down, z forward; the report's up is in it) or "gravity" (that
+  // frame turned so that up is +y, x level: scene.json's default up).
   std::string world = "points";
   std::string out;        // the room's mesh (PLY, albedo as vertex colours)
   std::string poses_out;  // the poses, scaled and moved (needed with height or world first-camera)

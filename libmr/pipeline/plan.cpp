@@ -49,7 +49,7 @@ struct PlateSphereBlock {
   OptNode centre, radius, reflectance, options;
 };
 struct RoomBlock {
-  OptNode real, rgbd, options;
+  OptNode real, rgbd, planes, options;
 };
 struct VideoBlock {
   OptNode frames, frames_transfer, exposure, response, gains, poses, refine_poses;
@@ -187,6 +187,7 @@ struct Plan {
   // The room (fuse).
   RoomBlock room;
   fs::path fused_mesh, fused_trajectory;
+  fs::path colmap_poses, points;  // room.planes: the register stage's, in COLMAP's frame
   // The video, its camera section and the plate's gains (register).
   VideoBlock video;
   Json camera;
@@ -475,11 +476,19 @@ void AddDelightingMap(Plan& st, const std::vector<std::string>& opts, PipelineSt
 void PlanFuse(Plan& st, PipelineStage& s) {
   const Node& room_node = Need(st.r.room, st.root, "room");
   JsonSettings rs(room_node);
-  st.room = {.real = rs.Take("real"), .rgbd = rs.Take("rgbd"), .options = rs.Take("options")};
+  st.room = {
+      .real = rs.Take("real"), .rgbd = rs.Take("rgbd"), .planes = rs.Take("planes"), .options = rs.Take("options")};
   rs.Done();
   const RoomBlock& room = st.room;
-  if (room.real.has_value() == room.rgbd.has_value())
-    room_node.Fail("give either room.real (meshes) or room.rgbd (a recording to fuse)");
+  if (room.real.has_value() + room.rgbd.has_value() + room.planes.has_value() != 1)
+    room_node.Fail(
+        "give one of room.real (meshes), room.rgbd (a recording to fuse) or room.planes (the planes of the "
+        "video's own points)");
+  if (room.planes) {
+    if (room.options) room.options->Fail("room.planes takes its options inside it: {\"height\", \"options\"}");
+    s.skip = "room.planes: the room is the planes of the video's own points (the planes stage)";
+    return;
+  }
   if (room.real) {
     const Node& r = *room.real;
     Json reals = Json::array();
@@ -684,17 +693,71 @@ void PlanRegister(Plan& st, PipelineStage& s) {
       if (!video.frames) node.Fail("registration needs video.frames");
       AddColmap(st, *ps.register_, s);
     }
-    AddAlignment(st, node, ps, s);
+    if (st.room.planes) {  // no room yet to align to: COLMAP's frame, its points kept for the planes
+      st.colmap_poses = st.poses;
+      st.points = st.w / "video" / "points.ply";
+      Append(&s.args, {"--points-out", st.points.string()});
+      s.does = "the video's frames registered by COLMAP, its poses and points kept in COLMAP's frame for the planes";
+    } else {
+      AddAlignment(st, node, ps, s);
+    }
     Append(&s.args, {"--out", st.poses.string(), "--camera-out", model_out.string()});
     Append(&s.args, st.pl.Options(ps.options));
     s.outputs = {st.poses, model_out};
+    if (st.room.planes) {
+      s.outputs.push_back(st.points);
+      st.poses = st.w / "room" / "poses.txt";  // the planes stage's, scaled and turned to gravity
+    }
   }
+  if (st.room.planes && st.colmap_poses.empty())
+    node.Fail("room.planes needs the video registered here: video.poses \"register\" or \"colmap\"");
   if (!st.poses.empty()) st.camera["poses"] = {{"format", "tum"}, {"path", st.pl.Rel(st.poses)}};
   st.scene["camera"] = st.camera;
   if (!st.refined_poses.empty()) {
     if (st.poses.empty()) video.refine_poses->Fail("refining the poses needs the video's poses (video.poses)");
     st.p->refined_poses = st.pl.Rel(st.refined_poses);
   }
+}
+
+// room.planes: the planes that COLMAP's points of the video support, in
+// metres by the cameras' height over the floor (`height`), turned to
+// gravity (+y up, the scene's default), albedo from the frames (mr-planes).
+void PlanPlanes(Plan& st, PipelineStage& s) {
+  if (!st.room.planes) {
+    s.skip = "room.planes is not given";
+    return;
+  }
+  const Node& block = *st.room.planes;
+  JsonSettings ps(block);
+  const auto height = ps.Take("height");
+  const auto options = ps.Take("options");
+  ps.Done();
+  const double h = Need(height, block, "height").Number(0.01, 1000);
+  const fs::path frames = st.pl.Pattern(*st.video.frames, "video frames");
+  const fs::path mesh = st.w / "room" / "room.ply";
+  s.args = {st.points.string(),
+            "--poses",
+            st.colmap_poses.string(),
+            "--camera",
+            st.camera_model.string(),
+            "--frames",
+            frames.string(),
+            "--height",
+            fmt::format("{}", h),
+            "--world",
+            "gravity",
+            "--poses-out",
+            st.poses.string(),
+            "--out",
+            mesh.string()};
+  if (st.video.frames_transfer && st.video.frames_transfer->String() == "linear")
+    Append(&s.args, {"--frames-transfer", "linear"});
+  Append(&s.args, st.pl.Options(options));
+  s.inputs = {st.points, st.colmap_poses, st.camera_model,
+              frames.string().find('%') != std::string::npos ? frames.parent_path() : frames};
+  s.outputs = {mesh, st.poses};
+  s.does = "the room as the planes of the video's own points (RANSAC, turned to gravity, albedo from the frames)";
+  st.scene["real"] = Json::array({{{"mesh", st.pl.Rel(mesh)}, {"material", {{"albedo_from_vertex_colors", true}}}}});
 }
 
 // The mirror sphere in the plate: each frame's sphere pixels unwrapped from
@@ -993,6 +1056,7 @@ const std::vector<StageDef>& Stages() {
       {"probe", "mr-probe", PlanProbe},
       {"fuse", "mr-fuse", PlanFuse},
       {"register", "mr-register", PlanRegister},
+      {"planes", "mr-planes", PlanPlanes},
       {"plate_probe", "mr-probe", PlanPlateProbe},
       {"lights", "mr-lights", PlanLights},
       {"formfactor", "mr-formfactor", PlanFormfactor},

@@ -173,6 +173,22 @@ TEST_F(PlanesJob, HeightScalesAModelWithoutUnits) {
   for (const auto& p : m["planes"])
     if (p["kind"] == "horizontal" && std::abs(p["offset"].get<double>() + 0.85) < 0.01) found_table = true;
   EXPECT_TRUE(found_table) << m["planes"].dump();
+  // --world gravity: the same, turned so that up is +y (the floor's normal
+  // exactly), the first camera's right level.
+  o.world = "gravity";
+  Report turned;
+  RunPlanes(o, &turned);
+  const nlohmann::json& g = turned.metrics();
+  EXPECT_EQ(g["up"]["direction"], nlohmann::json({0.0, 1.0, 0.0}));
+  found_table = false;
+  for (const auto& p : g["planes"])
+    if (p["kind"] == "horizontal" && std::abs(p["offset"].get<double>() + 0.85) < 0.01 &&
+        std::abs(p["normal"][1].get<double>() - 1) < 1e-9)
+      found_table = true;
+  EXPECT_TRUE(found_table) << g["planes"].dump();
+  const Trajectory level = ReadTum(dir_ / "poses-out.tum");
+  // The cameras have no roll: the first one's right is level to the floor fit's accuracy (1e-4 rad).
+  EXPECT_NEAR((level.poses[0].world_from_cam.rotation * Eigen::Vector3d::UnitX()).y(), 0, 1e-4);
   // Bad options name their flag.
   o.poses_out.clear();
   EXPECT_THROW(RunPlanes(o, &report), UsageError);

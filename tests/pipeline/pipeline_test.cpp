@@ -55,7 +55,8 @@ TEST(PlanPipeline, LeavesOutWhatTheInputsDoNotNeed) {
     "virtual": [{"mesh": "ball.ply"}], "render": {"method": "prt"}})");
   const Pipeline p = PlanPipeline(dir / "p.json");
   ASSERT_EQ(p.stages.size(), PipelineStageNames().size());
-  for (const char* s : {"calibrate", "sphere", "hdr", "probe", "lights", "fuse", "register", "radiometry", "sweep"})
+  for (const char* s :
+       {"calibrate", "sphere", "hdr", "probe", "lights", "fuse", "register", "planes", "radiometry", "sweep"})
     EXPECT_FALSE(Stage(p, s).skip.empty()) << s;
   for (const char* s : {"formfactor", "scene", "render"}) EXPECT_TRUE(Stage(p, s).skip.empty()) << s;
   EXPECT_EQ(Stage(p, "formfactor").tool, "mr-formfactor");  // prt needs form factors
@@ -152,6 +153,75 @@ TEST(PlanPipeline, CapturesTheLightFromALightVideo) {
     "room": {"real": {"mesh": "room.ply"}}, "video": {"poses": {"tum": "poses.txt"}},
     "virtual": [{"mesh": "ball.ply"}]})");
   EXPECT_THROW(PlanPipeline(dir / "q.json"), Error);
+}
+
+// room.planes: the room from the video's own points.  register keeps
+// COLMAP's frame (no room to align to) and its points; planes turns them into
+// the room in metres, turned to gravity, and the scene takes its mesh (albedo
+// from its vertex colours) and its poses.  Without registration here, or
+// without a height, an error naming the key.
+TEST(PlanPipeline, ARoomFromTheVideosOwnPoints) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "env.exr", "poses.txt", "ball.ply"}) WriteTextFile(dir / f, "x");
+  fs::create_directories(dir / "video");
+  WriteTextFile(dir / "p.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"}, "lighting": {"environment": "env.exr"},
+    "room": {"planes": {"height": 1.4, "options": {"cell": 0.03}}},
+    "video": {"frames": "video/%05d.jpg", "poses": {"register": {"matcher": "exhaustive"}}},
+    "virtual": [{"mesh": "ball.ply", "transform": {"at_pixel": {"frame": 0, "pixel": [320, 300]}}}],
+    "render": {"method": "pt"}})");
+  const Pipeline p = PlanPipeline(dir / "p.json");
+  const fs::path work = dir.path() / "work";
+  EXPECT_NE(Stage(p, "fuse").skip.find("room.planes"), std::string::npos);
+  const PipelineStage& reg = Stage(p, "register");
+  ASSERT_TRUE(reg.skip.empty());
+  EXPECT_EQ(std::count(reg.args.begin(), reg.args.end(), "--trajectory"), 0);
+  EXPECT_NE(std::find(reg.args.begin(), reg.args.end(), (work / "video" / "points.ply").string()), reg.args.end());
+  const PipelineStage& planes = Stage(p, "planes");
+  ASSERT_TRUE(planes.skip.empty()) << planes.skip;
+  const std::vector<std::string> want = {(work / "video" / "points.ply").string(),
+                                         "--poses",
+                                         (work / "video" / "poses.txt").string(),
+                                         "--camera",
+                                         (dir.path() / "cam.cameramodel").string(),
+                                         "--frames",
+                                         (dir.path() / "video" / "%05d.jpg").string(),
+                                         "--height",
+                                         "1.4",
+                                         "--world",
+                                         "gravity",
+                                         "--poses-out",
+                                         (work / "room" / "poses.txt").string(),
+                                         "--out",
+                                         (work / "room" / "room.ply").string(),
+                                         "--cell",
+                                         "0.03"};
+  EXPECT_EQ(planes.args, want);
+  EXPECT_EQ(p.scene["real"][0]["mesh"], "room/room.ply");
+  EXPECT_EQ(p.scene["real"][0]["material"]["albedo_from_vertex_colors"], true);
+  EXPECT_EQ(p.scene["camera"]["poses"]["path"], "room/poses.txt");
+  const auto& names = PipelineStageNames();
+  auto at = [&](const char* n) { return std::find(names.begin(), names.end(), n) - names.begin(); };
+  EXPECT_LT(at("register"), at("planes"));
+  EXPECT_LT(at("planes"), at("lights"));
+  auto error = [&](const std::string& text) {
+    WriteTextFile(dir / "q.json", text);
+    try {
+      PlanPipeline(dir / "q.json");
+    } catch (const Error& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error(R"({"version": 1, "camera": {"model": "cam.cameramodel"}, "lighting": {"environment": "env.exr"},
+    "room": {"planes": {"height": 1.4}}, "video": {"poses": {"tum": "poses.txt"}}, "virtual": [{"mesh": "ball.ply"}]})")
+                .find("room.planes needs the video registered here"),
+            std::string::npos);
+  EXPECT_NE(error(R"({"version": 1, "camera": {"model": "cam.cameramodel"}, "lighting": {"environment": "env.exr"},
+    "room": {"planes": {}}, "video": {"frames": "video/%05d.jpg", "poses": {"register": true}},
+    "virtual": [{"mesh": "ball.ply"}]})")
+                .find("height"),
+            std::string::npos);
 }
 
 // The mirror sphere in the plate: plate_probe runs after the plate's poses

@@ -66,6 +66,9 @@ int main(int argc, char** argv) {
   app.add_option("--snap-deg", po.snap_deg, "Planes within this of level or upright are made exactly so")
       ->default_val(po.snap_deg);
   app.add_option("--seed", po.seed, "RANSAC's seed")->default_val(po.seed);
+  app.add_option("--merge-distance", po.merge_distance,
+                 "Level (or upright, same-facing) planes closer than this (m) are one surface: merged (0: never)")
+      ->default_val(po.merge_distance);
   app.add_flag("--keep-slanted", po.keep_slanted,
                "Keep planes neither level nor upright (dropped by default: in a room they are mostly fits across "
                "two surfaces)");

@@ -6,6 +6,7 @@
 
 #include <fmt/format.h>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 
 #include "core/error.h"
 #include "core/sampling.h"
@@ -20,6 +21,7 @@ void PlaneOptions::Check() const {
   if (hypotheses < 1) throw UsageError("planes: --hypotheses must be at least 1");
   if (!(snap_deg >= 0 && snap_deg < 45)) throw UsageError("planes: --snap-deg must be in [0, 45)");
   if (!(up_hint_deg > 0 && up_hint_deg <= 90)) throw UsageError("planes: --up-hint-deg must be in (0, 90]");
+  if (!(merge_distance >= 0)) throw UsageError("planes: --merge-distance must not be negative");
   if (!up_hint.allFinite()) throw UsageError("planes: --up must be finite");
 }
 
@@ -52,15 +54,35 @@ std::vector<int> Inliers(const std::vector<Eigen::Vector3d>& points, const std::
   return in;
 }
 
+// A hypothesis' normal turned to gravity (`up` unit; zero: none): level
+// or upright when within snap_deg of it, else kept as it is, "slanted".
+std::string Turn(const Eigen::Vector3d& up, const PlaneOptions& options, Eigen::Vector3d* n) {
+  if (up.squaredNorm() == 0) return "slanted";
+  const double from_up = std::acos(std::clamp(std::abs(n->dot(up)), 0.0, 1.0)) / kDeg;
+  if (from_up <= options.snap_deg) {
+    *n = up;  // level planes face up (the viewpoints may turn them after)
+    return "horizontal";
+  }
+  if (from_up >= 90 - options.snap_deg) {
+    *n = (*n - n->dot(up) * up).normalized();
+    return "vertical";
+  }
+  return "slanted";
+}
+
 // The best three-point hypothesis over `pool`, refitted to its inliers
-// twice.  Deterministic: the hypotheses come from (seed, plane index).
+// twice: with gravity (`up` not zero) each hypothesis is turned to it
+// before it is scored (level and upright slabs are what is counted) and
+// slanted ones are skipped unless kept; the refit then moves the offset
+// only.  Deterministic: the hypotheses come from (seed, stream).
 Plane RansacPlane(const std::vector<Eigen::Vector3d>& points, const std::vector<int>& pool, const PlaneOptions& options,
-                  int index) {
-  Pcg32 rng(options.seed, static_cast<uint64_t>(index) + 1);
+                  const Eigen::Vector3d& up, uint64_t stream) {
+  Pcg32 rng(options.seed, stream);
   const auto n_pool = static_cast<uint32_t>(pool.size());
   Eigen::Vector3d best_n = Eigen::Vector3d::UnitY();
   double best_d = 0;
   size_t best_count = 0;
+  std::string best_kind = "slanted";
   for (int h = 0; h < options.hypotheses; ++h) {
     const Eigen::Vector3d& a = points[static_cast<size_t>(pool[rng.NextU32() % n_pool])];
     const Eigen::Vector3d& b = points[static_cast<size_t>(pool[rng.NextU32() % n_pool])];
@@ -69,8 +91,10 @@ Plane RansacPlane(const std::vector<Eigen::Vector3d>& points, const std::vector<
     const double len = cross.norm();
     // Nearly collinear triples give no plane (relative to the triangle's size).
     if (!(len > 1e-9 * (b - a).squaredNorm() + 1e-300)) continue;
-    const Eigen::Vector3d n = cross / len;
-    const double d = n.dot(a);
+    Eigen::Vector3d n = cross / len;
+    const std::string kind = Turn(up, options, &n);
+    if (kind == "slanted" && up.squaredNorm() > 0 && !options.keep_slanted) continue;
+    const double d = n.dot((a + b + c) / 3);
     size_t count = 0;
     for (int i : pool)
       if (std::abs(n.dot(points[static_cast<size_t>(i)]) - d) <= options.distance) ++count;
@@ -78,43 +102,77 @@ Plane RansacPlane(const std::vector<Eigen::Vector3d>& points, const std::vector<
       best_count = count;
       best_n = n;
       best_d = d;
+      best_kind = kind;
     }
   }
   Plane p;
   p.normal = best_n;
   p.offset = best_d;
+  p.kind = best_kind;
   p.inliers = Inliers(points, pool, best_n, best_d, options.distance);
   for (int k = 0; k < 2 && p.inliers.size() >= 3; ++k) {
-    FitPlane(points, p.inliers, &p.normal, &p.offset);
+    if (p.kind == "slanted") {
+      FitPlane(points, p.inliers, &p.normal, &p.offset);
+    } else {
+      double sum = 0;
+      for (int i : p.inliers) sum += p.normal.dot(points[static_cast<size_t>(i)]);
+      p.offset = sum / static_cast<double>(p.inliers.size());
+    }
     p.inliers = Inliers(points, pool, p.normal, p.offset, options.distance);
   }
+  if (p.inliers.size() >= 3) {  // how far the points' own fit is from the turned plane
+    Eigen::Vector3d fitted;
+    double unused;
+    FitPlane(points, p.inliers, &fitted, &unused);
+    p.tilt_deg = std::acos(std::clamp(std::abs(fitted.dot(p.normal)), 0.0, 1.0)) / kDeg;
+  }
+  double ss = 0;
+  for (int i : p.inliers) ss += std::pow(p.normal.dot(points[static_cast<size_t>(i)]) - p.offset, 2);
+  p.rms = p.inliers.empty() ? 0 : std::sqrt(ss / static_cast<double>(p.inliers.size()));
   return p;
 }
 
-// Turns the plane to gravity: exactly level or upright when within
-// snap_deg of it, the offset refitted to the inliers' mean.
-void Snap(const std::vector<Eigen::Vector3d>& points, const std::vector<int>& pool, const Eigen::Vector3d& up,
-          const PlaneOptions& options, Plane* p) {
-  const Eigen::Vector3d fitted = p->normal;
-  p->kind = "slanted";
-  if (up.squaredNorm() > 0) {
-    const double from_up = std::acos(std::clamp(std::abs(fitted.dot(up)), 0.0, 1.0)) / kDeg;
-    if (from_up <= options.snap_deg) {
-      p->normal = fitted.dot(up) >= 0 ? up : Eigen::Vector3d(-up);
-      p->kind = "horizontal";
-    } else if (from_up >= 90 - options.snap_deg) {
-      p->normal = (fitted - fitted.dot(up) * up).normalized();
-      p->kind = "vertical";
-    }
+// The box of a plane's inliers in a basis (u, v) on it.
+Eigen::AlignedBox2d BoxOn(const std::vector<Eigen::Vector3d>& points, const Plane& p, const Eigen::Vector3d& u,
+                          const Eigen::Vector3d& v) {
+  Eigen::AlignedBox2d box;
+  for (int k : p.inliers) {
+    const Eigen::Vector3d& x = points[static_cast<size_t>(k)];
+    box.extend(Eigen::Vector2d(u.dot(x), v.dot(x)));
   }
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (int i : p->inliers) mean += points[static_cast<size_t>(i)];
-  p->offset = p->normal.dot(mean / static_cast<double>(p->inliers.size()));
-  p->inliers = Inliers(points, pool, p->normal, p->offset, options.distance);
-  p->tilt_deg = std::acos(std::clamp(std::abs(fitted.dot(p->normal)), 0.0, 1.0)) / kDeg;
-  double ss = 0;
-  for (int i : p->inliers) ss += std::pow(p->normal.dot(points[static_cast<size_t>(i)]) - p->offset, 2);
-  p->rms = p->inliers.empty() ? 0 : std::sqrt(ss / static_cast<double>(p->inliers.size()));
+  return box;
+}
+
+// Level (or upright, facing the same way) planes closer than
+// merge_distance whose points overlap on the plane are one surface whose
+// points RANSAC split into slabs (SfM points of a table scatter by a
+// centimetre or more along the rays): the smaller joins the larger, the
+// offset refitted to all their points.  Planes side by side (a table and a
+// counter beyond it) stay apart.
+void MergeParallel(const std::vector<Eigen::Vector3d>& points, const PlaneOptions& options, PlaneSet* set) {
+  if (!(options.merge_distance > 0)) return;
+  std::vector<Plane>& planes = set->planes;
+  for (size_t i = 0; i < planes.size(); ++i)
+    for (size_t j = i + 1; j < planes.size();) {
+      Plane& a = planes[i];
+      const Plane& b = planes[j];
+      const Eigen::Vector3d u = a.normal.unitOrthogonal(), v = a.normal.cross(u);
+      if (a.kind == "slanted" || a.kind != b.kind || a.normal.dot(b.normal) < std::cos(1 * kDeg) ||
+          std::abs(a.offset - b.offset) >= options.merge_distance ||
+          !BoxOn(points, a, u, v).intersects(BoxOn(points, b, u, v))) {
+        ++j;
+        continue;
+      }
+      a.inliers.insert(a.inliers.end(), b.inliers.begin(), b.inliers.end());
+      std::sort(a.inliers.begin(), a.inliers.end());
+      double sum = 0, ss = 0;
+      for (int k : a.inliers) sum += a.normal.dot(points[static_cast<size_t>(k)]);
+      a.offset = sum / static_cast<double>(a.inliers.size());
+      for (int k : a.inliers) ss += std::pow(a.normal.dot(points[static_cast<size_t>(k)]) - a.offset, 2);
+      a.rms = std::sqrt(ss / static_cast<double>(a.inliers.size()));
+      planes.erase(planes.begin() + static_cast<long>(j));
+      ++set->merged;
+    }
 }
 
 std::vector<int> Without(const std::vector<int>& pool, const std::vector<int>& taken) {
@@ -132,18 +190,23 @@ PlaneSet DetectPlanes(const std::vector<Eigen::Vector3d>& points, const std::vec
     if (!p.allFinite()) ThrowError("planes: the points hold a non-finite coordinate");
   const auto needed = static_cast<size_t>(
       std::max<double>(options.min_points, std::ceil(options.min_fraction * static_cast<double>(points.size()))));
-  // 1. Planes one after another, unturned.
-  std::vector<int> pool(points.size());
-  std::iota(pool.begin(), pool.end(), 0);
-  std::vector<Plane> found;
-  // Twice the planes kept are looked for: slanted ones may be dropped below.
-  while (static_cast<int>(found.size()) < 2 * options.max_planes && pool.size() >= needed) {
-    Plane p = RansacPlane(points, pool, options, static_cast<int>(found.size()));
-    if (p.inliers.size() < needed) break;
-    pool = Without(pool, p.inliers);
-    found.push_back(std::move(p));
-  }
-  if (found.empty())
+  std::vector<int> all(points.size());
+  std::iota(all.begin(), all.end(), 0);
+  // Sequential RANSAC over the points not yet taken, largest plane first.
+  auto sequence = [&](const Eigen::Vector3d& up, uint64_t stream0, std::vector<int>* pool) {
+    std::vector<Plane> found;
+    while (static_cast<int>(found.size()) < options.max_planes && pool->size() >= needed) {
+      Plane p = RansacPlane(points, *pool, options, up, stream0 + found.size());
+      if (p.inliers.size() < needed) break;
+      *pool = Without(*pool, p.inliers);
+      found.push_back(std::move(p));
+    }
+    return found;
+  };
+  // 1. Planes as the points have them, for gravity.
+  std::vector<int> pool = all;
+  const std::vector<Plane> free = sequence(Eigen::Vector3d::Zero(), 1, &pool);
+  if (free.empty())
     ThrowError(
         "planes: the points support no plane: of {} points, none has {} within {:.3g} of one plane "
         "(--min-points {}, --min-fraction {:.3g}, --distance {:.3g})",
@@ -156,37 +219,40 @@ PlaneSet DetectPlanes(const std::vector<Eigen::Vector3d>& points, const std::vec
     const Eigen::Vector3d hint = options.up_hint.normalized();
     set.up = hint;
     set.up_from = "hint";
-    for (const Plane& p : found)  // largest first
+    for (const Plane& p : free)  // largest first
       if (std::acos(std::clamp(std::abs(p.normal.dot(hint)), 0.0, 1.0)) <= options.up_hint_deg * kDeg) {
         set.up = p.normal.dot(hint) >= 0 ? p.normal : Eigen::Vector3d(-p.normal);
         set.up_from = "plane";
         break;
       }
   }
-  // 3. Each plane turned to gravity, taking its points again from what the
-  // planes before it left (the turn moves which points are within reach).
-  std::vector<int> all(points.size());
-  std::iota(all.begin(), all.end(), 0);
-  pool = all;
+  // 3. With gravity, the planes again from all the points, each hypothesis
+  // turned to it before it is scored; without, the planes of step 1.
+  if (set.up.squaredNorm() > 0) {
+    pool = all;
+    set.planes = sequence(set.up, 1001, &pool);
+    if (set.planes.empty()) ThrowError("planes: no level or upright plane has {} points", needed);
+  } else {
+    set.planes = free;
+  }
   Eigen::Vector3d eye = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& v : viewpoints) eye += v;
   if (!viewpoints.empty()) eye /= static_cast<double>(viewpoints.size());
-  for (Plane& p : found) {
-    if (static_cast<int>(set.planes.size()) == options.max_planes) break;
-    Snap(points, pool, set.up, options, &p);
-    if (p.inliers.size() < needed) continue;
-    if (p.kind == "slanted" && set.up.squaredNorm() > 0 && !options.keep_slanted) {
-      set.dropped.push_back(std::move(p));  // its points stay for the planes after it
-      continue;
-    }
+  for (Plane& p : set.planes)
     if (!viewpoints.empty() && p.normal.dot(eye) < p.offset) {
       p.normal = -p.normal;
       p.offset = -p.offset;
     }
-    pool = Without(pool, p.inliers);
-    set.planes.push_back(std::move(p));
-  }
-  if (set.planes.empty()) ThrowError("planes: no plane keeps {} points once turned to gravity", needed);
+  // Slanted planes of step 1 that gravity left out are listed.
+  if (set.up.squaredNorm() > 0 && !options.keep_slanted)
+    for (Plane p : free) {
+      Eigen::Vector3d n = p.normal;
+      if (Turn(set.up, options, &n) == "slanted") {
+        p.kind = "slanted";
+        set.dropped.push_back(std::move(p));
+      }
+    }
+  MergeParallel(points, options, &set);
   std::stable_sort(set.planes.begin(), set.planes.end(),
                    [](const Plane& a, const Plane& b) { return a.inliers.size() > b.inliers.size(); });
   set.unexplained = static_cast<int>(pool.size());

@@ -3,11 +3,14 @@
 //
 // DetectPlanes finds planes one after another by RANSAC (three-point
 // hypotheses, the plane with most points within `distance` kept, refitted
-// to its inliers by least squares, its points removed), then turns the
-// planes to gravity: `up` is the normal of the largest plane within
+// to its inliers, its points removed).  A first pass, as the points have
+// them, fixes gravity: `up` is the normal of the largest plane within
 // `up_hint_deg` of the hint (table tops and floors are level to well under
-// a degree, more exact than a hand-held camera's mean up), and a plane
-// within `snap_deg` of horizontal or vertical is made exactly so.
+// a degree, more exact than a hand-held camera's mean up).  A second pass
+// then turns every hypothesis to gravity before scoring it (within
+// `snap_deg` of level or upright it becomes exactly so; others are skipped
+// unless kept), so that level and upright slabs are what is counted, and
+// parallel slabs of one surface are merged.
 // MeshPlanes turns each plane's inliers into a surface: the cells of a
 // grid on the plane within `grow` of an inlier, holes filled, parts with
 // too few points dropped.  docs/methods.md, "A room from the video alone".
@@ -40,6 +43,10 @@ struct PlaneOptions {
   // upright, and a tilted plane through sparse points is more often a fit
   // across two of them (a counter's top and its front) than a ramp.
   bool keep_slanted = false;
+  // Level planes (or upright ones facing the same way) closer than this are
+  // merged into one (0: never): SfM points of one table top scatter by a
+  // centimetre or more, and RANSAC's gate splits them into slabs.
+  double merge_distance = 0.06;
   uint64_t seed = 1;
 
   void Check() const;  // UsageError naming the option at fault
@@ -60,6 +67,7 @@ struct PlaneSet {
   Eigen::Vector3d up = Eigen::Vector3d::Zero();
   std::string up_from;  // "plane" (the largest level one), "hint" or "none"
   int points = 0, unexplained = 0;
+  int merged = 0;  // planes merged into a larger parallel one (PlaneOptions::merge_distance)
 };
 
 // `viewpoints` (e.g. camera centres; may be empty) orient each normal

@@ -281,6 +281,7 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
   report->SetMetric("up.from_hint_deg", from_hint_deg);
   report->SetMetric("points.total", set.points);
   report->SetMetric("points.unexplained", set.unexplained);
+  report->SetMetric("merged", set.merged);
   nlohmann::json planes = nlohmann::json::array();
   for (size_t i = 0; i < set.planes.size(); ++i) planes.push_back(PlaneJson(set.planes[i], kept[i]));
   report->SetMetric("planes", planes);

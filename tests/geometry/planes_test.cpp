@@ -122,7 +122,7 @@ TEST(Planes, WithoutAHintNothingIsTurned) {
   EXPECT_EQ(set.up_from, "none");
   for (const Plane& p : set.planes) {
     EXPECT_EQ(p.kind, "slanted");
-    EXPECT_LT(p.tilt_deg, 1e-5);
+    EXPECT_LT(p.tilt_deg, 0.1);  // the points' own fit, after the last refit took its inliers again
   }
 }
 
@@ -132,12 +132,13 @@ TEST(Planes, WithoutAHintNothingIsTurned) {
 namespace mr {
 namespace {
 
-// A ramp tilted 30 degrees among the level and upright planes: left out by
-// default (listed as dropped), kept when asked.
+// A ramp tilted 50 degrees among the level and upright planes: left out by
+// default (listed as dropped), kept when asked.  (No level or upright 4 cm
+// slab through it holds 60 of its points.)
 TEST(Planes, SlantedPlanesAreDroppedUnlessKept) {
   SparseRoom room = MakeRoom(9);
   Pcg32 rng(4);
-  const double t = 30 * kDeg;
+  const double t = 50 * kDeg;
   for (int i = 0; i < 400; ++i) {
     const double u = rng.NextDouble(), v = rng.NextDouble();
     room.points.push_back(room.world_from_room *
@@ -156,6 +157,40 @@ TEST(Planes, SlantedPlanesAreDroppedUnlessKept) {
   int slanted = 0;
   for (const Plane& p : kept.planes) slanted += p.kind == "slanted";
   EXPECT_EQ(slanted, 1);
+}
+
+}  // namespace
+}  // namespace mr
+
+namespace mr {
+namespace {
+
+// One table top whose SfM points RANSAC splits into two slabs 4.5 cm apart
+// (more than its 2 cm gate spans; the points' scatter along the rays) is
+// merged back into one plane at their mean; a counter beside it, within the
+// merge distance in height (10 cm here) but not overlapping it, stays apart.
+TEST(Planes, SlabsOfOneSurfaceAreMergedNeighboursAreNot) {
+  Pcg32 rng(6);
+  std::vector<Eigen::Vector3d> pts;
+  auto noise = [&] { return 0.004 * (2 * rng.NextDouble() - 1); };
+  for (int i = 0; i < 1500; ++i) pts.emplace_back(-1.5 + 3 * rng.NextDouble(), noise(), -1.5 + 3 * rng.NextDouble());
+  for (int i = 0; i < 400; ++i)  // table, upper slab
+    pts.emplace_back(-0.5 + rng.NextDouble(), 0.795 + noise(), -0.3 + 0.6 * rng.NextDouble());
+  for (int i = 0; i < 300; ++i)  // table, lower slab
+    pts.emplace_back(-0.5 + rng.NextDouble(), 0.75 + noise(), -0.3 + 0.6 * rng.NextDouble());
+  for (int i = 0; i < 200; ++i)  // the counter beside it
+    pts.emplace_back(1.0 + 0.4 * rng.NextDouble(), 0.86 + noise(), -0.3 + 0.6 * rng.NextDouble());
+  PlaneOptions o;
+  o.up_hint = Eigen::Vector3d::UnitY();
+  o.merge_distance = 0.1;
+  const PlaneSet set = DetectPlanes(pts, {}, o);
+  EXPECT_EQ(set.merged, 1);
+  ASSERT_EQ(set.planes.size(), 3u);
+  EXPECT_EQ(set.planes[1].inliers.size(), 700u);
+  EXPECT_NEAR(set.planes[1].offset, (400 * 0.795 + 300 * 0.75) / 700, 0.001);
+  EXPECT_NEAR(set.planes[2].offset, 0.86, 0.002);
+  o.merge_distance = 0;
+  EXPECT_EQ(DetectPlanes(pts, {}, o).planes.size(), 4u);
 }
 
 }  // namespace

@@ -25,6 +25,8 @@ Json RegistrationResult::ToJson() const {
   j["p90_px"] = p90_px;
   j["stderr_px"] = stderr_px;
   j["mean_flow_px"] = Json::array({mean_flow.x(), mean_flow.y()});
+  j["median_px"] = median_px;
+  j["median_flow_px"] = Json::array({median_flow.x(), median_flow.y()});
   return j;
 }
 
@@ -44,7 +46,7 @@ RegistrationResult MeasureRegistration(const Image& rendered, const Image& plate
                               r.usable_pixels, mt.textured, o.min_pixels);
     return r;
   }
-  std::vector<float> mags;
+  std::vector<float> mags, fx, fy;
   Eigen::Vector2d sum = Eigen::Vector2d::Zero();
   const int tiles_x = (w + o.tile_px - 1) / o.tile_px, tiles_y = (h + o.tile_px - 1) / o.tile_px;
   std::vector<double> tile_sum(static_cast<size_t>(tiles_x) * tiles_y, 0.0);
@@ -53,6 +55,8 @@ RegistrationResult MeasureRegistration(const Image& rendered, const Image& plate
     const Eigen::Vector2f f = mt.flow[static_cast<size_t>(p.y()) * w + p.x()];
     const float m = f.norm();
     mags.push_back(m);
+    fx.push_back(f.x());
+    fy.push_back(f.y());
     sum += f.cast<double>();
     const size_t t = static_cast<size_t>(p.y() / o.tile_px) * tiles_x + static_cast<size_t>(p.x() / o.tile_px);
     tile_sum[t] += m;
@@ -63,6 +67,12 @@ RegistrationResult MeasureRegistration(const Image& rendered, const Image& plate
   for (float m : mags) total += m;
   r.mean_px = total / static_cast<double>(mags.size());
   r.mean_flow = sum / static_cast<double>(mags.size());
+  auto median = [](std::vector<float>& v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return static_cast<double>(v[v.size() / 2]);
+  };
+  r.median_flow = Eigen::Vector2d(median(fx), median(fy));
+  r.median_px = median(mags);
   const size_t k = static_cast<size_t>(0.9 * static_cast<double>(mags.size() - 1));
   std::nth_element(mags.begin(), mags.begin() + static_cast<std::ptrdiff_t>(k), mags.end());
   r.p90_px = mags[k];

@@ -36,7 +36,13 @@ struct RegistrationResult {
   std::string why;                                      // when not
   double mean_px = 0, p90_px = 0, stderr_px = 0;        // |displacement| over the usable pixels
   Eigen::Vector2d mean_flow = Eigen::Vector2d::Zero();  // the mean displacement (x right, y down), px
-  int64_t region_pixels = 0, usable_pixels = 0;         // in `where`; textured and consistent of those
+  // The medians (each component's; of |displacement|): what the room's
+  // pixels say where something it does not hold (a person walking past)
+  // covers part of the plate and its flow's failures pass the checks, as
+  // long as they stay fewer than the room's usable pixels.
+  double median_px = 0;
+  Eigen::Vector2d median_flow = Eigen::Vector2d::Zero();
+  int64_t region_pixels = 0, usable_pixels = 0;  // in `where`; textured and consistent of those
   Json ToJson() const;
 };
 

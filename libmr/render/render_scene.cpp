@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <type_traits>
@@ -412,20 +413,38 @@ int64_t RenderScene::RealCrossings(size_t i) const {
   if (virtual_hidden_.at(i)) return 0;
   const Eigen::Affine3d& t = virtual_poses_[i];
   const auto& p = virtual_positions_[i];
+  // An edge crosses where a real surface lies between its ends and both
+  // ends lie farther from that surface than 1e-4 of the object's size: an
+  // object resting on a surface touches it without crossing it, also where
+  // the surface's stored coordinates (6 decimals in an OBJ) are rougher
+  // than a fine mesh's nearly level edges at the contact.
+  Eigen::AlignedBox3d box;
+  for (const auto& v : p) box.extend(t * v.cast<double>());
+  const double clearance = 1e-4 * box.diagonal().norm();
   int64_t n = 0;
   for (const auto& [a, b] : virtual_edges_[i]) {
     const Eigen::Vector3d pa = t * p[static_cast<size_t>(a)].cast<double>();
     const Eigen::Vector3d d = t * p[static_cast<size_t>(b)].cast<double>() - pa;
     const double len = d.norm();
     if (!(len > 0)) continue;
-    // The ends left out (1e-3 of the edge): an object resting on a surface
-    // touches it without crossing it.
     Ray r;
-    r.origin = (pa + 1e-3 * d).cast<float>();
+    r.origin = pa.cast<float>();
     r.direction = (d / len).cast<float>();
-    r.tfar = static_cast<float>(0.998 * len);
+    r.tfar = static_cast<float>(len);
     r.mask = kMaskReal;
-    n += embree_->Occluded(r);
+    // The surfaces along the edge, nearest first (a touch at one end does
+    // not hide a crossing beyond it); at most 4.
+    for (int k = 0; k < 4; ++k) {
+      Hit hit;
+      if (!embree_->Intersect(r, &hit)) break;
+      const double cosine = std::abs(hit.geometric_normal.cast<double>().normalized().dot(d / len));
+      const double th = static_cast<double>(hit.t);
+      if (std::min(th, len - th) * cosine > clearance) {
+        ++n;
+        break;
+      }
+      r.tnear = std::nextafter(hit.t, std::numeric_limits<float>::infinity());
+    }
   }
   return n;
 }

@@ -75,9 +75,10 @@ class RenderScene {
   void SetVirtualTransform(size_t i, const Eigen::Affine3d& world_from_object);
   bool virtual_hidden(size_t i) const { return virtual_hidden_.at(i); }
   // How many edges of virtual object `i`, where it stands now, cross a real
-  // surface (a ray along the edge, its ends left out, meets real
-  // geometry): > 0 for an object passing through the table or a wall.  0
-  // while hidden.  After Commit().
+  // surface (a real surface lies between the edge's ends, both farther from
+  // it than 1e-4 of the object's size): > 0 for an object passing through
+  // the table or a wall, 0 for one resting on it.  0 while hidden.  After
+  // Commit().
   int64_t RealCrossings(size_t i) const;
   void Commit();
 

@@ -562,3 +562,30 @@ TEST(PathTracer, MetalAndTransmissionWeighAsGltfSays) {
 
 }  // namespace
 }  // namespace mr
+
+namespace mr {
+namespace {
+
+// An object resting on a surface touches it without crossing it, also where
+// the surface's stored height is rougher (5e-7 m: an OBJ's 6 decimals) than
+// the edges near the contact of a fine sphere (its pole's ring 1.5e-5 m
+// above the pole); sunk by a millimetre it crosses.
+TEST(RealCrossings, RestingIsNotCrossingSinkingIs) {
+  for (const double sink : {0.0, 1e-3}) {
+    RenderScene scene;
+    Mesh floor = Quad(2.0, 5e-7);  // a hair above y = 0, where the pole rests
+    scene.AddReal(floor, Material());
+    const Mesh ball = UvSphere(0.05f, 128);
+    Eigen::Affine3d t = Eigen::Affine3d::Identity();
+    t.translation() = Eigen::Vector3d(0, 0.05 - sink, 0);  // the lower pole at y = -sink
+    scene.AddVirtual(ball, t, Material());
+    scene.Commit();
+    if (sink == 0)
+      EXPECT_EQ(scene.RealCrossings(0), 0);
+    else
+      EXPECT_GT(scene.RealCrossings(0), 0);
+  }
+}
+
+}  // namespace
+}  // namespace mr

@@ -216,6 +216,51 @@ nlohmann::json PlaneJson(const Plane& p, int kept) {
           {"turned_deg", p.tilt_deg}};
 }
 
+// The gravity hint: --up (given in the input's frame, turned by `turn`),
+// else the cameras' mean up, -y of each (y down, docs/conventions.md).
+Eigen::Vector3d UpHint(const PlanesJobOptions& o, const Trajectory& poses, const Eigen::Quaterniond& turn) {
+  if (!o.up.empty()) return turn * Eigen::Vector3d(o.up[0], o.up[1], o.up[2]).normalized();
+  Eigen::Vector3d hint = Eigen::Vector3d::Zero();
+  for (const TimedPose& p : poses.poses) hint -= p.world_from_cam.rotation * Eigen::Vector3d::UnitY();
+  if (hint.norm() < 1e-6 * static_cast<double>(poses.poses.size()))
+    ThrowErrorAt(FileLoc{o.poses}, "the cameras' up directions cancel out: give --up");
+  return hint.normalized();
+}
+
+// The planes, up and the mesh into the report, and a summary on stderr.
+void ReportPlanes(const PlaneSet& set, const std::vector<int>& kept, const Mesh& room, const Eigen::Vector3d& eye,
+                  double from_hint_deg, Report* report) {
+  if (const Plane* support = SupportPlane(set, eye)) {
+    report->SetMetric("support.plane", static_cast<int>(support - set.planes.data()));
+    report->SetMetric("support.camera_height", support->normal.dot(eye) - support->offset);
+  }
+  report->SetMetric("up.direction", {set.up.x(), set.up.y(), set.up.z()});
+  report->SetMetric("up.from", set.up_from);
+  report->SetMetric("up.from_hint_deg", from_hint_deg);
+  report->SetMetric("points.total", set.points);
+  report->SetMetric("points.unexplained", set.unexplained);
+  report->SetMetric("merged", set.merged);
+  nlohmann::json planes = nlohmann::json::array();
+  for (size_t i = 0; i < set.planes.size(); ++i) planes.push_back(PlaneJson(set.planes[i], kept[i]));
+  report->SetMetric("planes", planes);
+  nlohmann::json dropped = nlohmann::json::array();
+  for (const Plane& p : set.dropped) dropped.push_back(PlaneJson(p, 0));
+  report->SetMetric("dropped_slanted", dropped);
+  if (!set.dropped.empty())
+    spdlog::info("mr-planes: {} slanted planes left out (--keep-slanted keeps them)", set.dropped.size());
+  report->SetMetric("mesh.vertices", static_cast<int64_t>(room.vertex_count()));
+  report->SetMetric("mesh.triangles", static_cast<int64_t>(room.triangle_count()));
+  report->SetMetric("mesh.area", room.SurfaceArea());
+  spdlog::info("mr-planes: {} planes (up from {}, {:.1f} deg from the hint), {} of {} points unexplained, {:.2f} m2",
+               set.planes.size(), set.up_from, from_hint_deg, set.unexplained, set.points, room.SurfaceArea());
+  for (size_t i = 0; i < set.planes.size(); ++i) {
+    const Plane& p = set.planes[i];
+    spdlog::info(
+        "  plane {}: {:10s} normal ({:+.3f}, {:+.3f}, {:+.3f}) offset {:+.3f}, {} points ({} meshed), rms {:.4f}", i,
+        p.kind, p.normal.x(), p.normal.y(), p.normal.z(), p.offset, p.inliers.size(), kept[i], p.rms);
+  }
+}
+
 }  // namespace
 
 void RunPlanes(const PlanesJobOptions& o, Report* report) {
@@ -237,15 +282,7 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
     for (TimedPose& p : poses.poses) p.world_from_cam = cam0_from_world * p.world_from_cam;
   }
   PlaneOptions po = o.planes;
-  if (!o.up.empty()) {
-    po.up_hint = turn * Eigen::Vector3d(o.up[0], o.up[1], o.up[2]).normalized();
-  } else {  // the cameras' mean up: -y of each (y down, docs/conventions.md)
-    po.up_hint = Eigen::Vector3d::Zero();
-    for (const TimedPose& p : poses.poses) po.up_hint -= p.world_from_cam.rotation * Eigen::Vector3d::UnitY();
-    if (po.up_hint.norm() < 1e-6 * static_cast<double>(poses.poses.size()))
-      ThrowErrorAt(FileLoc{o.poses}, "the cameras' up directions cancel out: give --up");
-    po.up_hint.normalize();
-  }
+  po.up_hint = UpHint(o, poses, turn);
   report->SetMetric("up.hint", {po.up_hint.x(), po.up_hint.y(), po.up_hint.z()});
   report->SetMetric("up.hint_from", o.up.empty() ? "cameras" : "--up");
   double scale = 1;
@@ -272,27 +309,7 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
   }
   if (room.triangles.empty())
     ThrowErrorAt(FileLoc{o.points}, "no plane kept a part with {} points (--min-points)", o.mesh.min_points);
-  if (const Plane* support = SupportPlane(set, MeanCentre(poses))) {
-    report->SetMetric("support.plane", static_cast<int>(support - set.planes.data()));
-    report->SetMetric("support.camera_height", support->normal.dot(MeanCentre(poses)) - support->offset);
-  }
-  report->SetMetric("up.direction", {set.up.x(), set.up.y(), set.up.z()});
-  report->SetMetric("up.from", set.up_from);
-  report->SetMetric("up.from_hint_deg", from_hint_deg);
-  report->SetMetric("points.total", set.points);
-  report->SetMetric("points.unexplained", set.unexplained);
-  report->SetMetric("merged", set.merged);
-  nlohmann::json planes = nlohmann::json::array();
-  for (size_t i = 0; i < set.planes.size(); ++i) planes.push_back(PlaneJson(set.planes[i], kept[i]));
-  report->SetMetric("planes", planes);
-  nlohmann::json dropped = nlohmann::json::array();
-  for (const Plane& p : set.dropped) dropped.push_back(PlaneJson(p, 0));
-  report->SetMetric("dropped_slanted", dropped);
-  if (!set.dropped.empty())
-    spdlog::info("mr-planes: {} slanted planes left out (--keep-slanted keeps them)", set.dropped.size());
-  report->SetMetric("mesh.vertices", static_cast<int64_t>(room.vertex_count()));
-  report->SetMetric("mesh.triangles", static_cast<int64_t>(room.triangle_count()));
-  report->SetMetric("mesh.area", room.SurfaceArea());
+  ReportPlanes(set, kept, room, MeanCentre(poses), from_hint_deg, report);
   if (!o.frames.empty()) {
     ScopedTimer t(report, "albedo");
     AlbedoFromFrames(o, poses, &room, report);
@@ -307,14 +324,6 @@ void RunPlanes(const PlanesJobOptions& o, Report* report) {
   if (!o.poses_out.empty()) {
     WriteTum(o.poses_out, poses);
     report->AddOutput(o.poses_out);
-  }
-  spdlog::info("mr-planes: {} planes (up from {}, {:.1f} deg from the hint), {} of {} points unexplained, {:.2f} m2",
-               set.planes.size(), set.up_from, from_hint_deg, set.unexplained, set.points, room.SurfaceArea());
-  for (size_t i = 0; i < set.planes.size(); ++i) {
-    const Plane& p = set.planes[i];
-    spdlog::info(
-        "  plane {}: {:10s} normal ({:+.3f}, {:+.3f}, {:+.3f}) offset {:+.3f}, {} points ({} meshed), rms {:.4f}", i,
-        p.kind, p.normal.x(), p.normal.y(), p.normal.z(), p.offset, p.inliers.size(), kept[i], p.rms);
   }
 }
 

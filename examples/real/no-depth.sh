@@ -32,19 +32,9 @@ data=$(cd "$data" && pwd)
 kitchen=$data/rgbd-7scenes-kitchen
 mkdir -p "$out/video" "$out/planes"
 out=$(cd "$out" && pwd)
-# The video and its camera, as run.sh's (no depth frame is read below).
-for i in $(seq 0 29); do
-  cp "$kitchen/frame-$(printf %06d $((10 * i))).color.jpg" "$out/video/$(printf %05d "$i").jpg"
-done
-cat > "$out/kitchen.cameramodel" <<'CAM'
-# 7-Scenes nominal colour intrinsics (camera-intrinsics.txt)
-{
-    'lensmodel':  'LENSMODEL_PINHOLE',
-    'intrinsics': [ 585, 585, 320, 240, ],
-    'imagersize': [ 640, 480, ],
-    'extrinsics': [ 0, 0, 0, 0, 0, 0, ],
-}
-CAM
+# The video (every 10th colour frame) and its camera (examples/real/kitchen-video.sh).
+source examples/real/kitchen-video.sh
+kitchen_video "$kitchen" "$out"
 w=$out/planes
 # 1. COLMAP alone: poses and points in its own frame and units. Exhaustive
 # matching (435 pairs for 30 frames): the video returns to the table at its

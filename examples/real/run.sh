@@ -27,20 +27,9 @@ data=$(cd "$data" && pwd)
 kitchen=$data/rgbd-7scenes-kitchen
 mkdir -p "$out/video"
 out=$(cd "$out" && pwd)
-# The video: every 10th colour frame (a camera without poses, as far as mr knows).
-for i in $(seq 0 29); do
-  cp "$kitchen/frame-$(printf %06d $((10 * i))).color.jpg" "$out/video/$(printf %05d "$i").jpg"
-done
-# Its camera: 7-Scenes' nominal intrinsics (camera-intrinsics.txt).
-cat > "$out/kitchen.cameramodel" <<'CAM'
-# 7-Scenes nominal colour intrinsics (camera-intrinsics.txt)
-{
-    'lensmodel':  'LENSMODEL_PINHOLE',
-    'intrinsics': [ 585, 585, 320, 240, ],
-    'imagersize': [ 640, 480, ],
-    'extrinsics': [ 0, 0, 0, 0, 0, 0, ],
-}
-CAM
+# The video (every 10th colour frame) and its camera (examples/real/kitchen-video.sh).
+source examples/real/kitchen-video.sh
+kitchen_video "$kitchen" "$out"
 # The room's frame is the first camera's (y down): the probe's zenith goes
 # against gravity (7-Scenes gives it in that frame).
 up=$(/usr/bin/python3 -c "import numpy as n, sys; g = n.loadtxt(sys.argv[1]); g /= n.linalg.norm(g); print('[%.6f, %.6f, %.6f]' % tuple(-g))" "$kitchen/gravity-direction.txt")

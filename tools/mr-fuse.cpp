@@ -74,6 +74,19 @@ int main(int argc, char** argv) {
                  "Raycast the model at this pyramid level (0: full resolution; 1: half, 4x fewer rays)")
       ->default_val(1)
       ->check(mr::InRange(0, 2));
+  app.add_flag("--no-loop-closure", o.no_loop_closure,
+               "Track without looking for loops (no keyframes, pose graph or fusing again)");
+  app.add_option("--loop-radius", fo.loop.search_radius_m,
+                 "Look for loops among keyframes whose tracked pose is within this many metres (and "
+                 "--loop-angle degrees) of a new keyframe's; also the largest drift a loop can undo")
+      ->default_val(fo.loop.search_radius_m)
+      ->check(mr::kPositive);
+  app.add_option("--loop-angle", fo.loop.search_angle_deg, "See --loop-radius (degrees)")
+      ->default_val(fo.loop.search_angle_deg)
+      ->check(mr::kPositive);
+  app.add_option("--loop-min-gap", fo.loop.min_frame_gap, "A loop joins frames at least this many frames apart")
+      ->default_val(fo.loop.min_frame_gap)
+      ->check(mr::kPositive);
   app.add_option("--max-lost", fo.max_lost, "Stop (keeping what is fused) after this many lost frames in a row")
       ->default_val(10);
   app.add_option("--poses", o.poses,

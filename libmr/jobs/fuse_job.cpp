@@ -60,6 +60,8 @@ FuseOptions FuseOptionsOf(const FuseJobOptions& o, Report* report) {
   fo.depth.max_m = o.max_depth;
   fo.use_color = !o.no_color;
   fo.pyramid.bilateral = !o.no_bilateral;
+  fo.loop.enabled = !o.no_loop_closure;
+  if (o.no_loop_closure) report->Skip("loop closure", "--no-loop-closure");
   return fo;
 }
 

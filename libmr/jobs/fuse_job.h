@@ -29,7 +29,7 @@ struct FuseJobOptions {
   std::string poses;                    // a TUM trajectory, or "reference"; empty: tracking
   std::string first_pose = "identity";  // or "reference"
   std::string lights, env;              // de-light the albedo by these
-  bool no_color = false, no_bilateral = false, no_albedo = false;
+  bool no_color = false, no_bilateral = false, no_albedo = false, no_loop_closure = false;
 
   // UsageError naming the flag at fault: --layout, --intrinsics, --roi and
   // --roi-from together, --roi's corners, --icp-iterations, --skip-motion,

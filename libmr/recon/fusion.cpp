@@ -46,6 +46,38 @@ void WritePreview(const FuseOptions& o, int index, const PointMaps& m, const Rig
   WriteImage(o.preview_dir / fmt::format("{:06d}.png", index), img);
 }
 
+// The voxels of `blocks` (the band AllocateBand found from the raw depth)
+// updated from the filtered depth (and colour), and the tracking volume's
+// likewise.
+void FuseFrame(const std::vector<int32_t>& blocks, const DepthMap& raw, const DepthMap& filtered, const Image* color,
+               const PinholeIntrinsics& K, const Rigid3& pose, TsdfVolume* volume, TsdfVolume* tracker,
+               IntegrateStats* is) {
+  volume->Integrate(blocks, filtered, color, K, pose, is);
+  if (tracker) {
+    IntegrateStats ts;
+    tracker->Integrate(tracker->AllocateBand(raw, K, pose, &ts), filtered, nullptr, K, pose, &ts);
+  }
+}
+
+// After loops closed: `volume` emptied and the frames `fused` (sequence
+// index, trajectory index) fused again at their corrected poses.
+void Refuse(const RgbdSequence& seq, const std::vector<std::pair<size_t, size_t>>& fused, const Trajectory& traj,
+            const FuseOptions& o, const DepthReadOptions& dopt, TsdfVolume* volume) {
+  *volume = TsdfVolume(volume->options());
+  PyramidOptions po = o.pyramid;
+  po.levels = 1;
+  for (const auto& [i, k] : fused) {
+    const RgbdFrame& f = seq.frames[i];
+    const DepthMap depth = ReadDepth(f.depth, dopt, seq.K.width, seq.K.height);
+    Image color;
+    if (o.use_color && !f.color.empty()) color = ReadColor(f.color, seq.K.width, seq.K.height);
+    IntegrateStats is;
+    const Rigid3& pose = traj.poses[k].world_from_cam;
+    FuseFrame(volume->AllocateBand(depth, seq.K, pose, &is), depth, BuildPyramid(depth, seq.K, po).depth[0],
+              color.empty() ? nullptr : &color, seq.K, pose, volume, nullptr, &is);
+  }
+}
+
 }  // namespace
 
 FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume* volume,
@@ -78,6 +110,9 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
   int lost_run = 0;
   std::deque<double> good_rms, good_inliers;  // the last good frames' figures
   int taken = 0;
+  std::unique_ptr<LoopCloser> closer;
+  if (!options.poses && options.loop.enabled) closer = std::make_unique<LoopCloser>(options.loop);
+  std::vector<std::pair<size_t, size_t>> fused_frames;  // (sequence, trajectory) indices
   for (int i = std::max(0, options.first); i < n; i += stride) {
     if (options.count >= 0 && taken >= options.count) break;
     ++taken;
@@ -205,17 +240,45 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     } else {
       Image color;
       if (options.use_color && !f.color.empty()) color = ReadColor(f.color, K.width, K.height);
-      volume->Integrate(blocks, pyr.depth[0], color.empty() ? nullptr : &color, K, pose, &is);
-      if (tracker) {
-        IntegrateStats ts;
-        tracker->Integrate(tracker->AllocateBand(depth, K, pose, &ts), pyr.depth[0], nullptr, K, pose, &ts);
-      }
+      FuseFrame(blocks, depth, pyr.depth[0], color.empty() ? nullptr : &color, K, pose, volume, tracker.get(), &is);
       rec.fused = true;
       last_fused = pose;
+      fused_frames.push_back({static_cast<size_t>(i), result.trajectory.size() - 1});
     }
     rec.t_fuse = Seconds(tp);
     tp = std::chrono::steady_clock::now();
-    if (!options.poses && (rec.fused || !have_model)) {
+    bool closed = false;
+    if (closer && closer->Add(i, pyr, pose)) {
+      // Every pose moves with the graph; the velocity turns with this frame.
+      closed = true;
+      for (size_t k = 0; k < result.trajectory.size(); ++k) result.trajectory.poses[k].world_from_cam = closer->pose(k);
+      const Rigid3 moved_by = result.trajectory.poses.back().world_from_cam * pose.Inverse();
+      velocity.head<3>() = moved_by.rotation * velocity.head<3>().eval();
+      velocity.tail<3>() = moved_by.rotation * velocity.tail<3>().eval();
+      pose = last_fused = result.trajectory.poses.back().world_from_cam;
+      const LoopRecord& l = closer->loops().back();
+      rec.note = fmt::format("loop closed with frame {} (moved {:.1f} mm / {:.2f} deg)", l.keyframe_frame,
+                             1000 * l.correction_m, l.correction_deg);
+      // The model tracking goes on against is fused again from the
+      // keyframes where the loop moved this frame noticeably; below that,
+      // tracking against the old model pulls the next poses back by at most
+      // the threshold, which the output's fusing again at the end does not
+      // inherit.
+      if (l.correction_m > options.loop_refuse_m || l.correction_deg > options.loop_refuse_deg) {
+        std::vector<std::pair<size_t, size_t>> keyframes;
+        for (const auto& ft : fused_frames)
+          if (closer->IsKeyframe(static_cast<int>(ft.first)) || ft.second + 1 == result.trajectory.size())
+            keyframes.push_back(ft);
+        Refuse(seq, keyframes, result.trajectory, options, dopt, tracker ? tracker.get() : volume);
+        result.refused_frames += static_cast<int>(keyframes.size());
+        rec.note += fmt::format("; model fused again from {} keyframes", keyframes.size());
+      } else {
+        closed = false;  // the old model and raycast stay
+      }
+    }
+    rec.t_loop = Seconds(tp);
+    tp = std::chrono::steady_clock::now();
+    if (!options.poses && (rec.fused || !have_model || closed)) {
       int rl = std::clamp(options.raycast_level, 0, static_cast<int>(pyr.depth.size()) - 1);
       while (rl > 0 && pyr.K[static_cast<size_t>(rl)].width < 320) --rl;  // coarser models lose thin structure
       model = (tracker ? tracker.get() : volume)
@@ -229,11 +292,49 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     rec.t_raycast = Seconds(tp);
     have_model = true;
     prev_pose = pose;
+    if (closer) {
+      result.loops = closer->loops();
+      result.keyframes = closer->keyframes();
+      result.loop_candidates = closer->candidates_tried();
+    }
     prev_time = f.timestamp;
     finish();
   }
+  if (!result.loops.empty()) {
+    const auto t0 = std::chrono::steady_clock::now();
+    Refuse(seq, fused_frames, result.trajectory, options, dopt, volume);
+    result.refused_frames += static_cast<int>(fused_frames.size());
+    result.final_refuse_seconds = Seconds(t0);
+  }
   return result;
 }
+
+namespace {
+
+void ReportLoops(const FuseResult& r, Report* report) {
+  nlohmann::json loops = nlohmann::json::array();
+  for (const LoopRecord& l : r.loops)
+    loops.push_back({{"frame", l.frame},
+                     {"keyframe_frame", l.keyframe_frame},
+                     {"icp_rms_m", l.rms},
+                     {"inlier_ratio", l.inlier_ratio},
+                     {"correction_m", l.correction_m},
+                     {"correction_deg", l.correction_deg},
+                     {"seconds", l.seconds}});
+  report->SetMetric("loops", loops);
+  report->SetMetric("summary.keyframes", r.keyframes);
+  report->SetMetric("summary.loop_candidates", r.loop_candidates);
+  report->SetMetric("summary.loops", static_cast<int>(r.loops.size()));
+  report->SetMetric("summary.refused_frames", r.refused_frames);
+  report->SetMetric("summary.final_refuse_seconds", r.final_refuse_seconds);
+  if (r.keyframes > 0 && r.loops.empty())
+    report->Skip("loop closure (pose graph, fusing again)",
+                 r.loop_candidates == 0
+                     ? fmt::format("no keyframe of {} came back near an older one", r.keyframes)
+                     : fmt::format("{} loop candidates tried, none confirmed by a second", r.loop_candidates));
+}
+
+}  // namespace
 
 void ReportFusion(const FuseResult& r, Report* report) {
   nlohmann::json frames = nlohmann::json::array();
@@ -259,7 +360,8 @@ void ReportFusion(const FuseResult& r, Report* report) {
                         {"pyramid", f.t_pyramid},
                         {"track", f.t_track},
                         {"fuse", f.t_fuse},
-                        {"raycast", f.t_raycast}}}});
+                        {"raycast", f.t_raycast},
+                        {"loop", f.t_loop}}}});
     tracked += f.status == "tracked" || f.status == "relocalised" || f.status == "first" || f.status == "given";
     lost += f.status == "lost";
     no_depth += f.status == "no_depth";
@@ -280,6 +382,7 @@ void ReportFusion(const FuseResult& r, Report* report) {
   report->SetMetric("summary.frames_per_second", secs > 0 ? static_cast<double>(r.frames.size()) / secs : 0.0);
   report->SetMetric("summary.peak_volume_bytes", r.peak_bytes);
   report->SetMetric("summary.stopped_early", r.stopped_early);
+  ReportLoops(r, report);
   if (r.stopped_early) report->Warn(r.stop_reason);
   if (no_depth) report->Skip(fmt::format("{} frames", no_depth), "too little valid depth: neither tracked nor fused");
   if (not_fused)

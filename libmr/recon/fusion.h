@@ -1,5 +1,6 @@
 // mr-fuse's pipeline: per frame, read and check depth, build the pyramid,
-// track against the model's raycast, fuse, and at the end mesh the volume.
+// track against the model's raycast, fuse, look for a loop, and at the end
+// mesh the volume.
 //
 // Leaves out what the room does not need, and says so per frame: frames
 // with (almost) no valid depth are neither tracked nor fused; frames that
@@ -15,6 +16,7 @@
 
 #include "camera/trajectory.h"
 #include "core/report.h"
+#include "recon/loop_closure.h"
 #include "recon/rgbd.h"
 #include "recon/tracking.h"
 #include "recon/tsdf.h"
@@ -44,6 +46,14 @@ struct FuseOptions {
   // velocity) or "static" (the previous pose, as KinectFusion).
   std::string motion_model = "velocity";
   Rigid3 first_pose;  // world_from_cam of the first frame when tracking
+  // Loop closure while tracking (recon/loop_closure.h): when a loop closes,
+  // every pose so far moves with the pose graph and the model tracking uses
+  // is fused again from the keyframes ...
+  LoopOptions loop;
+  // ... where the loop moved the current frame by more than this (else
+  // tracking goes on against the old model); at the end, after any loop,
+  // the output volume is fused again from every fused frame.
+  double loop_refuse_m = 0.01, loop_refuse_deg = 0.5;
   // With a region of interest (tsdf.roi on the output volume) and tracking,
   // the camera is tracked against a whole-room volume of this voxel size
   // (0: the output's): coarser saves memory, at some accuracy.
@@ -64,6 +74,7 @@ struct FrameRecord {
   int64_t new_blocks = 0;
   double seconds = 0;
   double t_read = 0, t_pyramid = 0, t_track = 0, t_fuse = 0, t_raycast = 0;  // seconds per part
+  double t_loop = 0;                                                         // loop search, pose graph and re-fusion
 };
 
 struct FuseResult {
@@ -72,7 +83,11 @@ struct FuseResult {
   int64_t peak_bytes = 0;
   bool stopped_early = false;
   std::string stop_reason;
-  double suspect_scale = 0;  // SuggestDepthScale's answer on the first frames
+  double suspect_scale = 0;       // SuggestDepthScale's answer on the first frames
+  std::vector<LoopRecord> loops;  // accepted loop edges
+  int keyframes = 0, loop_candidates = 0;
+  int refused_frames = 0;           // frames fused again after loops closed (all closures together)
+  double final_refuse_seconds = 0;  // the output volume fused again at the end
 };
 
 using FrameCallback = std::function<void(const FrameRecord&)>;

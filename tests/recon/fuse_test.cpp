@@ -330,6 +330,45 @@ TEST(Fuse, AWrongDepthScaleIsDetected) {
   EXPECT_EQ(Fuse(rec.seq, Tracking(), &ok).suspect_scale, 0);
 }
 
+TEST(Fuse, ACircleAroundTheRoomClosesItsLoopAndFusesAgain) {
+  // 380 degrees around the table in the room closed by its two missing
+  // walls (an open side seen alone is a floor: translation along it is
+  // unconstrained), tracked: the last frames see the first keyframes again,
+  // the loop closes, the poses move with the graph and the volume is fused
+  // again.
+  std::vector<SynthPart> parts = SynthRoom();
+  parts.push_back({"wall_front", Quad({-3, 0, -3}, {3, 0, -3}, {3, 2.5f, -3}, {-3, 2.5f, -3}), Material{}});
+  parts.push_back({"wall_right", Quad({3, 0, -3}, {3, 0, 3}, {3, 2.5f, 3}, {3, 2.5f, -3}), Material{}});
+  RenderScene rs;
+  for (const SynthPart& p : parts) rs.AddReal(p.mesh, p.material);
+  rs.SetEnvironment(EnvironmentMap::Constant(Eigen::Vector3d::Ones()));
+  rs.Commit();
+  Trajectory path;
+  const int n = 160;  // 6.6 cm and 2.4 degrees a frame
+  for (int i = 0; i < n; ++i) {
+    const double a = kDegToRad * (-90 + 380.0 * i / (n - 1));
+    path.poses.push_back({i / 30.0, LookAt({1.6 * std::cos(a), 1.4, 0.3 + 1.6 * std::sin(a)}, {0, 0.6, 0.3})});
+  }
+  Recording rec;
+  RgbdSynthOptions sensor = SmallSensor(false);
+  sensor.sensor.max_m = 6;  // the far walls in view
+  Record(&rec, rs, path, sensor);
+  FuseOptions f;
+  f.first_pose = path.poses[0].world_from_cam;
+  f.loop.min_frame_gap = 30;
+  TsdfVolume vol(TsdfOptions{});
+  const FuseResult r = Fuse(rec.seq, f, &vol);
+  EXPECT_EQ(Statuses(r)["lost"], 0);
+  ASSERT_FALSE(r.loops.empty());
+  EXPECT_GE(r.loops.front().frame - r.loops.front().keyframe_frame, 120);  // the last frames to the first
+  EXPECT_GE(r.refused_frames, n);  // every fused frame at the end (and keyframes after large corrections)
+  // Exact depth: the tracker drifts little and the loops move it little.
+  // Measured 5.4 mm ATE (5.3 mm without loop closure), mesh 4.5 mm.
+  EXPECT_LT(ComputeAte(r.trajectory, rec.truth).rmse, 0.01);
+  const MeshErrorResult e = CompareMeshes(vol.ExtractMesh(MeshOptions{}, nullptr), MergeParts(parts), 0.01, 0.1, 50000);
+  EXPECT_LT(e.accuracy.mean, 0.006);
+}
+
 TEST(Fuse, RealSevenScenesFramesTrackAgainstTheReference) {
   MR_REQUIRE_SHARED_DATA("rgbd-7scenes-kitchen");
   const RgbdSequence s = OpenRgbdSequence(test::SharedData("rgbd-7scenes-kitchen"));

@@ -74,6 +74,15 @@ int main(int argc, char** argv) {
                  "Raycast the model at this pyramid level (0: full resolution; 1: half, 4x fewer rays)")
       ->default_val(1)
       ->check(mr::InRange(0, 2));
+  app.add_option("--color-term", fo.icp.color_term,
+                 "Tracking's photometric term (the previous frame's intensity): weak (only in steps where depth "
+                 "alone leaves a direction weak), always, or off")
+      ->default_val(fo.icp.color_term)
+      ->check(CLI::IsMember({"weak", "always", "off"}));
+  app.add_option("--color-weight", fo.icp.color_weight,
+                 "Weight of the photometric term against point-to-plane ICP (metres against intensity)")
+      ->default_val(fo.icp.color_weight)
+      ->check(CLI::NonNegativeNumber);
   app.add_flag("--no-loop-closure", o.no_loop_closure,
                "Track without looking for loops (no keyframes, pose graph or fusing again)");
   app.add_option("--loop-radius", fo.loop.search_radius_m,

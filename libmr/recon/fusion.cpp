@@ -113,6 +113,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
   std::unique_ptr<LoopCloser> closer;
   if (!options.poses && options.loop.enabled) closer = std::make_unique<LoopCloser>(options.loop);
   std::vector<std::pair<size_t, size_t>> fused_frames;  // (sequence, trajectory) indices
+  FramePyramid prev_pyr;                                // the last tracked frame's
   for (int i = std::max(0, options.first); i < n; i += stride) {
     if (options.count >= 0 && taken >= options.count) break;
     ++taken;
@@ -141,7 +142,11 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
       continue;
     }
     auto tp = std::chrono::steady_clock::now();
-    const FramePyramid pyr = BuildPyramid(depth, K, options.pyramid);
+    // Colour for fusion, and for tracking's photometric term.
+    Image color;
+    const bool color_tracking = !options.poses && options.icp.color_weight > 0 && options.icp.color_term != "off";
+    if (options.use_color && !f.color.empty() && color_tracking) color = ReadColor(f.color, K.width, K.height);
+    FramePyramid pyr = BuildPyramid(depth, K, options.pyramid, color.empty() ? nullptr : &color);
     rec.t_pyramid = Seconds(tp);
     tp = std::chrono::steady_clock::now();
 
@@ -171,7 +176,10 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         icp.max_distance *= 2;
         for (auto& it : icp.iterations) it *= 2;
       }
-      IcpResult r = TrackIcp(pyr, model, model_K, model_pose, guess, icp);
+      // The photometric term against the previous frame, when it was tracked.
+      const PhotometricTarget photo{&prev_pyr, prev_pose};
+      IcpResult r = TrackIcp(pyr, model, model_K, model_pose, guess, icp,
+                             lost_run == 0 && !prev_pyr.intensity.empty() ? &photo : nullptr);
       // Against this recording's own recent figures: a residual twice the
       // median of the last good frames, or half their inlier ratio, is a
       // wrong pose even where the absolute limits pass.
@@ -186,6 +194,8 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         r.ok = r.failure.empty();
       }
       rec.icp_rms = r.rms;
+      rec.color_pixels = r.color_pixels;
+      rec.color_rms = r.color_rms;
       rec.inlier_ratio = r.inlier_ratio;
       rec.condition = r.condition;
       rec.weak_directions = r.weak_directions;
@@ -238,8 +248,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
       rec.note = fmt::format("moved {:.1f} mm / {:.2f} deg since the last fused frame, {} new blocks of {}",
                              1000 * moved, turned, is.blocks_new, is.blocks_touched);
     } else {
-      Image color;
-      if (options.use_color && !f.color.empty()) color = ReadColor(f.color, K.width, K.height);
+      if (options.use_color && !f.color.empty() && color.empty()) color = ReadColor(f.color, K.width, K.height);
       FuseFrame(blocks, depth, pyr.depth[0], color.empty() ? nullptr : &color, K, pose, volume, tracker.get(), &is);
       rec.fused = true;
       last_fused = pose;
@@ -292,6 +301,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     rec.t_raycast = Seconds(tp);
     have_model = true;
     prev_pose = pose;
+    prev_pyr = std::move(pyr);
     if (closer) {
       result.loops = closer->loops();
       result.keyframes = closer->keyframes();
@@ -350,6 +360,8 @@ void ReportFusion(const FuseResult& r, Report* report) {
                       {"rejected_depth", f.rejected_depth},
                       {"icp_rms_m", f.icp_rms},
                       {"inlier_ratio", f.inlier_ratio},
+                      {"color_pixels", f.color_pixels},
+                      {"color_rms", f.color_rms},
                       {"condition", std::isfinite(f.condition) ? nlohmann::json(f.condition) : nlohmann::json("inf")},
                       {"weak_directions", f.weak_directions},
                       {"iterations", f.iterations},

@@ -74,9 +74,42 @@ PointMaps ToMaps(const DepthMap& d, const PinholeIntrinsics& K, double max_jump)
   return m;
 }
 
+// Linear luminance, NaN where a channel is clipped (8-bit colour at 1).
+std::vector<float> Luminance(const Image& c) {
+  std::vector<float> y(static_cast<size_t>(c.width()) * c.height());
+  for (int v = 0; v < c.height(); ++v)
+    for (int u = 0; u < c.width(); ++u) {
+      const float r = c.at(u, v, 0), g = c.at(u, v, 1), b = c.at(u, v, 2);
+      y[static_cast<size_t>(v) * c.width() + u] =
+          std::max({r, g, b}) >= 0.999f ? kNaN : 0.2126f * r + 0.7152f * g + 0.0722f * b;
+    }
+  return y;
+}
+
+// 2x2 means of the pixels that are not NaN.
+std::vector<float> HalveIntensity(const std::vector<float>& in, int w, int h) {
+  const int hw = w / 2, hh = h / 2;
+  std::vector<float> out(static_cast<size_t>(hw) * hh);
+  for (int y = 0; y < hh; ++y)
+    for (int x = 0; x < hw; ++x) {
+      float sum = 0;
+      int n = 0;
+      for (int k = 0; k < 4; ++k) {
+        const float v = in[static_cast<size_t>(2 * y + (k >> 1)) * w + 2 * x + (k & 1)];
+        if (v == v) {
+          sum += v;
+          ++n;
+        }
+      }
+      out[static_cast<size_t>(y) * hw + x] = n ? sum / static_cast<float>(n) : kNaN;
+    }
+  return out;
+}
+
 }  // namespace
 
-FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options) {
+FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options,
+                          const Image* color) {
   FramePyramid p;
   DepthMap d0 = depth;
   if (options.bilateral) {
@@ -93,6 +126,11 @@ FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, con
   for (int l = 1; l < options.levels; ++l) {
     p.depth.push_back(Halve(p.depth.back(), options.sigma_depth_m));
     p.K.push_back(K.Level(l));
+  }
+  if (color && color->width() == depth.width && color->height() == depth.height && color->channels() >= 3) {
+    p.intensity.push_back(Luminance(*color));
+    for (size_t l = 1; l < p.depth.size(); ++l)
+      p.intensity.push_back(HalveIntensity(p.intensity.back(), p.depth[l - 1].width, p.depth[l - 1].height));
   }
   p.maps.resize(p.depth.size());
   ParallelFor(0, static_cast<int64_t>(p.depth.size()), [&](int64_t l) {
@@ -195,21 +233,130 @@ Normal6 Accumulate(const PointMaps& src, const PointMaps& model, const PinholeIn
   return s;
 }
 
+// Bilinear sample of a level's intensity with its central-difference
+// gradient at (u, v); false near the border or where a tap is NaN.
+bool SampleIntensity(const std::vector<float>& I, int w, int h, float u, float v, float* value, float* gx, float* gy) {
+  if (!(u >= 1 && v >= 1 && u < static_cast<float>(w - 2) && v < static_cast<float>(h - 2))) return false;
+  auto bil = [&](float x, float y) {
+    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+    const float fx = x - static_cast<float>(x0), fy = y - static_cast<float>(y0);
+    const float* r0 = &I[static_cast<size_t>(y0) * w + x0];
+    const float* r1 = r0 + w;
+    return (1 - fy) * ((1 - fx) * r0[0] + fx * r0[1]) + fy * ((1 - fx) * r1[0] + fx * r1[1]);
+  };
+  *value = bil(u, v);
+  *gx = 0.5f * (bil(u + 1, v) - bil(u - 1, v));
+  *gy = 0.5f * (bil(u, v + 1) - bil(u, v - 1));
+  return *value == *value && *gx == *gx && *gy == *gy;
+}
+
+// The photometric normal equations at level l: each pixel of the frame
+// with depth and intensity, moved by `pose` and seen from the previous
+// frame, against the previous frame's intensity there (bilinear), where the
+// previous frame's depth agrees within `occlusion`.  Residual I_prev - I,
+// Huber weights; rows as Accumulate's (rotation about the camera centre).
+Normal6 AccumulatePhoto(const FramePyramid& cur, size_t l, const PhotometricTarget& tg, const Rigid3& pose,
+                        double huber, double occlusion) {
+  const FramePyramid& prev = *tg.frame;
+  const PointMaps& src = cur.maps[l];
+  const std::vector<float>& Ic = cur.intensity[l];
+  const std::vector<float>& Ip = prev.intensity[l];
+  const DepthMap& Dp = prev.depth[l];
+  const PinholeIntrinsics& K = prev.K[l];
+  const Eigen::Matrix3f R = pose.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f t = pose.translation.cast<float>();
+  const Eigen::Matrix3f Rp = tg.world_from_cam.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f tp = tg.world_from_cam.translation.cast<float>();
+  const float fx = static_cast<float>(K.fx), fy = static_cast<float>(K.fy), cx = static_cast<float>(K.cx),
+              cy = static_cast<float>(K.cy), hub = static_cast<float>(huber), occ = static_cast<float>(occlusion);
+  constexpr int kChunk = 8;
+  const int chunks = (src.height + kChunk - 1) / kChunk;
+  std::vector<Normal6> part(static_cast<size_t>(chunks));
+  ParallelFor(0, chunks, [&](int64_t ci) {
+    Normal6& acc = part[static_cast<size_t>(ci)];
+    double upper[21] = {}, rhs[6] = {};
+    for (int y = static_cast<int>(ci) * kChunk; y < std::min(src.height, static_cast<int>(ci + 1) * kChunk); ++y)
+      for (int x = 0; x < src.width; ++x) {
+        const size_t i = static_cast<size_t>(y) * src.width + x;
+        if (!src.valid(i) || !(Ic[i] == Ic[i])) continue;
+        const Eigen::Vector3f pw = R * src.vertices[i] + t;
+        const Eigen::Vector3f pp = Rp.transpose() * (pw - tp);
+        if (pp.z() <= 0) continue;
+        const float u = fx * pp.x() / pp.z() + cx, v = fy * pp.y() / pp.z() + cy;
+        float I, gx, gy;
+        if (!SampleIntensity(Ip, Dp.width, Dp.height, u, v, &I, &gx, &gy)) continue;
+        const float dz = Dp.at(static_cast<int>(u + 0.5f), static_cast<int>(v + 0.5f));
+        if (!(dz > 0) || std::abs(dz - pp.z()) > occ) continue;
+        const float r = I - Ic[i];
+        const float iz = 1 / pp.z();
+        // d(I_prev)/d(p_prev), then turned into the world.
+        const Eigen::Vector3f dp(gx * fx * iz, gy * fy * iz, -(gx * fx * pp.x() + gy * fy * pp.y()) * iz * iz);
+        const Eigen::Vector3f d = Rp * dp;
+        const Eigen::Vector3f c = (pw - t).cross(d);
+        const float J[6] = {c.x(), c.y(), c.z(), d.x(), d.y(), d.z()};
+        const float w = std::abs(r) <= hub ? 1.0f : hub / std::abs(r);
+        int k = 0;
+        for (int a = 0; a < 6; ++a) {
+          const double wa = static_cast<double>(w * J[a]);
+          for (int bb = a; bb < 6; ++bb) upper[k++] += wa * J[bb];
+          rhs[a] -= wa * r;
+        }
+        acc.r2 += static_cast<double>(r) * r;
+        ++acc.inliers;
+      }
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      for (int bb = a; bb < 6; ++bb, ++k) acc.A(a, bb) = acc.A(bb, a) = upper[k];
+      acc.b(a) = rhs[a];
+    }
+  });
+  Normal6 s;
+  for (const Normal6& p : part) {  // fixed order: deterministic
+    s.A += p.A;
+    s.b += p.b;
+    s.r2 += p.r2;
+    s.inliers += p.inliers;
+  }
+  return s;
+}
+
+// Whether the depth term alone leaves a direction weak (rotations scaled by
+// the mean depth, as TrackIcp's analysis).
+bool DepthIsWeak(const Normal6& s, double ratio) {
+  const double L = std::max(0.1, s.depth_sum / static_cast<double>(s.inliers));
+  Eigen::Matrix<double, 6, 1> scale;
+  scale << 1 / L, 1 / L, 1 / L, 1, 1, 1;
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> eig(scale.asDiagonal() * s.A * scale.asDiagonal());
+  return eig.eigenvalues()(0) < ratio * std::max(eig.eigenvalues()(5), 1e-30);
+}
+
 }  // namespace
 
 IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const PinholeIntrinsics& model_K,
-                   const Rigid3& model_pose, const Rigid3& guess, const IcpOptions& options) {
+                   const Rigid3& model_pose, const Rigid3& guess, const IcpOptions& options,
+                   const PhotometricTarget* photo) {
   IcpResult res;
   Rigid3 pose = guess;
   const Rigid3 model_from_world = model_pose.Inverse();
   const double cos_angle = std::cos(options.max_angle_deg * M_PI / 180);
   const int levels = std::min<int>(static_cast<int>(frame.maps.size()), static_cast<int>(options.iterations.size()));
+  bool used_color = false;
+  const bool use_color = photo && photo->frame && options.color_weight > 0 && options.color_term != "off" &&
+                         frame.intensity.size() == frame.maps.size() &&
+                         photo->frame->intensity.size() == frame.maps.size();
   for (int l = levels - 1; l >= 0; --l) {
     const double gate = options.max_distance * std::pow(2.0, l);
     for (int it = 0; it < options.iterations[static_cast<size_t>(l)]; ++it) {
       Normal6 s = Accumulate(frame.maps[static_cast<size_t>(l)], model, model_K, model_from_world, pose, gate,
                              cos_angle, options.huber);
       if (s.inliers < 6) break;
+      if (use_color && (options.color_term == "always" || DepthIsWeak(s, options.weak_eigen_ratio))) {
+        const Normal6 ph =
+            AccumulatePhoto(frame, static_cast<size_t>(l), *photo, pose, options.color_huber, options.color_occlusion);
+        s.A += options.color_weight * ph.A;
+        s.b += options.color_weight * ph.b;
+        used_color = true;
+      }
       ++res.iterations;
       // Scale rotations by the mean depth so that all six are in metres.
       const double L = std::max(0.1, s.depth_sum / static_cast<double>(s.inliers));
@@ -263,6 +410,11 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
   for (size_t i = 0; i < frame.maps[0].normals.size(); ++i)
     valid += frame.maps[0].normals[i].x() == frame.maps[0].normals[i].x();
   res.world_from_cam = pose;
+  if (used_color) {
+    const Normal6 ph = AccumulatePhoto(frame, 0, *photo, pose, options.color_huber, options.color_occlusion);
+    res.color_pixels = ph.inliers;
+    res.color_rms = ph.inliers ? std::sqrt(ph.r2 / static_cast<double>(ph.inliers)) : 0;
+  }
   res.inlier_ratio = valid ? static_cast<double>(f.inliers) / static_cast<double>(valid) : 0;
   res.rms = f.inliers ? std::sqrt(f.r2 / static_cast<double>(f.inliers)) : 0;
   if (res.condition == 0 && f.inliers >= 6) {

@@ -1,6 +1,8 @@
 // KinectFusion's camera tracking: a filtered depth pyramid with vertex and
 // normal maps, and point-to-plane ICP with projective data association
-// against the model's raycast (frame to model), coarse to fine.
+// against the model's raycast (frame to model), coarse to fine; optionally
+// with a photometric term against the previous frame's intensity, as in
+// RGB-D odometry (Steinbrücker et al. 2011) and ElasticFusion.
 //
 // The 6x6 normal equations are examined before every step: their
 // eigenvalues, with rotations scaled by the scene's depth so that both
@@ -10,6 +12,7 @@
 // drifting on noise.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -24,7 +27,10 @@ struct FramePyramid {
   std::vector<PinholeIntrinsics> K;  // per level, 0 = full resolution
   std::vector<DepthMap> depth;       // filtered, metres
   std::vector<PointMaps> maps;       // camera frame
-  int64_t valid = 0;                 // valid depth pixels at level 0
+  // Linear luminance per level (depth's size; 2x2 means), empty without
+  // colour; NaN where the colour is clipped.
+  std::vector<std::vector<float>> intensity;
+  int64_t valid = 0;  // valid depth pixels at level 0
 };
 
 struct PyramidOptions {
@@ -36,7 +42,9 @@ struct PyramidOptions {
 
 // Depth (0 = invalid) to a pyramid; halving keeps pixels within 3 sigma_depth
 // of the block's first valid one (no averaging across edges).
-FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options);
+// `color` (linear RGB, depth's size; may be null) gives the intensity levels.
+FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options,
+                          const Image* color = nullptr);
 
 struct IcpOptions {
   std::vector<int> iterations = {10, 5, 4};  // per level, finest first
@@ -48,6 +56,24 @@ struct IcpOptions {
   // of valid pixels, a larger RMS residual, or moves farther than the
   // limits from the prediction.
   double min_inlier_ratio = 0.15, max_rms = 0.03, max_jump_m = 0.3, max_jump_deg = 30;
+  // The photometric term (used only when TrackIcp is given a previous
+  // frame): "weak" adds it to a step only where depth alone leaves a weak
+  // direction (a flat wall), "always" to every step, "off" never.  Measured
+  // on 7-Scenes, whose colour is not registered to its depth, "always" made
+  // the per-frame drift worse (docs/benchmarks.md).
+  std::string color_term = "weak";
+  // Its weight against the point-to-plane term (metres against linear
+  // intensity in [0, 1]); Open3D's hybrid odometry weighs them 0.968 : 0.032.
+  double color_weight = 0.033;
+  double color_huber = 0.05;      // intensity
+  double color_occlusion = 0.05;  // metres: pixels whose depth disagrees with the previous frame's are left out
+};
+
+// The previous frame for the photometric term: its pyramid (intensity and
+// depth) and its pose.
+struct PhotometricTarget {
+  const FramePyramid* frame = nullptr;
+  Rigid3 world_from_cam;
 };
 
 struct IcpResult {
@@ -68,14 +94,19 @@ struct IcpResult {
     return xs.cwiseProduct(weak_scale);
   }
   int iterations = 0;
-  bool ok = false;      // passed the loss tests
-  std::string failure;  // why not
+  int64_t color_pixels = 0;  // pixels in the photometric term at level 0 (0: not used)
+  double color_rms = 0;      // their intensity residual
+  bool ok = false;           // passed the loss tests
+  std::string failure;       // why not
 };
 
 // `model` holds world-frame maps raycast from `model_pose` with intrinsics
 // `model_K`; `guess` is the prediction (also the motion prior).
+// With `photo` (and intensity in both pyramids), each step adds the
+// photometric normal equations, weighted by options.color_weight.
 IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const PinholeIntrinsics& model_K,
-                   const Rigid3& model_pose, const Rigid3& guess, const IcpOptions& options);
+                   const Rigid3& model_pose, const Rigid3& guess, const IcpOptions& options,
+                   const PhotometricTarget* photo = nullptr);
 
 // The increment xi = (omega, t) about the camera centre c: world points
 // move as p' = exp(omega) (p - c) + c + t.  Rotations about the camera

@@ -64,8 +64,6 @@ void FuseFrame(const std::vector<int32_t>& blocks, const DepthMap& raw, const De
 void Refuse(const RgbdSequence& seq, const std::vector<std::pair<size_t, size_t>>& fused, const Trajectory& traj,
             const FuseOptions& o, const DepthReadOptions& dopt, TsdfVolume* volume) {
   *volume = TsdfVolume(volume->options());
-  PyramidOptions po = o.pyramid;
-  po.levels = 1;
   for (const auto& [i, k] : fused) {
     const RgbdFrame& f = seq.frames[i];
     const DepthMap depth = ReadDepth(f.depth, dopt, seq.K.width, seq.K.height);
@@ -73,7 +71,7 @@ void Refuse(const RgbdSequence& seq, const std::vector<std::pair<size_t, size_t>
     if (o.use_color && !f.color.empty()) color = ReadColor(f.color, seq.K.width, seq.K.height);
     IntegrateStats is;
     const Rigid3& pose = traj.poses[k].world_from_cam;
-    FuseFrame(volume->AllocateBand(depth, seq.K, pose, &is), depth, BuildPyramid(depth, seq.K, po).depth[0],
+    FuseFrame(volume->AllocateBand(depth, seq.K, pose, &is), depth, FilterDepth(depth, o.pyramid),
               color.empty() ? nullptr : &color, seq.K, pose, volume, nullptr, &is);
   }
 }

@@ -108,18 +108,22 @@ std::vector<float> HalveIntensity(const std::vector<float>& in, int w, int h) {
 
 }  // namespace
 
+DepthMap FilterDepth(const DepthMap& depth, const PyramidOptions& options) {
+  DepthMap d0 = depth;
+  if (!options.bilateral) return d0;
+  cv::Mat in(depth.height, depth.width, CV_32F, const_cast<float*>(depth.z.data()));
+  cv::Mat out;
+  const int diameter = 7;  // KinectFusion's window; sigma_space weights within it
+  cv::bilateralFilter(in, out, diameter, options.sigma_depth_m, options.sigma_space_px);
+  for (int y = 0; y < depth.height; ++y)
+    for (int x = 0; x < depth.width; ++x) d0.at(x, y) = depth.at(x, y) > 0 ? out.at<float>(y, x) : 0.0f;
+  return d0;
+}
+
 FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options,
                           const Image* color) {
   FramePyramid p;
-  DepthMap d0 = depth;
-  if (options.bilateral) {
-    cv::Mat in(depth.height, depth.width, CV_32F, const_cast<float*>(depth.z.data()));
-    cv::Mat out;
-    const int diameter = 7;  // KinectFusion's window; sigma_space weights within it
-    cv::bilateralFilter(in, out, diameter, options.sigma_depth_m, options.sigma_space_px);
-    for (int y = 0; y < depth.height; ++y)
-      for (int x = 0; x < depth.width; ++x) d0.at(x, y) = depth.at(x, y) > 0 ? out.at<float>(y, x) : 0.0f;
-  }
+  DepthMap d0 = FilterDepth(depth, options);
   for (float z : d0.z) p.valid += z > 0;
   p.depth.push_back(std::move(d0));
   p.K.push_back(K);

@@ -42,6 +42,10 @@ struct PyramidOptions {
 
 // Depth (0 = invalid) to a pyramid; halving keeps pixels within 3 sigma_depth
 // of the block's first valid one (no averaging across edges).
+// Level 0's depth: the bilateral filter (when options.bilateral), keeping
+// holes holes.
+DepthMap FilterDepth(const DepthMap& depth, const PyramidOptions& options);
+
 // `color` (linear RGB, depth's size; may be null) gives the intensity levels.
 FramePyramid BuildPyramid(const DepthMap& depth, const PinholeIntrinsics& K, const PyramidOptions& options,
                           const Image* color = nullptr);

@@ -267,13 +267,16 @@ void ReportErrors(const PlateCheckOptions& o, const std::vector<FrameGain>& gain
     report->Warn("registration in pixels: no frame measurable (" + measured.front().registration.why + ")");
   }
   if (!o.refine_poses.empty()) {
+    // With nothing refined the poses are the given ones: after = before.
     double a = 0;
-    for (double v : reg_after) a += v;
-    report->SetMetric("pose_refinement", {{"frames_refined", reg_after.size()},
-                                          {"mean_px_after", reg_after.empty() ? 0.0 : a / reg_after.size()},
-                                          {"poses", o.refine_poses.string()}});
+    for (double v : reg_after.empty() ? reg_mean : reg_after) a += v;
+    const size_t n = reg_after.empty() ? reg_mean.size() : reg_after.size();
+    const double after = n ? a / static_cast<double>(n) : 0.0;
+    report->SetMetric(
+        "pose_refinement",
+        {{"frames_refined", reg_after.size()}, {"mean_px_after", after}, {"poses", o.refine_poses.string()}});
     spdlog::info("poses refined against the room: {} of {} frames, registration {:.2f} px mean after", reg_after.size(),
-                 measured.size(), reg_after.empty() ? 0.0 : a / reg_after.size());
+                 measured.size(), after);
   }
   spdlog::info("plate gains: R {:.4g}..{:.4g}, G {:.4g}..{:.4g}, B {:.4g}..{:.4g} over {} frames, {} exposure jumps",
                gmin[0], gmax[0], gmin[1], gmax[1], gmin[2], gmax[2], gains.size(), jumps);
@@ -338,6 +341,12 @@ void EachFittedFrame(const Scene& scene, const PlateCheckOptions& o, const Camer
     fr->RenderPass(o.spp);
     use(i, plate, fr->Real(), RoomPixels(*rs, camera, pose));
   }
+}
+
+// Whether `after` is not lower than `before` by the fraction `min` (both
+// measurable; an unmeasurable one is no evidence either way: not better).
+bool NotBetter(const RegistrationResult& before, const RegistrationResult& after, double min) {
+  return !before.measurable || !after.measurable || !(after.mean_px < (1 - min) * before.mean_px);
 }
 
 // --refine-mode shared: one correction for the frames, solved from the
@@ -417,6 +426,35 @@ void SmoothCorrections(const Scene& scene, const PlateCheckOptions& o, const Cam
         m.registration_after = MeasureRegistration(real, plate, room);
         (*refined)[frame_ids[i]] = m.refinement.pose;
       });
+}
+
+// Over the refined frames (after sharing or smoothing): the registration's
+// mean before and after; where it did not fall by min_improvement, every
+// refinement is undone (the poses written are the given ones) and the
+// report says why.
+void KeepIfBetter(const PlateCheckOptions& o, std::vector<Measured>* measured, std::map<int, Rigid3>* refined,
+                  Report* report) {
+  RegistrationResult before, after;
+  int n = 0;
+  for (const Measured& m : *measured)
+    if (m.refinement.refined && m.registration.measurable && m.registration_after.measurable) {
+      before.mean_px += m.registration.mean_px;
+      after.mean_px += m.registration_after.mean_px;
+      ++n;
+    }
+  if (n == 0) return;
+  before.measurable = after.measurable = true;
+  if (!NotBetter(before, after, o.refine.min_improvement)) return;
+  const std::string why =
+      fmt::format("registration {:.2f} px mean before, {:.2f} px after over {} frames: not lower by {:g}%",
+                  before.mean_px / n, after.mean_px / n, n, 100 * o.refine.min_improvement);
+  report->Warn("poses kept as given: " + why);
+  refined->clear();
+  for (Measured& m : *measured)
+    if (m.refinement.refined) {
+      m.refinement.refined = false;
+      m.refinement.why = why;
+    }
 }
 
 }  // namespace
@@ -537,7 +575,16 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       m.refinement = RefinePose(render, pixels, rs, camera, pose, plate, o.refine);
       if (m.refinement.refined) {
         m.registration_after = MeasureRegistration(render(m.refinement.pose), plate, pixels(m.refinement.pose));
-        refined[f] = m.refinement.pose;
+        if (NotBetter(m.registration, m.registration_after, o.refine.min_improvement)) {
+          m.refinement.refined = false;
+          m.refinement.pose = pose;
+          m.refinement.why =
+              fmt::format("registration {:.2f} px before, {:.2f} px after: not lower by {:g}%", m.registration.mean_px,
+                          m.registration_after.mean_px, 100 * o.refine.min_improvement);
+          report->Warn(fmt::format("frame {}: pose kept: {}", f, m.refinement.why));
+        } else {
+          refined[f] = m.refinement.pose;
+        }
       } else {
         report->Warn(fmt::format("frame {}: pose not refined: {}", f, m.refinement.why));
       }
@@ -563,7 +610,10 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     SmoothCorrections(scene, o, camera, poses, begin, fitted_frames, method.get(), &rs, &frames, decoding, &measured,
                       &refined, report);
   }
-  if (!o.refine_poses.empty()) WriteRefinedPoses(o, poses, refined, begin, end, report);
+  if (!o.refine_poses.empty()) {
+    KeepIfBetter(o, &measured, &refined, report);
+    WriteRefinedPoses(o, poses, refined, begin, end, report);
+  }
   MR_CHECK_EQ(gains.size(), fits.size());  // SmoothGains: one gain per frame
   ReportErrors(o, gains, fits, measured, begin, gains_path, report);
   spdlog::info("gains: {}", gains_path.string());

@@ -74,6 +74,13 @@ struct PoseRefineOptions {
   int max_points = 3000;                                  // matches a round, a regular subsample of the usable ones
   double huber_px = 2.0;                                  // residuals beyond weigh as |r| (the flow's failures)
   double max_rotation_deg = 10, max_translation_m = 0.3;  // a larger step: refused, the input kept
+  // mr-eval plate keeps a refinement only where the registration measured
+  // after it is lower than before by this fraction (per frame, and over the
+  // frames for the shared and smoothed modes): on a capture whose
+  // registration is at the measurement's floor (exact poses, textureless
+  // walls, shading that differs from the plate's) the fit moves poses that
+  // were right (docs/benchmarks.md, "Registration against exact poses").
+  double min_improvement = 0.15;
   RegistrationOptions matching;
 };
 

@@ -11,7 +11,9 @@ int main(int argc, char** argv) {
   mr::AlbedoOptions& ao = o.albedo;
   mr::ConfigureApp(app, "mr-fuse",
                    "Reconstructs a room from an RGB-D recording, KinectFusion-style: bilateral-filtered depth on a\n"
-                   "3-level pyramid, point-to-plane ICP against the model's raycast (frame to model), fusion into a\n"
+                   "3-level pyramid, point-to-plane ICP against the model's raycast (frame to model; a photometric\n"
+                   "term where depth alone leaves a direction weak), loop closure (keyframes, loops verified by ICP\n"
+                   "and confirmed by two other keyframes, a Ceres pose graph, the volume fused again), fusion into a\n"
                    "TSDF in hashed 8^3 voxel blocks (memory grows with the surface), and surface-nets meshing. Writes\n"
                    "OUT/room.ply (binary: positions, normals, colour = albedo, float albedo_r/g/b, observed_r/g/b and\n"
                    "confidence), OUT/trajectory.txt (TUM, camera-to-world) and OUT/fuse-report.json (per frame: ICP\n"

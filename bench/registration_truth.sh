@@ -9,11 +9,14 @@
 # default, and one shared correction), the refined poses' error against the
 # exact ones, and the object's swim (mr-render, pt at 1 spp: the swim depends
 # on the poses and the plate only).
-# Usage: bench/registration_truth.sh [BIN_DIR] [OUT_DIR] [FRAMES]; writes OUT/registration-truth.csv
+# Each over the room's texture (every pixel) and over its geometric edges
+# only (mr-eval plate --register-on).
+# Usage: bench/registration_truth.sh [BIN_DIR] [OUT_DIR] [FRAMES] [REGISTER_ON...]; writes OUT/registration-truth.csv
 set -euo pipefail
 BIN=${1:-build/bin}
 OUT=${2:-out/bench-registration}
 FRAMES=${3:-8}
+REGISTER=${4:-texture edges}
 PY=/usr/bin/python3
 mkdir -p "$OUT"
 OUT=$(cd "$OUT" && pwd)
@@ -74,7 +77,7 @@ for name, spoil in cases.items():
     s["camera"]["poses"]["path"] = os.path.join(d, "poses.txt")
     json.dump(s, open(os.path.join(d, "scene.json"), "w"), indent=1)
 PY
-echo "case,mode,registration_px,worst_px,after_px,rot_err_deg,trans_err_mm,rot_err_after_deg,trans_err_after_mm,swim_rms_px,swim_after_rms_px,seconds" > "$OUT/registration-truth.csv"
+echo "case,register_on,mode,registration_px,worst_px,after_px,rot_err_deg,trans_err_mm,rot_err_after_deg,trans_err_after_mm,swim_rms_px,swim_after_rms_px,seconds" > "$OUT/registration-truth.csv"
 err() {  # err ESTIMATE.tum -> "mean_deg mean_mm" against the exact poses
   "$PY" - "$1" "$OUT/exact/poses.txt" <<'PY'
 import math, sys
@@ -99,14 +102,15 @@ swim() {  # swim SCENE REPORT -> RMS px of the first object's swim
   "$BIN/mr-render" "$1" --out "$(dirname "$2")/render" --method pt --spp 1 --report "$2" -q
   "$PY" -c "import json,sys; s=json.load(open(sys.argv[1]))['metrics'].get('swim',{}); print('%.3f' % (list(s.values())[0]['rms_px'] if s else float('nan')))" "$2"
 }
+for reg_on in $REGISTER; do
 for c in exact offset drift; do
   for mode in smooth shared; do
     [ "$c" = exact ] && [ "$mode" = shared ] && continue
-    d=$OUT/$c/$mode
+    d=$OUT/$c/$reg_on-$mode
     mkdir -p "$d"
     t0=$(date +%s.%N)
     "$BIN/mr-eval" plate "$OUT/$c/scene.json" --out "$d" --refine-poses "$d/refined.tum" --refine-mode "$mode" \
-      --report "$d/plate.json" -q
+      --register-on "$reg_on" --report "$d/plate.json" -q
     t1=$(date +%s.%N)
     read -r reg worst after <<< "$("$PY" -c "import json,sys; m=json.load(open(sys.argv[1]))['metrics']; g=m['registration']; p=m.get('pose_refinement',{}); print(g['mean_px'], g['worst_mean_px'], p.get('mean_px_after', float('nan')))" "$d/plate.json")"
     read -r rdeg tmm <<< "$(err "$OUT/$c/poses.txt")"
@@ -115,7 +119,8 @@ for c in exact offset drift; do
     "$PY" -c "import json,sys; s=json.load(open(sys.argv[1])); s['camera']['poses']['path']=sys.argv[2]; json.dump(s, open(sys.argv[3],'w'), indent=1)" \
       "$OUT/$c/scene.json" "$d/refined.tum" "$d/scene-refined.json"
     s_after=$(swim "$d/scene-refined.json" "$d/swim-after/render.json")
-    echo "$c,$mode,$reg,$worst,$after,$rdeg,$tmm,$rdeg2,$tmm2,$s_before,$s_after,$("$PY" -c "print('%.1f' % ($t1 - $t0))")" \
+    echo "$c,$reg_on,$mode,$reg,$worst,$after,$rdeg,$tmm,$rdeg2,$tmm2,$s_before,$s_after,$("$PY" -c "print('%.1f' % ($t1 - $t0))")" \
       | tee -a "$OUT/registration-truth.csv"
   done
+done
 done

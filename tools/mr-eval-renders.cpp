@@ -110,6 +110,15 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
   plate->add_option("--refine-rounds", po_plate.refine.rounds, "Render, match and solve rounds of --refine-poses")
       ->default_val(2)
       ->check(CLI::Range(1, 10));
+  plate
+      ->add_option("--register-on", po_plate.register_on,
+                   "Registration and --refine-poses over: texture (every pixel of the room) or edges (only near the\n"
+                   "room's creases and depth steps: where the plate's shading and shadows differ from the render's)")
+      ->default_val("texture")
+      ->check(CLI::IsMember({"texture", "edges"}));
+  plate->add_option("--edge-band", po_plate.edge_band_px, "--register-on edges: pixels within this of an edge")
+      ->default_val(4)
+      ->check(CLI::Range(1, 64));
   plate->add_flag("--images", po_plate.images,
                   "Write OUT/NNNNN-rerender.png per fitted frame: plate | room rendered at the gain | difference |\n"
                   "pixels compared");

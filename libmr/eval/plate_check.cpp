@@ -63,6 +63,60 @@ Image RoomPixels(const RenderScene& rs, const CameraModel& camera, const Rigid3&
   return room;
 }
 
+// 1 within band_px of a geometric edge of the room seen through `pose`: a
+// crease (the surfaces hit by neighbouring pixels' rays turn by more than
+// 20 degrees) or a depth step (10%).  Shading and shadows fall anywhere; a
+// room's creases are where its geometry is.
+Image GeometricEdgeBand(const RenderScene& rs, const CameraModel& camera, const Rigid3& pose, int band_px) {
+  const CameraSampler cs(camera, pose, 0, 0);
+  const int w = camera.width(), h = camera.height();
+  std::vector<Eigen::Vector3f> n(static_cast<size_t>(w) * h, Eigen::Vector3f::Zero());
+  std::vector<float> t(n.size(), 0.0f);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      if (!cs.PixelValid(x, y)) continue;
+      Eigen::Vector3d c[4];
+      cs.CornerDirections(x, y, c);
+      Ray ray;
+      ray.origin = pose.translation.cast<float>();
+      ray.direction = (c[0] + c[1] + c[2] + c[3]).normalized().cast<float>();
+      ray.mask = kMaskReal;
+      Hit hit;
+      if (!rs.embree().Intersect(ray, &hit)) continue;
+      n[static_cast<size_t>(y) * w + x] = hit.geometric_normal.normalized();
+      t[static_cast<size_t>(y) * w + x] = hit.t;
+    }
+  cv::Mat edge = cv::Mat::zeros(h, w, CV_8U);
+  const float cos20 = std::cos(20.0f * static_cast<float>(std::numbers::pi) / 180);
+  for (int y = 0; y + 1 < h; ++y)
+    for (int x = 0; x + 1 < w; ++x) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      for (const size_t j : {i + 1, i + static_cast<size_t>(w)}) {
+        if (!(t[i] > 0 && t[j] > 0)) continue;
+        // Unsigned: a mesh's winding may flip the normal between triangles of one plane.
+        if (std::abs(n[i].dot(n[j])) < cos20 || std::max(t[i], t[j]) > 1.1f * std::min(t[i], t[j]))
+          edge.at<uint8_t>(y, x) = 255;
+      }
+    }
+  cv::dilate(edge, edge, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(2 * band_px + 1, 2 * band_px + 1)));
+  Image band = Image::Gray(w, h);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) band.at(x, y, 0) = edge.at<uint8_t>(y, x) ? 1.0f : 0.0f;
+  return band;
+}
+
+// The pixels registration is measured and refined over: the room's
+// (RoomPixels), or with register_on "edges" those of them near its
+// geometric edges.
+Image RegistrationPixels(const RenderScene& rs, const CameraModel& camera, const Rigid3& pose,
+                         const PlateCheckOptions& o) {
+  Image room = RoomPixels(rs, camera, pose);
+  if (o.register_on != "edges") return room;
+  const Image band = GeometricEdgeBand(rs, camera, pose, o.edge_band_px);
+  for (size_t i = 0; i < room.values().size(); ++i) room.values()[i] *= band.values()[i];
+  return room;
+}
+
 Image Scaled(Image img, const Rgb& g) {
   for (int y = 0; y < img.height(); ++y)
     for (int x = 0; x < img.width(); ++x)
@@ -339,7 +393,7 @@ void EachFittedFrame(const Scene& scene, const PlateCheckOptions& o, const Camer
     const FrameContext fc{*rs, camera, pose, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
     std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
     fr->RenderPass(o.spp);
-    use(i, plate, fr->Real(), RoomPixels(*rs, camera, pose));
+    use(i, plate, fr->Real(), RegistrationPixels(*rs, camera, pose, o));
   }
 }
 
@@ -467,6 +521,9 @@ void PlateCheckOptions::Check() const {
     throw UsageError(fmt::format("--at-gain {} must not be negative (0: the fitted gains)", at_gain));
   if (!(smoothing.time_constant >= 0)) throw UsageError("--smooth must be 0 or positive");
   if (!(smoothing.jump_ratio > 1)) throw UsageError("--jump-ratio must be above 1");
+  if (register_on != "texture" && register_on != "edges")
+    throw UsageError(fmt::format("--register-on {}: texture or edges", register_on));
+  if (edge_band_px < 1) throw UsageError("--edge-band must be at least 1");
 }
 
 void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* report) {
@@ -555,13 +612,14 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
     }
     const Image fitted = Scaled(real, fit.ok ? fit.gain : Rgb{1, 1, 1});
     m.ssim = CompareImages(fitted, plate, &room).ssim;
+    const Image reg_pixels = o.register_on == "edges" ? RegistrationPixels(rs, camera, pose, o) : room;
     {
       ScopedTimer t(report, "registration");
-      m.registration = MeasureRegistration(real, plate, room);
+      m.registration = MeasureRegistration(real, plate, reg_pixels);
     }
     if (!o.refine_poses.empty() && o.refine_shared) {
       ScopedTimer t(report, "pose refinement");
-      shared.push_back(MatchRoom(real, room, rs, camera, pose, plate, o.refine));
+      shared.push_back(MatchRoom(real, reg_pixels, rs, camera, pose, plate, o.refine));
       shared_frames.push_back(f);
     } else if (!o.refine_poses.empty()) {
       ScopedTimer t(report, "pose refinement");
@@ -571,7 +629,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
         fr->RenderPass(o.spp);
         return fr->Real();
       };
-      auto pixels = [&](const Rigid3& p) { return RoomPixels(rs, camera, p); };
+      auto pixels = [&](const Rigid3& p) { return RegistrationPixels(rs, camera, p, o); };
       m.refinement = RefinePose(render, pixels, rs, camera, pose, plate, o.refine);
       if (m.refinement.refined) {
         m.registration_after = MeasureRegistration(render(m.refinement.pose), plate, pixels(m.refinement.pose));

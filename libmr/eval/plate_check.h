@@ -51,6 +51,13 @@ struct PlateCheckOptions {
   // Not shared, > 0: each frame's correction averaged over the fitted
   // frames around it (Gaussian, sigma in fitted frames): --refine-mode smooth.
   double refine_smooth_frames = 2;
+  // The pixels registration is measured and refined over: "texture" (every
+  // pixel of the room: its texture, edges and shading) or "edges" (only
+  // those within edge_band_px of the room's geometric edges, creases and
+  // depth steps: where the plate's shading and shadows differ from the
+  // render's, as on a sunlit capture with textureless walls).
+  std::string register_on = "texture";
+  int edge_band_px = 4;
   std::string tool = "mr-eval", command_line;
 
   // UsageError naming the flag: --out missing, --spp or --stride below 1, an

@@ -270,6 +270,27 @@ TEST_F(Capture, RefiningExactPosesKeepsThemUnlessThePixelsSayOtherwise) {
   } else {
     EXPECT_LT(pr["mean_px_after"].get<double>(), 0.85 * r.metrics()["registration"]["mean_px"].get<double>());
   }
+  // Over the room's geometric edges only: fewer pixels (the creases' bands),
+  // measured there or said not measurable; the poses stay unless the pixels
+  // there fall.
+  po.register_on = "edges";
+  po.out = dir_->path() / "plate-edges";
+  po.refine_poses = po.out / "poses.tum";
+  Report e("mr-eval", "test");
+  RunPlateCheck(scene, po, &e);
+  for (const Json& f : e.metrics()["frames"]) {
+    const Json& g = f["registration"];
+    EXPECT_LT(g["region_pixels"].get<int64_t>(),
+              r.metrics()["frames"][0]["registration"]["region_pixels"].get<int64_t>());
+    if (!g["measurable"].get<bool>()) {
+      EXPECT_FALSE(g["why"].get<std::string>().empty());
+    }
+  }
+  if (e.metrics()["pose_refinement"]["frames_refined"].get<int>() == 0) {
+    const Trajectory kept = ReadTum(po.refine_poses);
+    for (size_t i = 0; i < given.size(); ++i)
+      EXPECT_TRUE(kept.poses[i].world_from_cam.IsApprox(given.poses[i].world_from_cam, 1e-6)) << i;
+  }
 }
 
 // The plate in reflections through mr-render: the capture's object made a

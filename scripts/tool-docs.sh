@@ -9,7 +9,7 @@ out=${2:-$(cd "$(dirname "$0")/.." && pwd)/docs/tools}
 mkdir -p "$out"
 declare -A subs=(
   [mr-calibrate]="camera rig sphere"
-  [mr-eval]="compare traj mesh sweep plot merge"
+  [mr-eval]="compare traj mesh sweep plot merge plate"
   [mr-register]="colmap align"
 )
 tools=(mr-info mr-board mr-synth mr-calibrate mr-hdr mr-probe mr-lights mr-fuse mr-formfactor mr-register mr-planes mr-render mr-eval mr-pipeline)

@@ -637,8 +637,11 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
           m.refinement.refined = false;
           m.refinement.pose = pose;
           m.refinement.why =
-              fmt::format("registration {:.2f} px before, {:.2f} px after: not lower by {:g}%", m.registration.mean_px,
-                          m.registration_after.mean_px, 100 * o.refine.min_improvement);
+              m.registration_after.measurable
+                  ? fmt::format("registration {:.2f} px before, {:.2f} px after: not lower by {:g}%",
+                                m.registration.mean_px, m.registration_after.mean_px, 100 * o.refine.min_improvement)
+                  : fmt::format("registration {:.2f} px before, not measurable after ({})", m.registration.mean_px,
+                                m.registration_after.why);
           report->Warn(fmt::format("frame {}: pose kept: {}", f, m.refinement.why));
         } else {
           refined[f] = m.refinement.pose;

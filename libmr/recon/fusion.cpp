@@ -46,6 +46,14 @@ void WritePreview(const FuseOptions& o, int index, const PointMaps& m, const Rig
   WriteImage(o.preview_dir / fmt::format("{:06d}.png", index), img);
 }
 
+// The pyramid level the model is raycast at: options.raycast_level, but
+// never below 320 pixels across (coarser models lose thin structure).
+int RaycastLevel(const FuseOptions& o, const FramePyramid& pyr) {
+  int rl = std::clamp(o.raycast_level, 0, static_cast<int>(pyr.depth.size()) - 1);
+  while (rl > 0 && pyr.K[static_cast<size_t>(rl)].width < 320) --rl;
+  return rl;
+}
+
 // The voxels of `blocks` (the band AllocateBand found from the raw depth)
 // updated from the filtered depth (and colour), and the tracking volume's
 // likewise.
@@ -181,15 +189,36 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
       // Against this recording's own recent figures: a residual twice the
       // median of the last good frames, or half their inlier ratio, is a
       // wrong pose even where the absolute limits pass.
-      if (r.ok && good_rms.size() >= 5) {
+      auto judge = [&](IcpResult* x) {
+        if (!x->ok || good_rms.size() < 5) return;
         const double med_rms = Median(good_rms), med_in = Median(good_inliers);
-        if (r.rms > options.loss_rms_factor * med_rms)
-          r.failure = fmt::format("RMS residual {:.1f} mm > {:g} x the recent median {:.1f} mm", 1000 * r.rms,
-                                  options.loss_rms_factor, 1000 * med_rms);
-        else if (r.inlier_ratio < options.loss_inlier_factor * med_in)
-          r.failure = fmt::format("inlier ratio {:.2f} < {:g} x the recent median {:.2f}", r.inlier_ratio,
-                                  options.loss_inlier_factor, med_in);
-        r.ok = r.failure.empty();
+        if (x->rms > options.loss_rms_factor * med_rms)
+          x->failure = fmt::format("RMS residual {:.1f} mm > {:g} x the recent median {:.1f} mm", 1000 * x->rms,
+                                   options.loss_rms_factor, 1000 * med_rms);
+        else if (x->inlier_ratio < options.loss_inlier_factor * med_in)
+          x->failure = fmt::format("inlier ratio {:.2f} < {:g} x the recent median {:.2f}", x->inlier_ratio,
+                                   options.loss_inlier_factor, med_in);
+        x->ok = x->failure.empty();
+      };
+      judge(&r);
+      // Lost: placed against the keyframes near the last good pose (the
+      // loop search's seeded ICP), then checked against the model seen from
+      // there as any tracked frame is.
+      std::string placed_by;
+      if (!r.ok && closer) {
+        if (const auto at = closer->Relocalise(pyr, prev_pose)) {
+          const int rl = RaycastLevel(options, pyr);
+          const PinholeIntrinsics& Kl = pyr.K[static_cast<size_t>(rl)];
+          const PointMaps there =
+              (tracker ? tracker.get() : volume)
+                  ->Raycast(Kl, at->first, 0.2f, static_cast<float>(dopt.max_m), &pyr.depth[static_cast<size_t>(rl)]);
+          IcpResult r2 = TrackIcp(pyr, there, Kl, at->first, at->first, options.icp);
+          judge(&r2);
+          if (r2.ok) {
+            r = r2;
+            placed_by = fmt::format("relocalised against the keyframe of frame {}", at->second);
+          }
+        }
       }
       rec.icp_rms = r.rms;
       rec.color_pixels = r.color_pixels;
@@ -214,7 +243,8 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         finish();
         continue;
       }
-      rec.status = relocalising ? "relocalised" : "tracked";
+      rec.status = relocalising || !placed_by.empty() ? "relocalised" : "tracked";
+      rec.note = placed_by;
       good_rms.push_back(r.rms);
       good_inliers.push_back(r.inlier_ratio);
       if (good_rms.size() > 30) {
@@ -222,8 +252,9 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         good_inliers.pop_front();
       }
       // Constant velocity, except along directions the data did not constrain.
-      velocity = relocalising || !(dt > 0) ? Eigen::Matrix<double, 6, 1>::Zero().eval()
-                                           : (r.RemoveWeak(IncrementBetween(prev_pose, r.world_from_cam)) / dt).eval();
+      velocity = relocalising || !placed_by.empty() || !(dt > 0)
+                     ? Eigen::Matrix<double, 6, 1>::Zero().eval()
+                     : (r.RemoveWeak(IncrementBetween(prev_pose, r.world_from_cam)) / dt).eval();
       pose = r.world_from_cam;
       lost_run = 0;
     }
@@ -286,8 +317,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
     rec.t_loop = Seconds(tp);
     tp = std::chrono::steady_clock::now();
     if (!options.poses && (rec.fused || !have_model || closed)) {
-      int rl = std::clamp(options.raycast_level, 0, static_cast<int>(pyr.depth.size()) - 1);
-      while (rl > 0 && pyr.K[static_cast<size_t>(rl)].width < 320) --rl;  // coarser models lose thin structure
+      const int rl = RaycastLevel(options, pyr);
       model = (tracker ? tracker.get() : volume)
                   ->Raycast(pyr.K[static_cast<size_t>(rl)], pose, 0.2f, static_cast<float>(dopt.max_m),
                             &pyr.depth[static_cast<size_t>(rl)]);

@@ -261,51 +261,77 @@ bool LoopCloser::Add(int frame, const FramePyramid& pyramid, const Rigid3& world
   return closed;
 }
 
-std::optional<LoopCloser::Pending> LoopCloser::Measure(int id, int k, const FramePyramid& pyramid) {
-  const auto t0 = std::chrono::steady_clock::now();
-  ++tried_;
-  const auto& kfs = impl_->keyframes;
-  const Impl::Keyframe& c = kfs[static_cast<size_t>(k)];
-  // ICP in the candidate's camera frame: its maps are the model, seen from
-  // the identity; the result is candidate_from_new.  Started from the best
-  // seeds around the tracked relative pose, the one that agrees with the
-  // most points kept.
-  const Rigid3 guess = c.pose.Inverse() * kfs[static_cast<size_t>(id)].pose;
+// A frame aligned to a keyframe `c`: ICP in the keyframe's camera frame (its
+// maps are the model, seen from the identity; the result is
+// keyframe_from_frame), started from the best seeds around `guess`, the one
+// that agrees with the most points kept, and only when unique: no pose
+// elsewhere (beyond twice the consistency distance) agrees nearly as well
+// (along a direction the views barely constrain, ICP stops where it started
+// and the seeds spread along it score alike).
+static std::optional<IcpResult> AlignToKeyframe(const PointMaps& maps, const PinholeIntrinsics& K,
+                                                const FramePyramid& pyramid, const Rigid3& guess,
+                                                const LoopOptions& o) {
   std::vector<std::pair<int, IcpResult>> found;
-  for (const Rigid3& seed : Seeds(pyramid.maps.back(), c.maps, c.K, guess, options_.search_radius_m,
-                                  options_.seed_step_m, options_.seed_angle_deg * M_PI / 180, 3)) {
+  for (const Rigid3& seed :
+       Seeds(pyramid.maps.back(), maps, K, guess, o.search_radius_m, o.seed_step_m, o.seed_angle_deg * M_PI / 180, 3)) {
     IcpOptions icp;
     icp.iterations.assign(pyramid.maps.size(), 10);
     icp.max_distance = 0.05;
     icp.max_jump_m = 0.2;  // from the seed
     icp.max_jump_deg = 15;
-    icp.max_rms = options_.max_rms;
-    icp.min_inlier_ratio = options_.min_inlier_ratio;
-    IcpResult ri = TrackIcp(pyramid, c.maps, c.K, Rigid3(), seed, icp);
+    icp.max_rms = o.max_rms;
+    icp.min_inlier_ratio = o.min_inlier_ratio;
+    IcpResult ri = TrackIcp(pyramid, maps, K, Rigid3(), seed, icp);
     if (!ri.ok || ri.weak_directions > 0) continue;
-    found.push_back({Agreement(pyramid.maps[0], c.maps, c.K, ri.world_from_cam, 0.02f), ri});
+    found.push_back({Agreement(pyramid.maps[0], maps, K, ri.world_from_cam, 0.02f), ri});
   }
   if (found.empty()) return std::nullopt;
   std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
-  // Unique: no pose elsewhere (beyond twice the consistency distance)
-  // agrees nearly as well.  Along a direction the views barely constrain,
-  // ICP stops where it started, and the seeds spread along it score alike.
   const IcpResult& r = found[0].second;
   for (size_t j = 1; j < found.size(); ++j)
-    if ((found[j].second.world_from_cam.translation - r.world_from_cam.translation).norm() >
-            2 * options_.consistency_m &&
-        found[j].first > options_.uniqueness * found[0].first)
+    if ((found[j].second.world_from_cam.translation - r.world_from_cam.translation).norm() > 2 * o.consistency_m &&
+        found[j].first > o.uniqueness * found[0].first)
       return std::nullopt;
+  return r;
+}
+
+std::optional<LoopCloser::Pending> LoopCloser::Measure(int id, int k, const FramePyramid& pyramid) {
+  const auto t0 = std::chrono::steady_clock::now();
+  ++tried_;
+  const auto& kfs = impl_->keyframes;
+  const Impl::Keyframe& c = kfs[static_cast<size_t>(k)];
+  const std::optional<IcpResult> r =
+      AlignToKeyframe(c.maps, c.K, pyramid, c.pose.Inverse() * kfs[static_cast<size_t>(id)].pose, options_);
+  if (!r) return std::nullopt;
   Pending p;
   p.kf_new = id;
   p.kf_old = k;
   p.record.frame = kfs[static_cast<size_t>(id)].frame;
   p.record.keyframe_frame = c.frame;
-  p.record.measured = r.world_from_cam;
-  p.record.rms = r.rms;
-  p.record.inlier_ratio = r.inlier_ratio;
+  p.record.measured = r->world_from_cam;
+  p.record.rms = r->rms;
+  p.record.inlier_ratio = r->inlier_ratio;
   p.record.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return p;
+}
+
+std::optional<std::pair<Rigid3, int>> LoopCloser::Relocalise(const FramePyramid& pyramid, const Rigid3& near) {
+  std::vector<std::pair<double, size_t>> order;
+  const auto& kfs = impl_->keyframes;
+  for (size_t k = 0; k < kfs.size(); ++k) {
+    const double d = (kfs[k].pose.translation - near.translation).norm();
+    const double a = AngleDeg(kfs[k].pose.rotation.conjugate() * near.rotation);
+    if (d <= options_.search_radius_m && a <= options_.search_angle_deg)
+      order.push_back({d / options_.search_radius_m + a / options_.search_angle_deg, k});
+  }
+  std::sort(order.begin(), order.end());
+  if (order.size() > static_cast<size_t>(options_.max_candidates)) order.resize(options_.max_candidates);
+  for (const auto& [score, k] : order) {
+    const Impl::Keyframe& c = kfs[k];
+    if (const std::optional<IcpResult> r = AlignToKeyframe(c.maps, c.K, pyramid, c.pose.Inverse() * near, options_))
+      return std::pair{c.pose * r->world_from_cam, c.frame};
+  }
+  return std::nullopt;
 }
 
 // Two loops (new keyframe i to old a, measured a_from_i; j to b, b_from_j)

@@ -28,6 +28,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "camera/pose.h"
@@ -77,6 +78,13 @@ class LoopCloser {
   // the current (corrected) world.  Returns true when a loop closed: every
   // pose given so far has changed (pose(k)), the last one included.
   bool Add(int frame, const FramePyramid& pyramid, const Rigid3& world_from_cam);
+
+  // A frame tracking lost, placed against the keyframes within the search
+  // radius and angle of `near` (the last good pose), nearest first, as a
+  // loop is measured (seeded ICP, unique) but without confirmation: its
+  // world pose and the keyframe's frame, or nothing.  The caller checks it
+  // against the model before trusting it.
+  std::optional<std::pair<Rigid3, int>> Relocalise(const FramePyramid& pyramid, const Rigid3& near);
 
   // The corrected pose of the k-th frame given to Add.
   Rigid3 pose(size_t k) const;

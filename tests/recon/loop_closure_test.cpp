@@ -116,6 +116,31 @@ TEST(LoopClosure, WithoutARevisitNothingChanges) {
     EXPECT_TRUE(run.corrected.poses[i].world_from_cam.IsApprox(run.drifted.poses[i].world_from_cam, 1e-9));
 }
 
+TEST(LoopClosure, ALostFrameIsPlacedAgainstTheKeyframesNearTheLastGoodPose) {
+  // Keyframes along a third of the circle at their true poses; a frame from
+  // among them is placed starting 35 cm and 4 degrees from where it is (the
+  // last good pose of a tracker that lost it), and comes back within a
+  // centimetre (measured 4.9 mm, 0.17 degree); a frame from the far side of
+  // the room has no keyframe near it and is not placed.
+  const RenderScene rs = Room();
+  const PinholeIntrinsics K{146.25, 146.25, 79.5, 59.5, 160, 120};
+  const Trajectory path = Circle(96, 380);
+  LoopCloser lc(LoopOptions{});
+  auto pyramid = [&](size_t i) {
+    return BuildPyramid(RenderDepth(rs, K, path.poses[i].world_from_cam, DepthSensorModel{}, i + 1), K,
+                        PyramidOptions{});
+  };
+  for (size_t i = 0; i < 30; ++i) lc.Add(static_cast<int>(i), pyramid(i), path.poses[i].world_from_cam);
+  const Rigid3& truth = path.poses[12].world_from_cam;
+  const Rigid3 near(Eigen::Quaterniond(Eigen::AngleAxisd(4 * kDegToRad, Eigen::Vector3d::UnitY())) * truth.rotation,
+                    truth.translation + Eigen::Vector3d(0.25, 0.05, -0.24));
+  const auto placed = lc.Relocalise(pyramid(12), near);
+  ASSERT_TRUE(placed.has_value());
+  EXPECT_LT((placed->first.translation - truth.translation).norm(), 0.01);
+  EXPECT_LT(Eigen::AngleAxisd(placed->first.rotation.conjugate() * truth.rotation).angle() / kDegToRad, 0.5);
+  EXPECT_FALSE(lc.Relocalise(pyramid(60), path.poses[60].world_from_cam).has_value());
+}
+
 TEST(LoopClosure, PoseGraphSpreadsAConstantErrorEvenly) {
   // A chain whose odometry says 10 steps of 1 m but whose loop edge says the
   // end is 9.9 m from the start: each step gives 1 cm.

@@ -221,6 +221,7 @@ FuseResult Fuse(const RgbdSequence& seq, const FuseOptions& options, TsdfVolume*
         }
       }
       rec.icp_rms = r.rms;
+      rec.free_space_ratio = r.free_space_ratio;
       rec.color_pixels = r.color_pixels;
       rec.color_rms = r.color_rms;
       rec.inlier_ratio = r.inlier_ratio;
@@ -388,6 +389,7 @@ void ReportFusion(const FuseResult& r, Report* report) {
                       {"rejected_depth", f.rejected_depth},
                       {"icp_rms_m", f.icp_rms},
                       {"inlier_ratio", f.inlier_ratio},
+                      {"free_space_ratio", f.free_space_ratio},
                       {"color_pixels", f.color_pixels},
                       {"color_rms", f.color_rms},
                       {"condition", std::isfinite(f.condition) ? nlohmann::json(f.condition) : nlohmann::json("inf")},

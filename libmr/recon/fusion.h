@@ -70,8 +70,9 @@ struct FrameRecord {
   std::string note;  // why not fused / why lost
   int64_t valid_depth = 0, rejected_depth = 0;
   double icp_rms = 0, inlier_ratio = 0, condition = 0;
-  int64_t color_pixels = 0;  // in the photometric term (0: not used)
-  double color_rms = 0;      // its intensity residual
+  double free_space_ratio = 0;  // of its points, those in space the model saw empty
+  int64_t color_pixels = 0;     // in the photometric term (0: not used)
+  double color_rms = 0;         // its intensity residual
   int weak_directions = 0, iterations = 0;
   int64_t new_blocks = 0;
   double seconds = 0;

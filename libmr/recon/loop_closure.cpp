@@ -325,7 +325,8 @@ std::optional<std::pair<Rigid3, int>> LoopCloser::Relocalise(const FramePyramid&
       order.push_back({d / options_.search_radius_m + a / options_.search_angle_deg, k});
   }
   std::sort(order.begin(), order.end());
-  if (order.size() > static_cast<size_t>(options_.max_candidates)) order.resize(options_.max_candidates);
+  if (order.size() > static_cast<size_t>(options_.relocalise_candidates))
+    order.resize(static_cast<size_t>(options_.relocalise_candidates));
   for (const auto& [score, k] : order) {
     const Impl::Keyframe& c = kfs[k];
     if (const std::optional<IcpResult> r = AlignToKeyframe(c.maps, c.K, pyramid, c.pose.Inverse() * near, options_))

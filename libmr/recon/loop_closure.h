@@ -41,7 +41,8 @@ struct LoopOptions {
   double keyframe_translation_m = 0.10, keyframe_rotation_deg = 10;
   int min_frame_gap = 60;  // a loop joins keyframes at least this many frames apart
   double search_radius_m = 0.5, search_angle_deg = 30;
-  int max_candidates = 3;  // keyframes tried per new keyframe
+  int max_candidates = 3;          // keyframes tried per new keyframe
+  int relocalise_candidates = 10;  // keyframes tried for a lost frame (the nearest are the recent ones)
   // ICP starts from the best-agreeing of a grid of poses around the tracked
   // one: translations every seed_step_m within search_radius_m, rotations
   // of 0 and +-seed_angle_deg about each axis.

@@ -324,6 +324,33 @@ Normal6 AccumulatePhoto(const FramePyramid& cur, size_t l, const PhotometricTarg
   return s;
 }
 
+// The fraction of the frame's points (level 0, moved by `pose`) that land
+// in space the model saw empty: nearer to the model's camera, along its
+// ray, than the model's surface there by more than `margin`.  Over the
+// points that land on model pixels with a surface.
+double FreeSpaceRatio(const PointMaps& src, const PointMaps& model, const PinholeIntrinsics& mK,
+                      const Rigid3& model_from_world, const Rigid3& pose, double margin) {
+  const Eigen::Matrix3f R = pose.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f t = pose.translation.cast<float>();
+  const Eigen::Matrix3f Rm = model_from_world.rotation.toRotationMatrix().cast<float>();
+  const Eigen::Vector3f tm = model_from_world.translation.cast<float>();
+  const float fx = static_cast<float>(mK.fx), fy = static_cast<float>(mK.fy), cx = static_cast<float>(mK.cx),
+              cy = static_cast<float>(mK.cy), m = static_cast<float>(margin);
+  int64_t landed = 0, empty = 0;
+  for (size_t i = 0; i < src.vertices.size(); ++i) {
+    if (!src.valid(i)) continue;
+    const Eigen::Vector3f pm = Rm * (R * src.vertices[i] + t) + tm;
+    if (pm.z() <= 0) continue;
+    const float u = fx * pm.x() / pm.z() + cx + 0.5f, v = fy * pm.y() / pm.z() + cy + 0.5f;
+    if (!(u >= 0 && v >= 0 && u < static_cast<float>(model.width) && v < static_cast<float>(model.height))) continue;
+    const size_t j = static_cast<size_t>(v) * model.width + static_cast<size_t>(u);
+    if (!model.valid(j)) continue;
+    ++landed;
+    empty += pm.z() < (Rm * model.vertices[j] + tm).z() - m;
+  }
+  return landed ? static_cast<double>(empty) / static_cast<double>(landed) : 0.0;
+}
+
 // Whether the depth term alone leaves a direction weak (rotations scaled by
 // the mean depth, as TrackIcp's analysis).
 bool DepthIsWeak(const Normal6& s, double ratio) {
@@ -426,6 +453,8 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
     res.condition = eig.eigenvalues()(0) > 0 ? eig.eigenvalues()(5) / eig.eigenvalues()(0)
                                              : std::numeric_limits<double>::infinity();
   }
+  res.free_space_ratio =
+      FreeSpaceRatio(frame.maps[0], model, model_K, model_from_world, pose, options.free_space_margin);
   const Rigid3 jump = pose * guess.Inverse();
   const double jump_m = (pose.translation - guess.translation).norm();
   const double jump_deg = Eigen::AngleAxisd(jump.rotation).angle() * 180 / M_PI;
@@ -435,6 +464,9 @@ IcpResult TrackIcp(const FramePyramid& frame, const PointMaps& model, const Pinh
     res.failure = fmt::format("inlier ratio {:.2f} < {:.2f}", res.inlier_ratio, options.min_inlier_ratio);
   else if (res.rms > options.max_rms)
     res.failure = fmt::format("RMS residual {:.3f} m > {:.3f} m", res.rms, options.max_rms);
+  else if (res.free_space_ratio > options.max_free_space)
+    res.failure = fmt::format("{:.0f}% of the points land in space the model saw empty (> {:.0f}%)",
+                              100 * res.free_space_ratio, 100 * options.max_free_space);
   else if (jump_m > options.max_jump_m || jump_deg > options.max_jump_deg)
     res.failure = fmt::format("moved {:.3f} m / {:.1f} deg from the prediction", jump_m, jump_deg);
   res.ok = res.failure.empty();

@@ -60,6 +60,10 @@ struct IcpOptions {
   // of valid pixels, a larger RMS residual, or moves farther than the
   // limits from the prediction.
   double min_inlier_ratio = 0.15, max_rms = 0.03, max_jump_m = 0.3, max_jump_deg = 30;
+  // ... or more than this fraction of its points land in space the model
+  // saw empty (nearer than its surface along the model camera's ray by
+  // free_space_margin): a wrong pose whose residual and inliers look right.
+  double max_free_space = 0.1, free_space_margin = 0.1;
   // The photometric term (used only when TrackIcp is given a previous
   // frame): "weak" adds it to a step only where depth alone leaves a weak
   // direction (a flat wall), "always" to every step, "off" never.  Measured
@@ -98,10 +102,11 @@ struct IcpResult {
     return xs.cwiseProduct(weak_scale);
   }
   int iterations = 0;
-  int64_t color_pixels = 0;  // pixels in the photometric term at level 0 (0: not used)
-  double color_rms = 0;      // their intensity residual
-  bool ok = false;           // passed the loss tests
-  std::string failure;       // why not
+  double free_space_ratio = 0;  // of the points landing on the model, those in its free space
+  int64_t color_pixels = 0;     // pixels in the photometric term at level 0 (0: not used)
+  double color_rms = 0;         // their intensity residual
+  bool ok = false;              // passed the loss tests
+  std::string failure;          // why not
 };
 
 // `model` holds world-frame maps raycast from `model_pose` with intrinsics

@@ -482,6 +482,42 @@ void SmoothCorrections(const Scene& scene, const PlateCheckOptions& o, const Cam
       });
 }
 
+// --refine-mode frame and smooth: frame f's own refinement into *m (and
+// *refined, where kept): RefinePose from the frame's pose, the registration
+// measured again through the result, and the result kept only where that
+// registration fell by o.refine.min_improvement (the report says which).
+void RefineFrame(const Scene& scene, const PlateCheckOptions& o, const CameraModel& camera,
+                 const std::vector<Rigid3>& poses, int f, RenderMethod* method, const RenderScene& rs,
+                 const Image& plate, Measured* m, std::map<int, Rigid3>* refined, Report* report) {
+  const Rigid3& pose = poses[static_cast<size_t>(f)];
+  auto render = [&](const Rigid3& p) {
+    const FrameContext fc{rs, camera, p, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
+    std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
+    fr->RenderPass(o.spp);
+    return fr->Real();
+  };
+  auto pixels = [&](const Rigid3& p) { return RegistrationPixels(rs, camera, p, o); };
+  m->refinement = RefinePose(render, pixels, rs, camera, pose, plate, o.refine);
+  if (!m->refinement.refined) {
+    report->Warn(fmt::format("frame {}: pose not refined: {}", f, m->refinement.why));
+    return;
+  }
+  m->registration_after = MeasureRegistration(render(m->refinement.pose), plate, pixels(m->refinement.pose));
+  if (!NotBetter(m->registration, m->registration_after, o.refine.min_improvement)) {
+    (*refined)[f] = m->refinement.pose;
+    return;
+  }
+  m->refinement.refined = false;
+  m->refinement.pose = pose;
+  m->refinement.why =
+      m->registration_after.measurable
+          ? fmt::format("registration {:.2f} px before, {:.2f} px after: not lower by {:g}%", m->registration.mean_px,
+                        m->registration_after.mean_px, 100 * o.refine.min_improvement)
+          : fmt::format("registration {:.2f} px before, not measurable after ({})", m->registration.mean_px,
+                        m->registration_after.why);
+  report->Warn(fmt::format("frame {}: pose kept: {}", f, m->refinement.why));
+}
+
 // Over the refined frames (after sharing or smoothing): the registration's
 // mean before and after; where it did not fall by min_improvement, every
 // refinement is undone (the poses written are the given ones) and the
@@ -623,32 +659,7 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       shared_frames.push_back(f);
     } else if (!o.refine_poses.empty()) {
       ScopedTimer t(report, "pose refinement");
-      auto render = [&](const Rigid3& p) {
-        const FrameContext fc{rs, camera, p, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
-        std::unique_ptr<FrameMethod> fr = method->NewFrame(fc);
-        fr->RenderPass(o.spp);
-        return fr->Real();
-      };
-      auto pixels = [&](const Rigid3& p) { return RegistrationPixels(rs, camera, p, o); };
-      m.refinement = RefinePose(render, pixels, rs, camera, pose, plate, o.refine);
-      if (m.refinement.refined) {
-        m.registration_after = MeasureRegistration(render(m.refinement.pose), plate, pixels(m.refinement.pose));
-        if (NotBetter(m.registration, m.registration_after, o.refine.min_improvement)) {
-          m.refinement.refined = false;
-          m.refinement.pose = pose;
-          m.refinement.why =
-              m.registration_after.measurable
-                  ? fmt::format("registration {:.2f} px before, {:.2f} px after: not lower by {:g}%",
-                                m.registration.mean_px, m.registration_after.mean_px, 100 * o.refine.min_improvement)
-                  : fmt::format("registration {:.2f} px before, not measurable after ({})", m.registration.mean_px,
-                                m.registration_after.why);
-          report->Warn(fmt::format("frame {}: pose kept: {}", f, m.refinement.why));
-        } else {
-          refined[f] = m.refinement.pose;
-        }
-      } else {
-        report->Warn(fmt::format("frame {}: pose not refined: {}", f, m.refinement.why));
-      }
+      RefineFrame(scene, o, camera, poses, f, method.get(), rs, plate, &m, &refined, report);
     }
     if (o.images) WriteRerenderSheet(o, decoding, enc, plate, fitted, room, fit, f, m, report);
     measured.push_back(std::move(m));

@@ -169,6 +169,41 @@ struct Normal6 {
   int64_t inliers = 0;
 };
 
+// One chunk's weighted rows J^T w J (upper triangle) and -J^T w r, summed in
+// double in the order the pixels come.
+struct Rows6 {
+  double upper[21] = {}, rhs[6] = {};
+  void Add(const float J[6], float w, float r) {
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      const double wa = static_cast<double>(w * J[a]);
+      for (int bb = a; bb < 6; ++bb) upper[k++] += wa * J[bb];
+      rhs[a] -= wa * r;
+    }
+  }
+  void Into(Normal6* n) const {
+    int k = 0;
+    for (int a = 0; a < 6; ++a) {
+      for (int bb = a; bb < 6; ++bb, ++k) n->A(a, bb) = n->A(bb, a) = upper[k];
+      n->b(a) = rhs[a];
+    }
+  }
+};
+
+// The chunks' systems added in their fixed order (deterministic whatever
+// the thread count).
+Normal6 Sum(const std::vector<Normal6>& part) {
+  Normal6 s;
+  for (const Normal6& p : part) {
+    s.A += p.A;
+    s.b += p.b;
+    s.r2 += p.r2;
+    s.depth_sum += p.depth_sum;
+    s.inliers += p.inliers;
+  }
+  return s;
+}
+
 // One linearisation at `pose` over the level's pixels.
 Normal6 Accumulate(const PointMaps& src, const PointMaps& model, const PinholeIntrinsics& mK,
                    const Rigid3& model_from_world, const Rigid3& pose, double max_dist, double cos_angle,
@@ -187,7 +222,7 @@ Normal6 Accumulate(const PointMaps& src, const PointMaps& model, const PinholeIn
   const float hub = static_cast<float>(huber);
   ParallelFor(0, chunks, [&](int64_t ci) {
     Normal6& acc = part[static_cast<size_t>(ci)];
-    double upper[21] = {}, rhs[6] = {};
+    Rows6 eq;
     for (int y = static_cast<int>(ci) * kChunk; y < std::min(rows, static_cast<int>(ci + 1) * kChunk); ++y)
       for (int x = 0; x < src.width; ++x) {
         const size_t i = static_cast<size_t>(y) * src.width + x;
@@ -210,31 +245,14 @@ Normal6 Accumulate(const PointMaps& src, const PointMaps& model, const PinholeIn
         const float w = std::abs(r) <= hub ? 1.0f : hub / std::abs(r);
         const Eigen::Vector3f c = (p - t).cross(N);  // lever arm from the camera centre
         const float J[6] = {c.x(), c.y(), c.z(), N.x(), N.y(), N.z()};
-        int k = 0;
-        for (int a = 0; a < 6; ++a) {
-          const double wa = static_cast<double>(w * J[a]);
-          for (int bb = a; bb < 6; ++bb) upper[k++] += wa * J[bb];
-          rhs[a] -= wa * r;
-        }
+        eq.Add(J, w, r);
         acc.r2 += static_cast<double>(r) * r;
         acc.depth_sum += src.vertices[i].z();
         ++acc.inliers;
       }
-    int k = 0;
-    for (int a = 0; a < 6; ++a) {
-      for (int bb = a; bb < 6; ++bb, ++k) acc.A(a, bb) = acc.A(bb, a) = upper[k];
-      acc.b(a) = rhs[a];
-    }
+    eq.Into(&acc);
   });
-  Normal6 s;
-  for (const Normal6& p : part) {  // fixed order: deterministic
-    s.A += p.A;
-    s.b += p.b;
-    s.r2 += p.r2;
-    s.depth_sum += p.depth_sum;
-    s.inliers += p.inliers;
-  }
-  return s;
+  return Sum(part);
 }
 
 // Bilinear sample of a level's intensity with its central-difference
@@ -278,7 +296,7 @@ Normal6 AccumulatePhoto(const FramePyramid& cur, size_t l, const PhotometricTarg
   std::vector<Normal6> part(static_cast<size_t>(chunks));
   ParallelFor(0, chunks, [&](int64_t ci) {
     Normal6& acc = part[static_cast<size_t>(ci)];
-    double upper[21] = {}, rhs[6] = {};
+    Rows6 eq;
     for (int y = static_cast<int>(ci) * kChunk; y < std::min(src.height, static_cast<int>(ci + 1) * kChunk); ++y)
       for (int x = 0; x < src.width; ++x) {
         const size_t i = static_cast<size_t>(y) * src.width + x;
@@ -299,29 +317,13 @@ Normal6 AccumulatePhoto(const FramePyramid& cur, size_t l, const PhotometricTarg
         const Eigen::Vector3f c = (pw - t).cross(d);
         const float J[6] = {c.x(), c.y(), c.z(), d.x(), d.y(), d.z()};
         const float w = std::abs(r) <= hub ? 1.0f : hub / std::abs(r);
-        int k = 0;
-        for (int a = 0; a < 6; ++a) {
-          const double wa = static_cast<double>(w * J[a]);
-          for (int bb = a; bb < 6; ++bb) upper[k++] += wa * J[bb];
-          rhs[a] -= wa * r;
-        }
+        eq.Add(J, w, r);
         acc.r2 += static_cast<double>(r) * r;
         ++acc.inliers;
       }
-    int k = 0;
-    for (int a = 0; a < 6; ++a) {
-      for (int bb = a; bb < 6; ++bb, ++k) acc.A(a, bb) = acc.A(bb, a) = upper[k];
-      acc.b(a) = rhs[a];
-    }
+    eq.Into(&acc);
   });
-  Normal6 s;
-  for (const Normal6& p : part) {  // fixed order: deterministic
-    s.A += p.A;
-    s.b += p.b;
-    s.r2 += p.r2;
-    s.inliers += p.inliers;
-  }
-  return s;
+  return Sum(part);
 }
 
 // The fraction of the frame's points (level 0, moved by `pose`) that land

@@ -79,6 +79,46 @@ def read_ply_albedo(path):
             np.stack([v["albedo_r"], v["albedo_g"], v["albedo_b"]], axis=1).astype(float))
 
 
+def record(rec, spec, poses, spp, threads):
+    """Cycles renders an RGB-D recording of the spec's room (no virtual
+    objects) along world_from_cam poses into mr-fuse's plain layout: rgb/
+    (linear radiance times CAMERA_SCALE, sRGB 8-bit, clipped at 1), depth/
+    (Cycles' depth pass, 16-bit mm), camera.cameramodel and the true poses as
+    poses.tum and groundtruth.txt (the recording's reference).  Frames
+    already rendered are kept."""
+    os.makedirs(os.path.join(rec, "rgb"), exist_ok=True)
+    os.makedirs(os.path.join(rec, "depth"), exist_ok=True)
+    cc.write_pinhole_cameramodel(os.path.join(rec, "camera.cameramodel"), rc.CAMERA)
+    bl = cc.Blender(rec, threads)
+    tum = []
+    clipped = 0
+    for i, pose in enumerate(poses):
+        tum.append(rc.tum_line(pose).replace("0 ", "%d " % i, 1))
+        png = os.path.join(rec, "rgb", "%05d.png" % i)
+        if os.path.isfile(png):
+            continue
+        p, _, _ = bl.render(spec, "f%05d" % i, mode="real", spp=spp, seed=31 + i, world_from_cam=pose.tolist(),
+                            depth=True)
+        rgb, z = os.path.join(rec, "f%05d-rgb.exr" % i), os.path.join(rec, "f%05d-z.exr" % i)
+        cc.run(["oiiotool", p, "--ch", "R=ViewLayer.Combined.R,G=ViewLayer.Combined.G,B=ViewLayer.Combined.B",
+                "-o", rgb])
+        cc.run(["oiiotool", p, "--ch", "Y=ViewLayer.Depth.Z", "-o", z])
+        lin = cc.read_rgb(rgb) * CAMERA_SCALE
+        codes = np.round(255 * np.where(np.clip(lin, 0, 1) <= 0.0031308, 12.92 * np.clip(lin, 0, 1),
+                                        1.055 * np.power(np.clip(lin, 0, 1), 1 / 2.4) - 0.055)).astype(np.uint8)
+        clipped += int((lin.max(axis=2) >= 1).sum())
+        cv2.imwrite(png, codes[:, :, ::-1])
+        depth = cv2.imread(z, cv2.IMREAD_UNCHANGED)
+        depth = depth if depth.ndim == 2 else depth[:, :, 0]
+        mm = np.where(np.isfinite(depth) & (depth < 60), np.round(depth * 1000), 0).astype(np.uint16)
+        cv2.imwrite(os.path.join(rec, "depth", "%05d.png" % i), mm)
+    for name in ("poses.tum", "groundtruth.txt"):
+        with open(os.path.join(rec, name), "w") as f:
+            f.writelines(tum)
+    print("recording: %d frames (%d clipped colour pixels in the ones rendered now)" % (len(poses), clipped),
+          flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("bin_dir")
@@ -98,35 +138,7 @@ def main():
             raise SystemExit("room_rgbd: no %s in %s: run bench/room_capture.py first" % (f, work))
     spec, parts, _ = rc.room_spec(work, a.mesh)
     rec = os.path.join(work, "rgbd%d" % a.frames)
-    os.makedirs(os.path.join(rec, "rgb"), exist_ok=True)
-    os.makedirs(os.path.join(rec, "depth"), exist_ok=True)
-    cc.write_pinhole_cameramodel(os.path.join(rec, "camera.cameramodel"), rc.CAMERA)
-    bl = cc.Blender(rec, a.threads)
-    tum = []
-    clipped = 0
-    for i, pose in enumerate(frame_poses(a.frames)):
-        tum.append(rc.tum_line(pose).replace("0 ", "%d " % i, 1))
-        png = os.path.join(rec, "rgb", "%05d.png" % i)
-        if os.path.isfile(png):
-            continue
-        p, _, _ = bl.render(spec, "f%05d" % i, mode="real", spp=a.spp, seed=31 + i, world_from_cam=pose.tolist(),
-                            depth=True)
-        rgb, z = os.path.join(rec, "f%05d-rgb.exr" % i), os.path.join(rec, "f%05d-z.exr" % i)
-        cc.run(["oiiotool", p, "--ch", "R=ViewLayer.Combined.R,G=ViewLayer.Combined.G,B=ViewLayer.Combined.B",
-                "-o", rgb])
-        cc.run(["oiiotool", p, "--ch", "Y=ViewLayer.Depth.Z", "-o", z])
-        lin = cc.read_rgb(rgb) * CAMERA_SCALE
-        codes = np.round(255 * np.where(np.clip(lin, 0, 1) <= 0.0031308, 12.92 * np.clip(lin, 0, 1),
-                                        1.055 * np.power(np.clip(lin, 0, 1), 1 / 2.4) - 0.055)).astype(np.uint8)
-        clipped += int((lin.max(axis=2) >= 1).sum())
-        cv2.imwrite(png, codes[:, :, ::-1])
-        depth = cv2.imread(z, cv2.IMREAD_UNCHANGED)
-        depth = depth if depth.ndim == 2 else depth[:, :, 0]
-        mm = np.where(np.isfinite(depth) & (depth < 60), np.round(depth * 1000), 0).astype(np.uint16)
-        cv2.imwrite(os.path.join(rec, "depth", "%05d.png" % i), mm)
-    with open(os.path.join(rec, "poses.tum"), "w") as f:
-        f.writelines(tum)
-    print("recording: %d frames (%d clipped colour pixels in the ones rendered now)" % (a.frames, clipped), flush=True)
+    record(rec, spec, frame_poses(a.frames), a.spp, a.threads)
     fused = os.path.join(work, "fused%d" % a.frames)
     cc.run([os.path.join(bin_dir, "mr-fuse"), rec, "--layout", "plain", "--depth-scale", "1000", "--poses",
             os.path.join(rec, "poses.tum"), "--voxel", "0.02", "--max-depth", "7", "--albedo-stride", "1",

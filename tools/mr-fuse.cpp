@@ -9,23 +9,24 @@ int main(int argc, char** argv) {
   mr::FuseOptions& fo = o.fuse;
   mr::MeshOptions& mo = o.mesh;
   mr::AlbedoOptions& ao = o.albedo;
-  mr::ConfigureApp(app, "mr-fuse",
-                   "Reconstructs a room from an RGB-D recording, KinectFusion-style: bilateral-filtered depth on a\n"
-                   "3-level pyramid, point-to-plane ICP against the model's raycast (frame to model; a photometric\n"
-                   "term where depth alone leaves a direction weak), loop closure (keyframes, loops verified by ICP\n"
-                   "and confirmed by two other keyframes, a Ceres pose graph, the volume fused again), fusion into a\n"
-                   "TSDF in hashed 8^3 voxel blocks (memory grows with the surface), and surface-nets meshing. Writes\n"
-                   "OUT/room.ply (binary: positions, normals, colour = albedo, float albedo_r/g/b, observed_r/g/b and\n"
-                   "confidence), OUT/trajectory.txt (TUM, camera-to-world) and OUT/fuse-report.json (per frame: ICP\n"
-                   "residual, inlier ratio, condition number, weak directions, time; memory; what was skipped).\n"
-                   "Layouts: TUM RGB-D (depth.txt, rgb.txt; 5000 units/m), 7-Scenes (frame-NNNNNN.depth.png; mm),\n"
-                   "plain (depth/ and rgb/ beside a .cameramodel; mm). Depth codes 0 and 65535 are invalid.\n"
-                   "Albedo: the viewing-angle-weighted mean colour per vertex; with --lights or --env, the colour\n"
-                   "divided by the irradiance ray traced over the reconstructed room (the room's own observed\n"
-                   "radiance as the bounce light), solved robustly across views with per-frame gains (Ceres).",
-                   "  mr-fuse capture/rgbd --out room/ --voxel 0.01\n"
-                   "  mr-fuse ../shared/data/rgbd-7scenes-kitchen --out kitchen/ --voxel 0.02 --report fuse.json\n"
-                   "  mr-fuse capture/rgbd --out room/ --poses capture/rgbd/groundtruth.txt --roi -1,-1,0,1,1,2");
+  mr::ConfigureApp(
+      app, "mr-fuse",
+      "Reconstructs a room from an RGB-D recording, KinectFusion-style: bilateral-filtered depth on a\n"
+      "3-level pyramid, point-to-plane ICP against the model's raycast (frame to model; a photometric\n"
+      "term where depth alone leaves a direction weak), loop closure (keyframes, loops verified by ICP\n"
+      "and confirmed by two other keyframes, a Ceres pose graph, the volume fused again), fusion into a\n"
+      "TSDF in hashed 8^3 voxel blocks (memory grows with the surface), and surface-nets meshing. Writes\n"
+      "OUT/room.ply (binary: positions, normals, colour = albedo, float albedo_r/g/b, observed_r/g/b and\n"
+      "confidence), OUT/trajectory.txt (TUM, camera-to-world) and OUT/fuse-report.json (per frame: ICP\n"
+      "residual, inlier ratio, condition number, weak directions, time; memory; what was skipped).\n"
+      "Layouts: TUM RGB-D (depth.txt, rgb.txt; 5000 units/m), 7-Scenes (frame-NNNNNN.depth.png; mm),\n"
+      "plain (depth/ and rgb/ beside a .cameramodel; mm; groundtruth.txt, TUM). Depth codes 0 and 65535 are invalid.\n"
+      "Albedo: the viewing-angle-weighted mean colour per vertex; with --lights or --env, the colour\n"
+      "divided by the irradiance ray traced over the reconstructed room (the room's own observed\n"
+      "radiance as the bounce light), solved robustly across views with per-frame gains (Ceres).",
+      "  mr-fuse capture/rgbd --out room/ --voxel 0.01\n"
+      "  mr-fuse ../shared/data/rgbd-7scenes-kitchen --out kitchen/ --voxel 0.02 --report fuse.json\n"
+      "  mr-fuse capture/rgbd --out room/ --poses capture/rgbd/groundtruth.txt --roi -1,-1,0,1,1,2");
   app.add_option("input", o.input, "RGB-D recording folder")->required()->check(CLI::ExistingDirectory);
   app.add_option("--out", o.out, "Output folder")->required();
   app.add_option("--layout", ro.layout, "auto, tum, 7scenes or plain")->default_val("auto");

@@ -214,6 +214,7 @@ RgbdSequence OpenRgbdSequence(const fs::path& dir, const RgbdOpenOptions& option
       seq.frames.push_back(
           {static_cast<int>(i), static_cast<double>(i), depth[i], color.empty() ? fs::path() : color[i]});
     if (!K) ThrowErrorAt(FileLoc{dir.string()}, "has no .cameramodel for the depth camera");
+    if (fs::exists(dir / "groundtruth.txt")) seq.reference = ReadTum(dir / "groundtruth.txt");
   } else {
     ThrowError("unknown RGB-D layout \"{}\" (expected auto, tum, 7scenes or plain)", seq.layout);
   }

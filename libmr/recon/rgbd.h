@@ -8,7 +8,9 @@
 // 7-Scenes: frame-NNNNNN.depth.png, .color.{png,jpg}, .pose.txt and
 //           camera-intrinsics.txt (3x3); the poses are the reference.
 // Plain:    depth/*.png (and rgb/*.png or color/*.png paired by sorted
-//           name) beside a .cameramodel; timestamps are frame indices.
+//           name) beside a .cameramodel; timestamps are frame indices;
+//           groundtruth.txt (TUM, timestamp = frame index), when present,
+//           is the reference trajectory.
 // Intrinsics: camera-intrinsics.txt, a .cameramodel in the folder (pinhole
 // models only: depth must be undistorted), or given by the caller.  Pixel
 // centres are at integer coordinates (mrcal's convention).

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 
+#include "camera/camera_model.h"
 #include "camera/trajectory.h"
 #include "core/error.h"
 #include "core/image.h"
@@ -71,6 +72,39 @@ TEST(Rgbd, TumLayoutAssociatesAndPlainLayoutNeedsACameraModel) {
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find("8x6"), std::string::npos) << std::string(e.what());
   }
+}
+
+// The plain layout: depth/ and rgb/ paired by name, the intrinsics from the
+// folder's .cameramodel, groundtruth.txt (TUM, timestamp = frame index) as
+// the reference trajectory (bench/registration_blender.py writes one).
+TEST(Rgbd, PlainLayoutReadsItsCameraModelAndGroundTruth) {
+  test::TempDir dir;
+  fs::create_directories(dir / "depth");
+  fs::create_directories(dir / "rgb");
+  ImageWriteOptions wo;
+  wo.pixel_type = PixelType::kUint16;
+  wo.ldr_transfer = Transfer::kLinear;
+  for (const char* n : {"00000.png", "00001.png"}) {
+    WriteImage(dir / "depth" / n, Image::Gray(8, 6, 1000.0f / 65535.0f), wo);  // 1 m
+    WriteImage(dir / "rgb" / n, Image::Rgb(8, 6, 0.5f));
+  }
+  try {  // no camera model: named
+    OpenRgbdSequence(dir.path());
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find(".cameramodel"), std::string::npos) << std::string(e.what());
+  }
+  CameraModel("LENSMODEL_PINHOLE", {10, 11, 3.5, 2.5}, 8, 6).Write(dir / "cam.cameramodel");
+  const RgbdSequence without = OpenRgbdSequence(dir.path());
+  EXPECT_EQ(without.layout, "plain");
+  EXPECT_TRUE(without.reference.poses.empty());
+  WriteTextFile(dir / "groundtruth.txt", "0 0 0 0 0 0 0 1\n1 0.1 0 0 0 0 0 1\n");
+  const RgbdSequence s = OpenRgbdSequence(dir.path());
+  ASSERT_EQ(s.frames.size(), 2u);
+  EXPECT_EQ(s.K.fy, 11);
+  ASSERT_EQ(s.reference.size(), 2u);
+  EXPECT_DOUBLE_EQ(s.reference.poses[1].world_from_cam.translation.x(), 0.1);
+  EXPECT_EQ(s.frames[1].timestamp, s.reference.poses[1].timestamp);
 }
 
 TEST(Rgbd, GarbageDepthIsRejectedAndCounted) {

@@ -523,7 +523,14 @@ class VplShader {
       acc->c.shadow_rays += rays;
       if (taken) return;
     }
-    ShadeAt(y, hit.is_virtual, true, false, 1, b, rng, acc, false);
+    // The point's diffuse lobe takes the direct light (sampled) and both
+    // lobes the VPLs' light; the direct light through its glossy lobe is
+    // left out (a bias, measured in docs/methods.md, "vpl"): that path (a
+    // diffuse object point, a glossy point met by a diffuse ray, the sun) is
+    // a caustic that one ray a sample finds only by chance, and it made the
+    // main job's fireflies.
+    if (y.bsdf.IsBlack()) return;
+    Gather(y, y.bsdf, false, hit.is_virtual, true, false, b, rng, acc, false);
   }
 
   // Kollig & Keller's correction: the light that reaches v from surfaces

@@ -40,7 +40,9 @@ struct VplSettings {
   bool plate_reflections = true;
   // At virtual points the camera sees, indirect light by one BSDF-sampled
   // ray per sample (a final gather) instead of the VPLs: the plate's
-  // radiance where it sees the real point met, else the VPLs' light there.
+  // radiance where it sees the real point met, else the VPLs' light there
+  // and the direct light its diffuse lobe reflects (not its glossy lobe's:
+  // a caustic that made fireflies; the bias is measured in docs/methods.md).
   // VPLs from light paths are sparse next to a small object (one per m² on
   // a 6 m floor), so without it the object misses most of its near bounce
   // light (docs/methods.md, "vpl").

@@ -155,6 +155,62 @@ TEST(Stiff, NearMirrorObject) {
   }
 }
 
+// Issue 41: a sun 1e6 x the sky, low (8 degrees up), grazing a glossy
+// table (GGX 0.1, specular 0.5) beside a diffuse sphere, the camera on the
+// sun's side.  The table reflects the sun onto the sphere's lower half: a
+// caustic (camera -> diffuse sphere -> glossy table -> sun) that a final
+// gather ray from the sphere meets only by chance; vpl once sampled the sun
+// through the table's glossy lobe at the point the gather ray met, and at a
+// sample or a few a pixel made fireflies of it (the main job's dynamic
+// capture: region relMSE 0.32 at 1 spp).  Now the gather leaves that path
+// out.  At 4 spp no pixel of the sphere may exceed 3 x the brightest of
+// pt's converged render (before: 50 641 against pt's 2 576, 20 x).  The
+// price is a bias, largest in this case: the sphere's mean is 29% below
+// pt's (1015 against 1433; 17% below before, with the firefly); the bound
+// is 35% below to 15% above (on the main job's capture the bias is below
+// pt's 64-spp noise: docs/methods.md, "vpl").
+TEST(Stiff, SunGrazingAGlossyTableBesideTheObject) {
+  Image sky = Image::Rgb(64, 32);
+  for (float& v : sky.values()) v = 0.5f;
+  const int sx = 20, sy = 14;  // 8.4 degrees above the horizon
+  for (int c = 0; c < 3; ++c) sky.at(sx, sy, c) = 0.5e6f;
+  Material table = Diffuse(0.3);
+  table.specular = Eigen::Vector3d::Constant(0.5);
+  table.roughness = 0.1;
+  RenderScene rs;
+  rs.AddReal(Quad({-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}), table);
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Eigen::Vector3d(0, 0.3, 0));
+  rs.AddVirtual(UvSphere(0.3f, 32), t, Diffuse(0.8));
+  rs.SetEnvironment(EnvironmentMap(sky, "sun"));
+  rs.Commit();
+  const Eigen::Vector3d sun = LatLongPixelToDirection(Eigen::Vector2d(sx + 0.5, sy + 0.5), 64, 32);
+  const Eigen::Vector3d centre(0, 0.3, 0), level = Eigen::Vector3d(sun.x(), 0, sun.z()).normalized();
+  const Rigid3 pose = LookAt(centre + 1.4 * level + Eigen::Vector3d(0, 0.5, 0), centre);
+  const CameraModel cam = Pinhole(40, 30, 50);
+  Rendered pt = Render("pt", Json::object(), rs, cam, pose, 2048);
+  const Image mask = pt.frame->Mask();
+  int covered = 0;
+  const double truth = MeanWhere(pt.frame->Mixed(), mask, 1.0f, &covered);
+  ASSERT_GT(covered, 100);
+  double brightest = 0;
+  for (int y = 0; y < cam.height(); ++y)
+    for (int x = 0; x < cam.width(); ++x)
+      if (mask.at(x, y, 0) == 1.0f) brightest = std::max(brightest, static_cast<double>(pt.frame->Mixed().at(x, y, 1)));
+  Rendered vpl = Render("vpl", {{"paths", 256}}, rs, cam, pose, 4);
+  const Image m = vpl.frame->Mixed();
+  double worst = 0;
+  for (int y = 0; y < cam.height(); ++y)
+    for (int x = 0; x < cam.width(); ++x)
+      if (mask.at(x, y, 0) == 1.0f) worst = std::max(worst, static_cast<double>(m.at(x, y, 1)));
+  const double mean = MeanWhere(m, mask, 1.0f);
+  std::printf("sun grazing a glossy table: vpl mean %.3f, brightest %.3f; pt %.3f, %.3f\n", mean, worst, truth,
+              brightest);
+  EXPECT_LT(worst, 3 * brightest);
+  EXPECT_GT(mean, 0.65 * truth);
+  EXPECT_LT(mean, 1.15 * truth);
+}
+
 // A virtual sphere that fills the whole view, resting on the real floor
 // under a sky with a sun 1e3 x brighter: every camera sample's first hit is
 // virtual (mask 1 everywhere), no real point is seen directly, so the

@@ -107,6 +107,9 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
       ->add_option("--refine-smooth", po_plate.refine_smooth_frames,
                    "--refine-mode smooth: the Gaussian's sigma, in fitted frames (default 2)")
       ->check(CLI::Range(0.1, 1e6));
+  plate->add_option("--refine-camera", po_plate.refine_camera,
+                    "--refine-mode shared: also solve the focal length where the frames determine it, and\n"
+                    "write the camera model here (the given one where they do not)");
   plate->add_option("--refine-rounds", po_plate.refine.rounds, "Render, match and solve rounds of --refine-poses")
       ->default_val(2)
       ->check(CLI::Range(1, 10));

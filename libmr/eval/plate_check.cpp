@@ -409,26 +409,36 @@ bool NotBetter(const RegistrationResult& before, const RegistrationResult& after
 // their corrected poses; each frame's registration is measured again
 // through its corrected pose into *measured, and *refined gets every
 // fitted frame's corrected pose.
-void RefineShared(const Scene& scene, const PlateCheckOptions& o, const CameraModel& camera,
-                  const std::vector<Rigid3>& poses, int begin, std::vector<RoomMatches> matches,
-                  const std::vector<int>& frame_ids, RenderMethod* method, RenderScene* rs, FrameReader* frames,
-                  const FrameDecoding& decoding, std::vector<Measured>* measured, std::map<int, Rigid3>* refined,
-                  Report* report) {
+// With o.refine_camera, the intrinsics too (PoseRefineOptions::intrinsics):
+// each round's frames are rendered and matched through the camera as
+// corrected so far, and *cam is the camera at the end (the given one where
+// no round determined them).
+void RefineShared(const Scene& scene, const PlateCheckOptions& o, CameraModel* cam, const std::vector<Rigid3>& poses,
+                  int begin, std::vector<RoomMatches> matches, const std::vector<int>& frame_ids, RenderMethod* method,
+                  RenderScene* rs, FrameReader* frames, const FrameDecoding& decoding, std::vector<Measured>* measured,
+                  std::map<int, Rigid3>* refined, Report* report) {
   auto each_frame = [&](const Rigid3& c,
                         const std::function<void(size_t, const Image&, const Image&, const Image&)>& use) {
     EachFittedFrame(
-        scene, o, camera, poses, begin, frame_ids, method, rs, frames, decoding, report, [&](size_t) { return c; },
-        use);
+        scene, o, *cam, poses, begin, frame_ids, method, rs, frames, decoding, report, [&](size_t) { return c; }, use);
   };
-  PoseRefinement c = SolveCorrection(camera, matches, Rigid3(), o.refine);
+  PoseRefineOptions ro = o.refine;
+  ro.intrinsics = !o.refine_camera.empty();
+  auto solve = [&](const Rigid3& start) {
+    PoseRefinement c = SolveCorrection(*cam, matches, start, ro);
+    if (c.refined && c.intrinsics_refined)
+      *cam = WithIntrinsicsCorrection(*cam, c.focal_scale, Eigen::Vector2d::Zero());
+    if (ro.intrinsics && !c.intrinsics_refined) spdlog::info("intrinsics kept: {}", c.intrinsics_why);
+    return c;
+  };
+  PoseRefinement c = solve(Rigid3());
   for (int round = 1; round < o.refine.rounds && c.refined; ++round) {
     const double rms_before = c.rms_before_px;
     each_frame(c.pose, [&](size_t i, const Image& plate, const Image& real, const Image& room) {
-      matches[i] =
-          MatchRoom(real, room, *rs, camera, poses[static_cast<size_t>(frame_ids[i])] * c.pose, plate, o.refine);
+      matches[i] = MatchRoom(real, room, *rs, *cam, poses[static_cast<size_t>(frame_ids[i])] * c.pose, plate, o.refine);
       matches[i].pose = poses[static_cast<size_t>(frame_ids[i])];  // the correction is solved from the input poses
     });
-    c = SolveCorrection(camera, matches, c.pose, o.refine);
+    c = solve(c.pose);
     c.rms_before_px = rms_before;
   }
   if (!c.refined) {
@@ -522,7 +532,8 @@ void RefineFrame(const Scene& scene, const PlateCheckOptions& o, const CameraMod
 // mean before and after; where it did not fall by min_improvement, every
 // refinement is undone (the poses written are the given ones) and the
 // report says why.
-void KeepIfBetter(const PlateCheckOptions& o, std::vector<Measured>* measured, std::map<int, Rigid3>* refined,
+// Returns whether the refinements stand.
+bool KeepIfBetter(const PlateCheckOptions& o, std::vector<Measured>* measured, std::map<int, Rigid3>* refined,
                   Report* report) {
   RegistrationResult before, after;
   int n = 0;
@@ -532,9 +543,9 @@ void KeepIfBetter(const PlateCheckOptions& o, std::vector<Measured>* measured, s
       after.mean_px += m.registration_after.mean_px;
       ++n;
     }
-  if (n == 0) return;
+  if (n == 0) return false;
   before.measurable = after.measurable = true;
-  if (!NotBetter(before, after, o.refine.min_improvement)) return;
+  if (!NotBetter(before, after, o.refine.min_improvement)) return true;
   const std::string why =
       fmt::format("registration {:.2f} px mean before, {:.2f} px after over {} frames: not lower by {:g}%",
                   before.mean_px / n, after.mean_px / n, n, 100 * o.refine.min_improvement);
@@ -545,6 +556,22 @@ void KeepIfBetter(const PlateCheckOptions& o, std::vector<Measured>* measured, s
       m.refinement.refined = false;
       m.refinement.why = why;
     }
+  return false;
+}
+
+// --refine-camera: the camera the refinement ended with (the given one
+// where it was undone or determined nothing), written with its change in
+// the report.
+void WriteRefinedCamera(const PlateCheckOptions& o, const CameraModel& given, const CameraModel& cam, Report* report) {
+  const double scale = cam.intrinsics()[0] / given.intrinsics()[0];
+  const bool refined = cam.intrinsics() != given.intrinsics();
+  const std::string what = refined ? fmt::format("focal length x {:.5f}", scale) : "intrinsics as given";
+  cam.Write(o.refine_camera,
+            fmt::format("written by {} ({}): {} (the shared pose refinement)", o.tool, o.command_line, what));
+  report->AddOutput(o.refine_camera.string());
+  report->SetMetric("refined_camera",
+                    {{"path", o.refine_camera.string()}, {"intrinsics_refined", refined}, {"focal_scale", scale}});
+  spdlog::info("camera: {} ({})", o.refine_camera.string(), what);
 }
 
 }  // namespace
@@ -560,6 +587,8 @@ void PlateCheckOptions::Check() const {
   if (register_on != "texture" && register_on != "edges")
     throw UsageError(fmt::format("--register-on {}: texture or edges", register_on));
   if (edge_band_px < 1) throw UsageError("--edge-band must be at least 1");
+  if (!refine_camera.empty() && (refine_poses.empty() || !refine_shared))
+    throw UsageError("--refine-camera needs --refine-poses and --refine-mode shared (one correction for the frames)");
 }
 
 void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* report) {
@@ -673,18 +702,20 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
                               o.command_line, scene.file.string(), o.method, o.spp));
   report->AddOutput(gains_path.string());
 
+  CameraModel refined_camera = camera;
   if (!o.refine_poses.empty() && o.refine_shared) {
     ScopedTimer t(report, "pose refinement");
-    RefineShared(scene, o, camera, poses, begin, shared, shared_frames, method.get(), &rs, &frames, decoding, &measured,
-                 &refined, report);
+    RefineShared(scene, o, &refined_camera, poses, begin, shared, shared_frames, method.get(), &rs, &frames, decoding,
+                 &measured, &refined, report);
   } else if (!o.refine_poses.empty() && o.refine_smooth_frames > 0) {
     ScopedTimer t(report, "pose refinement");
     SmoothCorrections(scene, o, camera, poses, begin, fitted_frames, method.get(), &rs, &frames, decoding, &measured,
                       &refined, report);
   }
   if (!o.refine_poses.empty()) {
-    KeepIfBetter(o, &measured, &refined, report);
+    if (!KeepIfBetter(o, &measured, &refined, report)) refined_camera = camera;
     WriteRefinedPoses(o, poses, refined, begin, end, report);
+    if (!o.refine_camera.empty()) WriteRefinedCamera(o, camera, refined_camera, report);
   }
   MR_CHECK_EQ(gains.size(), fits.size());  // SmoothGains: one gain per frame
   ReportErrors(o, gains, fits, measured, begin, gains_path, report);

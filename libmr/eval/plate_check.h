@@ -48,6 +48,12 @@ struct PlateCheckOptions {
   // smoothed over time by default (docs/benchmarks.md: on the kitchen the
   // smoothed corrections lower the registration most without swim).
   bool refine_shared = false;
+  // Non-empty, with refine_shared: the camera's focal length is solved
+  // with the shared correction where the frames determine it
+  // (PoseRefineOptions::intrinsics), and the camera model written here
+  // (the given one where they were not determined or the refinement was
+  // undone); the registration after is measured through it.
+  fs::path refine_camera;
   // Not shared, > 0: each frame's correction averaged over the fitted
   // frames around it (Gaussian, sigma in fitted frames): --refine-mode smooth.
   double refine_smooth_frames = 2;

@@ -136,33 +136,79 @@ double WeightedRms(const Eigen::VectorXd& r, double k) {
   return wsum > 0 ? std::sqrt(s / wsum) : 0;
 }
 
-// Gauss-Newton with Huber weights (IRLS) for the correction c, from `c`.
-Rigid3 Solve(const CameraModel& camera, const std::vector<RoomMatches>& groups, Rigid3 c, double k) {
+// The correction: the pose step c and, with intrinsics, k = the log of the
+// focal scale.
+struct Correction {
+  Rigid3 c;
+  double k = 0;
+  Eigen::MatrixXd covariance;  // of the parameters' last step (6 or 7)
+};
+
+CameraModel Corrected(const CameraModel& camera, double k) {
+  return WithIntrinsicsCorrection(camera, std::exp(k), Eigen::Vector2d::Zero());
+}
+
+// Gauss-Newton with Huber weights (IRLS) for the correction, from `x`: 6
+// parameters (the pose step, right-multiplied) or, with `intrinsics`, 7;
+// numeric derivatives.  The covariance is the weighted residual variance
+// times the inverse normal matrix at the end.
+Correction Solve(const CameraModel& camera, const std::vector<RoomMatches>& groups, Correction x, double huber,
+                 bool intrinsics) {
+  const int n = intrinsics ? 7 : 6;
+  auto residuals = [&](const Correction& y) {
+    return Residuals(intrinsics ? Corrected(camera, y.k) : camera, groups, y.c);
+  };
+  auto moved = [&](const Correction& y, const Eigen::VectorXd& d) {
+    Correction z = y;
+    z.c = Step(y.c, d.head<6>());
+    if (intrinsics) z.k += d[6];
+    return z;
+  };
+  Eigen::MatrixXd H(n, n);
+  double chi2 = 0, wsum = 0;
   for (int it = 0; it < 15; ++it) {
-    const Eigen::VectorXd r = Residuals(camera, groups, c);
-    Eigen::MatrixXd J(r.size(), 6);
-    for (int j = 0; j < 6; ++j) {
-      Eigen::Matrix<double, 6, 1> d = Eigen::Matrix<double, 6, 1>::Zero();
+    const Eigen::VectorXd r = residuals(x);
+    Eigen::MatrixXd J(r.size(), n);
+    for (int j = 0; j < n; ++j) {
+      Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
       d[j] = 1e-6;
-      J.col(j) = (Residuals(camera, groups, Step(c, d)) - r) / 1e-6;
+      J.col(j) = (residuals(moved(x, d)) - r) / 1e-6;
     }
-    Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
-    Eigen::Matrix<double, 6, 1> g = Eigen::Matrix<double, 6, 1>::Zero();
+    H.setZero();
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
+    chi2 = wsum = 0;
     for (Eigen::Index i = 0; i < r.size() / 2; ++i) {
-      const double e = r.segment<2>(2 * i).norm(), w = e <= k ? 1 : k / e;
-      const auto Ji = J.middleRows<2>(2 * i);
+      const double e = r.segment<2>(2 * i).norm(), w = e <= huber ? 1 : huber / e;
+      const auto Ji = J.middleRows(2 * i, 2);
       H += w * Ji.transpose() * Ji;
       g += w * Ji.transpose() * r.segment<2>(2 * i);
+      chi2 += w * e * e;
+      wsum += w;
     }
-    const Eigen::Matrix<double, 6, 1> step = -H.ldlt().solve(g);
+    const Eigen::VectorXd step = -H.ldlt().solve(g);
     if (!step.allFinite()) break;
-    c = Step(c, step);
+    x = moved(x, step);
     if (step.norm() < 1e-9) break;
   }
-  return c;
+  // The residual variance per coordinate: chi2 over the coordinates less
+  // the parameters, each match counted by its Huber weight.
+  const double dof = std::max(1.0, 2 * wsum - n);
+  x.covariance = (chi2 / dof) * H.ldlt().solve(Eigen::MatrixXd::Identity(n, n));
+  return x;
 }
 
 }  // namespace
+
+CameraModel WithIntrinsicsCorrection(const CameraModel& camera, double focal_scale,
+                                     const Eigen::Vector2d& principal_shift_px) {
+  std::vector<double> k = camera.intrinsics();
+  MR_CHECK(k.size() >= 4);
+  k[0] *= focal_scale;
+  k[1] *= focal_scale;
+  k[2] += principal_shift_px.x();
+  k[3] += principal_shift_px.y();
+  return CameraModel(camera.lensmodel(), k, camera.width(), camera.height(), camera.cam_from_ref());
+}
 
 Json PoseRefinement::ToJson() const {
   Json j = {{"refined", refined}, {"points", points}};
@@ -171,6 +217,11 @@ Json PoseRefinement::ToJson() const {
   j["rms_after_px"] = rms_after_px;
   j["rotation_deg"] = rotation_deg;
   j["translation_m"] = translation_m;
+  if (intrinsics_refined || !intrinsics_why.empty()) {
+    j["intrinsics"] = {
+        {"refined", intrinsics_refined}, {"focal_scale", focal_scale}, {"focal_scale_sigma", focal_scale_sigma}};
+    if (!intrinsics_refined) j["intrinsics"]["why"] = intrinsics_why;
+  }
   return j;
 }
 
@@ -219,8 +270,31 @@ PoseRefinement SolveCorrection(const CameraModel& camera, const std::vector<Room
   }
   for (const RoomMatches& g : used) out.points += static_cast<int>(g.X.size());
   out.rms_before_px = WeightedRms(Residuals(camera, used, start), o.huber_px);
-  const Rigid3 c = Solve(camera, used, start, o.huber_px);
-  out.rms_after_px = WeightedRms(Residuals(camera, used, c), o.huber_px);
+  Correction x;
+  x.c = start;
+  x = Solve(camera, used, x, o.huber_px, false);
+  if (o.intrinsics && used.size() < 2) {
+    out.intrinsics_why = "one frame: its pose and the intrinsics are not told apart";
+  } else if (o.intrinsics) {
+    const Correction xi = Solve(camera, used, x, o.huber_px, true);
+    out.focal_scale = std::exp(xi.k);
+    out.focal_scale_sigma = out.focal_scale * std::sqrt(std::max(0.0, xi.covariance(6, 6)));
+    const double corner = 0.5 * std::hypot(camera.width(), camera.height());
+    const bool determined = std::abs(out.focal_scale - 1) > 3 * out.focal_scale_sigma;
+    const bool visible = std::abs(out.focal_scale - 1) * corner >= o.min_intrinsics_px;
+    if (std::isfinite(xi.k) && determined && visible) {
+      x = xi;
+      out.intrinsics_refined = true;
+    } else {
+      out.intrinsics_why = fmt::format("{}: focal scale {:.5f} +- {:.5f}",
+                                       determined ? fmt::format("moves no pixel by {} px", o.min_intrinsics_px)
+                                                  : "not determined (within 3 standard deviations)",
+                                       out.focal_scale, out.focal_scale_sigma);
+    }
+  }
+  const Rigid3 c = x.c;
+  const CameraModel after = out.intrinsics_refined ? Corrected(camera, x.k) : camera;
+  out.rms_after_px = WeightedRms(Residuals(after, used, c), o.huber_px);
   out.rotation_deg = Eigen::AngleAxisd(c.rotation).angle() * 180 / std::numbers::pi;
   out.translation_m = c.translation.norm();
   out.pose = c;
@@ -237,7 +311,9 @@ PoseRefinement SolveCorrection(const CameraModel& camera, const std::vector<Room
 PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
                           const std::function<Image(const Rigid3&)>& room, const RenderScene& rs,
                           const CameraModel& camera, const Rigid3& pose, const Image& plate,
-                          const PoseRefineOptions& o) {
+                          const PoseRefineOptions& options) {
+  PoseRefineOptions o = options;
+  o.intrinsics = false;  // one frame's pose and the intrinsics are not told apart
   PoseRefinement out;
   Rigid3 c;  // the correction so far: pose * c
   double rms_before = -1;

@@ -68,7 +68,8 @@ double Swim(const FlowField& flow, const Eigen::Vector2d& from, const Eigen::Vec
 // onto their plate pixels is found by Gauss-Newton with Huber weights
 // (a right-multiplied step in the camera's frame, numeric derivatives
 // through CameraModel::Project), and the round repeats from the new pose
-// (the flow is surer the smaller the displacement).  The intrinsics stay.
+// (the flow is surer the smaller the displacement).  The intrinsics stay,
+// unless `intrinsics` asks for them in a shared correction.
 struct PoseRefineOptions {
   int rounds = 2;
   int max_points = 3000;                                  // matches a round, a regular subsample of the usable ones
@@ -81,6 +82,18 @@ struct PoseRefineOptions {
   // walls, shading that differs from the plate's) the fit moves poses that
   // were right (docs/benchmarks.md, "Registration against exact poses").
   double min_improvement = 0.15;
+  // SolveCorrection over two or more frames: also the camera's focal
+  // length (one scale for fx and fy), shared by the frames, kept only where
+  // the matches determine it (the change exceeds 3 standard deviations of
+  // its estimate: the Gauss-Newton normal matrix and the matches' weighted
+  // residual variance, optimistic where the flow's errors are correlated)
+  // and it moves the image's corners by min_intrinsics_px (a change the
+  // registration cannot show is not worth a new camera model); otherwise
+  // the camera as given.  Not the principal point: with one rotation shared
+  // by the frames, its shift is the same image motion to first order (on
+  // the Cycles capture it took 4.3 px that the rotation held).
+  bool intrinsics = false;
+  double min_intrinsics_px = 0.5;
   RegistrationOptions matching;
 };
 
@@ -91,8 +104,19 @@ struct PoseRefinement {
   int points = 0;                              // matches of the last round
   double rms_before_px = 0, rms_after_px = 0;  // those matches' reprojection RMS (Huber-weighted)
   double rotation_deg = 0, translation_m = 0;  // the step from the input
+  // PoseRefineOptions::intrinsics: the focal length's scale
+  // (WithIntrinsicsCorrection) and its standard deviation; 1 where not
+  // refined (intrinsics_why says why).
+  bool intrinsics_refined = false;
+  double focal_scale = 1, focal_scale_sigma = 0;
+  std::string intrinsics_why;
   Json ToJson() const;
 };
+
+// `camera` with fx and fy scaled by `focal_scale` and cx, cy moved by
+// `principal_shift_px` (every mrcal lens model begins with fx, fy, cx, cy).
+CameraModel WithIntrinsicsCorrection(const CameraModel& camera, double focal_scale,
+                                     const Eigen::Vector2d& principal_shift_px);
 
 // One frame's matches: 3D points on the room (X, world) and the plate
 // pixels they moved to (u), found from the room rendered through `pose`.
@@ -113,7 +137,8 @@ RoomMatches MatchRoom(const Image& rendered, const Image& where, const RenderSce
 // several: one correction shared by the frames (the camera's offset from
 // the room's frame: a sensor's depth-to-colour extrinsic, the similarity's
 // error), which keeps the frames' motion as registered.  PoseRefinement::pose
-// is c; rotation_deg and translation_m are c's.
+// is c; rotation_deg and translation_m are c's; with options.intrinsics and
+// two or more frames, the intrinsics' correction too.
 PoseRefinement SolveCorrection(const CameraModel& camera, const std::vector<RoomMatches>& groups, const Rigid3& start,
                                const PoseRefineOptions& options = {});
 

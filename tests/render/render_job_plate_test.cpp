@@ -291,6 +291,26 @@ TEST_F(Capture, RefiningExactPosesKeepsThemUnlessThePixelsSayOtherwise) {
     for (size_t i = 0; i < given.size(); ++i)
       EXPECT_TRUE(kept.poses[i].world_from_cam.IsApprox(given.poses[i].world_from_cam, 1e-6)) << i;
   }
+  // One shared correction with the intrinsics (--refine-camera): the exact
+  // camera comes back as given (nothing determined, or the refinement
+  // undone), and the report says so; --refine-camera without the shared
+  // mode is a usage error.
+  po.register_on = "texture";
+  po.out = dir_->path() / "plate-camera";
+  po.refine_poses = po.out / "poses.tum";
+  po.refine_camera = po.out / "camera.cameramodel";
+  EXPECT_THROW(po.Check(), UsageError);
+  po.refine_shared = true;
+  po.refine_smooth_frames = 0;
+  Report c("mr-eval", "test");
+  RunPlateCheck(scene, po, &c);
+  const CameraModel model = CameraModel::Read(scene.camera.model), written_model = CameraModel::Read(po.refine_camera);
+  const Json& cam = c.metrics()["refined_camera"];
+  if (!cam["intrinsics_refined"].get<bool>()) {
+    EXPECT_EQ(written_model.intrinsics(), model.intrinsics());
+  } else {  // kept because the registration fell 15%: then only by a little
+    EXPECT_NEAR(cam["focal_scale"].get<double>(), 1, 0.01);
+  }
 }
 
 // The plate in reflections through mr-render: the capture's object made a

@@ -136,6 +136,56 @@ void SweepOptions::Check() const {
   if (!(diff_scale > 0)) throw UsageError("--diff-scale must be positive");
 }
 
+std::vector<FastestAtError> FastestAtPtErrors(const std::vector<SweepRow>& rows) {
+  bool region = !rows.empty();
+  for (const SweepRow& r : rows) region = region && r.region_relmse > 0;
+  auto error = [&](const SweepRow& r) { return region ? r.region_relmse : r.relmse; };
+  std::vector<FastestAtError> out;
+  for (const SweepRow& p : rows) {
+    if (p.method != "pt") continue;
+    FastestAtError f{p.setting, p.seconds, error(p), p.method, p.setting, p.seconds, 1};
+    for (const SweepRow& r : rows)
+      if (error(r) <= error(p) && r.seconds < f.seconds) {
+        f.method = r.method;
+        f.setting = r.setting;
+        f.seconds = r.seconds;
+      }
+    f.speedup = f.seconds > 0 ? p.seconds / f.seconds : 1;
+    out.push_back(f);
+  }
+  return out;
+}
+
+namespace {
+
+// fastest.csv, the report's `fastest` and a line per pt setting in the log.
+void ReportFastest(const std::vector<FastestAtError>& fastest, const fs::path& csv_path, Report* report) {
+  std::string csv = "pt_setting,pt_seconds,error,method,setting,seconds,speedup\n";
+  Json table = Json::array();
+  for (const FastestAtError& f : fastest) {
+    csv += fmt::format("\"{}\",{:.6g},{:.6g},{},\"{}\",{:.6g},{:.4g}\n", f.pt_setting, f.pt_seconds, f.error, f.method,
+                       f.setting, f.seconds, f.speedup);
+    table.push_back({{"pt_setting", f.pt_setting},
+                     {"pt_seconds", f.pt_seconds},
+                     {"error", f.error},
+                     {"method", f.method},
+                     {"setting", f.setting},
+                     {"seconds", f.seconds},
+                     {"speedup", f.speedup}});
+    if (f.method == "pt")
+      spdlog::info("pt's error at {} ({:.3g} in {:.2f} s): pt is the fastest to it", f.pt_setting, f.error,
+                   f.pt_seconds);
+    else
+      spdlog::info("pt's error at {} ({:.3g} in {:.2f} s): {} {} in {:.2f} s, {:.1f}x faster", f.pt_setting, f.error,
+                   f.pt_seconds, f.method, f.setting, f.seconds, f.speedup);
+  }
+  WriteTextFile(csv_path, csv);
+  report->AddOutput(csv_path.string());
+  report->SetMetric("fastest", table);
+}
+
+}  // namespace
+
 std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report* report) {
   if (!scene.reference)
     throw UsageError(fmt::format("{} names no reference: a sweep needs ground truth", scene.file.string()));
@@ -223,6 +273,7 @@ std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& o, Report
   }
   report->AddOutput((o.out / "sweep.csv").string());
   report->AddOutput((o.out / "sweep.json").string());
+  ReportFastest(FastestAtPtErrors(rows), o.out / "fastest.csv", report);
   Json table = Json::array();
   for (const SweepRow& r : rows)
     table.push_back({{"method", r.method},

@@ -46,7 +46,21 @@ struct SweepRow {
   int frames = 0;
 };
 
-// Renders, writes sweep.csv, sweep.json, error-vs-time.svg/.png and the
+// Which run reaches each of pt's errors fastest: for every pt row, the run
+// of any method (pt's included) whose error is at most pt's there and
+// whose time is least, and pt's time over that run's (the speed-up; 1 where
+// pt is itself the fastest).  The error is the region relMSE where the
+// rows have one (> 0), else the whole image's.  Empty without pt rows.
+struct FastestAtError {
+  std::string pt_setting;
+  double pt_seconds = 0, error = 0;
+  std::string method, setting;  // the fastest run at or below pt's error
+  double seconds = 0, speedup = 1;
+};
+std::vector<FastestAtError> FastestAtPtErrors(const std::vector<SweepRow>& rows);
+
+// Renders, writes sweep.csv, sweep.json, fastest.csv (FastestAtPtErrors),
+// error-vs-time.svg/.png and the
 // difference images (|composite - reference| x diff_scale, first frame) in
 // options.out; fills `report`.  Throws mr::Error / mr::UsageError.
 std::vector<SweepRow> RunSweep(const Scene& scene, const SweepOptions& options, Report* report);

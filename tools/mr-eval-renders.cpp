@@ -110,6 +110,16 @@ CLI::App* AddPlate(CLI::App& app, mr::PlateJobOptions& pj) {
   plate->add_option("--refine-camera", po_plate.refine_camera,
                     "--refine-mode shared: also solve the focal length where the frames determine it, and\n"
                     "write the camera model here (the given one where they do not)");
+  plate
+      ->add_option("--prior-points", po_plate.prior_points,
+                   "--refine-poses: COLMAP's points as a prior (mr-register --observations-out), solved with\n"
+                   "the room's matches of each frame")
+      ->check(CLI::ExistingFile);
+  plate
+      ->add_option("--prior-weight", po_plate.prior_weight,
+                   "--prior-points: one observation's weight against one match")
+      ->default_val(1)
+      ->check(mr::kPositive);
   plate->add_option("--refine-rounds", po_plate.refine.rounds, "Render, match and solve rounds of --refine-poses")
       ->default_val(2)
       ->check(CLI::Range(1, 10));

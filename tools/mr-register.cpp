@@ -53,6 +53,9 @@ int main(int argc, char** argv) {
     c->add_option("--points-out", o.points_out,
                   "COLMAP's well-observed 3D points (track and error as --mesh's), moved into the room's frame, "
                   "as a PLY point cloud (mr-planes)");
+    c->add_option("--observations-out", o.observations_out,
+                  "Each registered frame's observations of those points (pixel and room-frame point, JSON: "
+                  "mr-eval plate --prior-points)");
     c->add_option("--mesh", o.meshes,
                   "Align (or refine the alignment) by COLMAP's 3D points "
                   "against this room mesh (repeatable: merged)")

@@ -16,6 +16,7 @@
 
 #include "core/color.h"
 #include "core/error.h"
+#include "core/json.h"
 #include "core/math.h"
 #include "core/process.h"
 #include "geometry/closest_point.h"
@@ -339,6 +340,39 @@ void WritePoints(const ColmapModel& model, const Similarity3& world_from_colmap,
   report->AddOutput(o.out_points.string());
 }
 
+// The registered frames' observations of the well-observed points, the
+// points moved into the room's frame (RegisterOptions::out_observations).
+void WriteObservations(const ColmapModel& model, const Similarity3& world_from_colmap, const RegisterOptions& o,
+                       Report* report) {
+  Json frames = Json::object();
+  int64_t n = 0;
+  for (const auto& [id, im] : model.images) {
+    const int f = FrameNumberOf(im.name);
+    if (f < 0) continue;
+    Json list = Json::array();
+    for (const ColmapObservation& ob : im.points2d) {
+      const auto it = model.points3d.find(ob.point3d_id);
+      if (ob.point3d_id < 0 || it == model.points3d.end()) continue;
+      const ColmapPoint3D& p = it->second;
+      if (static_cast<int>(p.track.size()) < o.mesh_fit.min_track || !(p.error <= o.mesh_fit.max_error_px)) continue;
+      const Eigen::Vector3d X = world_from_colmap.Apply(p.xyz);
+      list.push_back({ob.xy.x(), ob.xy.y(), X.x(), X.y(), X.z()});
+      ++n;
+    }
+    frames[std::to_string(f)] = std::move(list);
+  }
+  WriteTextFile(o.out_observations,
+                Json({{"version", 1},
+                      {"comment",
+                       "COLMAP's observations of its well-observed points, the points in the room's "
+                       "frame (mr-register)"},
+                      {"frames", frames}})
+                        .dump() +
+                    "\n");
+  report->SetMetric("points.observations_written", n);
+  report->AddOutput(o.out_observations.string());
+}
+
 // Without a trajectory nothing checks COLMAP's model; a video's camera
 // moves smoothly, so a run of steps between consecutive registered frames
 // far longer than the median is a model whose scale folds (seen on 30
@@ -523,6 +557,7 @@ void AlignColmapModel(const ColmapModel& model, const RegisterOptions& o, Report
   WriteTum(o.out_poses, out);
   report->AddOutput(o.out_poses.string());
   if (!o.out_points.empty()) WritePoints(model, world_from_colmap, o, report);
+  if (!o.out_observations.empty()) WriteObservations(model, world_from_colmap, o, report);
   if (!o.out_camera.empty()) {
     ToCameraModel(cam).Write(o.out_camera, o.note);
     report->AddOutput(o.out_camera.string());

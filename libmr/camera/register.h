@@ -116,6 +116,11 @@ struct RegisterOptions {
   // max_error_px), moved by the alignment, as a PLY point cloud: colours
   // (sRGB decoded to linear) and the scalars track and error_px (mr-planes).
   fs::path out_points;
+  // Each registered frame's observations of those points: JSON
+  // {"version": 1, "frames": {"N": [[u, v, X, Y, Z], ...]}}, u, v in mr's
+  // pixel convention, X, Y, Z in the room's frame (mr-eval plate
+  // --prior-points: COLMAP's points as a prior in the pose refinement).
+  fs::path out_observations;
   std::string note;  // provenance for the written camera model
 
   // UsageError naming the flag: an unknown --match, --mesh without --trajectory

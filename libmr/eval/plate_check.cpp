@@ -6,7 +6,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <functional>
 #include <map>
 #include <numbers>
@@ -17,6 +19,7 @@
 #include "core/contact_sheet.h"
 #include "core/error.h"
 #include "core/image_metrics.h"
+#include "core/json.h"
 #include "core/progress.h"
 #include "eval/registration.h"
 #include "render/camera_sampler.h"
@@ -403,6 +406,38 @@ bool NotBetter(const RegistrationResult& before, const RegistrationResult& after
   return !before.measurable || !after.measurable || !(after.mean_px < (1 - min) * before.mean_px);
 }
 
+// mr-register --observations-out: frame -> its observations as fixed
+// matches of weight `weight`.  mr::Error naming the file where it is not
+// that format.
+std::map<int, RoomMatches> ReadPriorPoints(const fs::path& path, double weight, Report* report) {
+  const Json j = ReadJsonFile(path);
+  const FileLoc at{path.string()};
+  if (!j.is_object() || j.value("version", 0) != 1 || !j.contains("frames") || !j["frames"].is_object())
+    ThrowErrorAt(at, "is not mr-register's observations (version 1, frames)");
+  std::map<int, RoomMatches> out;
+  for (const auto& [key, list] : j["frames"].items()) {
+    char* end = nullptr;
+    const long f = std::strtol(key.c_str(), &end, 10);
+    if (key.empty() || *end != '\0' || f < 0 || f > INT32_MAX || !list.is_array())
+      ThrowErrorAt(at, "frame \"{}\" is not a frame number", key);
+    RoomMatches& m = out[static_cast<int>(f)];
+    m.weight = weight;
+    for (const Json& ob : list) {
+      if (!ob.is_array() || ob.size() != 5) ThrowErrorAt(at, "frame {}: an observation is not [u, v, X, Y, Z]", f);
+      double v[5];
+      for (int k = 0; k < 5; ++k) {
+        if (!ob[k].is_number() || !std::isfinite(ob[k].get<double>()))
+          ThrowErrorAt(at, "frame {}: an observation holds a value that is not a finite number", f);
+        v[k] = ob[k].get<double>();
+      }
+      m.u.emplace_back(v[0], v[1]);
+      m.X.emplace_back(v[2], v[3], v[4]);
+    }
+  }
+  report->AddInput(path.string());
+  return out;
+}
+
 // --refine-mode shared: one correction for the frames, solved from the
 // matches the fitted frames' renders gave (`matches`, frames `frame_ids`),
 // then o.refine.rounds - 1 times again from the frames rendered through
@@ -414,9 +449,10 @@ bool NotBetter(const RegistrationResult& before, const RegistrationResult& after
 // corrected so far, and *cam is the camera at the end (the given one where
 // no round determined them).
 void RefineShared(const Scene& scene, const PlateCheckOptions& o, CameraModel* cam, const std::vector<Rigid3>& poses,
-                  int begin, std::vector<RoomMatches> matches, const std::vector<int>& frame_ids, RenderMethod* method,
-                  RenderScene* rs, FrameReader* frames, const FrameDecoding& decoding, std::vector<Measured>* measured,
-                  std::map<int, Rigid3>* refined, Report* report) {
+                  int begin, std::vector<RoomMatches> matches, const std::vector<RoomMatches>& priors,
+                  const std::vector<int>& frame_ids, RenderMethod* method, RenderScene* rs, FrameReader* frames,
+                  const FrameDecoding& decoding, std::vector<Measured>* measured, std::map<int, Rigid3>* refined,
+                  Report* report) {
   auto each_frame = [&](const Rigid3& c,
                         const std::function<void(size_t, const Image&, const Image&, const Image&)>& use) {
     EachFittedFrame(
@@ -425,7 +461,9 @@ void RefineShared(const Scene& scene, const PlateCheckOptions& o, CameraModel* c
   PoseRefineOptions ro = o.refine;
   ro.intrinsics = !o.refine_camera.empty();
   auto solve = [&](const Rigid3& start) {
-    PoseRefinement c = SolveCorrection(*cam, matches, start, ro);
+    std::vector<RoomMatches> groups = matches;
+    groups.insert(groups.end(), priors.begin(), priors.end());
+    PoseRefinement c = SolveCorrection(*cam, groups, start, ro);
     if (c.refined && c.intrinsics_refined)
       *cam = WithIntrinsicsCorrection(*cam, c.focal_scale, Eigen::Vector2d::Zero());
     if (ro.intrinsics && !c.intrinsics_refined) spdlog::info("intrinsics kept: {}", c.intrinsics_why);
@@ -498,7 +536,8 @@ void SmoothCorrections(const Scene& scene, const PlateCheckOptions& o, const Cam
 // registration fell by o.refine.min_improvement (the report says which).
 void RefineFrame(const Scene& scene, const PlateCheckOptions& o, const CameraModel& camera,
                  const std::vector<Rigid3>& poses, int f, RenderMethod* method, const RenderScene& rs,
-                 const Image& plate, Measured* m, std::map<int, Rigid3>* refined, Report* report) {
+                 const Image& plate, const RoomMatches* prior, Measured* m, std::map<int, Rigid3>* refined,
+                 Report* report) {
   const Rigid3& pose = poses[static_cast<size_t>(f)];
   auto render = [&](const Rigid3& p) {
     const FrameContext fc{rs, camera, p, scene.render.seed, f, nullptr, nullptr, FrameExposure(scene, poses, f)};
@@ -507,7 +546,7 @@ void RefineFrame(const Scene& scene, const PlateCheckOptions& o, const CameraMod
     return fr->Real();
   };
   auto pixels = [&](const Rigid3& p) { return RegistrationPixels(rs, camera, p, o); };
-  m->refinement = RefinePose(render, pixels, rs, camera, pose, plate, o.refine);
+  m->refinement = RefinePose(render, pixels, rs, camera, pose, plate, o.refine, prior);
   if (!m->refinement.refined) {
     report->Warn(fmt::format("frame {}: pose not refined: {}", f, m->refinement.why));
     return;
@@ -587,6 +626,8 @@ void PlateCheckOptions::Check() const {
   if (register_on != "texture" && register_on != "edges")
     throw UsageError(fmt::format("--register-on {}: texture or edges", register_on));
   if (edge_band_px < 1) throw UsageError("--edge-band must be at least 1");
+  if (!prior_points.empty() && refine_poses.empty()) throw UsageError("--prior-points needs --refine-poses");
+  if (!(prior_weight > 0)) throw UsageError("--prior-weight must be positive");
   if (!refine_camera.empty() && (refine_poses.empty() || !refine_shared))
     throw UsageError("--refine-camera needs --refine-poses and --refine-mode shared (one correction for the frames)");
 }
@@ -632,6 +673,9 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
   std::vector<RoomMatches> shared;  // refine_shared: each fitted frame's matches
   std::vector<int> fitted_frames;
   std::vector<int> shared_frames;
+  std::vector<RoomMatches> shared_priors;  // refine_shared: the fitted frames' prior observations
+  const std::map<int, RoomMatches> priors =
+      o.prior_points.empty() ? std::map<int, RoomMatches>() : ReadPriorPoints(o.prior_points, o.prior_weight, report);
   Progress progress("plate fit", end - begin);
   for (int f = begin; f < end; ++f) {
     frame_ids.push_back(f);
@@ -686,9 +730,15 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
       ScopedTimer t(report, "pose refinement");
       shared.push_back(MatchRoom(real, reg_pixels, rs, camera, pose, plate, o.refine));
       shared_frames.push_back(f);
+      if (const auto pr = priors.find(f); pr != priors.end()) {
+        shared_priors.push_back(pr->second);
+        shared_priors.back().pose = pose;
+      }
     } else if (!o.refine_poses.empty()) {
       ScopedTimer t(report, "pose refinement");
-      RefineFrame(scene, o, camera, poses, f, method.get(), rs, plate, &m, &refined, report);
+      const auto pr = priors.find(f);
+      RefineFrame(scene, o, camera, poses, f, method.get(), rs, plate, pr == priors.end() ? nullptr : &pr->second, &m,
+                  &refined, report);
     }
     if (o.images) WriteRerenderSheet(o, decoding, enc, plate, fitted, room, fit, f, m, report);
     measured.push_back(std::move(m));
@@ -705,8 +755,8 @@ void RunPlateCheck(const Scene& scene_in, const PlateCheckOptions& o, Report* re
   CameraModel refined_camera = camera;
   if (!o.refine_poses.empty() && o.refine_shared) {
     ScopedTimer t(report, "pose refinement");
-    RefineShared(scene, o, &refined_camera, poses, begin, shared, shared_frames, method.get(), &rs, &frames, decoding,
-                 &measured, &refined, report);
+    RefineShared(scene, o, &refined_camera, poses, begin, shared, shared_priors, shared_frames, method.get(), &rs,
+                 &frames, decoding, &measured, &refined, report);
   } else if (!o.refine_poses.empty() && o.refine_smooth_frames > 0) {
     ScopedTimer t(report, "pose refinement");
     SmoothCorrections(scene, o, camera, poses, begin, fitted_frames, method.get(), &rs, &frames, decoding, &measured,

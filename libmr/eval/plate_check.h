@@ -54,6 +54,12 @@ struct PlateCheckOptions {
   // (the given one where they were not determined or the refinement was
   // undone); the registration after is measured through it.
   fs::path refine_camera;
+  // Non-empty: COLMAP's points as a prior in the refinement (mr-register
+  // --observations-out: each frame's keypoints and their points in the
+  // room's frame), solved with the room's matches of the frame, each
+  // observation weighing prior_weight against one match.
+  fs::path prior_points;
+  double prior_weight = 1;
   // Not shared, > 0: each frame's correction averaged over the fitted
   // frames around it (Gaussian, sigma in fitted frames): --refine-mode smooth.
   double refine_smooth_frames = 2;

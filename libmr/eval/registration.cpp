@@ -164,6 +164,8 @@ Correction Solve(const CameraModel& camera, const std::vector<RoomMatches>& grou
     if (intrinsics) z.k += d[6];
     return z;
   };
+  std::vector<double> gw;  // each point's group weight
+  for (const RoomMatches& g : groups) gw.insert(gw.end(), g.X.size(), g.weight);
   Eigen::MatrixXd H(n, n);
   double chi2 = 0, wsum = 0;
   for (int it = 0; it < 15; ++it) {
@@ -178,7 +180,7 @@ Correction Solve(const CameraModel& camera, const std::vector<RoomMatches>& grou
     Eigen::VectorXd g = Eigen::VectorXd::Zero(n);
     chi2 = wsum = 0;
     for (Eigen::Index i = 0; i < r.size() / 2; ++i) {
-      const double e = r.segment<2>(2 * i).norm(), w = e <= huber ? 1 : huber / e;
+      const double e = r.segment<2>(2 * i).norm(), w = gw[static_cast<size_t>(i)] * (e <= huber ? 1 : huber / e);
       const auto Ji = J.middleRows(2 * i, 2);
       H += w * Ji.transpose() * Ji;
       g += w * Ji.transpose() * r.segment<2>(2 * i);
@@ -311,7 +313,7 @@ PoseRefinement SolveCorrection(const CameraModel& camera, const std::vector<Room
 PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
                           const std::function<Image(const Rigid3&)>& room, const RenderScene& rs,
                           const CameraModel& camera, const Rigid3& pose, const Image& plate,
-                          const PoseRefineOptions& options) {
+                          const PoseRefineOptions& options, const RoomMatches* prior) {
   PoseRefineOptions o = options;
   o.intrinsics = false;  // one frame's pose and the intrinsics are not told apart
   PoseRefinement out;
@@ -326,7 +328,12 @@ PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
       return out;
     }
     m.pose = pose;  // the correction is solved from the input pose
-    out = SolveCorrection(camera, {m}, c, o);
+    std::vector<RoomMatches> groups = {m};
+    if (prior && !prior->X.empty()) {
+      groups.push_back(*prior);
+      groups.back().pose = pose;
+    }
+    out = SolveCorrection(camera, groups, c, o);
     if (rms_before < 0) rms_before = out.rms_before_px;
     if (!out.refined) {
       out.pose = pose;

@@ -124,7 +124,8 @@ struct RoomMatches {
   Rigid3 pose;
   std::vector<Eigen::Vector3d> X;
   std::vector<Eigen::Vector2d> u;
-  std::string why;  // when there are none
+  std::string why;    // when there are none
+  double weight = 1;  // of each of its points against the other groups' (a prior's)
 };
 // `rendered`: the room alone through `pose`; `where`: > 0 where it covers
 // the pixel.
@@ -145,10 +146,13 @@ PoseRefinement SolveCorrection(const CameraModel& camera, const std::vector<Room
 // `render(pose)`: the room alone through `pose` (any units); `room(pose)`:
 // > 0 where it covers the pixel (RoomPixels); `rs`: the room, for the
 // matches' 3D points (its real geometry).
+// `prior`: fixed 3D-2D observations of the frame (COLMAP's points and
+// their keypoints) solved with the room's matches in every round, each by
+// its weight: they hold the pose where the room's matches leave it free.
 PoseRefinement RefinePose(const std::function<Image(const Rigid3&)>& render,
                           const std::function<Image(const Rigid3&)>& room, const RenderScene& rs,
                           const CameraModel& camera, const Rigid3& pose, const Image& plate,
-                          const PoseRefineOptions& options = {});
+                          const PoseRefineOptions& options = {}, const RoomMatches* prior = nullptr);
 
 // Corrections over a sequence of frames (nullopt: none for that frame)
 // averaged with Gaussian weights over the frames around each (sigma in

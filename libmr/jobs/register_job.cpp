@@ -52,6 +52,7 @@ RegisterOptions AlignOptions(const RegisterJobOptions& o, Report* report) {
   if (!o.initial.empty()) ro.initial = InitialSimilarity(o.initial);
   ro.out_camera = o.camera_out;
   ro.out_points = o.points_out;
+  ro.out_observations = o.observations_out;
   ro.note = "written by mr-register (" + o.command_line + ")";
   return ro;
 }

@@ -14,7 +14,7 @@ namespace mr {
 struct RegisterJobOptions {
   std::string frames;     // `colmap`: the video's frames (folder, printf pattern or video)
   std::string model_dir;  // `align`: an existing COLMAP text model
-  std::string trajectory, truth, out, camera_out, points_out;
+  std::string trajectory, truth, out, camera_out, points_out, observations_out;
   std::vector<std::string> meshes;  // merged into one for the mesh alignment
   std::vector<double> initial;      // 16 numbers, row-major [s*R t; 0 0 0 1]; empty: none
   RegisterOptions align;            // --match, --frames, the fit's settings

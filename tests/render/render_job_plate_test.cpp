@@ -311,6 +311,24 @@ TEST_F(Capture, RefiningExactPosesKeepsThemUnlessThePixelsSayOtherwise) {
   } else {  // kept because the registration fell 15%: then only by a little
     EXPECT_NEAR(cam["focal_scale"].get<double>(), 1, 0.01);
   }
+  // --prior-points that are not mr-register's observations: one message
+  // naming the file, before anything is rendered or written.
+  po.refine_camera.clear();
+  po.out = dir_->path() / "plate-prior";
+  po.refine_poses = po.out / "poses.tum";
+  po.prior_points = dir_->path() / "observations.json";
+  for (const char* bad : {R"({"version": 1, "frames": {"x": []}})", R"({"version": 1, "frames": {"0": [[1, 2, 3]]}})",
+                          R"({"version": 2})"}) {
+    WriteTextFile(po.prior_points, bad);
+    Report b("mr-eval", "test");
+    try {
+      RunPlateCheck(scene, po, &b);
+      ADD_FAILURE() << bad;
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("observations.json"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(po.refine_poses)) << bad;
+  }
 }
 
 // The plate in reflections through mr-render: the capture's object made a

@@ -192,7 +192,9 @@ struct Plan {
   VideoBlock video;
   Json camera;
   fs::path gains_dir, fitted_gains;
-  fs::path refined_poses;  // video.refine_poses: the radiometry stage's, which the render takes
+  fs::path refined_poses;   // video.refine_poses: the radiometry stage's, which the render takes
+  fs::path observations;    // the register stage's (COLMAP's keypoints and their points, the room's frame)
+  double prior_weight = 0;  // video.refine_poses.prior_weight: COLMAP's points as a prior (0: none)
   std::string gains_skip;
   std::vector<std::string> gains_options;
   bool use_gains = false;
@@ -568,7 +570,16 @@ void ReadGains(Plan& st) {
   if (st.use_gains) st.camera["gains"] = st.pl.Rel(st.fitted_gains);
   // video.refine_poses: the radiometry stage (mr-eval plate) refines each
   // fitted frame's pose against the room and the render takes its poses.
-  if (video.refine_poses && video.refine_poses->Bool()) {
+  bool refine = false;
+  if (video.refine_poses && video.refine_poses->json().is_object()) {
+    JsonSettings r(*video.refine_poses);
+    r.Number("prior_weight", &st.prior_weight, 1e-6, 1e6);
+    r.Done();
+    refine = true;
+  } else if (video.refine_poses) {
+    refine = video.refine_poses->Bool();
+  }
+  if (refine) {
     if (!st.gains_skip.empty())
       video.refine_poses->Fail("refining the poses is the plate check's (mr-eval plate), which does not run here: " +
                                st.gains_skip);
@@ -700,10 +711,13 @@ void PlanRegister(Plan& st, PipelineStage& s) {
       s.does = "the video's frames registered by COLMAP, its poses and points kept in COLMAP's frame for the planes";
     } else {
       AddAlignment(st, node, ps, s);
+      st.observations = st.w / "video" / "observations.json";
+      Append(&s.args, {"--observations-out", st.observations.string()});
     }
     Append(&s.args, {"--out", st.poses.string(), "--camera-out", model_out.string()});
     Append(&s.args, st.pl.Options(ps.options));
     s.outputs = {st.poses, model_out};
+    if (!st.observations.empty()) s.outputs.push_back(st.observations);
     if (st.room.planes) {
       s.outputs.push_back(st.points);
       st.poses = st.w / "room" / "poses.txt";  // the planes stage's, scaled and turned to gravity
@@ -715,6 +729,10 @@ void PlanRegister(Plan& st, PipelineStage& s) {
   st.scene["camera"] = st.camera;
   if (!st.refined_poses.empty()) {
     if (st.poses.empty()) video.refine_poses->Fail("refining the poses needs the video's poses (video.poses)");
+    if (st.prior_weight > 0 && st.observations.empty())
+      video.refine_poses->Fail(
+          "prior_weight: COLMAP's points are a prior only where COLMAP registers the video here (video.poses "
+          "\"register\" or \"colmap\", aligned to the room)");
     st.p->refined_poses = st.pl.Rel(st.refined_poses);
   }
 }
@@ -983,8 +1001,11 @@ void PlanRadiometry(Plan& st, PipelineStage& s) {
   const fs::path plate_scene = st.w / "scene-plate.json";
   s.args = {"plate", plate_scene.string(), "--out", st.gains_dir.string()};
   if (!st.refined_poses.empty()) Append(&s.args, {"--refine-poses", st.refined_poses.string()});
+  if (st.prior_weight > 0)
+    Append(&s.args, {"--prior-points", st.observations.string(), "--prior-weight", fmt::format("{}", st.prior_weight)});
   Append(&s.args, st.gains_options);
   s.inputs = {plate_scene};
+  if (st.prior_weight > 0) s.inputs.push_back(st.observations);
   Append(&s.inputs, st.per_frame);
   s.outputs = {st.gains_dir};
   s.does = st.use_gains

@@ -382,6 +382,39 @@ TEST(PlanPipeline, FitsThePlatesGainsUnlessToldOtherwise) {
   const auto& rin = Stage(p, "render").inputs;
   EXPECT_NE(std::find(rin.begin(), rin.end(), dir.path() / "work" / "radiometry" / "poses.tum"), rin.end());
   EXPECT_THROW(plan(R"(, "refine_poses": true, "gains": false)"), Error);  // no plate check to refine them
+  // COLMAP's points as a prior need COLMAP's registration here: with a
+  // given trajectory there are none, and that is an error naming the key.
+  EXPECT_THROW(plan(R"(, "refine_poses": {"prior_weight": 1})"), Error);
+  EXPECT_THROW(plan(R"(, "refine_poses": {"prior": 1})"), Error);  // an unknown key
+}
+
+// video.refine_poses.prior_weight: the register stage writes COLMAP's
+// observations, the radiometry stage refines with them as a prior.
+TEST(PlanPipeline, ColmapPointsAsAPriorInTheRefinement) {
+  test::TempDir dir;
+  for (const char* f : {"cam.cameramodel", "env.exr", "room.ply", "ball.ply"}) WriteTextFile(dir / f, "x");
+  fs::create_directories(dir / "video");
+  WriteTextFile(dir / "p.json", R"({"version": 1,
+    "camera": {"model": "cam.cameramodel"}, "lighting": {"environment": "env.exr"},
+    "room": {"real": {"mesh": "room.ply"}},
+    "video": {"frames": "video/%05d.jpg", "refine_poses": {"prior_weight": 2},
+              "poses": {"register": true, "initial": [1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]}},
+    "virtual": [{"mesh": "ball.ply"}]})");
+  const Pipeline p = PlanPipeline(dir / "p.json");
+  const fs::path obs = dir.path() / "work" / "video" / "observations.json";
+  const PipelineStage& reg = Stage(p, "register");
+  const auto o = std::find(reg.args.begin(), reg.args.end(), "--observations-out");
+  ASSERT_NE(o, reg.args.end());
+  EXPECT_EQ(*std::next(o), obs.string());
+  EXPECT_NE(std::find(reg.outputs.begin(), reg.outputs.end(), obs), reg.outputs.end());
+  const PipelineStage& rad = Stage(p, "radiometry");
+  const auto pp = std::find(rad.args.begin(), rad.args.end(), "--prior-points");
+  ASSERT_NE(pp, rad.args.end());
+  EXPECT_EQ(*std::next(pp), obs.string());
+  EXPECT_EQ(*std::next(pp, 2), "--prior-weight");
+  EXPECT_EQ(*std::next(pp, 3), "2");
+  EXPECT_NE(std::find(rad.inputs.begin(), rad.inputs.end(), obs), rad.inputs.end());
+  EXPECT_NE(std::find(rad.args.begin(), rad.args.end(), "--refine-poses"), rad.args.end());
 }
 
 TEST(PlanPipeline, ErrorsNameTheFileAndKey) {

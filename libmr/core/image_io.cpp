@@ -3,6 +3,7 @@
 #include <OpenImageIO/imageio.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <fstream>
@@ -446,9 +447,27 @@ Image ReadImage(const fs::path& path, const ImageReadOptions& options, ImageFile
     if (t == Transfer::kSrgb) {
       const int alpha = spec.alpha_channel;
       const int nc = img.channels();
+      // 8-bit codes take 256 values: each decoded once (the first float seen
+      // for a code, compared exactly: the same bytes as decoding every pixel).
+      std::array<float, 256> seen{}, decoded{};
+      std::array<bool, 256> have{};
+      const bool eight = spec.format.basetype == OIIO::TypeDesc::UINT8;
       for (int64_t p = 0; p < img.pixel_count(); ++p)
-        for (int c = 0; c < nc; ++c)
-          if (c != alpha) img.data()[p * nc + c] = SrgbToLinear(img.data()[p * nc + c]);
+        for (int c = 0; c < nc; ++c) {
+          if (c == alpha) continue;
+          float& v = img.data()[p * nc + c];
+          if (!eight) {
+            v = SrgbToLinear(v);
+            continue;
+          }
+          const size_t k = static_cast<size_t>(std::clamp(std::lround(v * 255.0f), 0L, 255L));
+          if (!have[k] || seen[k] != v) {
+            have[k] = true;
+            seen[k] = v;
+            decoded[k] = SrgbToLinear(v);
+          }
+          v = decoded[k];
+        }
     }
   }
 

@@ -170,12 +170,13 @@ def main():
         refined = os.path.join(w, "radiometry", "poses.tum")
         swim = json.load(open(os.path.join(w, "reports", "render.json")))["metrics"].get("swim", {})
         s = list(swim.values())[0] if swim else {}
+        before = pose_error(poses, truth)
+        after = pose_error(refined, truth) if os.path.isfile(refined) else (float("nan"), float("nan"))
         row = {"case": case, "registration_px": g.get("mean_px", float("nan")),
                "worst_px": g.get("worst_mean_px", float("nan")), "frames_measured": g.get("frames_measured", 0),
                "after_px": pr.get("mean_px_after", float("nan")), "frames_refined": pr.get("frames_refined", 0),
-               "rot_err_deg": pose_error(poses, truth)[0], "trans_err_mm": pose_error(poses, truth)[1],
-               "rot_err_after_deg": pose_error(refined, truth)[0] if os.path.isfile(refined) else float("nan"),
-               "trans_err_after_mm": pose_error(refined, truth)[1] if os.path.isfile(refined) else float("nan"),
+               "rot_err_deg": before[0], "trans_err_mm": before[1],
+               "rot_err_after_deg": after[0], "trans_err_after_mm": after[1],
                "swim_rms_px": s.get("rms_px", float("nan")), "swim_max_px": s.get("max_px", float("nan")),
                "relmse": m.get("relmse", float("nan")), "seconds": round(seconds, 1)}
         rows.append(row)

@@ -72,6 +72,32 @@ double MeanWhere(const Image& img, const Image& mask, float value, int* count = 
   return n > 0 ? s / n : 0;
 }
 
+// Largest value of channel 1 of `img` where `mask` is 1.
+double MaxWhereCovered(const Image& img, const Image& mask) {
+  double m = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x)
+      if (mask.at(x, y, 0) == 1.0f) m = std::max(m, static_cast<double>(img.at(x, y, 1)));
+  return m;
+}
+
+// A sky of 0.5 with a sun 1e6 x brighter 8.4 degrees above the horizon, an
+// 8 m floor of `floor` and a virtual diffuse sphere (r 0.3, albedo 0.8)
+// resting on it at the origin; returns the direction towards the sun.
+Eigen::Vector3d SunnyFloorWithSphere(const Material& floor, RenderScene* rs) {
+  Image sky = Image::Rgb(64, 32);
+  for (float& v : sky.values()) v = 0.5f;
+  const int sx = 20, sy = 14;  // row 14 of 32: 8.4 degrees above the horizon
+  for (int c = 0; c < 3; ++c) sky.at(sx, sy, c) = 0.5e6f;
+  rs->AddReal(Quad({-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}), floor);
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Eigen::Vector3d(0, 0.3, 0));
+  rs->AddVirtual(UvSphere(0.3f, 32), t, Diffuse(0.8));
+  rs->SetEnvironment(EnvironmentMap(sky, "sun"));
+  rs->Commit();
+  return LatLongPixelToDirection(Eigen::Vector2d(sx + 0.5, sy + 0.5), 64, 32);
+}
+
 // A sun 1e6 x the sky, low (8 degrees up), exactly behind a virtual sphere
 // resting on the floor as the camera sees it: the camera looks into the
 // sun, the sphere hides it, and its shadow runs towards the camera.  The
@@ -79,18 +105,8 @@ double MeanWhere(const Image& img, const Image& mask, float value, int* count = 
 // of the sun; its rim is next to pixels that see the sun itself (their
 // I_m - I_r must stay 0: a camera ray that meets nothing is the plate).
 TEST(Stiff, SunBehindTheObject) {
-  Image sky = Image::Rgb(64, 32);
-  for (float& v : sky.values()) v = 0.5f;
-  const int sx = 20, sy = 14;  // row 14 of 32: 8.4 degrees above the horizon
-  for (int c = 0; c < 3; ++c) sky.at(sx, sy, c) = 0.5e6f;
   RenderScene rs;
-  rs.AddReal(Quad({-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}), Diffuse(0.6));
-  Eigen::Affine3d t = Eigen::Affine3d::Identity();
-  t.translate(Eigen::Vector3d(0, 0.3, 0));
-  rs.AddVirtual(UvSphere(0.3f, 32), t, Diffuse(0.8));
-  rs.SetEnvironment(EnvironmentMap(sky, "sun"));
-  rs.Commit();
-  const Eigen::Vector3d sun = LatLongPixelToDirection(Eigen::Vector2d(sx + 0.5, sy + 0.5), 64, 32);
+  const Eigen::Vector3d sun = SunnyFloorWithSphere(Diffuse(0.6), &rs);
   ASSERT_GT(sun.y(), 0.1);
   const Eigen::Vector3d centre(0, 0.3, 0);
   const Rigid3 pose = LookAt(centre - 1.6 * sun, centre);
@@ -170,21 +186,11 @@ TEST(Stiff, NearMirrorObject) {
 // is 35% below to 15% above (on the main job's capture the bias is below
 // pt's 64-spp noise: docs/methods.md, "vpl").
 TEST(Stiff, SunGrazingAGlossyTableBesideTheObject) {
-  Image sky = Image::Rgb(64, 32);
-  for (float& v : sky.values()) v = 0.5f;
-  const int sx = 20, sy = 14;  // 8.4 degrees above the horizon
-  for (int c = 0; c < 3; ++c) sky.at(sx, sy, c) = 0.5e6f;
   Material table = Diffuse(0.3);
   table.specular = Eigen::Vector3d::Constant(0.5);
   table.roughness = 0.1;
   RenderScene rs;
-  rs.AddReal(Quad({-4, 0, -4}, {4, 0, -4}, {4, 0, 4}, {-4, 0, 4}), table);
-  Eigen::Affine3d t = Eigen::Affine3d::Identity();
-  t.translate(Eigen::Vector3d(0, 0.3, 0));
-  rs.AddVirtual(UvSphere(0.3f, 32), t, Diffuse(0.8));
-  rs.SetEnvironment(EnvironmentMap(sky, "sun"));
-  rs.Commit();
-  const Eigen::Vector3d sun = LatLongPixelToDirection(Eigen::Vector2d(sx + 0.5, sy + 0.5), 64, 32);
+  const Eigen::Vector3d sun = SunnyFloorWithSphere(table, &rs);
   const Eigen::Vector3d centre(0, 0.3, 0), level = Eigen::Vector3d(sun.x(), 0, sun.z()).normalized();
   const Rigid3 pose = LookAt(centre + 1.4 * level + Eigen::Vector3d(0, 0.5, 0), centre);
   const CameraModel cam = Pinhole(40, 30, 50);
@@ -193,16 +199,10 @@ TEST(Stiff, SunGrazingAGlossyTableBesideTheObject) {
   int covered = 0;
   const double truth = MeanWhere(pt.frame->Mixed(), mask, 1.0f, &covered);
   ASSERT_GT(covered, 100);
-  double brightest = 0;
-  for (int y = 0; y < cam.height(); ++y)
-    for (int x = 0; x < cam.width(); ++x)
-      if (mask.at(x, y, 0) == 1.0f) brightest = std::max(brightest, static_cast<double>(pt.frame->Mixed().at(x, y, 1)));
+  const double brightest = MaxWhereCovered(pt.frame->Mixed(), mask);
   Rendered vpl = Render("vpl", {{"paths", 256}}, rs, cam, pose, 4);
   const Image m = vpl.frame->Mixed();
-  double worst = 0;
-  for (int y = 0; y < cam.height(); ++y)
-    for (int x = 0; x < cam.width(); ++x)
-      if (mask.at(x, y, 0) == 1.0f) worst = std::max(worst, static_cast<double>(m.at(x, y, 1)));
+  const double worst = MaxWhereCovered(m, mask);
   const double mean = MeanWhere(m, mask, 1.0f);
   std::printf("sun grazing a glossy table: vpl mean %.3f, brightest %.3f; pt %.3f, %.3f\n", mean, worst, truth,
               brightest);

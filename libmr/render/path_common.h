@@ -179,18 +179,20 @@ enum LightSet : unsigned { kRealLights = 1, kVirtualLights = 2, kAllLights = 3 }
 
 inline unsigned LightBit(const LightSource& l) { return l.is_virtual() ? kVirtualLights : kRealLights; }
 
-// Radiance arriving along an escaped ray from the environment and the
-// distant disc lights in `which`, each MIS-weighted against the BSDF pdf
-// that chose the direction (prev_pdf 0: seen directly by the camera).
-inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pdf, unsigned which) {
-  Eigen::Vector3d L = Eigen::Vector3d::Zero();
-  const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
+// The environment's radiance along an escaped ray's unit direction d,
+// MIS-weighted against the BSDF pdf that chose it (prev_pdf 0: none).
+inline Eigen::Vector3d EscapedEnvironment(const RenderScene& scene, const Eigen::Vector3d& d, double prev_pdf) {
   const EnvironmentMap& env = scene.environment();
-  if ((which & kRealLights) && !env.empty()) {
-    double pdf = 0;
-    const Eigen::Vector3d le = env.EvalWithPdf(d, &pdf);
-    L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
-  }
+  if (env.empty()) return Eigen::Vector3d::Zero();
+  double pdf = 0;
+  const Eigen::Vector3d le = env.EvalWithPdf(d, &pdf);
+  return le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
+}
+
+// What the distant disc lights in `which` add to `L` along an escaped
+// ray's unit direction d, each MIS-weighted against prev_pdf.
+inline Eigen::Vector3d EscapedDiscs(const RenderScene& scene, const Eigen::Vector3d& d, double prev_pdf, unsigned which,
+                                    Eigen::Vector3d L = Eigen::Vector3d::Zero()) {
   if (scene.has_distant_area_light())
     for (const LightSource& l : scene.lights()) {
       if (!(which & LightBit(l))) continue;
@@ -199,6 +201,15 @@ inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double 
       if (pdf > 0) L += le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
     }
   return L;
+}
+
+// Radiance arriving along an escaped ray from the environment and the
+// distant disc lights in `which`, each MIS-weighted against the BSDF pdf
+// that chose the direction (prev_pdf 0: seen directly by the camera).
+inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pdf, unsigned which) {
+  const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
+  return EscapedDiscs(scene, d, prev_pdf, which,
+                      (which & kRealLights) ? EscapedEnvironment(scene, d, prev_pdf) : Eigen::Vector3d::Zero());
 }
 
 // Radiance of the area lights in `which` that the ray meets before t_max.
@@ -256,9 +267,9 @@ inline void AddEscapedCameraRay(const RenderScene& scene, const Ray& ray, Eigen:
 // emitters through BSDF-sampled rays at this vertex).  `mis_area`: weight
 // the area lights' samples too (the caller counts AreaLightsSeen with mis
 // on the BSDF-sampled ray that leaves this vertex: pt).
+// NextEvent's two halves: the environment's sample, each light's.
 template <class Emit>
-void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
-               bool mis_area = false) {
+void EnvironmentEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true) {
   const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
   const Eigen::Vector3d& origin = v.origin;
   const EnvironmentMap& env = scene.environment();
@@ -278,6 +289,13 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit
       }
     }
   }
+}
+
+template <class Emit>
+void LightEvents(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
+                 bool mis_area = false) {
+  const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
+  const Eigen::Vector3d& origin = v.origin;
   for (const LightSource& l : scene.lights()) {
     const auto [u0, u1] = rng.Next2D();
     LightSample ls;
@@ -293,6 +311,13 @@ void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit
     emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / ls.pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),
          l.is_virtual());
   }
+}
+
+template <class Emit>
+void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
+               bool mis_area = false) {
+  EnvironmentEvent(scene, v, rng, emit, mis);
+  LightEvents(scene, v, rng, emit, mis, mis_area);
 }
 
 // Whether the segment o + t d, t in [0, tmax], meets any of `boxes`
@@ -361,21 +386,159 @@ inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray 
   return 1;
 }
 
+// The cones of directions in which the virtual objects can be met from p:
+// each object's bounding sphere (its box's centre, half its diagonal) seen
+// from p.  A cone's weight is its solid angle; one that p lies inside is
+// the whole hemisphere above the shading normal (sampled by cosine), and
+// one wholly below p's horizon is left out.  Internal to
+// EnvironmentDifference.
+struct VirtualCones {
+  struct Cone {
+    Eigen::Vector3d axis;
+    double cos_max = 1, solid_angle = 0;  // solid_angle 2pi and cos_max -1: p inside
+    bool inside = false;
+  };
+  std::vector<Cone> cones;
+  double total = 0;  // the weights' sum
+
+  VirtualCones(const std::vector<Eigen::AlignedBox3d>& boxes, const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+    for (const auto& b : boxes) {
+      if (b.isEmpty()) continue;
+      const Eigen::Vector3d to = b.center() - p;
+      const double r = 0.5 * b.diagonal().norm() * (1 + 1e-6) + 1e-9, d = to.norm();
+      Cone c;
+      if (!(d > r)) {
+        c.axis = n;
+        c.cos_max = -1;
+        c.solid_angle = kTwoPi;
+        c.inside = true;
+      } else {
+        c.axis = to / d;
+        const double s2 = (r / d) * (r / d);
+        c.cos_max = std::sqrt(1 - s2);
+        c.solid_angle = kTwoPi * s2 / (1 + c.cos_max);  // 2pi (1 - cos_max), without cancellation
+        // Below the horizon: the axis's elevation under -theta_max.
+        if (c.axis.dot(n) < -std::sqrt(s2)) continue;
+      }
+      total += c.solid_angle;
+      cones.push_back(c);
+    }
+  }
+  // The solid-angle pdf of Sample's direction wi (unit); 0 outside every cone.
+  double Pdf(const Eigen::Vector3d& wi, const Eigen::Vector3d& n) const {
+    double pdf = 0;
+    for (const Cone& c : cones) {
+      const double pick = c.solid_angle / total;
+      if (c.inside)
+        pdf += pick * std::max(0.0, wi.dot(n)) * kInvPi;
+      else if (wi.dot(c.axis) >= c.cos_max)
+        pdf += pick / c.solid_angle;
+    }
+    return pdf;
+  }
+  bool Covers(const Eigen::Vector3d& wi) const {
+    for (const Cone& c : cones)
+      if (c.inside || wi.dot(c.axis) >= c.cos_max) return true;
+    return false;
+  }
+  // A direction: a cone picked by its weight (u_pick), uniform within it.
+  Eigen::Vector3d Sample(double u_pick, double u0, double u1, const ShadingFrame& frame) const {
+    size_t k = 0;
+    double acc = cones[0].solid_angle / total;
+    while (k + 1 < cones.size() && u_pick >= acc) acc += cones[++k].solid_angle / total;
+    const Cone& c = cones[k];
+    if (c.inside) {
+      const auto d = SampleCosineHemisphere(u0, u1);
+      return frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2]));
+    }
+    const double one_minus = u0 * c.solid_angle / kTwoPi;  // 1 - cos theta, uniform in [0, 1 - cos_max]
+    const double cos_t = 1 - one_minus, sin_t = std::sqrt(std::max(0.0, one_minus * (2 - one_minus)));
+    const double phi = kTwoPi * u1;
+    Eigen::Vector3d t, b;
+    CoordinateSystem(c.axis, &t, &b);
+    return (sin_t * std::cos(phi) * t + sin_t * std::sin(phi) * b + cos_t * c.axis).normalized();
+  }
+};
+
+// The difference the virtual objects make to the environment's light that
+// a real point's vertex v reflects through v.bsdf, added to *mixed:
+//   D = -integral Le f cos V_r (1 - V_v) dw,
+// which is zero outside the cones in which the objects can be met.  Two
+// samples, combined by the power heuristic: a direction uniform in a cone
+// (picked by solid angle; the objects' sky shadow) and one of the
+// environment's importance samples (the sun in their shadow; one outside
+// every cone counts zero and traces nothing).  Each direction is tested
+// against the virtual objects first (a segment to the far side of the
+// sphere) and, only where they block it, against the real blockers.  Cones
+// narrower than a form factor of 1e-3 are not sampled (the environment's
+// sample alone then covers the integral, with its full weight): the sky's
+// share there is below the noise, and the sun's is the other sample's.
+// Always draws five numbers.  Returns the rays traced.
+inline int64_t EnvironmentDifference(const RenderScene& scene, const PathVertex& v, Sampler& rng,
+                                     Eigen::Vector3d* mixed) {
+  const double u_pick = rng.NextDouble();
+  const auto uc = rng.Next2D();
+  const auto ue = rng.Next2D();
+  const EnvironmentMap& env = scene.environment();
+  if (env.empty() || !scene.has_virtual_geometry()) return 0;
+  const VirtualCones all(scene.virtual_bounds(), v.p, v.frame.n);
+  if (all.cones.empty()) return 0;
+  constexpr double kMinFormFactor = 1e-3;
+  const bool cone_strategy = all.total >= kPi * kMinFormFactor;
+  const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
+  const EmbreeScene& embree = scene.embree();
+  int64_t rays = 0;
+  auto test = [&](const Eigen::Vector3d& wi, double pdf_this, bool from_cone) {
+    const Eigen::Vector3d wi_l = v.frame.ToLocal(wi);
+    if (!(wi_l.z() > 0) || !(pdf_this > 0)) return;
+    double pdf_env = 0;
+    const Eigen::Vector3d le = env.EvalWithPdf(wi, &pdf_env);
+    if (!(le.maxCoeff() > 0)) return;
+    const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
+    if (!(f.maxCoeff() > 0)) return;
+    const double pdf_cone = cone_strategy ? (from_cone ? pdf_this : all.Pdf(wi, v.frame.n)) : 0.0;
+    const double w = from_cone ? PowerHeuristic(pdf_cone, pdf_env) : PowerHeuristic(pdf_env, pdf_cone);
+    if (!(w > 0)) return;
+    Ray r = MakeRay(v.origin, wi, kMaskVirtual);
+    ++rays;
+    if (!embree.Occluded(r)) return;
+    r.mask = kMaskReal;
+    ++rays;
+    if (embree.Occluded(r)) return;
+    *mixed -= f.cwiseProduct(le) * (wi_l.z() * w / pdf_this);
+  };
+  if (cone_strategy) {
+    const Eigen::Vector3d wi = all.Sample(u_pick, uc[0], uc[1], v.frame);
+    test(wi, all.Pdf(wi, v.frame.n), true);
+  }
+  Eigen::Vector3d wi;
+  double pdf = 0;
+  env.Sample(ue[0], ue[1], &wi, &pdf);
+  if (pdf > 0 && all.Covers(wi)) test(wi, pdf, false);
+  return rays;
+}
+
 // The light a point's vertex v reflects from emitters it sees directly, for
 // the wanted solutions: next-event estimation through v.bsdf, and one
 // cosine-sampled ray that counts only the environment and disc lights it
 // escapes to, combined by MIS (a sun 1e6 x the sky takes nearly every light
 // sample; the sky needs the BSDF's).  v.bsdf must be the diffuse lobe with
-// albedo `albedo` (f cos / pdf of the cosine sample).  `virtual_pass(ray)`
-// returns how much of a real point's mixed light passes the virtual objects
-// along `ray` (1 or 0 by shadow ray; vct: a shadow cone).  Returns rays traced.
+// albedo `albedo` (f cos / pdf of the cosine sample).  At a real point that
+// wants both solutions the environment's light is traced against the real
+// blockers alone, for both, and the difference the virtual objects make to
+// it is EnvironmentDifference's (the samples spent where the objects are);
+// the lights' and the discs' virtual shadows are `virtual_pass(ray)`'s: how
+// much of a real point's mixed light passes the virtual objects along `ray`
+// (1 or 0 by shadow ray; vct: a shadow cone).  Returns rays traced.
 template <class VirtualPass>
 int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen::Vector3d& albedo, bool x_virtual,
                       bool want_m, bool want_r, Sampler& rng, Eigen::Vector3d* mixed, Eigen::Vector3d* real,
                       VirtualPass&& virtual_pass) {
   const EmbreeScene& embree = scene.embree();
   int64_t rays = 0;
-  NextEvent(scene, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+  // Environment differences apart: a real point, both solutions, objects and an environment.
+  const bool apart = !x_virtual && want_m && want_r && scene.has_virtual_geometry() && !scene.environment().empty();
+  auto light = [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
     if (virtual_light || x_virtual || !want_r || !want_m) {
       rays += AddNextEvent(scene, c, shadow, virtual_light, x_virtual, want_m, want_r, mixed, real);
       return;
@@ -385,25 +548,47 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
     if (embree.Occluded(shadow)) return;
     *real += c;
     *mixed += c * virtual_pass(shadow);
-  });
+  };
+  if (apart) {
+    EnvironmentEvent(scene, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool) {
+      shadow.mask = kMaskReal;
+      ++rays;
+      if (embree.Occluded(shadow)) return;
+      *real += c;
+      *mixed += c;
+    });
+    LightEvents(scene, v, rng, light);
+  } else {
+    NextEvent(scene, v, rng, light);
+  }
   const auto u = rng.Next2D();
   const auto d = SampleCosineHemisphere(u[0], u[1]);
   const double pdf = d[2] * kInvPi;
-  if (!(pdf > 0)) return rays;
-  Ray sky = MakeRay(v.origin, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskReal);
-  ++rays;
-  if (embree.Occluded(sky)) return rays;  // real blockers stop both solutions
-  const Eigen::Vector3d e = albedo.cwiseProduct(Escaped(scene, sky, pdf, kRealLights));
-  if (want_r && !x_virtual) *real += e;
-  if (want_m) {
-    const double pass = x_virtual || !scene.has_virtual_geometry() ? 1.0 : virtual_pass(sky);
-    if (x_virtual && scene.has_virtual_geometry()) {
-      sky.mask = kMaskVirtual;
-      ++rays;
-      if (embree.Occluded(sky)) return rays;
+  if (pdf > 0) {
+    Ray sky = MakeRay(v.origin, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskReal);
+    ++rays;
+    if (!embree.Occluded(sky)) {  // real blockers stop both solutions
+      const Eigen::Vector3d e = albedo.cwiseProduct(Escaped(scene, sky, pdf, kRealLights));
+      if (want_r && !x_virtual) *real += e;
+      if (want_m && apart) {
+        // The environment as it is; the discs, real and virtual, through the virtual objects.
+        const Eigen::Vector3d dir = sky.direction.cast<double>().normalized();
+        const Eigen::Vector3d e_discs = albedo.cwiseProduct(EscapedDiscs(scene, dir, pdf, kAllLights));
+        *mixed += albedo.cwiseProduct(EscapedEnvironment(scene, dir, pdf));
+        if (e_discs.maxCoeff() > 0) *mixed += e_discs * virtual_pass(sky);
+      } else if (want_m) {
+        const double pass = x_virtual || !scene.has_virtual_geometry() ? 1.0 : virtual_pass(sky);
+        bool blocked = false;
+        if (x_virtual && scene.has_virtual_geometry()) {
+          sky.mask = kMaskVirtual;
+          ++rays;
+          blocked = embree.Occluded(sky);
+        }
+        if (!blocked) *mixed += e * pass + albedo.cwiseProduct(Escaped(scene, sky, pdf, kVirtualLights)) * pass;
+      }
     }
-    *mixed += e * pass + albedo.cwiseProduct(Escaped(scene, sky, pdf, kVirtualLights)) * pass;
   }
+  if (apart) rays += EnvironmentDifference(scene, v, rng, mixed);
   return rays;
 }
 

@@ -164,7 +164,8 @@ TEST(Vpl, DroppedShadowTestsStayWithinTheirBound) {
   VplFrameRenderer some(s, VplSet::Build(s, vs), cam, kCornerCamera, 0, 0);
   some.RenderPass(1);
   const Image a = all.Mixed(), b = some.Mixed();
-  for (size_t i = 0; i < a.values().size(); ++i) EXPECT_LE(a.values()[i] - b.values()[i], 1e-3 * a.values()[i] + 1e-6);
+  for (size_t i = 0; i < a.values().size(); ++i)
+    EXPECT_LE(a.values()[i] - b.values()[i], 1e-3 * std::abs(a.values()[i]) + 1e-6);
 }
 
 // Lightcuts (vpl.cut_error): a cut refined down to the leaves is the
@@ -198,7 +199,8 @@ TEST(Vpl, LightcutsAgreeWithEveryVplAndTestFewer) {
   all->Describe(&ra, 0);
   cut->Describe(&rc, 0);
   const Image a = all->Mixed(), l = leaves->Mixed(), c = cut->Mixed(), ar = all->Real(), cr = cut->Real();
-  for (size_t i = 0; i < a.values().size(); ++i) EXPECT_NEAR(l.values()[i], a.values()[i], 1e-9 * a.values()[i]);
+  for (size_t i = 0; i < a.values().size(); ++i)
+    EXPECT_NEAR(l.values()[i], a.values()[i], 1e-9 * std::abs(a.values()[i]));
   EXPECT_NEAR(Mean(c), Mean(a), 0.01 * Mean(a));
   EXPECT_NEAR(Mean(cr), Mean(ar), 0.01 * Mean(ar));
   double worst = 0, sq = 0;

@@ -161,17 +161,22 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
   std::vector<Eigen::Vector3d>& nsum_r = out->nsum_r_;
   std::vector<Eigen::Vector3d>& nsum_v = out->nsum_v_;
   uint32_t voxelise_mask = kMaskAll;
+  std::vector<Eigen::Vector3d>& albedo_r = out->albedo_r_;
+  std::vector<Eigen::Vector3d>& albedo_v = out->albedo_v_;
   if (keep_grid) {
     area_r = previous->area_r_;
     nsum_r = previous->nsum_r_;
+    albedo_r = previous->albedo_r_;
     if (objects_moved) {
       area_v.assign(nvox, 0);
       nsum_v.assign(nvox, Eigen::Vector3d::Zero());
+      albedo_v.assign(nvox, Eigen::Vector3d::Zero());
       voxelise_mask = kMaskVirtual;
       out->voxelised_ = "virtual surfaces only";
     } else {
       area_v = previous->area_v_;
       nsum_v = previous->nsum_v_;
+      albedo_v = previous->albedo_v_;
       voxelise_mask = 0;
       out->voxelised_ = "kept";
     }
@@ -180,6 +185,8 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     area_v.assign(nvox, 0);
     nsum_r.assign(nvox, Eigen::Vector3d::Zero());
     nsum_v.assign(nvox, Eigen::Vector3d::Zero());
+    albedo_r.assign(nvox, Eigen::Vector3d::Zero());
+    albedo_v.assign(nvox, Eigen::Vector3d::Zero());
   }
   if (voxelise_mask != 0) {
     constexpr int kSub = 4;
@@ -191,7 +198,7 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
         size_t voxel;
         bool is_virtual;
         double area;
-        Eigen::Vector3d n;
+        Eigen::Vector3d n, albedo;
       };
       std::vector<std::vector<Crossing>> hits(static_cast<size_t>(na) * nb);
       ParallelFor(0, static_cast<int64_t>(hits.size()), [&](int64_t j) {
@@ -208,7 +215,8 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
           const Eigen::Vector3d n = scene.WorldNormal(hit);
           size_t vi;
           if (voxel_of(p, &vi))
-            hits[static_cast<size_t>(j)].push_back({vi, hit.is_virtual, h * h * std::abs(n[k]), Canonical(n)});
+            hits[static_cast<size_t>(j)].push_back(
+                {vi, hit.is_virtual, h * h * std::abs(n[k]), Canonical(n), scene.AlbedoAt(hit)});
           ray.tnear = std::nextafter(hit.t, INFINITY) + static_cast<float>(1e-4 * voxel);
           hit = Hit();
         }
@@ -219,9 +227,11 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
           if (c.is_virtual) {
             area_v[c.voxel] += c.area;
             nsum_v[c.voxel] += w * c.n;
+            albedo_v[c.voxel] += w * c.albedo;
           } else {
             area_r[c.voxel] += c.area;
             nsum_r[c.voxel] += w * c.n;
+            albedo_r[c.voxel] += w * c.albedo;
           }
         }
       out->voxelisation_rays_ += static_cast<int64_t>(hits.size());
@@ -370,27 +380,7 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     }
   }
   out->levels_.push_back(std::move(l0));
-  // Mip chain: each voxel the mean of its eight children (missing ones empty).
-  while (out->levels_.back().nx > 1 || out->levels_.back().ny > 1 || out->levels_.back().nz > 1) {
-    const Level& c = out->levels_.back();
-    Level p;
-    p.nx = (c.nx + 1) / 2;
-    p.ny = (c.ny + 1) / 2;
-    p.nz = (c.nz + 1) / 2;
-    p.size = 2 * c.size;
-    p.v.assign(static_cast<size_t>(p.nx) * p.ny * p.nz, Voxel());
-    ParallelFor(0, p.nz, [&](int64_t z) {
-      for (int y = 0; y < p.ny; ++y)
-        for (int x = 0; x < p.nx; ++x) {
-          Voxel& v = p.v[p.Index(x, y, static_cast<int>(z))];
-          for (int k = 0; k < 8; ++k) {
-            const int cx = 2 * x + (k & 1), cy = 2 * y + ((k >> 1) & 1), cz = 2 * static_cast<int>(z) + (k >> 2);
-            if (cx < c.nx && cy < c.ny && cz < c.nz) AddScaled(&v, c.v[c.Index(cx, cy, cz)], 0.125f);
-          }
-        }
-    });
-    out->levels_.push_back(std::move(p));
-  }
+  out->BuildMips();
 
   // Far field: what a cone leaving the volume sees, path traced from the
   // volume's centre, starting where each ray leaves the volume (what lies
@@ -476,8 +466,94 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
       out->far_.push_back(std::move(level));
     }
   }
+  if (st.bounces >= 2) out->AddSecondBounce();
   out->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return out;
+}
+
+void VctVolumes::BuildMips() {
+  levels_.resize(1);
+  // Mip chain: each voxel the mean of its eight children (missing ones empty).
+  while (levels_.back().nx > 1 || levels_.back().ny > 1 || levels_.back().nz > 1) {
+    const Level& c = levels_.back();
+    Level p;
+    p.nx = (c.nx + 1) / 2;
+    p.ny = (c.ny + 1) / 2;
+    p.nz = (c.nz + 1) / 2;
+    p.size = 2 * c.size;
+    p.v.assign(static_cast<size_t>(p.nx) * p.ny * p.nz, Voxel());
+    ParallelFor(0, p.nz, [&](int64_t z) {
+      for (int y = 0; y < p.ny; ++y)
+        for (int x = 0; x < p.nx; ++x) {
+          Voxel& v = p.v[p.Index(x, y, static_cast<int>(z))];
+          for (int k = 0; k < 8; ++k) {
+            const int cx = 2 * x + (k & 1), cy = 2 * y + ((k >> 1) & 1), cz = 2 * static_cast<int>(z) + (k >> 2);
+            if (cx < c.nx && cy < c.ny && cz < c.nz) AddScaled(&v, c.v[c.Index(cx, cy, cz)], 0.125f);
+          }
+        }
+    });
+    levels_.push_back(std::move(p));
+  }
+}
+
+// Each occupied level-0 voxel gathers the first bounce (the volumes and the
+// far field's surfaces) through six diffuse cones on each side of its mean
+// normal, weighted as a fragment's, and reflects it with its area-weighted
+// albedo: mixed light through the mixed volumes from every surface in it,
+// real light through the real ones from its real surfaces.  The side a
+// cone gathers from is the side its light leaves towards (the lit-side
+// normal).  All voxels gather from the first bounce, then the mips are
+// built again.
+void VctVolumes::AddSecondBounce() {
+  Level& l0 = levels_[0];
+  const double voxel = l0.size, half = 30 * kDegToRad, lift = settings_.cone_offset * voxel;
+  const double cos60 = 0.5, sin60 = std::sqrt(0.75);
+  std::vector<Voxel> add(l0.v.size());
+  ParallelFor(0, l0.nz, [&](int64_t zz) {
+    const int z = static_cast<int>(zz);
+    for (int y = 0; y < l0.ny; ++y)
+      for (int x = 0; x < l0.nx; ++x) {
+        const size_t i = l0.Index(x, y, z);
+        const double ar = area_r_[i], av = area_v_[i];
+        const Eigen::Vector3d nsum = nsum_r_[i] + nsum_v_[i];
+        if (!(ar + av > 0) || !(nsum.norm() > 1e-6 * (ar + av))) continue;
+        const Eigen::Vector3d n0 = nsum.normalized();
+        const Eigen::Vector3d centre = box_.min() + voxel * Eigen::Vector3d(x + 0.5, y + 0.5, z + 0.5);
+        const Eigen::Vector3d rho_m = (albedo_r_[i] + albedo_v_[i]) / (ar + av);
+        const Eigen::Vector3d rho_r = ar > 0 ? Eigen::Vector3d(albedo_r_[i] / ar) : Eigen::Vector3d::Zero();
+        Voxel& a = add[i];
+        for (const double side : {1.0, -1.0}) {
+          const ShadingFrame frame(side * n0);
+          Eigen::Vector3d em = Eigen::Vector3d::Zero(), er = em;
+          for (int k = 0; k < 6; ++k) {
+            Eigen::Vector3d d = frame.n;
+            double w = kPi / 4;
+            if (k > 0) {
+              const double phi = kTwoPi * (k - 1) / 5;
+              d = frame.ToWorld(Eigen::Vector3d(sin60 * std::cos(phi), sin60 * std::sin(phi), cos60));
+              w = 3 * kPi / 20;
+            }
+            const ConeResult cr = March(centre + frame.n * lift, d, half, 0.5 * voxel, INFINITY, Cone::kDiffuse);
+            em += w * cr.mixed;
+            er += w * cr.real;
+          }
+          const Eigen::Vector3d lm = rho_m.cwiseProduct(em) * kInvPi, lr = rho_r.cwiseProduct(er) * kInvPi;
+          a.l_m += lm.cast<float>();
+          a.nl_m += (Luminance(lm) * frame.n).cast<float>();
+          if (ar > 0) {
+            a.l_r += lr.cast<float>();
+            a.nl_r += (Luminance(lr) * frame.n).cast<float>();
+          }
+        }
+      }
+  });
+  for (size_t i = 0; i < l0.v.size(); ++i) {
+    l0.v[i].l_m += add[i].l_m;
+    l0.v[i].l_r += add[i].l_r;
+    l0.v[i].nl_m += add[i].nl_m;
+    l0.v[i].nl_r += add[i].nl_r;
+  }
+  BuildMips();
 }
 
 void VctVolumes::FarField(const Eigen::Vector3d& dir, double half_angle, bool sky, Eigen::Vector3d* mixed,
@@ -615,7 +691,7 @@ void VctVolumes::Describe(Report* report) const {
   report->SetMetric("vct.accumulation", settings_.paper_accumulation ? "paper" : "front_to_back");
   report->SetMetric("vct.relight", settings_.split_relighting ? "split" : "delta");
   report->SetMetric("vct.final_gather", settings_.final_gather);
-  report->SetMetric("vct.injected_bounces", 1);
+  report->SetMetric("vct.injected_bounces", settings_.bounces);
 }
 
 VctFrameRenderer::VctFrameRenderer(const RenderScene& scene, std::shared_ptr<const VctVolumes> volumes,
@@ -804,6 +880,7 @@ VctSettings ParseVctSettings(JsonSettings& s, const Scene& scene) {
   VctSettings o;
   s.Integer("resolution", &o.resolution, 2, 1024);
   s.Integer("directions", &o.directions, 1, 1 << 16);
+  s.Integer("bounces", &o.bounces, 1, 2);
   s.Number("injection_spacing", &o.injection_spacing, 0.05, 8);
   s.Number("shadow_aperture_deg", &o.shadow_aperture_deg, 0, 90);
   s.Number("min_specular_aperture_deg", &o.min_specular_aperture_deg, 0, 90);

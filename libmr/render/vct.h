@@ -20,8 +20,13 @@
 namespace mr {
 
 struct VctSettings {
-  int resolution = 32;                   // voxels along the volume's longest side
-  int directions = 64;                   // environment directions injected
+  int resolution = 32;  // voxels along the volume's longest side
+  int directions = 64;  // environment directions injected
+  // Bounces of light in the volumes: 1, the paper's (the light that the
+  // lights and the environment's directions deposit), or 2: each occupied
+  // voxel then also reflects what it gathers of the first through diffuse
+  // cones from both its sides (docs/methods.md, "vct").
+  int bounces = 2;
   double injection_spacing = 0.5;        // injection ray spacing, voxels
   double shadow_aperture_deg = 2;        // shadow cone, full angle
   double min_specular_aperture_deg = 1;  // specular cone, full angle at roughness 0
@@ -96,6 +101,8 @@ class VctVolumes {
 
  private:
   Voxel Sample(const Eigen::Vector3d& p, double level) const;
+  void BuildMips();        // levels_[1..] from levels_[0]
+  void AddSecondBounce();  // VctSettings::bounces 2; needs the mips and the far field
   VctSettings settings_;
   Eigen::AlignedBox3d box_;
   std::vector<Level> levels_;
@@ -110,6 +117,7 @@ class VctVolumes {
   // real and virtual), kept for the next frame's Build.
   std::vector<double> area_r_, area_v_;
   std::vector<Eigen::Vector3d> nsum_r_, nsum_v_;
+  std::vector<Eigen::Vector3d> albedo_r_, albedo_v_;  // area-weighted albedo sums
   int dims_[3] = {0, 0, 0};
   int64_t injection_rays_ = 0, voxelisation_rays_ = 0, far_field_paths_ = 0, occupied_ = 0;
 };

@@ -44,15 +44,15 @@ TEST(Vct, NothingVirtualMeansExactlyNoDifference) {
   EXPECT_GT(Mean(r.Mixed()), 0);
 }
 
-// Albedo 0.99 in a closed sphere: vct injects one bounce, so the wall seen
-// from the centre is its direct light plus at most one bounce, rho/pi E_d
-// (1 + rho k): far below the closed form's 100 bounces (31.5 E_d), and
-// finite.  k is small (measured 0.05 at 24 voxels): the 60-degree cones of
-// a point on a concave wall graze the wall's own voxels at every mip level
-// and lose most of the opposite wall (VCT's self-occlusion; it cancels in
-// I_m - I_r, where both solutions see the same real voxels).  The report
-// says vct.injected_bounces = 1.
-TEST(Vct, IntegratingSphereIsFiniteWithOneBounce) {
+// Albedo 0.99 in a closed sphere: vct injects two bounces, so the wall seen
+// from the centre is its direct light plus at most two bounces, rho/pi E_d
+// (1 + rho k + (rho k)^2): far below the closed form's 100 bounces (31.5
+// E_d), and finite.  k is small (measured 0.05 at 24 voxels): the 60-degree
+// cones of a point on a concave wall graze the wall's own voxels at every
+// mip level and lose most of the opposite wall (VCT's self-occlusion; it
+// cancels in I_m - I_r, where both solutions see the same real voxels).
+// The report says vct.injected_bounces = 2.
+TEST(Vct, IntegratingSphereIsFiniteWithTwoBounces) {
   RenderScene s;
   IntegratingSphere(&s);
   auto vol = VctVolumes::Build(s, Settings(24));
@@ -67,7 +67,7 @@ TEST(Vct, IntegratingSphereIsFiniteWithOneBounce) {
   EXPECT_LT(mean, 1.3 * direct);
   Report report("test", "");
   vol->Describe(&report);
-  EXPECT_EQ(report.ToJson()["metrics"]["vct"]["injected_bounces"].get<int>(), 1);
+  EXPECT_EQ(report.ToJson()["metrics"]["vct"]["injected_bounces"].get<int>(), 2);
 }
 
 // The object on the floor: the sun's shadow (shadow cone) and the

@@ -311,9 +311,9 @@ TEST(Stiff, ObjectEntirelyInAnotherObjectsShadow) {
 // (their noise; measured: ic 3.5%, vpl 3.5%), at settings that resolve a
 // 30 cm sphere (ic's records at most 4 px apart; at 32 px, the default, one
 // record spans this image and the bounce is lost).  vct's within 150%
-// (measured 119% too dark, darker than with a black sphere: its relighting
-// loses light in proportion to the object's albedo, not traced;
-// docs/benchmarks.md, issue 41's second part).
+// (measured 119% too dark: its cones carry about 5% of the sphere's bounce
+// onto the floor, not yet traced; docs/benchmarks.md, issue 41's second
+// part).
 TEST(Stiff, NoDirectLightOnlyTheEnvironment) {
   RenderScene rs;
   rs.AddReal(Quad({-1.5, 0, -1.5}, {1.5, 0, -1.5}, {1.5, 0, 1.5}, {-1.5, 0, 1.5}), Diffuse(0.6));

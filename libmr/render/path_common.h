@@ -231,19 +231,21 @@ inline Eigen::Vector3d AreaLightsSeen(const RenderScene& scene, const Ray& ray, 
   const double len = dir.norm();
   const Eigen::Vector3d d = dir / len;
   double nearest = t_max * len, t = 0;
-  const LightSource* met = nullptr;
-  for (const LightSource& l : scene.lights()) {
-    if (!(which & LightBit(l))) continue;
-    const Eigen::Vector3d le = l.HitArea(o, d, nearest, &t);
+  const std::vector<LightSource>& lights = scene.lights();
+  size_t met = lights.size();
+  for (size_t i = 0; i < lights.size(); ++i) {
+    if (!(which & LightBit(lights[i]))) continue;
+    const Eigen::Vector3d le = lights[i].HitArea(o, d, nearest, &t);
     if (le.maxCoeff() > 0) {
       L = le;  // the nearest one met hides those behind it
       nearest = t;
-      met = &l;
+      met = i;
     }
   }
-  if (met && !unsampled) {
-    const double cos_l = -d.dot(met->light().direction);
-    L *= PowerHeuristic(prev_pdf, nearest * nearest / (met->light().Area() * cos_l));
+  if (met < lights.size() && !unsampled) {
+    const Light& l = lights[met].light();
+    const double cos_l = -d.dot(l.direction);
+    L *= PowerHeuristic(prev_pdf, scene.LightPickProbability(met) * nearest * nearest / (l.Area() * cos_l));
   }
   return L;
 }
@@ -296,20 +298,34 @@ void LightEvents(const RenderScene& scene, const PathVertex& v, Sampler& rng, Em
                  bool mis_area = false) {
   const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
   const Eigen::Vector3d& origin = v.origin;
-  for (const LightSource& l : scene.lights()) {
-    const auto [u0, u1] = rng.Next2D();
+  // One light's sample; `pick`: the probability it was chosen with.
+  auto sample = [&](const LightSource& l, double pick, double u0, double u1) {
     LightSample ls;
-    if (!l.Sample(v.p, u0, u1, &ls)) continue;
+    if (!l.Sample(v.p, u0, u1, &ls)) return;
     const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
-    if (wi_l.z() <= 0) continue;
+    if (wi_l.z() <= 0) return;
     const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
-    if (f.maxCoeff() <= 0) continue;
+    if (f.maxCoeff() <= 0) return;
+    const double pdf = ls.pdf * pick;
     const bool weighed = l.light().type == LightType::kArea ? mis && mis_area : mis && !ls.delta;
-    const double w = weighed ? PowerHeuristic(ls.pdf, v.bsdf.Pdf(wo_l, wi_l)) : 1.0;
+    const double w = weighed ? PowerHeuristic(pdf, v.bsdf.Pdf(wo_l, wi_l)) : 1.0;
     // A point light's shadow ray stops just short of it.
     const double tfar = std::isinf(ls.distance) ? INFINITY : ls.distance * (1 - 1e-6);
-    emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / ls.pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),
+    emit(Eigen::Vector3d(f.cwiseProduct(ls.li) * (wi_l.z() * w / pdf)), MakeRay(origin, ls.wi, kMaskAll, tfar),
          l.is_virtual());
+  };
+  const bool pick = scene.picks_local_light();
+  for (const LightSource& l : scene.lights()) {
+    if (pick && l.light().type != LightType::kDistant) continue;
+    const auto [u0, u1] = rng.Next2D();
+    sample(l, 1.0, u0, u1);
+  }
+  if (pick) {  // many local lights: one, by power
+    const double u = rng.NextDouble();
+    const auto [u0, u1] = rng.Next2D();
+    double prob = 1;
+    const size_t i = scene.PickLocalLight(u, &prob);
+    sample(scene.lights()[i], prob, u0, u1);
   }
 }
 

@@ -402,8 +402,52 @@ Bsdf RenderScene::DiffuseBsdfWith(uint32_t id, const Eigen::Vector3d& albedo) co
   return Bsdf(m);
 }
 
+namespace {
+
+// A local light's power (luminance) for the pick; 0 for distant lights.
+double LocalPower(const Light& l) {
+  switch (l.type) {
+    case LightType::kPoint:
+      return Luminance(l.intensity) * kFourPi;
+    case LightType::kSpot:
+      return Luminance(l.intensity) * kTwoPi * (1 - std::cos(l.cone_deg * kDegToRad));
+    case LightType::kArea:
+      return Luminance(l.radiance) * kPi * l.Area();
+    case LightType::kDistant:
+      return 0;
+  }
+  return 0;
+}
+
+}  // namespace
+
+size_t RenderScene::PickLocalLight(double u, double* prob) const {
+  const double total = local_cdf_.back();
+  size_t k = 0;
+  if (total > 0) {
+    k = static_cast<size_t>(std::upper_bound(local_cdf_.begin(), local_cdf_.end(), u * total) - local_cdf_.begin());
+    k = std::min(k, local_cdf_.size() - 1);
+    while (k > 0 && !(light_power_[local_lights_[k]] > 0)) --k;  // u * total on a sum's edge
+  } else {
+    k = std::min(static_cast<size_t>(u * static_cast<double>(local_lights_.size())), local_lights_.size() - 1);
+  }
+  *prob = LightPickProbability(local_lights_[k]);
+  return local_lights_[k];
+}
+
+double RenderScene::LightPickProbability(size_t i) const {
+  if (!picks_local_light() || lights_.at(i).light().type == LightType::kDistant) return 1;
+  const double total = local_cdf_.back();
+  return total > 0 ? light_power_[i] / total : 1.0 / static_cast<double>(local_lights_.size());
+}
+
 void RenderScene::AddLight(const Light& light) {
   lights_.emplace_back(light);
+  light_power_.push_back(LocalPower(light));
+  if (light.type != LightType::kDistant) {
+    local_lights_.push_back(lights_.size() - 1);
+    local_cdf_.push_back((local_cdf_.empty() ? 0.0 : local_cdf_.back()) + light_power_.back());
+  }
   has_virtual_ = has_virtual_ || light.is_virtual;
   has_distant_area_light_ = has_distant_area_light_ || (light.type == LightType::kDistant && !light.IsDelta());
   has_area_light_ = has_area_light_ || light.type == LightType::kArea;
@@ -451,6 +495,9 @@ int64_t RenderScene::RealCrossings(size_t i) const {
 
 void RenderScene::ClearLights() {
   lights_.clear();
+  local_lights_.clear();
+  local_cdf_.clear();
+  light_power_.clear();
   has_virtual_ = has_virtual_geometry_;
   has_distant_area_light_ = false;
   has_area_light_ = false;

@@ -85,6 +85,17 @@ class RenderScene {
   const EmbreeScene& embree() const { return *embree_; }
   const EnvironmentMap& environment() const { return env_; }
   const std::vector<LightSource>& lights() const { return lights_; }
+  // Next-event estimation samples each local light (point, spot, area) while
+  // there are at most kAllLocalLightsUpTo of them; beyond, one per estimate,
+  // picked in proportion to its power (luminance: intensity x 4 pi, the
+  // spot's cone, radiance x pi x area).  Distant lights are always each
+  // sampled.  The probability is 1 for every light while each is sampled.
+  static constexpr size_t kAllLocalLightsUpTo = 16;
+  bool picks_local_light() const { return local_lights_.size() > kAllLocalLightsUpTo; }
+  // For u in [0, 1): the picked local light's index in lights(), and its
+  // probability in *prob.
+  size_t PickLocalLight(double u, double* prob) const;
+  double LightPickProbability(size_t light_index) const;
   bool has_distant_area_light() const { return has_distant_area_light_; }
   bool has_area_light() const { return has_area_light_; }  // positioned (lights.json "area")
   const Material& material(uint32_t geometry_id) const { return surfaces_.at(geometry_id).material; }
@@ -173,6 +184,9 @@ class RenderScene {
   std::vector<Surface> surfaces_;  // by geometry id
   EnvironmentMap env_;
   std::vector<LightSource> lights_;
+  std::vector<size_t> local_lights_;  // indices into lights_
+  std::vector<double> local_cdf_;     // running sums of their powers
+  std::vector<double> light_power_;   // by index into lights_ (0 for distant)
   ClosedSurfaces closed_;
   std::vector<Eigen::AlignedBox3d> geometry_bounds_, virtual_bounds_;
   std::vector<uint32_t> virtual_ids_;

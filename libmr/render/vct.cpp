@@ -324,7 +324,12 @@ std::shared_ptr<const VctVolumes> VctVolumes::Build(const RenderScene& scene, co
     const double cos_max = inside ? -1.0 : std::sqrt(std::max(0.0, 1 - (radius / dist) * (radius / dist)));
     const double omega = kTwoPi * (1 - cos_max);
     const double reach = inside ? radius : dist;
-    const int side = static_cast<int>(std::clamp(std::ceil(std::sqrt(omega * reach * reach) / spacing), 16.0, 2048.0));
+    int side = static_cast<int>(std::clamp(std::ceil(std::sqrt(omega * reach * reach) / spacing), 16.0, 2048.0));
+    // Many lights (more than next-event estimation samples each of): a fan
+    // in proportion to the light's share of their power, so that 10,000
+    // tiles of a panel cost what the panel would.
+    if (scene.picks_local_light())
+      side = std::max(2, static_cast<int>(std::ceil(side * std::sqrt(scene.LightPickProbability(li)))));
     const double domega = omega / (static_cast<double>(side) * side);
     Eigen::Vector3d ft, fb;
     const Eigen::Vector3d axis =

@@ -22,7 +22,15 @@ struct Emitter {
   double power = 0;
   int first = 0, paths = 0;  // its share of the light paths: [first, first + paths)
   uint64_t stream = 0;       // its random streams' key: the light's name, so that a light keeps its paths
+  double select = 0;         // the probability that a path is this emitter's
 };
+
+// With more emitters than paths (10,000 area lights, 1024 paths) a fixed
+// share of at least one path each cannot be given: each path then draws
+// its emitter from the mixture instead.
+bool EmittersDrawn(const std::vector<Emitter>& emitters, const VplSettings& st) {
+  return emitters.size() > static_cast<size_t>(std::max(0, st.paths));
+}
 
 }  // namespace
 
@@ -122,6 +130,13 @@ std::vector<Emitter> Emitters(const RenderScene& scene, const VplSettings& st, d
   // path whose emitter and surfaces did not change is the same path (the
   // VPL stays where it was; only its flux scales with the share), which
   // keeps the frames coherent (docs/methods.md, "vpl").
+  if (EmittersDrawn(emitters, st)) {
+    for (auto& e : emitters) {
+      e.select = e.power;
+      e.stream = e.light < 0 ? 0x656e76ULL : HashString(scene.lights()[static_cast<size_t>(e.light)].light().name);
+    }
+    return emitters;
+  }
   {
     int given = 0;
     std::vector<std::pair<double, size_t>> rest;
@@ -139,6 +154,7 @@ std::vector<Emitter> Emitters(const RenderScene& scene, const VplSettings& st, d
       e.first = first;
       first += e.paths;
       e.stream = e.light < 0 ? 0x656e76ULL : HashString(scene.lights()[static_cast<size_t>(e.light)].light().name);
+      e.select = static_cast<double>(e.paths) / st.paths;
     }
   }
   MR_CHECK(emitters.empty() || emitters.back().first + emitters.back().paths == st.paths);  // every path has one
@@ -155,7 +171,7 @@ bool StartLightPath(const RenderScene& scene, const VplSettings& st, const Emitt
   const Eigen::Vector3d& object_centre = disc.object_centre;
   const double radius = disc.radius, object_radius = disc.object_radius;
   constexpr double kObjectStratum = 0.5;
-  const double p_select = static_cast<double>(em.paths) / st.paths;  // flux / (p_select paths) = / em.paths
+  const double p_select = em.select;  // flux / (p_select paths): with a fixed share, / em.paths
   Eigen::Vector3d& origin = *origin_out;
   Eigen::Vector3d& dir = *dir_out;
   Eigen::Vector3d& flux = *flux_out;
@@ -273,13 +289,22 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     std::vector<std::vector<Vpl>> per_path(static_cast<size_t>(st.paths));
     std::atomic<int64_t> below{0};
     const EmbreeScene& embree = scene.embree();
+    const bool drawn = EmittersDrawn(emitters, st);
+    std::vector<double> cdf;  // drawn: the mixture's running sums
+    for (const Emitter& e : emitters) cdf.push_back((cdf.empty() ? 0.0 : cdf.back()) + e.select);
     ParallelFor(0, st.paths, [&](int64_t j) {
       size_t ei = 0;
-      while (ei + 1 < emitters.size() && j >= emitters[ei].first + emitters[ei].paths) ++ei;
+      if (drawn) {
+        const double u = Sampler::Random(HashCombine(st.seed, 0x706963), static_cast<uint64_t>(j)).NextDouble();
+        ei = std::min(static_cast<size_t>(std::upper_bound(cdf.begin(), cdf.end(), u * cdf.back()) - cdf.begin()),
+                      emitters.size() - 1);
+      } else {
+        while (ei + 1 < emitters.size() && j >= emitters[ei].first + emitters[ei].paths) ++ei;
+      }
       const Emitter& em = emitters[ei];
-      if (em.paths == 0) return;
-      Sampler rng =
-          Sampler::Random(HashCombine(HashCombine(st.seed, 0x76706c), em.stream), static_cast<uint64_t>(j - em.first));
+      if (!drawn && em.paths == 0) return;
+      Sampler rng = Sampler::Random(HashCombine(HashCombine(st.seed, 0x76706c), em.stream),
+                                    static_cast<uint64_t>(drawn ? j : j - em.first));
       Eigen::Vector3d origin, dir, flux;
       uint8_t sets = kLightsBoth;
       if (!StartLightPath(scene, st, em, disc, rng, &origin, &dir, &flux, &sets)) return;

@@ -230,18 +230,9 @@ inline Eigen::Vector3d AreaLightsSeen(const RenderScene& scene, const Ray& ray, 
   const Eigen::Vector3d dir = ray.direction.cast<double>();
   const double len = dir.norm();
   const Eigen::Vector3d d = dir / len;
-  double nearest = t_max * len, t = 0;
+  double nearest = 0;
   const std::vector<LightSource>& lights = scene.lights();
-  size_t met = lights.size();
-  for (size_t i = 0; i < lights.size(); ++i) {
-    if (!(which & LightBit(lights[i]))) continue;
-    const Eigen::Vector3d le = lights[i].HitArea(o, d, nearest, &t);
-    if (le.maxCoeff() > 0) {
-      L = le;  // the nearest one met hides those behind it
-      nearest = t;
-      met = i;
-    }
-  }
+  const size_t met = scene.NearestAreaLight(o, d, t_max * len, which, &nearest, &L);
   if (met < lights.size() && !unsampled) {
     const Light& l = lights[met].light();
     const double cos_l = -d.dot(l.direction);

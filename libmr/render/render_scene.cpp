@@ -421,6 +421,78 @@ double LocalPower(const Light& l) {
 
 }  // namespace
 
+struct RenderScene::AreaLightBvh {
+  EmbreeScene shapes;              // rects as two triangles, discs as circumscribed 32-gons
+  std::vector<uint32_t> light_of;  // by triangle
+};
+
+namespace {
+
+// The area light's outline as triangles appended to `m`; a disc's 32-gon
+// circumscribes it, so that every hit on the disc is a candidate.
+void AppendAreaShape(const Light& l, Mesh* m) {
+  Eigen::Vector3d t = l.axis - l.axis.dot(l.direction) * l.direction;
+  t = t.norm() > 1e-12 ? Eigen::Vector3d(t.normalized()) : Eigen::Vector3d(l.direction.unitOrthogonal());
+  const Eigen::Vector3d b = l.direction.cross(t);
+  std::vector<Eigen::Vector3d> ring;
+  if (l.shape == AreaShape::kRect) {
+    const double w = 0.5 * l.width, h = 0.5 * l.height;
+    ring = {-w * t - h * b, w * t - h * b, w * t + h * b, -w * t + h * b};
+  } else {
+    const int n = 32;
+    const double r = 0.5 * l.width / std::cos(kPi / n) * (1 + 1e-6);
+    for (int k = 0; k < n; ++k) ring.push_back(r * (std::cos(kTwoPi * k / n) * t + std::sin(kTwoPi * k / n) * b));
+  }
+  const int base = static_cast<int>(m->positions.size());
+  m->positions.push_back(l.position.cast<float>());
+  for (const auto& q : ring) m->positions.push_back((l.position + q).cast<float>());
+  const int n = static_cast<int>(ring.size());
+  for (int k = 0; k < n; ++k) m->triangles.emplace_back(base, base + 1 + k, base + 1 + (k + 1) % n);
+}
+
+}  // namespace
+
+size_t RenderScene::NearestAreaLight(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, unsigned which,
+                                     double* t, Eigen::Vector3d* radiance) const {
+  auto wanted = [&](const LightSource& l) { return (which & (l.is_virtual() ? 2u : 1u)) != 0; };
+  size_t met = lights_.size();
+  double nearest = t_max, tt = 0;
+  if (!area_bvh_) {
+    for (size_t i = 0; i < lights_.size(); ++i) {
+      if (!wanted(lights_[i])) continue;
+      const Eigen::Vector3d le = lights_[i].HitArea(o, d, nearest, &tt);
+      if (le.maxCoeff() > 0) {
+        *radiance = le;  // the nearest one met hides those behind it
+        nearest = tt;
+        met = i;
+      }
+    }
+  } else {
+    Ray ray;
+    ray.origin = o.cast<float>();
+    ray.direction = d.cast<float>();
+    ray.tfar = static_cast<float>(std::min(t_max, 1e30));
+    ray.mask = kMaskAll;
+    for (int guard = 0; guard < 64; ++guard) {  // candidates, nearest first
+      Hit hit;
+      if (!area_bvh_->shapes.Intersect(ray, &hit)) break;
+      const size_t i = area_bvh_->light_of.at(hit.primitive_id);
+      if (wanted(lights_[i])) {
+        const Eigen::Vector3d le = lights_[i].HitArea(o, d, nearest, &tt);
+        if (le.maxCoeff() > 0) {
+          *radiance = le;
+          nearest = tt;
+          met = i;
+          break;
+        }
+      }
+      ray.tnear = std::nextafter(hit.t, std::numeric_limits<float>::infinity());
+    }
+  }
+  if (met < lights_.size()) *t = nearest;
+  return met;
+}
+
 size_t RenderScene::PickLocalLight(double u, double* prob) const {
   const double total = local_cdf_.back();
   size_t k = 0;
@@ -443,6 +515,7 @@ double RenderScene::LightPickProbability(size_t i) const {
 
 void RenderScene::AddLight(const Light& light) {
   lights_.emplace_back(light);
+  area_bvh_.reset();  // Commit() builds it again
   light_power_.push_back(LocalPower(light));
   if (light.type != LightType::kDistant) {
     local_lights_.push_back(lights_.size() - 1);
@@ -495,6 +568,7 @@ int64_t RenderScene::RealCrossings(size_t i) const {
 
 void RenderScene::ClearLights() {
   lights_.clear();
+  area_bvh_.reset();
   local_lights_.clear();
   local_cdf_.clear();
   light_power_.clear();
@@ -505,6 +579,21 @@ void RenderScene::ClearLights() {
 
 void RenderScene::Commit() {
   embree_->Commit();
+  const size_t areas = std::count_if(lights_.begin(), lights_.end(),
+                                     [](const LightSource& l) { return l.light().type == LightType::kArea; });
+  if (!area_bvh_ && areas > kAllLocalLightsUpTo) {
+    auto bvh = std::make_shared<AreaLightBvh>();
+    Mesh m;
+    for (size_t i = 0; i < lights_.size(); ++i) {
+      if (lights_[i].light().type != LightType::kArea) continue;
+      const size_t before = m.triangles.size();
+      AppendAreaShape(lights_[i].light(), &m);
+      bvh->light_of.insert(bvh->light_of.end(), m.triangles.size() - before, static_cast<uint32_t>(i));
+    }
+    bvh->shapes.AddMesh(m, false);
+    bvh->shapes.Commit();
+    area_bvh_ = std::move(bvh);
+  }
   if (!closed_built_) closed_.Build();  // the real geometry does not move
   closed_built_ = true;
   auto b = embree_->Bounds();

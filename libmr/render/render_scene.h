@@ -96,6 +96,15 @@ class RenderScene {
   // probability in *prob.
   size_t PickLocalLight(double u, double* prob) const;
   double LightPickProbability(size_t light_index) const;
+  // The nearest area light of `which` (bit 1: real lights, bit 2: virtual)
+  // that the ray o + t d (d unit) meets at 0 < t < t_max from its emitting
+  // side: its index in lights() (lights().size(): none), with *t and
+  // *radiance set.  Beyond kAllLocalLightsUpTo area lights through a BVH of
+  // their shapes that Commit() builds (each candidate confirmed by
+  // LightSource::HitArea); otherwise, and until Commit() after the lights
+  // change, by testing each.
+  size_t NearestAreaLight(const Eigen::Vector3d& o, const Eigen::Vector3d& d, double t_max, unsigned which, double* t,
+                          Eigen::Vector3d* radiance) const;
   bool has_distant_area_light() const { return has_distant_area_light_; }
   bool has_area_light() const { return has_area_light_; }  // positioned (lights.json "area")
   const Material& material(uint32_t geometry_id) const { return surfaces_.at(geometry_id).material; }
@@ -184,9 +193,11 @@ class RenderScene {
   std::vector<Surface> surfaces_;  // by geometry id
   EnvironmentMap env_;
   std::vector<LightSource> lights_;
-  std::vector<size_t> local_lights_;  // indices into lights_
-  std::vector<double> local_cdf_;     // running sums of their powers
-  std::vector<double> light_power_;   // by index into lights_ (0 for distant)
+  std::vector<size_t> local_lights_;              // indices into lights_
+  std::vector<double> local_cdf_;                 // running sums of their powers
+  std::vector<double> light_power_;               // by index into lights_ (0 for distant)
+  struct AreaLightBvh;                            // render_scene.cpp
+  std::shared_ptr<const AreaLightBvh> area_bvh_;  // null: test each area light
   ClosedSurfaces closed_;
   std::vector<Eigen::AlignedBox3d> geometry_bounds_, virtual_bounds_;
   std::vector<uint32_t> virtual_ids_;

@@ -11,6 +11,7 @@
 #include "render/path_tracer.h"
 #include "render/prt.h"
 #include "render/pt.h"
+#include "render/render_scene.h"
 #include "transfer/formfactor.h"
 
 namespace mr {
@@ -306,6 +307,51 @@ TEST(Lights, AGlossyPlaneSeesAnAreaLightThroughItsLobe) {
   EXPECT_NEAR(m_mis, m_nee, 5 * std::sqrt((v_nee + v_mis) / 64));
   EXPECT_LT(v_mis * 20, v_nee);
   EXPECT_GT(m_mis, 5.0);  // most of 0.9 x 10 reaches the camera
+}
+
+// Beyond 16 area lights the lights a ray meets are found through a BVH of
+// their shapes; it finds what testing each light finds: the same light, at
+// the same distance, with the same radiance, for 20,000 random rays among
+// 300 rects and discs facing every way, some virtual (back sides, disc
+// rims and lights behind lights included; 1236 of the rays meet one).
+TEST(Lights, AreaLightBvhFindsWhatTestingEachFinds) {
+  RenderScene scanned, indexed;
+  Pcg32 rng(5, 9);
+  auto u = [&] { return rng.NextDouble(); };
+  for (int i = 0; i < 300; ++i) {
+    Light l;
+    l.type = LightType::kArea;
+    l.shape = i % 3 == 0 ? AreaShape::kDisc : AreaShape::kRect;
+    l.is_virtual = i % 5 == 0;
+    l.position = Eigen::Vector3d(4 * u() - 2, 4 * u() - 2, 4 * u() - 2);
+    const auto d = SampleUniformSphere(u(), u());
+    l.direction = Eigen::Vector3d(d[0], d[1], d[2]);
+    l.axis = Eigen::Vector3d(u() - 0.5, u() - 0.5, u() - 0.5);
+    l.width = 0.05 + 0.5 * u();
+    l.height = 0.05 + 0.5 * u();
+    l.radiance = Eigen::Vector3d(1 + i, 2, 3);
+    scanned.AddLight(l);
+    indexed.AddLight(l);
+  }
+  indexed.Commit();  // builds the BVH; `scanned` is never committed: each light tested
+  int met = 0;
+  for (int k = 0; k < 20000; ++k) {
+    const Eigen::Vector3d o(6 * u() - 3, 6 * u() - 3, 6 * u() - 3);
+    const auto d = SampleUniformSphere(u(), u());
+    const Eigen::Vector3d dir(d[0], d[1], d[2]);
+    const unsigned which = 1 + k % 3;
+    double ta = -1, tb = -1;
+    Eigen::Vector3d la = Eigen::Vector3d::Zero(), lb = la;
+    const size_t a = scanned.NearestAreaLight(o, dir, 5.0, which, &ta, &la);
+    const size_t b = indexed.NearestAreaLight(o, dir, 5.0, which, &tb, &lb);
+    ASSERT_EQ(a, b) << "ray " << k;
+    if (a < 300) {
+      EXPECT_EQ(ta, tb);
+      EXPECT_EQ(la, lb);
+      ++met;
+    }
+  }
+  EXPECT_GT(met, 1000);  // measured 1236
 }
 
 // Seen directly (a camera ray, which next-event estimation never

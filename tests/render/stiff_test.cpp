@@ -351,9 +351,8 @@ TEST(Stiff, NoDirectLightOnlyTheEnvironment) {
 // panel's.  With more than 16 local lights next-event estimation picks
 // one per estimate by power, vpl's light paths draw their emitters, and
 // vct's fans shrink with the light's share: pt traces no more than 1.5 x
-// the rays with 10,000 lights (measured 1.0 x).  What is still linear in
-// the lights: the area lights a ray meets (AreaLightsSeen), 1.1 s here
-// against 0.01 s for pt (docs/benchmarks.md).
+// the rays with 10,000 lights (measured 1.0 x), and the lights a ray meets
+// are found through a BVH of their shapes.
 TEST(Stiff, OneAndTenThousandAreaLights) {
   auto scene = [](int tiles, RenderScene* rs) {
     rs->AddReal(Quad({-2, 0, -2}, {2, 0, -2}, {2, 0, 2}, {-2, 0, 2}), Diffuse(0.6));

@@ -26,7 +26,13 @@ struct VplSettings {
   // one draw's error stays in every pixel of every frame and does not fall
   // with the samples: 18% on a floor under a sunny sky at 128 directions).
   bool fixed_directions = false;
-  int directions = 128;       // the fixed set's directional VPLs (fixed_directions)
+  int directions = 128;  // the fixed set's directional VPLs (fixed_directions)
+  // Samples of the direct light (DirectDiffuse) at each camera point per
+  // camera sample, each weighted 1/n: the direct light's noise falls
+  // without more of the VPLs' gather, which costs the most.  Not yet the
+  // default: a smoother direct light coarsens the lightcuts (their bound is
+  // relative to the point's whole light), measured in docs/benchmarks.md.
+  int direct_samples = 1;
   int max_depth = 5;          // surface bounces of a whole path, as pt's max_depth
   double clamp_distance = 0;  // metres; 0: 2% of the scene's diagonal
   bool compensate = false;    // add back the clamped energy (Kollig & Keller)

@@ -147,6 +147,37 @@ TEST(Vpl, SunBesideAWallClampBiasMeasuredAndCompensated) {
   EXPECT_LT(std::abs(c - u), 0.5 * (u - p));
 }
 
+// vpl.direct_samples: n samples of the direct light at each camera point,
+// each weighted 1/n, the VPLs gathered once.  On the open corner under a
+// sky with a sun (1e3) at 1 spp: the same mean as with one sample (within
+// 2%; measured 0.04%; both 8% under pt's at 512 spp, vpl's bias at 256
+// paths) and a lower per-pixel error against pt with 8 samples (bound 0.6
+// of one sample's rms; measured 0.35).
+TEST(Vpl, DirectSamplesLowerTheDirectLightsNoise) {
+  RenderScene s;
+  OpenCorner(&s, 1e3);
+  const CameraModel cam = Pinhole(24, 18, 20);
+  PathTracerSettings ps;
+  PtFrameRenderer pt(s, cam, kCornerCamera, ps);
+  pt.RenderPass(512);
+  const Image truth = pt.Mixed();
+  VplSettings vs;
+  vs.paths = 256;
+  auto rms = [&](const Image& img) {
+    double sq = 0;
+    for (size_t i = 0; i < img.values().size(); ++i) sq += std::pow(img.values()[i] - truth.values()[i], 2);
+    return std::sqrt(sq / static_cast<double>(img.values().size()));
+  };
+  const auto one = RenderVpl(s, vs, cam, kCornerCamera, 1);
+  vs.direct_samples = 8;
+  const auto eight = RenderVpl(s, vs, cam, kCornerCamera, 1);
+  const double r1 = rms(one->Mixed()), r8 = rms(eight->Mixed());
+  std::printf("direct samples: rms %.4f with one, %.4f with eight; means %.4f %.4f, pt %.4f\n", r1, r8,
+              Mean(one->Mixed()), Mean(eight->Mixed()), Mean(truth));
+  EXPECT_NEAR(Mean(eight->Mixed()), Mean(one->Mixed()), 0.02 * Mean(one->Mixed()));
+  EXPECT_LT(r8, 0.6 * r1);
+}
+
 // Skipped work does not change the result beyond its stated bound: VPL
 // shadow tests dropped below 1e-3 of the mean contribution change each
 // pixel by at most 1e-3 of its unshadowed light.

@@ -29,10 +29,10 @@ struct VplSettings {
   int directions = 128;  // the fixed set's directional VPLs (fixed_directions)
   // Samples of the direct light (DirectDiffuse) at each camera point per
   // camera sample, each weighted 1/n: the direct light's noise falls
-  // without more of the VPLs' gather, which costs the most.  Not yet the
-  // default: a smoother direct light coarsens the lightcuts (their bound is
-  // relative to the point's whole light), measured in docs/benchmarks.md.
-  int direct_samples = 1;
+  // without more of the VPLs' gather, which costs the most (4: the same
+  // seconds a frame as 1 on the main job's dynamic capture and the bunny
+  // room, 8-23% less error, docs/benchmarks.md).
+  int direct_samples = 4;
   int max_depth = 5;          // surface bounces of a whole path, as pt's max_depth
   double clamp_distance = 0;  // metres; 0: 2% of the scene's diagonal
   bool compensate = false;    // add back the clamped energy (Kollig & Keller)

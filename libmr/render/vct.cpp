@@ -785,17 +785,26 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
     PathVertex vg = v;
     vg.bsdf = GlossyLobe(scene_, v);
     const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
-    for (const LightSource& l : scene_.lights()) {
-      if (l.light().type == LightType::kDistant) continue;
+    // One local light's sample (an area light's centre), divided by the
+    // probability it was picked with.
+    auto light_sample = [&](const LightSource& l, double pick) {
       LightSample ls;
-      if (!l.Sample(v.p, 0.5, 0.5, &ls)) continue;
+      if (!l.Sample(v.p, 0.5, 0.5, &ls)) return;
       const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
-      if (wi_l.z() <= 0) continue;
+      if (wi_l.z() <= 0) return;
       const Eigen::Vector3d fg = vg.bsdf.Eval(wo_l, wi_l);
-      if (fg.maxCoeff() <= 0) continue;
-      c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / ls.pdf)),
+      if (fg.maxCoeff() <= 0) return;
+      c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / (ls.pdf * pick))),
                              MakeRay(v.origin, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)), l.is_virtual(), xv, want_m,
                              want_r, &mixed, &real);
+    };
+    if (scene_.picks_local_light()) {  // many lights: one, by power (RenderScene::PickLocalLight)
+      double prob = 1;
+      const size_t i = scene_.PickLocalLight(g.NextDouble(), &prob);
+      light_sample(scene_.lights()[i], prob);
+    } else {
+      for (const LightSource& l : scene_.lights())
+        if (l.light().type != LightType::kDistant) light_sample(l, 1.0);
     }
     BsdfSample bs;
     const double ul = g.NextDouble();

@@ -710,6 +710,63 @@ void VctFrameRenderer::RenderPass(int spp) {
   for (const Counters& c : rows_) counters_ += c;
 }
 
+// The glossy lobe at a shaded point v (virtual: xv; cones' origin `origin`): point,
+// spot and area lights by next-event estimation, the rest through the
+// specular cone, weighted by the lobe's reflectance (one BSDF sample's
+// f cos / pdf).
+void VctFrameRenderer::ShadeGlossyLobe(const PathVertex& v, bool xv, const Eigen::Vector3d& origin, bool want_m,
+                                       bool want_r, Sampler& g, Counters* counters, Eigen::Vector3d* mixed_out,
+                                       Eigen::Vector3d* real_out) const {
+  const VctVolumes& vol = *vol_;
+  const VctSettings& st = vol.settings();
+  const double voxel = vol.voxel();
+  Counters& c = *counters;
+  Eigen::Vector3d& mixed = *mixed_out;
+  Eigen::Vector3d& real = *real_out;
+  PathVertex vg = v;
+  vg.bsdf = GlossyLobe(scene_, v);
+  const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
+  // One local light's sample (an area light's centre), divided by the
+  // probability it was picked with.
+  auto light_sample = [&](const LightSource& l, double pick) {
+    LightSample ls;
+    if (!l.Sample(v.p, 0.5, 0.5, &ls)) return;
+    const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
+    if (wi_l.z() <= 0) return;
+    const Eigen::Vector3d fg = vg.bsdf.Eval(wo_l, wi_l);
+    if (fg.maxCoeff() <= 0) return;
+    c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / (ls.pdf * pick))),
+                           MakeRay(v.origin, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)), l.is_virtual(), xv, want_m,
+                           want_r, &mixed, &real);
+  };
+  if (scene_.picks_local_light()) {  // many lights: one, by power (RenderScene::PickLocalLight)
+    double prob = 1;
+    const size_t i = scene_.PickLocalLight(g.NextDouble(), &prob);
+    light_sample(scene_.lights()[i], prob);
+  } else {
+    for (const LightSource& l : scene_.lights())
+      if (l.light().type != LightType::kDistant) light_sample(l, 1.0);
+  }
+  BsdfSample bs;
+  const double ul = g.NextDouble();
+  const auto [u0, u1] = g.Next2D();
+  if (!vg.bsdf.Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
+  const Eigen::Vector3d beta = bs.f * (std::abs(bs.wi.z()) / bs.pdf);
+  const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
+  const double alpha = v.material->roughness;
+  const double half = std::clamp(std::atan(alpha), 0.5 * st.min_specular_aperture_deg * kDegToRad, 45 * kDegToRad);
+  const ConeResult cr = vol.March(origin, refl, half, 0.5 * voxel, INFINITY, VctVolumes::Cone::kSpecular);
+  ++c.specular_cones;
+  c.steps += cr.steps;
+  if (xv) {
+    if (want_m) mixed += beta.cwiseProduct(cr.mixed);
+  } else {
+    if (want_r) real += beta.cwiseProduct(cr.real);
+    if (want_m)
+      mixed += beta.cwiseProduct(cr.real + (st.split_relighting ? Eigen::Vector3d(cr.mixed - cr.real) : cr.delta));
+  }
+}
+
 void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, int, PathSample* out) {
   const EmbreeScene& embree = scene_.embree();
   const VctVolumes& vol = *vol_;
@@ -778,52 +835,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
       if (want_m) mixed += f.cwiseProduct(er + (st.split_relighting ? Eigen::Vector3d(em - er) : ed));
       if (!reaches && cones) ++c.relight_skipped;
     }
-    if (!glossy || !v.material->IsGlossy()) return;
-    // Glossy lobe: point and spot lights by next-event estimation,
-    // the rest through the specular cone, weighted by the lobe's
-    // reflectance (one BSDF sample's f cos / pdf).
-    PathVertex vg = v;
-    vg.bsdf = GlossyLobe(scene_, v);
-    const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
-    // One local light's sample (an area light's centre), divided by the
-    // probability it was picked with.
-    auto light_sample = [&](const LightSource& l, double pick) {
-      LightSample ls;
-      if (!l.Sample(v.p, 0.5, 0.5, &ls)) return;
-      const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
-      if (wi_l.z() <= 0) return;
-      const Eigen::Vector3d fg = vg.bsdf.Eval(wo_l, wi_l);
-      if (fg.maxCoeff() <= 0) return;
-      c.rays += AddNextEvent(scene_, Eigen::Vector3d(fg.cwiseProduct(ls.li) * (wi_l.z() / (ls.pdf * pick))),
-                             MakeRay(v.origin, ls.wi, kMaskAll, ls.distance * (1 - 1e-6)), l.is_virtual(), xv, want_m,
-                             want_r, &mixed, &real);
-    };
-    if (scene_.picks_local_light()) {  // many lights: one, by power (RenderScene::PickLocalLight)
-      double prob = 1;
-      const size_t i = scene_.PickLocalLight(g.NextDouble(), &prob);
-      light_sample(scene_.lights()[i], prob);
-    } else {
-      for (const LightSource& l : scene_.lights())
-        if (l.light().type != LightType::kDistant) light_sample(l, 1.0);
-    }
-    BsdfSample bs;
-    const double ul = g.NextDouble();
-    const auto [u0, u1] = g.Next2D();
-    if (!vg.bsdf.Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
-    const Eigen::Vector3d beta = bs.f * (std::abs(bs.wi.z()) / bs.pdf);
-    const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
-    const double alpha = v.material->roughness;
-    const double half = std::clamp(std::atan(alpha), 0.5 * st.min_specular_aperture_deg * kDegToRad, 45 * kDegToRad);
-    const ConeResult cr = vol.March(origin, refl, half, 0.5 * voxel, INFINITY, VctVolumes::Cone::kSpecular);
-    ++c.specular_cones;
-    c.steps += cr.steps;
-    if (xv) {
-      if (want_m) mixed += beta.cwiseProduct(cr.mixed);
-    } else {
-      if (want_r) real += beta.cwiseProduct(cr.real);
-      if (want_m)
-        mixed += beta.cwiseProduct(cr.real + (st.split_relighting ? Eigen::Vector3d(cr.mixed - cr.real) : cr.delta));
-    }
+    if (glossy && v.material->IsGlossy()) ShadeGlossyLobe(v, xv, origin, want_m, want_r, g, &c, &mixed, &real);
   };
   Hit hit;
   ++c.rays;

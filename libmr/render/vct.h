@@ -19,6 +19,8 @@
 
 namespace mr {
 
+struct PathVertex;  // render/path_common.h
+
 struct VctSettings {
   int resolution = 32;  // voxels along the volume's longest side
   int directions = 64;  // environment directions injected
@@ -151,6 +153,8 @@ class VctFrameRenderer : public PixelLoopMethod {
 
  private:
   void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
+  void ShadeGlossyLobe(const PathVertex& v, bool xv, const Eigen::Vector3d& origin, bool want_m, bool want_r,
+                       Sampler& g, Counters* counters, Eigen::Vector3d* mixed, Eigen::Vector3d* real) const;
   const RenderScene& scene_;
   std::shared_ptr<const VctVolumes> vol_;
   std::vector<Counters> rows_;  // this pass's, per image row

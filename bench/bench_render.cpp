@@ -65,6 +65,27 @@ void BM_RenderPt(benchmark::State& state, const std::string& preset) {
 BENCHMARK_CAPTURE(BM_RenderPt, small, std::string("small"))->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK_CAPTURE(BM_RenderPt, room, std::string("room"))->Unit(benchmark::kMillisecond)->Iterations(4)->UseRealTime();
 
+// Thread scaling of pt's pass on the room preset, its paths one by one
+// (batch 0) and in batches (PathTracerSettings::batch): arguments
+// {threads, batch}.  The same bytes in every case (tests).
+void BM_PtThreads(benchmark::State& state) {
+  Capture& c = Get("room");
+  mr::SetThreadCount(static_cast<int>(state.range(0)));
+  mr::PathTracerSettings st;
+  st.max_depth = 8;
+  st.batch = static_cast<int>(state.range(1));
+  mr::PtFrameRenderer fr(c.scene, c.camera, c.pose, st);
+  for (auto _ : state) fr.RenderPass(1);
+  mr::SetThreadCount(0);
+  state.counters["rays_per_s"] = benchmark::Counter(static_cast<double>(fr.rays_traced()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_PtThreads)
+    ->ArgsProduct({{1, 2}, {0, 256}})
+    ->ArgNames({"threads", "batch"})
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(4)
+    ->UseRealTime();
+
 // A frame's camera rays set up: every pixel corner unprojected (the room
 // preset's lens is OpenCV8, which libmrcal unprojects by an iterative solve).
 void BM_CameraSetup(benchmark::State& state, const std::string& preset) {
@@ -121,13 +142,15 @@ int64_t ReplaySingle(const mr::EmbreeScene& embree, const std::vector<mr::Ray>& 
   return hits;
 }
 
-void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
+// `batch`: PathTracerSettings::batch (0: one path at a time).
+void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset, int batch) {
   Capture& c = Get(preset);
   mr::SetThreadCount(1);
   mr::RayLog log;
   int64_t traced = 0;
   mr::PathTracerSettings st;
   st.max_depth = 8;
+  st.batch = batch;
   st.skip_environment_pixels = false;  // every pass traces the rays of the recorded one
   {
     st.ray_log = &log;
@@ -161,8 +184,14 @@ void BM_EfficiencyRatio(benchmark::State& state, const std::string& preset) {
   state.counters["occlusion_share"] =
       static_cast<double>(log.occlusion.size()) / static_cast<double>(log.closest.size() + log.occlusion.size());
 }
-BENCHMARK_CAPTURE(BM_EfficiencyRatio, small, std::string("small"))->Unit(benchmark::kMillisecond)->Iterations(20);
-BENCHMARK_CAPTURE(BM_EfficiencyRatio, room, std::string("room"))->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK_CAPTURE(BM_EfficiencyRatio, small, std::string("small"), 256)->Unit(benchmark::kMillisecond)->Iterations(20);
+BENCHMARK_CAPTURE(BM_EfficiencyRatio, room, std::string("room"), 256)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK_CAPTURE(BM_EfficiencyRatio, small_one_by_one, std::string("small"), 0)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(20);
+BENCHMARK_CAPTURE(BM_EfficiencyRatio, room_one_by_one, std::string("room"), 0)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
 
 // The ceiling of the ratio for any scalar path tracer over single rays: the
 // least a bounce can do.  Camera rays as pt's (CameraSampler); at each hit

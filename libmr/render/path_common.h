@@ -358,10 +358,14 @@ inline bool SegmentMeetsBoxes(const Eigen::Vector3d& o, const Eigen::Vector3d& d
 // bounding boxes (`cull`), since no virtual object can block it elsewhere;
 // the answer is the same either way.
 enum class VirtualTest { kSkipped, kClear, kBlocked };
+// Whether a shadow ray's virtual test must be traced: its segment meets a
+// virtual object's bounding box, or `cull` is false.
+inline bool VirtualTestNeeded(const RenderScene& scene, const Ray& shadow, bool cull = true) {
+  return !cull || SegmentMeetsBoxes(shadow.origin.cast<double>(), shadow.direction.cast<double>(),
+                                    std::min(static_cast<double>(shadow.tfar), 1e30), scene.virtual_bounds());
+}
 inline VirtualTest TestVirtualBlockers(const RenderScene& scene, Ray shadow, bool cull = true) {
-  if (cull && !SegmentMeetsBoxes(shadow.origin.cast<double>(), shadow.direction.cast<double>(),
-                                 std::min(static_cast<double>(shadow.tfar), 1e30), scene.virtual_bounds()))
-    return VirtualTest::kSkipped;
+  if (!VirtualTestNeeded(scene, shadow, cull)) return VirtualTest::kSkipped;
   shadow.mask = kMaskVirtual;
   return scene.embree().Occluded(shadow) ? VirtualTest::kBlocked : VirtualTest::kClear;
 }

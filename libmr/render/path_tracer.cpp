@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 
+#include "core/check.h"
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/spherical.h"
@@ -203,83 +204,197 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   return L;
 }
 
+template <class Shadow>
+bool DifferentialPathTracer::SharedBounce(Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, bool found, const Hit& hit,
+                                          int depth, int escape_from_depth, Sampler& rng, PathSample* out,
+                                          Shadow&& shadow) const {
+  if (depth >= escape_from_depth && (!found || !hit.is_virtual)) {  // (a virtual hit parts the paths below)
+    const Eigen::Vector3d a = beta->cwiseProduct(
+        AreaLightsSeen(scene_, *ray, found ? hit.t : INFINITY, *prev_pdf, kRealLights, settings_.mis_area_lights));
+    out->mixed += a;
+    out->real += a;
+    if (scene_.has_virtual())
+      out->mixed += beta->cwiseProduct(
+          AreaLightsSeen(scene_, *ray, found ? hit.t : INFINITY, *prev_pdf, kVirtualLights, settings_.mis_area_lights));
+  }
+  if (!found) {
+    if (depth < escape_from_depth) return false;
+    const Eigen::Vector3d c = beta->cwiseProduct(Escaped(scene_, *ray, *prev_pdf, kRealLights));
+    out->mixed += c;
+    out->real += c;
+    if (scene_.has_virtual()) out->mixed += beta->cwiseProduct(Escaped(scene_, *ray, *prev_pdf, kVirtualLights));
+    return false;
+  }
+  if (hit.is_virtual) {
+    // The paths part: the real one continues behind the object with a copy
+    // of the random stream, the mixed one goes on from the object.
+    if (depth == 0) out->primary_virtual = true;
+    Sampler real_rng = rng;
+    out->real += TraceSingle(*ray, kMaskReal, *beta, *prev_pdf, depth, real_rng, &out->rays, escape_from_depth);
+    out->mixed += TraceSingle(*ray, kMaskAll, *beta, *prev_pdf, depth, rng, &out->rays, escape_from_depth);
+    return false;
+  }
+  // A real vertex shared by both paths.
+  PathVertex v = MakeVertex(scene_, *ray, hit);
+  const Eigen::Vector3d e = beta->cwiseProduct(v.emission);
+  out->mixed += e;
+  out->real += e;
+  if (depth >= settings_.max_depth || v.bsdf.IsBlack()) return false;
+  NextEvent(
+      scene_, v, rng,
+      [&](const Eigen::Vector3d& c, const Ray& r, bool virtual_light) {
+        shadow(Eigen::Vector3d(beta->cwiseProduct(c)), r, virtual_light);
+      },
+      true, settings_.mis_area_lights);
+  BsdfSample s;
+  const double ul = rng.NextDouble();
+  const auto [u0, u1] = rng.Next2D();
+  if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return false;
+  *beta = beta->cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
+  *prev_pdf = s.pdf;
+  if (depth + 1 >= settings_.rr_depth) {
+    const double q = std::min(1.0, beta->maxCoeff());
+    if (rng.NextDouble() >= q) return false;
+    *beta /= q;
+  }
+  *ray = MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll);
+  v.SetCone(s, ray);
+  return true;
+}
+
 PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int start_depth,
                                              Sampler& rng, int escape_from_depth) const {
   PathSample out;
-  int* rays = &out.rays;
   Ray ray = start;
   ray.mask = kMaskAll;
+  const bool virtual_geometry = scene_.has_virtual_geometry();
+  // A light that reaches the point past the real blockers counts in I_r;
+  // past the virtual ones too (st_rv = min(st_r, st_v)), in I_m.  A virtual
+  // light counts in I_m only, blocked by anything.
+  auto shadow = [&](const Eigen::Vector3d& c, Ray r, bool virtual_light) {
+    ++out.rays;
+    if (virtual_light) {
+      if (!Occluded(r)) out.mixed += c;
+      return;
+    }
+    r.mask = kMaskReal;
+    if (Occluded(r)) return;
+    out.real += c;
+    if (virtual_geometry) {
+      const VirtualTest t = TestVirtualBlockers(scene_, r, settings_.cull_virtual_shadow_tests);
+      (t == VirtualTest::kSkipped ? out.virtual_tests_skipped : out.rays) += 1;
+      if (t == VirtualTest::kBlocked) return;
+    }
+    out.mixed += c;
+  };
   for (int depth = start_depth;; ++depth) {
     Hit hit;
-    ++*rays;
+    ++out.rays;
     const bool found = Intersect(ray, &hit);
     if (depth == start_depth) out.first_t = hit.t;
-    if (depth >= escape_from_depth && (!found || !hit.is_virtual)) {  // (a virtual hit parts the paths below)
-      const Eigen::Vector3d a = beta.cwiseProduct(
-          AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kRealLights, settings_.mis_area_lights));
-      out.mixed += a;
-      out.real += a;
-      if (scene_.has_virtual())
-        out.mixed += beta.cwiseProduct(
-            AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kVirtualLights, settings_.mis_area_lights));
+    if (!SharedBounce(&ray, &beta, &prev_pdf, found, hit, depth, escape_from_depth, rng, &out, shadow)) return out;
+  }
+}
+
+// A next-event estimate waiting for its blocker tests in a batch.
+struct DifferentialPathTracer::PendingShadow {
+  Ray ray;
+  Eigen::Vector3d c;  // with the path's throughput in it
+  uint32_t path = 0;  // its index in the batch
+  bool virtual_light = false;
+  bool real_clear = false, mixed_clear = false;  // the tests' outcomes
+};
+
+void DifferentialPathTracer::ResolveShadows(std::vector<PendingShadow>& shadows, std::span<PathSample> out) const {
+  const size_t n = shadows.size();
+  if (n == 0) return;
+  const EmbreeScene& embree = scene_.embree();
+  // First the real blockers (every blocker for a virtual light), as TraceFrom's shadow test.
+  std::vector<Ray> rays(n);
+  for (size_t i = 0; i < n; ++i) {
+    rays[i] = shadows[i].ray;
+    if (!shadows[i].virtual_light) rays[i].mask = kMaskReal;
+    ++out[shadows[i].path].rays;
+  }
+  std::vector<char> occluded(n);
+  if (settings_.ray_log)
+    settings_.ray_log->occlusion.insert(settings_.ray_log->occlusion.end(), rays.begin(), rays.end());
+  embree.Occluded(rays, occluded);
+  // Then the virtual ones, where the real ones let the light through and a
+  // virtual object can be met.
+  std::vector<Ray> virtual_rays;
+  std::vector<size_t> tested;
+  const bool virtual_geometry = scene_.has_virtual_geometry();
+  for (size_t i = 0; i < n; ++i) {
+    PendingShadow& sh = shadows[i];
+    sh.real_clear = !occluded[i] && !sh.virtual_light;
+    sh.mixed_clear = !occluded[i];
+    if (!sh.real_clear || !virtual_geometry) continue;
+    if (!VirtualTestNeeded(scene_, rays[i], settings_.cull_virtual_shadow_tests)) {
+      ++out[sh.path].virtual_tests_skipped;
+      continue;
     }
-    if (!found) {
-      if (depth < escape_from_depth) return out;
-      const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
-      out.mixed += c;
-      out.real += c;
-      if (scene_.has_virtual()) out.mixed += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kVirtualLights));
-      return out;
+    ++out[sh.path].rays;
+    tested.push_back(i);
+    virtual_rays.push_back(rays[i]);
+    virtual_rays.back().mask = kMaskVirtual;
+  }
+  if (!virtual_rays.empty()) {
+    if (settings_.ray_log)
+      settings_.ray_log->occlusion.insert(settings_.ray_log->occlusion.end(), virtual_rays.begin(), virtual_rays.end());
+    occluded.resize(virtual_rays.size());
+    embree.Occluded(virtual_rays, occluded);
+    for (size_t j = 0; j < tested.size(); ++j)
+      if (occluded[j]) shadows[tested[j]].mixed_clear = false;
+  }
+  // The sums, each path's in its own order.
+  for (const PendingShadow& sh : shadows) {
+    if (sh.real_clear) out[sh.path].real += sh.c;
+    if (sh.mixed_clear) out[sh.path].mixed += sh.c;
+  }
+}
+
+void DifferentialPathTracer::TraceBatch(std::span<const Ray> primaries, std::span<Sampler> rngs,
+                                        std::span<PathSample> out) const {
+  MR_CHECK(rngs.size() == primaries.size() && out.size() == primaries.size());
+  struct Path {
+    Ray ray;
+    Eigen::Vector3d beta = Eigen::Vector3d::Ones();
+    double prev_pdf = 0;
+    uint32_t index = 0;
+  };
+  std::vector<Path> paths(primaries.size()), going_on;
+  for (size_t i = 0; i < primaries.size(); ++i) {
+    paths[i].ray = primaries[i];
+    paths[i].ray.mask = kMaskAll;
+    paths[i].index = static_cast<uint32_t>(i);
+    out[i] = PathSample();
+  }
+  std::vector<Ray> rays;
+  std::vector<Hit> hits;
+  std::vector<PendingShadow> shadows;
+  for (int depth = 0; !paths.empty(); ++depth) {
+    rays.resize(paths.size());
+    hits.assign(paths.size(), Hit());
+    for (size_t k = 0; k < paths.size(); ++k) rays[k] = paths[k].ray;
+    if (settings_.ray_log)
+      settings_.ray_log->closest.insert(settings_.ray_log->closest.end(), rays.begin(), rays.end());
+    scene_.embree().Intersect(rays, hits);
+    going_on.clear();
+    shadows.clear();
+    for (size_t k = 0; k < paths.size(); ++k) {
+      Path& p = paths[k];
+      PathSample& o = out[p.index];
+      ++o.rays;
+      if (depth == 0) o.first_t = hits[k].t;
+      auto queue = [&](const Eigen::Vector3d& c, const Ray& r, bool virtual_light) {
+        shadows.push_back({r, c, p.index, virtual_light});
+      };
+      if (SharedBounce(&p.ray, &p.beta, &p.prev_pdf, hits[k].valid(), hits[k], depth, 0, rngs[p.index], &o, queue))
+        going_on.push_back(p);
     }
-    if (hit.is_virtual) {
-      // The paths part: the real one continues behind the object with a copy
-      // of the random stream, the mixed one goes on from the object.
-      if (depth == 0) out.primary_virtual = true;
-      Sampler real_rng = rng;
-      out.real += TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, real_rng, &out.rays, escape_from_depth);
-      out.mixed += TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, &out.rays, escape_from_depth);
-      return out;
-    }
-    // A real vertex shared by both paths.
-    PathVertex v = MakeVertex(scene_, ray, hit);
-    const Eigen::Vector3d e = beta.cwiseProduct(v.emission);
-    out.mixed += e;
-    out.real += e;
-    if (depth >= settings_.max_depth || v.bsdf.IsBlack()) return out;
-    const bool virtual_geometry = scene_.has_virtual_geometry();
-    NextEvent(
-        scene_, v, rng,
-        [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
-          if (virtual_light) {  // lights I_m only, blocked by anything
-            ++out.rays;
-            if (!Occluded(shadow)) out.mixed += beta.cwiseProduct(c);
-            return;
-          }
-          shadow.mask = kMaskReal;
-          ++out.rays;
-          if (Occluded(shadow)) return;  // st_r
-          out.real += beta.cwiseProduct(c);
-          if (virtual_geometry) {
-            const VirtualTest t = TestVirtualBlockers(scene_, shadow, settings_.cull_virtual_shadow_tests);
-            (t == VirtualTest::kSkipped ? out.virtual_tests_skipped : out.rays) += 1;
-            if (t == VirtualTest::kBlocked) return;  // st_rv = min(st_r, st_v)
-          }
-          out.mixed += beta.cwiseProduct(c);
-        },
-        true, settings_.mis_area_lights);
-    BsdfSample s;
-    const double ul = rng.NextDouble();
-    const auto [u0, u1] = rng.Next2D();
-    if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return out;
-    beta = beta.cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
-    prev_pdf = s.pdf;
-    if (depth + 1 >= settings_.rr_depth) {
-      const double q = std::min(1.0, beta.maxCoeff());
-      if (rng.NextDouble() >= q) return out;
-      beta /= q;
-    }
-    ray = MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll);
-    v.SetCone(s, &ray);
+    ResolveShadows(shadows, out);
+    paths.swap(going_on);
   }
 }
 

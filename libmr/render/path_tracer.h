@@ -13,6 +13,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "camera/camera_model.h"
@@ -59,6 +60,11 @@ struct PathTracerSettings {
   // alone, for methods whose own vertices sample area lights so (ic, vpl)
   // and continue through this tracer.
   bool mis_area_lights = true;
+  // Camera paths traced together in batches of up to this many
+  // (DifferentialPathTracer::TraceBatch: Embree's stream queries over each
+  // bounce's rays and shadow rays); 0: one by one.  The same bytes either
+  // way (tested).
+  int batch = 256;
 };
 
 struct PathSample {
@@ -81,6 +87,13 @@ class DifferentialPathTracer {
   PathSample Trace(const Ray& primary, Sampler& rng) const {
     return TraceFrom(primary, Eigen::Vector3d::Ones(), 0, 0, rng);
   }
+  // Trace(primaries[i], rngs[i]) into out[i] for every i, the same bytes,
+  // with the paths' shared part advanced a bounce at a time over all of
+  // them: each bounce's rays and its shadow rays go to Embree as streams,
+  // the shading stays one path at a time.  A path that meets a virtual
+  // object goes on alone from there (TraceSingle).  Any batch size, one
+  // included.
+  void TraceBatch(std::span<const Ray> primaries, std::span<Sampler> rngs, std::span<PathSample> out) const;
   // The shared differential path from `start` on, as if it had reached
   // there at bounce `depth` with throughput `beta` after a direction chosen
   // with solid-angle pdf `prev_pdf` (0: no MIS on escape).  Rays escaping
@@ -126,6 +139,18 @@ class DifferentialPathTracer {
   // One path seeing geometry through `mask`, from `ray` on.
   Eigen::Vector3d TraceSingle(Ray ray, uint32_t mask, Eigen::Vector3d beta, double prev_pdf, int depth, Sampler& rng,
                               int* rays, int escape_from_depth, bool from_virtual = false) const;
+  // One bounce of the shared path (TraceFrom's loop body): what `*ray`,
+  // having met `hit` (`found`) at bounce `depth`, adds to *out, with each
+  // next-event estimate handed to shadow(c, ray, virtual_light), c with the
+  // throughput in it, to be tested against the blockers.  Returns true with
+  // *ray, *beta and *prev_pdf set where the shared path goes on.
+  template <class Shadow>
+  bool SharedBounce(Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, bool found, const Hit& hit, int depth,
+                    int escape_from_depth, Sampler& rng, PathSample* out, Shadow&& shadow) const;
+  // A batch's shadow rays' two tests and their sums into out, in the order
+  // TraceFrom makes them.
+  struct PendingShadow;
+  void ResolveShadows(std::vector<PendingShadow>& shadows, std::span<PathSample> out) const;
   bool Intersect(const Ray& ray, Hit* hit) const {
     if (settings_.ray_log) settings_.ray_log->closest.push_back(ray);
     return scene_.embree().Intersect(ray, hit);

@@ -43,6 +43,20 @@ class PixelLoopMethod : public FrameMethod {
   // `ray` with its generator: fills mixed, real, primary_virtual and rays.
   // Called concurrently for different rows; a row's samples in order.
   virtual void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) = 0;
+  // Samples k = 0..n-1 of row `row`, as Shade(rays[k], rngs[k], row,
+  // pixels[k], samples[k], &out[k]) one after the other would; a method
+  // that traces them together overrides it and batch_size.
+  struct Batch {
+    std::vector<Ray> rays;
+    std::vector<Sampler> rngs;
+    std::vector<size_t> pixels;
+    std::vector<int> samples;
+    std::vector<PathSample> out;
+  };
+  virtual void ShadeBatch(Batch& batch, int64_t row);
+  // Up to how many samples of a row ShadeBatch takes at once (1: each
+  // sample shaded before the next pixel is looked at).
+  virtual int batch_size() const { return 1; }
   // True for a pixel that needs no more samples (pt: provably no difference).
   virtual bool PixelDone(size_t pixel) const {
     (void)pixel;

@@ -50,7 +50,9 @@ bool PyramidMissesBox(const Eigen::Vector3d& o, const Eigen::Vector3d c[4], doub
 
 PtFrameRenderer::PtFrameRenderer(const RenderScene& scene, const CameraModel& camera, const Rigid3& world_from_cam,
                                  const PathTracerSettings& settings, const CameraExposure& exposure)
-    : PixelLoopMethod(camera, world_from_cam, settings.seed, settings.frame, exposure), tracer_(scene, settings) {
+    : PixelLoopMethod(camera, world_from_cam, settings.seed, settings.frame, exposure),
+      tracer_(scene, settings),
+      batch_(std::max(0, settings.batch)) {
   const size_t n = static_cast<size_t>(width()) * height();
   // Pixels whose camera rays provably meet no geometry see only the
   // environment, identically in I_m and I_r: their difference is exactly
@@ -97,6 +99,14 @@ int64_t PtFrameRenderer::skipped_pixels() const {
 void PtFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t, size_t pixel, int sample, PathSample* out) {
   *out = tracer_.Trace(ray, rng);
   if (sample == 0 && skip_possible_) escaped_[pixel] = !std::isfinite(out->first_t);
+}
+
+void PtFrameRenderer::ShadeBatch(Batch& b, int64_t row) {
+  if (batch_ == 0) return PixelLoopMethod::ShadeBatch(b, row);
+  tracer_.TraceBatch(b.rays, b.rngs, b.out);
+  if (skip_possible_)
+    for (size_t k = 0; k < b.out.size(); ++k)
+      if (b.samples[k] == 0) escaped_[b.pixels[k]] = !std::isfinite(b.out[k].first_t);
 }
 
 namespace {

@@ -2,6 +2,7 @@
 // the unbiased reference of mr-render.
 #pragma once
 
+#include <algorithm>
 #include <memory>
 #include <vector>
 
@@ -31,11 +32,14 @@ class PtFrameRenderer : public PixelLoopMethod {
 
  private:
   void Shade(const Ray& ray, Sampler& rng, int64_t row, size_t pixel, int sample, PathSample* out) override;
+  void ShadeBatch(Batch& batch, int64_t row) override;
+  int batch_size() const override { return std::max(1, batch_); }
   bool PixelDone(size_t pixel) const override;
   // Whether every ray through the pixel provably meets no geometry.
   bool ProvablyEnvironment(size_t pixel) const;
   std::vector<char> only_;
   DifferentialPathTracer tracer_;
+  int batch_ = 0;  // PathTracerSettings::batch (0: one by one)
   // Pixels whose difference is provably zero are found after their first
   // sample, among those whose first camera ray met nothing (`escaped_`):
   // the proof is tried only where it can hold.  Each pixel's entries are

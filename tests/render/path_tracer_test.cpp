@@ -227,6 +227,68 @@ TEST(PathTracer, CulledVirtualShadowTestsChangeNothing) {
   EXPECT_EQ(culled->rays_traced() + culled->virtual_tests_skipped(), all->rays_traced());
 }
 
+// pt's camera paths traced in batches (TraceBatch: each bounce's rays and
+// shadow rays as Embree streams) give the bytes of tracing them one by one,
+// whatever the batch size: one ray (issue 41's stiff case: every batch of
+// a frame a single ray), 7 (a row's last batch short) and 256.  The scene
+// has what the shared path handles: virtual geometry parting the paths, a
+// glossy virtual box, an emissive real panel, a real area light and a
+// virtual point light, a sky with a sun, culled virtual tests, Russian
+// roulette, and two passes (the second continuing each pixel's sequence).
+TEST(PathTracer, BatchesGiveTheSameBytes) {
+  RenderScene scene;
+  Material wall;
+  wall.albedo = Eigen::Vector3d(0.6, 0.5, 0.4);
+  scene.AddReal(Quad(10, 0.0), wall);
+  Material red;
+  red.albedo = Eigen::Vector3d(0.8, 0.1, 0.1);
+  red.specular = Eigen::Vector3d::Constant(0.1);
+  red.roughness = 0.3;
+  scene.AddVirtual(Box(0.25), Eigen::Affine3d(Eigen::Translation3d(0, 0.3, 0)), red);
+  Image sky = Image::Rgb(32, 17, 0.5f);
+  for (int c = 0; c < 3; ++c) sky.at(12, 4, c) = 2000.0f;
+  scene.SetEnvironment(EnvironmentMap(sky, "sky"));
+  Material panel;
+  panel.albedo = Eigen::Vector3d::Constant(0.3);
+  panel.emission = Eigen::Vector3d(0.5, 0.4, 0.2);
+  Mesh cube = Box(0.1);
+  for (auto& q : cube.positions) q += Eigen::Vector3f(-0.7f, 0.1f, 0.4f);
+  scene.AddReal(cube, panel);
+  Light area;
+  area.type = LightType::kArea;
+  area.position = Eigen::Vector3d(0.5, 1.5, 0);
+  area.direction = Eigen::Vector3d(0, -1, 0);
+  area.axis = Eigen::Vector3d(1, 0, 0);
+  area.width = area.height = 0.4;
+  area.radiance = Eigen::Vector3d::Constant(8.0);
+  scene.AddLight(area);
+  Light lamp;
+  lamp.type = LightType::kPoint;
+  lamp.position = Eigen::Vector3d(-0.4, 0.9, -0.3);
+  lamp.intensity = Eigen::Vector3d::Constant(0.5);
+  lamp.is_virtual = true;
+  scene.AddLight(lamp);
+  scene.Commit();
+  auto render = [&](int batch) {
+    PathTracerSettings st;
+    st.batch = batch;
+    auto r = std::make_unique<PtFrameRenderer>(scene, Pinhole(23, 16, 12), LookDownFrom(2), st);
+    r->RenderPass(3);
+    r->RenderPass(2);
+    return r;
+  };
+  const auto one_by_one = render(0);
+  EXPECT_NE(MeanOf(one_by_one->Mixed(), 0), MeanOf(one_by_one->Real(), 0));  // the objects do act
+  for (const int batch : {1, 7, 256}) {
+    const auto b = render(batch);
+    EXPECT_TRUE(b->Mixed().values() == one_by_one->Mixed().values()) << batch;
+    EXPECT_TRUE(b->Real().values() == one_by_one->Real().values()) << batch;
+    EXPECT_TRUE(b->Mask().values() == one_by_one->Mask().values()) << batch;
+    EXPECT_EQ(b->rays_traced(), one_by_one->rays_traced()) << batch;
+    EXPECT_EQ(b->virtual_tests_skipped(), one_by_one->virtual_tests_skipped()) << batch;
+  }
+}
+
 TEST(PathTracer, VirtualObjectOutOfViewChangesOnlyLighting) {
   TwoObjects s(true);
   // Camera far to the side looking away from the box: the mask is empty.

@@ -1,0 +1,50 @@
+// A glTF 2.0 document built in memory: its JSON and one binary buffer, written
+// as .glb (the buffer as the binary chunk) or .gltf (the buffer as a base64
+// data URI), atomically.  Only what mr-export needs: float and index
+// accessors, and arrays of JSON objects appended by name.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "core/json.h"
+
+namespace mr {
+
+namespace fs = std::filesystem;
+
+class GltfBuilder {
+ public:
+  GltfBuilder();
+  // Appends `item` to the top-level array `array` ("nodes", "meshes", ...);
+  // returns its index there.
+  int Push(const std::string& array, Json item);
+  // A float accessor over `values`, `components` per element (1 SCALAR, 2
+  // VEC2, 3 VEC3, 4 VEC4), with min and max where `bounds` (glTF requires
+  // them for POSITION and animation inputs).  `target`: the buffer view's
+  // (34962 vertex attributes, 0 none: animation data).  Throws mr::Error on
+  // a non-finite value or a size that is not a multiple of `components`.
+  int AddFloats(const std::vector<float>& values, int components, bool bounds, int target = 34962);
+  // An unsigned 32-bit index accessor (element array buffer).
+  int AddIndices(const std::vector<uint32_t>& indices);
+  Json& json() { return doc_; }
+  const Json& json() const { return doc_; }
+  // The document as .glb bytes or as .gltf text.
+  std::string Glb() const;
+  std::string Gltf() const;
+  // Writes by the extension of `path` (.glb or .gltf), atomically; an
+  // other extension is mr::Error.
+  void Write(const fs::path& path) const;
+
+ private:
+  int AddView(const void* data, size_t bytes, int target);
+  Json Finished(bool data_uri) const;
+  Json doc_;
+  std::string bin_;
+};
+
+std::string Base64Encode(const std::string& bytes);
+
+}  // namespace mr

@@ -1,0 +1,319 @@
+# mr's shot in Blender: imports the glTF scene mr-export wrote and sets up
+# what glTF cannot carry (docs/formats.md, "mr-export"; docs/conventions.md,
+# "glTF export"):
+#   - the camera's lens from the calibrated model's pinhole core (focal
+#     length, pixel aspect, principal point as lens shift), the render's
+#     resolution, frame rate and range;
+#   - the room marked as a shadow catcher (Cycles);
+#   - the environment map as the world, turned as mr's world turns it;
+#   - the lights at mr's radiometric strengths (glTF's are photometric);
+#   - assets (glTF, OBJ) imported from their own files onto their nodes;
+#   - the plate as the camera's background and the compositor's backdrop.
+# Run headless:
+#   blender -b --python SHOT-blender.py -- SHOT.glb [--blend OUT.blend]
+#          [--project POINTS.json OUT.json] [--describe OUT.json]
+# --project: for each camera key, the pixel (mrcal's convention: (0, 0) the
+# centre of the top-left pixel) at which Blender's camera sees each point
+# of POINTS.json ({"points": [[x, y, z], ...]} in glTF coordinates); the
+# check that Blender's camera is mr's (tests/cli).
+import json
+import math
+import os
+import struct
+import sys
+
+import bpy
+import mathutils
+
+# Debian 12's Blender 3.4.1 glTF importer uses numpy.bool, which Debian's
+# NumPy 1.24 no longer has: every import fails without the alias.
+import numpy
+
+if not hasattr(numpy, "bool"):
+    numpy.bool = bool
+
+
+def read_gltf_json(path):
+    with open(path, "rb") as f:
+        data = f.read()
+    if data[:4] == b"glTF":
+        length, kind = struct.unpack_from("<II", data, 12)
+        if kind != 0x4E4F534A:
+            raise SystemExit("mr_shot: %s: the first chunk is not JSON" % path)
+        return json.loads(data[20:20 + length].decode("utf-8"))
+    return json.loads(data.decode("utf-8"))
+
+
+def gltf_to_blender(v):
+    # Blender's glTF importer: glTF's +y up becomes Blender's +z up.
+    return mathutils.Vector((v[0], -v[2], v[1]))
+
+
+def setup_camera(scene, cam_obj, extras, render):
+    # Blender's view (sensor fit horizontal): the image's width spans
+    # sensor_width / lens at unit distance, its height that times
+    # (pixel_aspect_y / pixel_aspect_x) h / w, and the lens shift moves the
+    # window by shift x the width, in both directions.  So the lens is
+    # fx sensor / w, the pixel aspect x / y is fy / fx, and the principal
+    # point's offset from the image's centre is the shift (mr-export writes
+    # it in extras: blender_shift).
+    cam = cam_obj.data
+    c = extras["camera"]
+    w, h = c["width"], c["height"]
+    scene.render.resolution_x, scene.render.resolution_y = w, h
+    scene.render.resolution_percentage = 100
+    if not c.get("perspective", False):
+        print("mr_shot: %s" % c.get("no_perspective", "no perspective camera"))
+        return
+    fx, fy = c["fx"], c["fy"]
+    if fy >= fx:
+        scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = fy / fx, 1.0
+    else:
+        scene.render.pixel_aspect_x, scene.render.pixel_aspect_y = 1.0, fx / fy
+    cam.type = "PERSP"
+    cam.sensor_fit = "HORIZONTAL"
+    cam.sensor_width = 36.0
+    cam.lens = fx * cam.sensor_width / w
+    cam.shift_x, cam.shift_y = c["blender_shift"]
+    cam.clip_start = 0.01
+    cam.clip_end = 1e4
+
+
+def setup_world(scene, extras, base):
+    env = extras.get("environment")
+    if not env:
+        return
+    world = scene.world or bpy.data.worlds.new("mr")
+    scene.world = world
+    world.use_nodes = True
+    nt = world.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    coord = nt.nodes.new("ShaderNodeTexCoord")
+    mapping = nt.nodes.new("ShaderNodeMapping")
+    tex = nt.nodes.new("ShaderNodeTexEnvironment")
+    bg = nt.nodes.new("ShaderNodeBackground")
+    out = nt.nodes.new("ShaderNodeOutputWorld")
+    path = os.path.join(base, env["file"])
+    if env.get("per_frame"):
+        print("mr_shot: the environment changes per frame; frame %d's map is the world" % extras["render"]["frame_begin"])
+        path = path % extras["render"]["frame_begin"]
+    tex.image = bpy.data.images.load(path)
+    tex.image.colorspace_settings.name = "Non-Color"  # linear radiance, as written
+    bg.inputs["Strength"].default_value = env.get("scale", 1.0)
+    # A Blender world direction d (z up) -> glTF (x, z, -y) -> mr's map frame
+    # (map_from_gltf) -> Blender's equirectangular frame, whose centre looks
+    # along +x with +z up, where mr's looks along +z with +y up: the map's
+    # (x, y, z) is Blender's texture (z, -x, y).
+    g = mathutils.Matrix(env["gltf_from_map"])
+    to_gltf = mathutils.Matrix(((1, 0, 0), (0, 0, 1), (0, -1, 0)))
+    to_tex = mathutils.Matrix(((0, 0, 1), (-1, 0, 0), (0, 1, 0)))
+    m = to_tex @ g.transposed() @ to_gltf
+    mapping.vector_type = "VECTOR"
+    mapping.inputs["Rotation"].default_value = m.to_euler("XYZ")
+    nt.links.new(coord.outputs["Generated"], mapping.inputs["Vector"])
+    nt.links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    nt.links.new(tex.outputs["Color"], bg.inputs["Color"])
+    nt.links.new(bg.outputs["Background"], out.inputs["Surface"])
+
+
+def setup_lights(doc, nodes_by_index):
+    # mr's radiometric values (extras) as Blender's: a point or spot of
+    # intensity I (W/sr) is 4 pi I watts in Cycles; a sun of irradiance E
+    # (W/m^2) has strength E; an area light of radiance L over area A
+    # emits pi L A watts (make_area_lights).
+    for i, node in enumerate(doc.get("nodes", [])):
+        info = node.get("extras", {}).get("mr", {})
+        obj = nodes_by_index.get(i)
+        t = info.get("type")
+        if obj is None or t not in ("point", "spot", "distant"):
+            continue
+        light = obj.data if obj.type == "LIGHT" else next((c.data for c in obj.children if c.type == "LIGHT"), None)
+        if light is None:
+            continue
+        v = info["intensity_w_sr"] if t != "distant" else info["irradiance_w_m2"]
+        peak = max(v)
+        light.color = [x / peak for x in v] if peak > 0 else [1, 1, 1]
+        if t == "distant":
+            light.energy = peak
+            light.angle = 2 * math.radians(info.get("angular_radius_deg", 0))
+        else:
+            light.energy = 4 * math.pi * peak
+            light.shadow_soft_size = 0
+
+
+def make_area_lights(doc, nodes_by_index):
+    for i, node in enumerate(doc.get("nodes", [])):
+        mr = node.get("extras", {}).get("mr", {})
+        if mr.get("type") != "area":
+            continue
+        light = bpy.data.lights.new(node.get("name", "area"), type="AREA")
+        light.shape = "RECTANGLE" if mr["shape"] == "rect" else "DISK"
+        light.size, light.size_y = mr["width"], mr["height"]
+        L = mr["radiance"]
+        peak = max(L)
+        light.color = [x / peak for x in L] if peak > 0 else [1, 1, 1]
+        light.energy = math.pi * peak * (mr["width"] * mr["height"] if mr["shape"] == "rect"
+                                         else math.pi * mr["width"] ** 2 / 4)
+        target = nodes_by_index.get(i)
+        if target is not None:
+            target.name = target.name + ".node"  # the light takes the node's name
+        obj = bpy.data.objects.new(node.get("name", "area"), light)
+        bpy.context.scene.collection.objects.link(obj)
+        if target is not None:
+            obj.matrix_world = target.matrix_world.copy()
+
+
+def import_assets(doc, base, nodes_by_index):
+    for i, node in enumerate(doc.get("nodes", [])):
+        asset = node.get("extras", {}).get("mr", {}).get("asset")
+        if not asset:
+            continue
+        before = set(bpy.data.objects)
+        path = os.path.join(base, asset)
+        if path.lower().endswith((".glb", ".gltf")):
+            bpy.ops.import_scene.gltf(filepath=path)
+        elif path.lower().endswith(".obj"):
+            bpy.ops.wm.obj_import(filepath=path, forward_axis="NEGATIVE_Z", up_axis="Y")
+        else:
+            print("mr_shot: %s: not an asset Blender imports here" % path)
+            continue
+        parent = nodes_by_index.get(i)
+        for obj in set(bpy.data.objects) - before:
+            if obj.parent is None and parent is not None:
+                obj.parent = parent
+
+
+def setup_plate(scene, cam_obj, extras, base):
+    plate = extras.get("plate")
+    if not plate or cam_obj is None:
+        return
+    first = os.path.join(base, plate["frames"] % plate["first_frame"]) if "%" in plate["frames"] else os.path.join(base, plate["frames"])
+    if not os.path.exists(first):
+        print("mr_shot: the plate %s is not there; no background" % first)
+        return
+    img = bpy.data.images.load(first)
+    if "%" in plate["frames"]:
+        img.source = "SEQUENCE"
+    if plate["transfer"] == "linear":
+        img.colorspace_settings.name = "Linear"
+    cam = cam_obj.data
+    cam.show_background_images = True
+    bg = cam.background_images.new()
+    bg.image = img
+    bg.image_user.frame_start = scene.frame_start
+    bg.image_user.frame_duration = scene.frame_end - scene.frame_start + 1
+    # Blender shows file number (frame - frame_start + 1 + frame_offset).
+    bg.image_user.frame_offset = plate["first_frame"] - 1
+    # The compositor: the render (film transparent: the shadow catcher's
+    # shadows and the objects) over the plate.
+    scene.render.film_transparent = True
+    scene.use_nodes = True
+    nt = scene.node_tree
+    for n in list(nt.nodes):
+        nt.nodes.remove(n)
+    rl = nt.nodes.new("CompositorNodeRLayers")
+    im = nt.nodes.new("CompositorNodeImage")
+    im.image = img
+    im.frame_duration = bg.image_user.frame_duration
+    im.frame_offset = bg.image_user.frame_offset
+    over = nt.nodes.new("CompositorNodeAlphaOver")
+    comp = nt.nodes.new("CompositorNodeComposite")
+    nt.links.new(im.outputs["Image"], over.inputs[1])
+    nt.links.new(rl.outputs["Image"], over.inputs[2])
+    nt.links.new(over.outputs["Image"], comp.inputs["Image"])
+
+
+def main(argv):
+    if not argv:
+        raise SystemExit("usage: blender -b --python SHOT-blender.py -- SHOT.glb [--blend OUT.blend] "
+                         "[--project POINTS.json OUT.json] [--describe OUT.json]")
+    path = os.path.abspath(argv[0])
+    base = os.path.dirname(path)
+    doc = read_gltf_json(path)
+    extras = dict(doc["scenes"][doc.get("scene", 0)]["extras"]["mr"])
+    render = extras["render"]
+    # The camera node's extras: the calibrated model and Blender's shift.
+    for node in doc.get("nodes", []):
+        if "lensmodel" in node.get("extras", {}).get("mr", {}):
+            extras["camera"] = node["extras"]["mr"]
+    # An empty scene, then the glTF.
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.engine = "CYCLES"
+    scene.render.fps = int(round(render["fps"]))
+    scene.render.fps_base = scene.render.fps / render["fps"]
+    before = set(bpy.data.objects)
+    bpy.ops.import_scene.gltf(filepath=path)
+    imported = [o for o in bpy.data.objects if o not in before]
+    # glTF node index -> Blender object, by name (the importer keeps names).
+    by_name = {o.name: o for o in imported}
+    nodes_by_index = {i: by_name.get(n.get("name")) for i, n in enumerate(doc.get("nodes", []))}
+    cam_obj = next((o for o in imported if o.name == "camera" or (o.type == "CAMERA")), None)
+    if cam_obj is not None and cam_obj.type == "CAMERA":
+        scene.camera = cam_obj
+        setup_camera(scene, cam_obj, extras, render)
+    # The importer puts a key at time t on frame t fps: Blender's frame k is
+    # the shot's frame frame_begin + k.
+    scene.frame_start = 0
+    scene.frame_end = render["frame_end"] - render["frame_begin"] - 1
+    for i, node in enumerate(doc.get("nodes", [])):
+        obj = nodes_by_index.get(i)
+        if obj is not None and node.get("extras", {}).get("mr", {}).get("role") == "room":
+            obj.is_shadow_catcher = True
+    setup_world(scene, extras, base)
+    setup_lights(doc, nodes_by_index)
+    make_area_lights(doc, nodes_by_index)
+    import_assets(doc, base, nodes_by_index)
+    setup_plate(scene, cam_obj, extras, base)
+    i = 1
+    while i < len(argv):
+        if argv[i] == "--blend":
+            bpy.ops.wm.save_as_mainfile(filepath=os.path.abspath(argv[i + 1]))
+            i += 2
+        elif argv[i] == "--project":
+            project(scene, cam_obj, argv[i + 1], argv[i + 2])
+            i += 3
+        elif argv[i] == "--describe":
+            describe(scene, argv[i + 1])
+            i += 2
+        else:
+            raise SystemExit("mr_shot: unknown option %s" % argv[i])
+
+
+def describe(scene, out_path):
+    # What the shot became in Blender, for tests/crosscheck/shot_roundtrip.py.
+    world_image = None
+    if scene.world and scene.world.use_nodes:
+        for n in scene.world.node_tree.nodes:
+            if n.type == "TEX_ENVIRONMENT" and n.image:
+                world_image = os.path.basename(n.image.filepath)
+    d = {"resolution": [scene.render.resolution_x, scene.render.resolution_y],
+         "pixel_aspect": [scene.render.pixel_aspect_x, scene.render.pixel_aspect_y],
+         "frame_start": scene.frame_start, "frame_end": scene.frame_end,
+         "fps": scene.render.fps / scene.render.fps_base,
+         "shadow_catchers": sorted(o.name for o in scene.objects if o.type == "MESH" and o.is_shadow_catcher),
+         "world_image": world_image,
+         "lights": {o.name: o.data.energy for o in scene.objects if o.type == "LIGHT"}}
+    with open(out_path, "w") as f:
+        json.dump(d, f, indent=1)
+
+
+def project(scene, cam_obj, points_path, out_path):
+    from bpy_extras.object_utils import world_to_camera_view
+    pts = [gltf_to_blender(p) for p in json.load(open(points_path))["points"]]
+    w, h = scene.render.resolution_x, scene.render.resolution_y
+    frames = []
+    for f in range(scene.frame_start, scene.frame_end + 1):
+        scene.frame_set(f)
+        px = []
+        for p in pts:
+            v = world_to_camera_view(scene, cam_obj, p)
+            px.append([v.x * w - 0.5, (1 - v.y) * h - 0.5, v.z])
+        frames.append(px)
+    with open(out_path, "w") as f:
+        json.dump({"frames": frames}, f)
+
+
+if __name__ == "__main__":
+    main(sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else [])

@@ -1,0 +1,45 @@
+// mr-export: a shot (scene.json) as a glTF 2.0 scene, with the Blender
+// script that sets up what glTF cannot carry.
+#include "cli/tool.h"
+#include "handoff/export_shot.h"
+#include "scene/frames.h"
+
+int main(int argc, char** argv) {
+  CLI::App app;
+  mr::ShotExportOptions o;
+  std::string scene, out, frames;
+  bool no_script = false;
+  mr::ConfigureApp(app, "mr-export",
+                   "Writes a shot (scene.json: the room, the virtual objects, the camera path and lens, the light)\n"
+                   "as a glTF 2.0 scene (.glb or .gltf) that Blender and other glTF readers import: the room\n"
+                   "marked as a shadow catcher, the objects with their materials (glTF assets referenced from\n"
+                   "their own files), the camera as a perspective camera of the lens's pinhole core animated\n"
+                   "per frame, the lights (KHR_lights_punctual; area lights in extras), and in extras the\n"
+                   "environment map, the plate and mr's exact values. Beside it, OUT-blender.py sets up in\n"
+                   "Blender what glTF cannot carry (lens shift and pixel aspect, the world, the shadow catcher,\n"
+                   "light strengths, the plate): blender -b --python OUT-blender.py -- OUT.glb --blend OUT.blend.\n"
+                   "Conventions: docs/conventions.md, \"glTF export\".",
+                   "  mr-export work/scene.json --out shot.glb\n"
+                   "  blender -b --python shot-blender.py -- shot.glb --blend shot.blend\n"
+                   "  mr-export scene.json --out shot.gltf --frames 10:40 --fps 25");
+  app.add_option("scene", scene, "scene.json")->required()->check(CLI::ExistingFile);
+  app.add_option("--out", out, "The glTF scene: .glb (binary) or .gltf (JSON, buffers embedded)")->required();
+  app.add_option("--frames", frames, "Frames B:E (end exclusive; default every frame with a pose)");
+  app.add_option("--fps", o.fps, "The animation's frames per second")->default_val(30);
+  app.add_flag("--no-blender-script", no_script, "Do not write OUT-blender.py");
+  return mr::RunTool("mr-export", app, argc, argv, [&] {
+    o.scene = scene;
+    o.out = out;
+    o.blender_script = !no_script;
+    std::string why;
+    if (!frames.empty() && !mr::ParseFrameRange(frames, &o.frame_begin, &o.frame_end, &why))
+      throw mr::UsageError("--frames: " + why);
+    const mr::ShotExportResult r = mr::ExportShot(o, &mr::ToolReport());
+    std::printf("%s: %d camera keys, %d room meshes, %d objects (%d assets), %d lights%s\n", out.c_str(), r.frames,
+                r.room_meshes, r.objects, r.assets, r.lights, r.perspective ? "" : "; no perspective camera");
+    if (!r.blender_script.empty())
+      std::printf("in Blender: blender -b --python %s -- %s --blend shot.blend\n", r.blender_script.c_str(),
+                  out.c_str());
+    return mr::kExitOk;
+  });
+}

@@ -12,7 +12,7 @@ declare -A subs=(
   [mr-eval]="compare traj mesh sweep plot merge plate"
   [mr-register]="colmap align"
 )
-tools=(mr-info mr-board mr-synth mr-calibrate mr-hdr mr-probe mr-lights mr-fuse mr-formfactor mr-register mr-planes mr-render mr-eval mr-pipeline)
+tools=(mr-info mr-board mr-synth mr-calibrate mr-hdr mr-probe mr-lights mr-fuse mr-formfactor mr-register mr-planes mr-render mr-eval mr-pipeline mr-export)
 for t in "${tools[@]}"; do
   {
     echo "# $t"

@@ -46,14 +46,14 @@ Json PbrMaterial(const std::string& name, const Material& m, bool vertex_colors)
   const Eigen::Vector3d base = vertex_colors ? Eigen::Vector3d::Ones() : m.albedo;
   Json pbr = {{"baseColorFactor", {base.x(), base.y(), base.z(), 1.0}},
               {"metallicFactor", 0.0},
-              {"roughnessFactor", m.IsGlossy() ? std::sqrt(m.roughness) : 1.0}};
+              {"roughnessFactor", m.IsGlossy() ? m.roughness : 1.0}};  // GGX alpha = roughness^2 in both
   Json j = {{"name", name},
             {"pbrMetallicRoughness", pbr},
             {"extras",
              {{"mr",
                {{"albedo", Vec(m.albedo)},
                 {"specular", Vec(m.specular)},
-                {"roughness_alpha", m.roughness},
+                {"roughness", m.roughness},
                 {"emission", Vec(m.emission)},
                 {"albedo_from_vertex_colors", m.albedo_from_vertex_colors}}}}}};
   if (m.IsEmissive()) {

@@ -25,7 +25,7 @@ inline constexpr int kSceneVersion = 1;
 struct Material {
   Eigen::Vector3d albedo = Eigen::Vector3d::Constant(0.5);  // diffuse reflectance [0,1]
   Eigen::Vector3d specular = Eigen::Vector3d::Zero();       // glossy reflectance [0,1]
-  double roughness = 0.5;                                   // GGX alpha in (0,1]
+  double roughness = 0.5;                                   // (0,1]: GGX alpha = roughness^2
   Eigen::Vector3d emission = Eigen::Vector3d::Zero();       // radiance, W/(sr m^2), >= 0
   bool albedo_from_vertex_colors = false;
   // An image whose texels are the albedo at the mesh's texture coordinates

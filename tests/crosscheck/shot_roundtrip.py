@@ -71,8 +71,11 @@ def write_inputs(d, frames=6):
     json.dump(lights, open(os.path.join(d, "lights.json"), "w"))
     os.environ["OPENCV_IO_ENABLE_OPENEXR"] = "1"
     import cv2
-    env = np.full((16, 32, 3), 0.5, np.float32)
-    env[2, 20] = [50, 60, 70]
+    # Bright towards mr's +z (the image's middle columns) and dim elsewhere,
+    # warmer towards +x: a world turned wrongly lights the walls otherwise.
+    env = np.full((16, 32, 3), 0.2, np.float32)
+    env[:, 8:24] = [0.4, 0.8, 1.2]  # BGR
+    env[:8, 4:12] = [0.2, 0.5, 1.5]
     cv2.imwrite(os.path.join(d, "env.exr"), env)
     scene = {"version": 1,
              "camera": {"model": "cam.cameramodel", "poses": {"format": "tum", "path": "traj.txt"}},
@@ -113,6 +116,64 @@ def quat_to_R(x, y, z, w):
     return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def compare_renders(bin_dir, blender, work, spp=64):
+    """The room alone (no object) under the point light, the sun, the area
+    light and the environment, rendered by mr-render's pt and by Cycles
+    through the exported shot: they agree within the renderers' noise as
+    blender_crosscheck measures it (relMSE against Cycles under twice that
+    of two mr renders of other seeds).  Checks the lights' strengths, the
+    world's turn and the materials end to end."""
+    scene = json.load(open(os.path.join(work, "scene.json")))
+    scene.pop("virtual")
+    lights = json.load(open(os.path.join(work, "lights.json")))
+    # Cycles 3.4 weighs a spot by the cosine off its axis, mr does not: left out here.
+    lights["lights"] = [l for l in lights["lights"] if l["type"] != "spot"]
+    json.dump(lights, open(os.path.join(work, "lights-room.json"), "w"))
+    scene["lighting"]["lights"] = "lights-room.json"
+    scene["render"] = {"method": "pt", "spp": spp, "max_depth": 8, "seed": 3}
+    scene["output"] = {"dir": "mr"}
+    failures = []
+    for seed, name in ((3, "room"), (4, "room2")):
+        scene["render"]["seed"] = seed
+        scene["output"]["dir"] = "mr-" + name
+        json.dump(scene, open(os.path.join(work, name + ".json"), "w"))
+        subprocess.run([os.path.join(bin_dir, "mr-render"), os.path.join(work, name + ".json"), "--frames", "0:1",
+                        "-q"], check=True)
+    shot = os.path.join(work, "room.glb")
+    subprocess.run([os.path.join(bin_dir, "mr-export"), os.path.join(work, "room.json"), "--out", shot, "-q"],
+                   check=True, stdout=subprocess.DEVNULL)
+    renders = []
+    for seed in (1, 2):
+        cycles = os.path.join(work, "cycles%d.exr" % seed)
+        r = subprocess.run([blender, "-b", "--factory-startup", "-noaudio", "--python",
+                            os.path.join(work, "room-blender.py"), "--", shot, "--seed", str(seed), "--render", "0",
+                            str(spp), cycles], capture_output=True, text=True)
+        if r.returncode != 0 or not os.path.exists(cycles):
+            print(r.stdout[-3000:], r.stderr[-3000:])
+            return ["Cycles wrote no render of the exported room"]
+        renders.append(cycles)
+
+    def compare(a, b, tag):
+        out = os.path.join(work, tag + ".json")
+        subprocess.run([os.path.join(bin_dir, "mr-eval"), "compare", a, b, "--report", out, "-q"], check=True,
+                       capture_output=True)
+        return json.load(open(out))["metrics"]["relmse"]
+    mr = os.path.join(work, "mr-room", "00000.exr")
+    vs_cycles = compare(mr, renders[0], "vs-cycles")
+    mr_noise = compare(mr, os.path.join(work, "mr-room2", "00000.exr"), "vs-mr")
+    cycles_noise = compare(renders[0], renders[1], "cycles-vs-cycles")
+    # Two unbiased renders differ by the sum of their variances: mr against
+    # Cycles by half of (mr against mr) + (Cycles against Cycles).  Allow
+    # 1.5 x that (a bias of 4% over the image would double it).
+    expected = 0.5 * (mr_noise + cycles_noise)
+    print("the exported room in Cycles against mr-render: relMSE %.4g; their noise: mr %.4g, Cycles %.4g "
+          "(expected %.4g without bias)" % (vs_cycles, mr_noise, cycles_noise, expected))
+    if not vs_cycles < 1.5 * expected:
+        failures.append("Cycles' render of the exported room differs from mr's: relMSE %.4g, %.4g expected"
+                        % (vs_cycles, expected))
+    return failures
 
 
 def main():
@@ -165,11 +226,12 @@ def main():
             if d.get(k) != want:
                 failures.append("%s: %s is %r, expected %r" % (ext, k, d.get(k), want))
         lights = d.get("lights", {})
-        want_energy = {"lamp": 4 * math.pi * 2.0, "spot": 4 * math.pi * 3.0, "sun": 5.0, "panel": math.pi * 4.0 * 0.15}
+        want_energy = {"lamp": 4 * math.pi * 2.0, "spot": 4 * math.pi * 3.0, "sun": 5.0, "panel": 4 * 4.0 * 0.15}
         for name, e in want_energy.items():
             got = lights.get(name)
             if got is None or abs(got - e) > 1e-4 * e:
                 failures.append("%s: light %s has strength %r, expected %.6g" % (ext, name, got, e))
+    failures += compare_renders(bin_dir, blender, work)
     for f in failures:
         print("FAIL:", f)
     return 1 if failures else 0

@@ -12,6 +12,10 @@
 # Run headless:
 #   blender -b --python SHOT-blender.py -- SHOT.glb [--blend OUT.blend]
 #          [--project POINTS.json OUT.json] [--describe OUT.json]
+#          [--seed N] [--render FRAME SAMPLES OUT.exr]
+# --render: frame FRAME of the room rendered whole by Cycles (no shadow
+# catcher, no plate; mr's path-tracing settings), for comparing with
+# mr-render's real layer.
 # --project: for each camera key, the pixel (mrcal's convention: (0, 0) the
 # centre of the top-left pixel) at which Blender's camera sees each point
 # of POINTS.json ({"points": [[x, y, z], ...]} in glTF coordinates); the
@@ -79,6 +83,33 @@ def setup_camera(scene, cam_obj, extras, render):
     cam.clip_end = 1e4
 
 
+def blender_convention_map(img):
+    # mr's lat-long map (OpenEXR's: pixel centres on both edges, each pixel
+    # the radiance of the directions nearest it) resampled k times finer into
+    # Blender's equirectangular convention (pixel edges on the image's edges)
+    # in the texture frame of setup_world, so that Cycles sees mr's radiance
+    # function to 1/k of a pixel.  Blender's texture (x, y, z) is the map's
+    # (z, x, y).
+    W, H = img.size
+    k = max(1, min(8, 4096 // max(W, 1)))
+    src = numpy.array(img.pixels[:], dtype=numpy.float32).reshape(H, W, 4)[::-1]  # row 0 the top
+    Wb, Hb = k * W, k * H
+    u = (numpy.arange(Wb) + 0.5) / Wb
+    v = 1 - (numpy.arange(Hb) + 0.5) / Hb  # Blender's v = 1 is the top
+    phi, theta = (0.5 - u) * 2 * numpy.pi, (v - 0.5) * numpy.pi
+    ct = numpy.cos(theta)[:, None]
+    xt, yt, zt = ct * numpy.cos(phi)[None, :], ct * numpy.sin(phi)[None, :], numpy.sin(theta)[:, None] + 0 * phi[None, :]
+    xm, ym, zm = yt, zt, xt
+    lat, lon = numpy.arcsin(numpy.clip(ym, -1, 1)), numpy.arctan2(xm, zm)
+    px = numpy.clip(numpy.rint((0.5 - lon / (2 * numpy.pi)) * (W - 1)), 0, W - 1).astype(int)
+    py = numpy.clip(numpy.rint((0.5 - lat / numpy.pi) * (H - 1)), 0, H - 1).astype(int)
+    out = src[py, px][::-1]  # back to Blender's bottom-up rows
+    b = bpy.data.images.new(img.name + ".blender", Wb, Hb, alpha=True, float_buffer=True)
+    b.pixels.foreach_set(numpy.ascontiguousarray(out, dtype=numpy.float32).ravel())
+    b.pack()
+    return b
+
+
 def setup_world(scene, extras, base):
     env = extras.get("environment")
     if not env:
@@ -98,16 +129,19 @@ def setup_world(scene, extras, base):
     if env.get("per_frame"):
         print("mr_shot: the environment changes per frame; frame %d's map is the world" % extras["render"]["frame_begin"])
         path = path % extras["render"]["frame_begin"]
-    tex.image = bpy.data.images.load(path)
+    scene["mr_world_image"] = os.path.basename(path)
+    tex.image = blender_convention_map(bpy.data.images.load(path))
     tex.image.colorspace_settings.name = "Non-Color"  # linear radiance, as written
+    tex.interpolation = "Closest"
     bg.inputs["Strength"].default_value = env.get("scale", 1.0)
     # A Blender world direction d (z up) -> glTF (x, z, -y) -> mr's map frame
-    # (map_from_gltf) -> Blender's equirectangular frame, whose centre looks
-    # along +x with +z up, where mr's looks along +z with +y up: the map's
-    # (x, y, z) is Blender's texture (z, -x, y).
+    # (map_from_gltf) -> Blender's equirectangular frame.  Blender reads
+    # column u = 1/2 - atan2(y, x) / 2 pi at elevation asin(z); mr's map
+    # (OpenEXR's) u = 1/2 - atan2(x, z) / 2 pi at latitude asin(y): the
+    # map's (x, y, z) is Blender's texture (z, x, y), a rotation.
     g = mathutils.Matrix(env["gltf_from_map"])
     to_gltf = mathutils.Matrix(((1, 0, 0), (0, 0, 1), (0, -1, 0)))
-    to_tex = mathutils.Matrix(((0, 0, 1), (-1, 0, 0), (0, 1, 0)))
+    to_tex = mathutils.Matrix(((0, 0, 1), (1, 0, 0), (0, 1, 0)))
     m = to_tex @ g.transposed() @ to_gltf
     mapping.vector_type = "VECTOR"
     mapping.inputs["Rotation"].default_value = m.to_euler("XYZ")
@@ -120,8 +154,8 @@ def setup_world(scene, extras, base):
 def setup_lights(doc, nodes_by_index):
     # mr's radiometric values (extras) as Blender's: a point or spot of
     # intensity I (W/sr) is 4 pi I watts in Cycles; a sun of irradiance E
-    # (W/m^2) has strength E; an area light of radiance L over area A
-    # emits pi L A watts (make_area_lights).
+    # (W/m^2) has strength E; an area light of radiance L over area A is
+    # 4 L A watts (make_area_lights).
     for i, node in enumerate(doc.get("nodes", [])):
         info = node.get("extras", {}).get("mr", {})
         obj = nodes_by_index.get(i)
@@ -140,6 +174,13 @@ def setup_lights(doc, nodes_by_index):
         else:
             light.energy = 4 * math.pi * peak
             light.shadow_soft_size = 0
+        if t == "spot":
+            # mr: smoothstep in cos from the cone to falloff_start; Cycles:
+            # smoothstep over spot_blend x (1 - cos(half the size)) inside the
+            # cone (Cycles 3.4 also weighs a spot by the cosine off its axis).
+            cone, start = math.radians(info["cone_deg"]), math.radians(info["falloff_start_deg"])
+            light.spot_size = 2 * cone
+            light.spot_blend = (math.cos(start) - math.cos(cone)) / (1 - math.cos(cone))
 
 
 def make_area_lights(doc, nodes_by_index):
@@ -153,15 +194,19 @@ def make_area_lights(doc, nodes_by_index):
         L = mr["radiance"]
         peak = max(L)
         light.color = [x / peak for x in L] if peak > 0 else [1, 1, 1]
-        light.energy = math.pi * peak * (mr["width"] * mr["height"] if mr["shape"] == "rect"
-                                         else math.pi * mr["width"] ** 2 / 4)
+        # Cycles' area light of power P has radiance P / (4 A) (measured
+        # against mr's: tests/crosscheck/shot_roundtrip.py).
+        light.energy = 4 * peak * (mr["width"] * mr["height"] if mr["shape"] == "rect"
+                                   else math.pi * mr["width"] ** 2 / 4)
         target = nodes_by_index.get(i)
         if target is not None:
             target.name = target.name + ".node"  # the light takes the node's name
         obj = bpy.data.objects.new(node.get("name", "area"), light)
         bpy.context.scene.collection.objects.link(obj)
         if target is not None:
-            obj.matrix_world = target.matrix_world.copy()
+            # The importer turns an empty's axes with the world (glTF's local
+            # -z is the empty's Blender +y); a light shines along its -z.
+            obj.matrix_world = target.matrix_world @ mathutils.Matrix.Rotation(math.radians(90), 4, "X")
 
 
 def import_assets(doc, base, nodes_by_index):
@@ -182,6 +227,89 @@ def import_assets(doc, base, nodes_by_index):
         for obj in set(bpy.data.objects) - before:
             if obj.parent is None and parent is not None:
                 obj.parent = parent
+
+
+def mr_materials(doc, nodes_by_index):
+    # mr's own BSDF where a mesh carries mr's material (extras): Lambert
+    # albedo / pi (the vertex colours where the albedo is theirs) plus
+    # specular x GGX of alpha = roughness^2, no Fresnel (render/bsdf.cpp),
+    # instead of the importer's Principled BSDF, whose diffuse is not
+    # Lambert's: so that Cycles renders what mr renders.  An emitter's
+    # radiance as an emission shader beside it.
+    for i, node in enumerate(doc.get("nodes", [])):
+        obj = nodes_by_index.get(i)
+        if obj is None or obj.type != "MESH" or "mesh" not in node:
+            continue
+        prim = doc["meshes"][node["mesh"]]["primitives"][0]
+        if "material" not in prim:
+            continue
+        m = doc["materials"][prim["material"]].get("extras", {}).get("mr")
+        if not m:
+            continue
+        mat = bpy.data.materials.new(node.get("name", "mr") + ".mr")
+        mat.use_nodes = True
+        nodes, links = mat.node_tree.nodes, mat.node_tree.links
+        for n in list(nodes):
+            if n.type != "OUTPUT_MATERIAL":
+                nodes.remove(n)
+        out = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
+        diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+        diffuse.inputs["Color"].default_value = (*m["albedo"], 1.0)
+        diffuse.inputs["Roughness"].default_value = 0.0
+        colours = obj.data.color_attributes if hasattr(obj.data, "color_attributes") else []
+        if m.get("albedo_from_vertex_colors") and len(colours) > 0:
+            attr = nodes.new("ShaderNodeAttribute")
+            attr.attribute_name = colours[0].name
+            links.new(attr.outputs["Color"], diffuse.inputs["Color"])
+        shader = diffuse
+        if max(m.get("specular", [0, 0, 0])) > 0:
+            glossy = nodes.new("ShaderNodeBsdfGlossy")
+            glossy.distribution = "GGX"
+            glossy.inputs["Color"].default_value = (*m["specular"], 1.0)
+            glossy.inputs["Roughness"].default_value = m.get("roughness", 0.5)
+            add = nodes.new("ShaderNodeAddShader")
+            links.new(diffuse.outputs["BSDF"], add.inputs[0])
+            links.new(glossy.outputs["BSDF"], add.inputs[1])
+            shader = add
+        if max(m.get("emission", [0, 0, 0])) > 0:
+            emit = nodes.new("ShaderNodeEmission")
+            emit.inputs["Color"].default_value = (*m["emission"], 1.0)
+            emit.inputs["Strength"].default_value = 1.0  # a surface's strength is its radiance
+            add = nodes.new("ShaderNodeAddShader")
+            links.new(shader.outputs[0], add.inputs[0])
+            links.new(emit.outputs["Emission"], add.inputs[1])
+            shader = add
+        links.new(shader.outputs[0], out.inputs["Surface"])
+        obj.data.materials.clear()
+        obj.data.materials.append(mat)
+
+
+def render_frame(scene, frame, samples, out_path):
+    # The room rendered whole (no shadow catcher, no plate), as mr-render's
+    # real layer: mr's pt settings where Cycles has them (no clamping, no
+    # filter glossy, a one-pixel box filter, 8 bounces).
+    for o in scene.objects:
+        if o.type == "MESH":
+            o.is_shadow_catcher = False
+    scene.render.film_transparent = False
+    scene.use_nodes = False
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = samples
+    c.use_denoising = False
+    c.use_adaptive_sampling = False
+    c.max_bounces = c.diffuse_bounces = c.glossy_bounces = 8
+    c.sample_clamp_direct = c.sample_clamp_indirect = 0
+    c.blur_glossy = 0.0
+    c.pixel_filter_type = "BOX"
+    c.filter_width = 1.0
+    scene.view_settings.view_transform = "Standard"
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    scene.render.image_settings.color_depth = "32"
+    scene.render.image_settings.color_mode = "RGBA"
+    scene.frame_set(frame)
+    scene.render.filepath = os.path.abspath(out_path)
+    bpy.ops.render.render(write_still=True)
 
 
 def setup_plate(scene, cam_obj, extras, base):
@@ -227,7 +355,7 @@ def setup_plate(scene, cam_obj, extras, base):
 def main(argv):
     if not argv:
         raise SystemExit("usage: blender -b --python SHOT-blender.py -- SHOT.glb [--blend OUT.blend] "
-                         "[--project POINTS.json OUT.json] [--describe OUT.json]")
+                         "[--project POINTS.json OUT.json] [--describe OUT.json] [--seed N] [--render FRAME SAMPLES OUT.exr]")
     path = os.path.abspath(argv[0])
     base = os.path.dirname(path)
     doc = read_gltf_json(path)
@@ -262,6 +390,7 @@ def main(argv):
         if obj is not None and node.get("extras", {}).get("mr", {}).get("role") == "room":
             obj.is_shadow_catcher = True
     setup_world(scene, extras, base)
+    mr_materials(doc, nodes_by_index)
     setup_lights(doc, nodes_by_index)
     make_area_lights(doc, nodes_by_index)
     import_assets(doc, base, nodes_by_index)
@@ -277,6 +406,12 @@ def main(argv):
         elif argv[i] == "--describe":
             describe(scene, argv[i + 1])
             i += 2
+        elif argv[i] == "--seed":
+            scene.cycles.seed = int(argv[i + 1])
+            i += 2
+        elif argv[i] == "--render":
+            render_frame(scene, int(argv[i + 1]), int(argv[i + 2]), argv[i + 3])
+            i += 4
         else:
             raise SystemExit("mr_shot: unknown option %s" % argv[i])
 
@@ -287,7 +422,7 @@ def describe(scene, out_path):
     if scene.world and scene.world.use_nodes:
         for n in scene.world.node_tree.nodes:
             if n.type == "TEX_ENVIRONMENT" and n.image:
-                world_image = os.path.basename(n.image.filepath)
+                world_image = scene.get("mr_world_image")
     d = {"resolution": [scene.render.resolution_x, scene.render.resolution_y],
          "pixel_aspect": [scene.render.pixel_aspect_x, scene.render.pixel_aspect_y],
          "frame_start": scene.frame_start, "frame_end": scene.frame_end,

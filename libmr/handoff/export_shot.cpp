@@ -7,10 +7,12 @@
 #include "camera/pose.h"
 #include "core/error.h"
 #include "core/file.h"
+#include "core/image.h"
 #include "core/math.h"
 #include "geometry/asset.h"
 #include "geometry/mesh.h"
 #include "handoff/gltf_builder.h"
+#include "handoff/stmap.h"
 #include "light/lights_file.h"
 #include "scene/frames.h"
 #include "scene/scene.h"
@@ -183,48 +185,51 @@ void Animate(GltfBuilder& b, Json* animation, int node, const std::vector<float>
   if (scales) channel(*scales, 3, "scale");
 }
 
-// The camera: a perspective camera of the model's pinhole core (fx, fy,
-// cx, cy) where the lens cannot see behind itself; its principal point
-// offset is Blender's lens shift in extras.
-Json CameraExtras(const CameraModel& cam, ShotExportResult* r) {
-  const auto& in = cam.intrinsics();
+// The camera: a perspective camera of `pinhole` (the lens's core, or the
+// ST-maps' grown pinhole) where the lens cannot see 90 degrees or more from
+// its axis; the principal point's offset is Blender's lens shift in extras.
+Json CameraExtras(const CameraModel& lens, const CameraModel& pinhole, ShotExportResult* r) {
+  const auto& in = pinhole.intrinsics();
   const double fx = in[0], fy = in[1], cx = in[2], cy = in[3];
-  const double w = cam.width(), h = cam.height();
-  Json j = {{"lensmodel", cam.lensmodel()},
-            {"intrinsics", in},
-            {"width", cam.width()},
-            {"height", cam.height()},
+  const double w = pinhole.width(), h = pinhole.height();
+  Json j = {{"lensmodel", lens.lensmodel()},
+            {"intrinsics", lens.intrinsics()},
+            {"lens_width", lens.width()},
+            {"lens_height", lens.height()},
+            {"width", pinhole.width()},
+            {"height", pinhole.height()},
             {"fx", fx},
             {"fy", fy},
             {"cx", cx},
             {"cy", cy},
             {"pixel_centre", "mrcal: (0, 0) is the centre of the top-left pixel"},
-            {"distorted", cam.lensmodel() != "LENSMODEL_PINHOLE"}};
-  // The widest angle from the axis at which the image's border sees.
+            {"distorted", lens.lensmodel() != "LENSMODEL_PINHOLE"}};
+  // The widest angle from the axis at which the lens's image border sees.
+  const double lw = lens.width(), lh = lens.height();
   double widest = 0;
   bool border_ok = true;
   auto look = [&](double x, double y) {
     Eigen::Vector3d d;
-    if (!cam.Unproject(Eigen::Vector2d(x, y), &d) || !d.allFinite()) {
+    if (!lens.Unproject(Eigen::Vector2d(x, y), &d) || !d.allFinite()) {
       border_ok = false;
       return;
     }
     widest = std::max(widest, std::acos(std::clamp(d.z() / d.norm(), -1.0, 1.0)) / kDegToRad);
   };
-  for (double x = -0.5; x <= w - 0.5; x += std::max(1.0, w / 64)) look(x, -0.5), look(x, h - 0.5);
-  for (double y = -0.5; y <= h - 0.5; y += std::max(1.0, h / 64)) look(-0.5, y), look(w - 0.5, y);
-  look(w - 0.5, h - 0.5);
+  for (double x = -0.5; x <= lw - 0.5; x += std::max(1.0, lw / 64)) look(x, -0.5), look(x, lh - 0.5);
+  for (double y = -0.5; y <= lh - 0.5; y += std::max(1.0, lh / 64)) look(-0.5, y), look(lw - 0.5, y);
+  look(lw - 0.5, lh - 0.5);
   j["widest_angle_from_axis_deg"] = widest;
   if (!border_ok || widest >= 89.5) {
     r->no_perspective = border_ok
                             ? fmt::format(
                                   "{} sees {:.1f} degrees from its axis, {:.1f} across: no perspective camera holds "
                                   "its view; the camera node carries the pose alone",
-                                  cam.lensmodel(), widest, 2 * widest)
+                                  lens.lensmodel(), widest, 2 * widest)
                             : fmt::format(
                                   "{}: part of the image's border has no ray (outside the model's domain): no "
                                   "perspective camera; the camera node carries the pose alone",
-                                  cam.lensmodel());
+                                  lens.lensmodel());
   } else {
     r->perspective = true;
     // Blender's lens shift (sensor fit horizontal): in units of the
@@ -320,13 +325,49 @@ ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
     ++r.objects;
   }
 
+  // The lens as ST-maps, and the pinhole they render through.
+  CameraModel pinhole("LENSMODEL_PINHOLE", {cam.Core()[0], cam.Core()[1], cam.Core()[2], cam.Core()[3]}, cam.width(),
+                      cam.height());
+  Json stmaps;
+  if (o.stmaps) {
+    const StMaps maps = MakeStMaps(cam, o.stmap_max_angle_deg);
+    pinhole = maps.pinhole;
+    r.undistort = o.out.parent_path() / (o.out.stem().string() + "-undistort.exr");
+    r.redistort = o.out.parent_path() / (o.out.stem().string() + "-redistort.exr");
+    WriteImage(r.undistort, maps.undistort);
+    WriteImage(r.redistort, maps.redistort);
+    report->AddOutput(r.undistort.string());
+    report->AddOutput(r.redistort.string());
+    r.stmap_unmapped = maps.unmapped;
+    stmaps = {{"undistort", Relative(r.undistort, o.out)}, {"redistort", Relative(r.redistort, o.out)},
+              {"overscan_left", maps.overscan_left},       {"overscan_top", maps.overscan_top},
+              {"max_angle_deg", maps.max_angle_deg},       {"unmapped_lens_pixels", maps.unmapped}};
+    if (maps.unmapped > 0)
+      report->Warn(fmt::format("{} of the lens's pixels see beyond {} degrees from its axis: not in the ST-maps",
+                               maps.unmapped, maps.max_angle_deg));
+  }
+
   // The camera, a key per frame with a pose.  glTF's camera looks along
   // its -z with +y up; mr's along +z with +y down: a half turn about x.
-  const Json cam_extras = CameraExtras(cam, &r);
+  Json cam_extras = CameraExtras(cam, pinhole, &r);
+  if (!stmaps.is_null()) {
+    cam_extras["stmaps"] = stmaps;
+    if (!r.perspective) {  // the maps' pinhole holds the part within the widest angle
+      r.perspective = true;
+      cam_extras["perspective"] = true;
+      const double fx = pinhole.Core()[0], fy = pinhole.Core()[1];
+      const double w = pinhole.width(), h = pinhole.height();
+      cam_extras["blender_shift"] = {-(pinhole.Core()[2] - (w - 1) / 2) / w,
+                                     (pinhole.Core()[3] - (h - 1) / 2) * (fx / fy) / w};
+      cam_extras["no_perspective"] =
+          r.no_perspective +
+          fmt::format("; with the ST-maps, the part within {} degrees of its axis is rendered", o.stmap_max_angle_deg);
+    }
+  }
   Json cam_node = {{"name", "camera"}};
   if (r.perspective) {
-    const double fx = cam.intrinsics()[0], fy = cam.intrinsics()[1];
-    const double w = cam.width(), h = cam.height();
+    const double fx = pinhole.Core()[0], fy = pinhole.Core()[1];
+    const double w = pinhole.width(), h = pinhole.height();
     cam_node["camera"] = b.Push(
         "cameras", {{"name", "camera"},
                     {"type", "perspective"},
@@ -407,6 +448,32 @@ ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
   report->SetMetric("export.assets", r.assets);
   report->SetMetric("export.lights", r.lights);
   return r;
+}
+
+int64_t ExportLens(const fs::path& model, const fs::path& out, double max_angle_deg, Report* report) {
+  if (LowerExtension(out) != ".cameramodel")
+    throw Error(fmt::format("{}: a lens's pinhole is written as a .cameramodel", out.string()));
+  const CameraModel lens = CameraModel::Read(model);
+  const StMaps maps = MakeStMaps(lens, max_angle_deg);
+  const fs::path undistort = out.parent_path() / (out.stem().string() + "-undistort.exr");
+  const fs::path redistort = out.parent_path() / (out.stem().string() + "-redistort.exr");
+  WriteImage(undistort, maps.undistort);
+  WriteImage(redistort, maps.redistort);
+  maps.pinhole.Write(out, fmt::format("the distortion-free pinhole of {} (mr-export): render through it, redistort "
+                                      "with {}; overscan {} px left, {} px top",
+                                      model.filename().string(), redistort.filename().string(), maps.overscan_left,
+                                      maps.overscan_top));
+  for (const auto& f : {out, undistort, redistort}) report->AddOutput(f.string());
+  report->SetMetric("stmaps.lens", lens.Describe());
+  report->SetMetric("stmaps.pinhole", maps.pinhole.Describe());
+  report->SetMetric("stmaps.overscan", Json::array({maps.overscan_left, maps.overscan_top,
+                                                    maps.pinhole.width() - lens.width() - maps.overscan_left,
+                                                    maps.pinhole.height() - lens.height() - maps.overscan_top}));
+  report->SetMetric("stmaps.unmapped_lens_pixels", maps.unmapped);
+  if (maps.unmapped > 0)
+    report->Warn(fmt::format("{} of the lens's pixels see beyond {} degrees from its axis: not in the ST-maps",
+                             maps.unmapped, max_angle_deg));
+  return maps.unmapped;
 }
 
 }  // namespace mr

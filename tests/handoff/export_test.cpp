@@ -5,9 +5,11 @@
 // Blender's reading of the same file: tests/crosscheck/shot_roundtrip.py.
 #include "handoff/export_shot.h"
 #include "handoff/gltf_builder.h"
+#include "handoff/stmap.h"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 
@@ -235,6 +237,72 @@ TEST(Export, BadOutputsAndRangesAreRefusedAndWriteNothing) {
     EXPECT_NE(std::string(e.what()).find("outside the 3 poses"), std::string::npos) << e.what();
   }
   EXPECT_EQ(s.dir.FileCount(), before);
+}
+
+// ST-maps (handoff/stmap.h).  A pinhole lens maps to itself: s = (x + 0.5)
+// / w exactly, no overscan.  A barrel lens grows the pinhole, and its two
+// maps are each other's inverse: a lens pixel through the redistort map and
+// back through the undistort map (bilinear) lands within 0.01 px of itself.
+TEST(StMaps, APinholeIsTheIdentityAndABarrelLensRoundTrips) {
+  const StMaps id = MakeStMaps(CameraModel("LENSMODEL_PINHOLE", {100, 100, 31.5, 23.5}, 64, 48));
+  EXPECT_EQ(id.pinhole.width(), 64);
+  EXPECT_EQ(id.overscan_left, 0);
+  for (int y : {0, 23, 47})
+    for (int x : {0, 40, 63}) {
+      EXPECT_NEAR(id.undistort.at(x, y, 0), (x + 0.5) / 64, 1e-6);
+      EXPECT_NEAR(id.undistort.at(x, y, 1), 1 - (y + 0.5) / 48, 1e-6);
+      EXPECT_EQ(id.redistort.at(x, y, 3), 1.0f);
+    }
+  const CameraModel barrel("LENSMODEL_OPENCV4", {200, 205, 80.3, 60.2, -0.3, 0.08, 0.001, -0.001}, 160, 120);
+  const StMaps m = MakeStMaps(barrel);
+  EXPECT_GT(m.overscan_left, 0);
+  EXPECT_GT(m.pinhole.width(), 160);
+  EXPECT_EQ(m.unmapped, 0);
+  const int W = m.pinhole.width(), H = m.pinhole.height();
+  auto bilinear = [&](double px, double py, int c) {
+    const int x0 = std::clamp(static_cast<int>(std::floor(px)), 0, W - 2);
+    const int y0 = std::clamp(static_cast<int>(std::floor(py)), 0, H - 2);
+    const double fx = px - x0, fy = py - y0;
+    return (1 - fy) * ((1 - fx) * m.undistort.at(x0, y0, c) + fx * m.undistort.at(x0 + 1, y0, c)) +
+           fy * ((1 - fx) * m.undistort.at(x0, y0 + 1, c) + fx * m.undistort.at(x0 + 1, y0 + 1, c));
+  };
+  double worst = 0;
+  for (int y = 2; y < 118; y += 7)
+    for (int x = 2; x < 158; x += 7) {
+      const double px = m.redistort.at(x, y, 0) * W - 0.5, py = (1 - m.redistort.at(x, y, 1)) * H - 0.5;
+      const double bx = bilinear(px, py, 0) * 160 - 0.5, by = (1 - bilinear(px, py, 1)) * 120 - 0.5;
+      worst = std::max({worst, std::abs(bx - x), std::abs(by - y)});
+    }
+  EXPECT_LT(worst, 0.01);
+}
+
+// A fish-eye past 180 degrees: the maps hold what lies within the widest
+// angle, the rest of the lens is unmapped (alpha 0), and with --stmaps the
+// shot's camera is that pinhole.
+TEST(StMaps, AFishEyePast180DegreesMapsThePartWithinTheWidestAngle) {
+  const CameraModel fish("LENSMODEL_STEREOGRAPHIC", {100, 100, 199.5, 199.5}, 400, 400);
+  const StMaps m = MakeStMaps(fish, 60);
+  EXPECT_GT(m.unmapped, 0);
+  EXPECT_EQ(m.redistort.at(0, 0, 3), 0.0f);      // a corner: 109 degrees from the axis
+  EXPECT_EQ(m.redistort.at(200, 200, 3), 1.0f);  // the centre
+  // 2 x 60 degrees, and the half lens pixel round the last ray within it.
+  EXPECT_GT(m.pinhole.HorizontalFovDeg(), 120.0);
+  EXPECT_LT(m.pinhole.HorizontalFovDeg(), 130.0);
+  Shot s(2, fish);
+  WriteTextFile(s.dir / "scene.json", s.scene.dump());
+  ShotExportOptions o;
+  o.scene = s.dir / "scene.json";
+  o.out = s.dir / "shot.gltf";
+  o.stmaps = true;
+  o.stmap_max_angle_deg = 60;
+  Report report("mr-export", "test");
+  const ShotExportResult r = ExportShot(o, &report);
+  EXPECT_TRUE(r.perspective);
+  EXPECT_GT(r.stmap_unmapped, 0);
+  EXPECT_TRUE(fs::exists(r.undistort) && fs::exists(r.redistort));
+  const Json cam = *NodeNamed(s.Read(), "camera");
+  EXPECT_EQ(cam["extras"]["mr"]["width"], m.pinhole.width());
+  EXPECT_EQ(cam["extras"]["mr"]["stmaps"]["unmapped_lens_pixels"], m.unmapped);
 }
 
 TEST(Export, Base64MatchesTheRfcVectors) {

@@ -348,7 +348,19 @@ def setup_plate(scene, cam_obj, extras, base):
     over = nt.nodes.new("CompositorNodeAlphaOver")
     comp = nt.nodes.new("CompositorNodeComposite")
     nt.links.new(im.outputs["Image"], over.inputs[1])
-    nt.links.new(rl.outputs["Image"], over.inputs[2])
+    render_out = rl.outputs["Image"]
+    st = extras.get("camera", {}).get("stmaps")
+    if st:
+        # The render is through the undistorted pinhole: redistorted to the
+        # lens's image by the ST-map before it goes over the plate.
+        stmap = nt.nodes.new("CompositorNodeImage")
+        stmap.image = bpy.data.images.load(os.path.join(base, st["redistort"]))
+        stmap.image.colorspace_settings.name = "Non-Color"
+        mapuv = nt.nodes.new("CompositorNodeMapUV")
+        nt.links.new(render_out, mapuv.inputs["Image"])
+        nt.links.new(stmap.outputs["Image"], mapuv.inputs["UV"])
+        render_out = mapuv.outputs["Image"]
+    nt.links.new(render_out, over.inputs[2])
     nt.links.new(over.outputs["Image"], comp.inputs["Image"])
 
 

@@ -23,12 +23,21 @@ CompositeResult Composite(const Image& photo, const Image& mixed, const Image& r
   CompositeResult r;
   r.composite = Image::Rgb(w, h);
   r.difference = Image::Rgb(w, h);
+  r.objects = Image::Rgba(w, h);
   for (int y = 0; y < h; ++y)
     for (int x = 0; x < w; ++x) {
       const float m = mask.at(x, y, 0);
+      r.objects.at(x, y, 3) = m;
       for (int c = 0; c < 3; ++c) {
+        // Each step rounded to float as a compositor's over rounds it:
+        // objects + (1 - alpha) * (photo + difference).
         const float d = mixed.at(x, y, c) - real.at(x, y, c);
-        float v = m * object.at(x, y, c) + (1 - m) * (photo.at(x, y, c) + d);
+        const float o = m * object.at(x, y, c);
+        const float one_minus = 1 - m;
+        const float b = photo.at(x, y, c) + d;
+        const float under = one_minus * b;
+        float v = o + under;
+        r.objects.at(x, y, c) = o;
         if (v < 0) {
           v = 0;
           ++r.clamped_negative;

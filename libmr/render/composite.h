@@ -8,8 +8,12 @@
 namespace mr {
 
 struct CompositeResult {
-  Image composite;               // RGB
-  Image difference;              // I_m - I_r, RGB
+  Image composite;   // RGB
+  Image difference;  // I_m - I_r, RGB
+  // The objects alone, premultiplied: M * object (RGB) with alpha M, so that
+  // the composite is, in float32 and bit for bit, max(0, objects over
+  // (photo + difference)): Porter-Duff over, A + (1 - A.alpha) B.
+  Image objects;
   int64_t clamped_negative = 0;  // channel values clamped to 0
 };
 

@@ -220,8 +220,8 @@ Image ReadReferenceFrame(const fs::path& path, int width, int height) {
 }
 
 const std::vector<std::string>& FrameLayerNames() {
-  static const std::vector<std::string> names = {"composite",  "mixed",    "real",    "mask",
-                                                 "difference", "variance", "samples", "photo"};
+  static const std::vector<std::string> names = {"composite", "mixed",   "real",  "mask",   "difference",
+                                                 "variance",  "samples", "photo", "objects"};
   return names;
 }
 
@@ -233,8 +233,9 @@ void WriteFrameFiles(const fs::path& out_dir, int frame, const FrameLayers& l, c
   };
   std::vector<std::pair<std::string, const Image*>> chosen;
   const std::pair<const char*, const Image*> all[] = {
-      {"composite", l.composite},   {"mixed", l.mixed},       {"real", l.real},       {"mask", l.mask},
-      {"difference", l.difference}, {"variance", l.variance}, {"samples", l.samples}, {"photo", l.photo}};
+      {"composite", l.composite}, {"mixed", l.mixed},           {"real", l.real},
+      {"mask", l.mask},           {"difference", l.difference}, {"variance", l.variance},
+      {"samples", l.samples},     {"photo", l.photo},           {"objects", l.objects}};
   for (const auto& [name, img] : all)
     if (img && (wanted(name) || std::string(name) == "composite")) chosen.emplace_back(name, img);
   const Image layers = Image::Stack(chosen);

@@ -148,6 +148,7 @@ struct FrameLayers {
   const Image* codes = nullptr;  // the composite as the photograph's code values (ToCodes): the PNG
   const Image *mixed = nullptr, *real = nullptr, *mask = nullptr, *difference = nullptr, *variance = nullptr,
               *samples = nullptr, *photo = nullptr;  // photo: null when the scene names no frames
+  const Image* objects = nullptr;                    // M x I_m with alpha M (CompositeResult::objects)
 };
 
 // Writes OUT/NNNNN.exr (the layers output.layers names, composite always)

@@ -802,7 +802,7 @@ void RenderJob::WriteFrame(const Frame& fr, FrameImages* im) {
   const Image codes = decoding_.ToCodes(im->cr.composite, fr.encoding);
   const Image* photo_ptr = fr.photo ? &*fr.photo : nullptr;
   FrameLayers layers{&im->cr.composite,  &codes,        &im->mixed,   &im->real, &im->mask,
-                     &im->cr.difference, &im->variance, &im->samples, photo_ptr};
+                     &im->cr.difference, &im->variance, &im->samples, photo_ptr, &im->cr.objects};
   WriteFrameFiles(out_dir_, fr.f, layers, fr.encoding, decoding_.CodesColorSpace(fr.encoding), scene_.output, o_.tool,
                   Provenance(fr.f), report_);
   // The frame's inputs key beside it (not in it: inputs that differ only in

@@ -18,8 +18,8 @@
 namespace mr {
 
 const std::vector<std::string>& OutputLayers() {
-  static const std::vector<std::string> l = {"composite",  "mixed",    "real",    "mask",
-                                             "difference", "variance", "samples", "photo"};
+  static const std::vector<std::string> l = {"composite", "mixed",   "real",  "mask",   "difference",
+                                             "variance",  "samples", "photo", "objects"};
   return l;
 }
 

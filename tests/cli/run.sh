@@ -77,6 +77,14 @@ check "mr-render" 0 "" -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/ren
 check "render report" 0 '"region_relmse"' -- cat "$tmp/render.json"
 check "render layers" 0 "composite" -- "$bin/mr-info" "$tmp/render/00001.exr"
 check "mr-eval compare" 0 "relmse" -- "$bin/mr-eval" compare "$tmp/render/00000.exr" "$tmp/cap/truth/00000.exr" --diff "$tmp/diff.png" --report "$tmp/cmp.json"
+# The compositor's passes rebuild the composite bit for bit (docs/formats.md):
+# objects over (photo + difference), clamped at 0, as oiiotool computes it.
+r="$tmp/render/00000.exr"
+oiiotool "$r" --ch objects.R,objects.G,objects.B,objects.A --chnames R,G,B,A \
+  "$r" --ch photo.R,photo.G,photo.B --chnames R,G,B "$r" --ch difference.R,difference.G,difference.B --chnames R,G,B \
+  --add --ch R,G,B,A=1.0 --over --clamp:min=0 --ch R,G,B -o "$tmp/rebuilt.exr"
+oiiotool "$r" --ch composite.R,composite.G,composite.B --chnames R,G,B -o "$tmp/composite.exr"
+check "passes rebuild the composite" 0 "PASS" -- idiff -fail 0 -failpercent 0 -warn 0 "$tmp/rebuilt.exr" "$tmp/composite.exr"
 check "unknown method" 2 'voxels' -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/r2" --method voxels
 # The fast GI methods, their reports and the error-against-time sweep.
 check "mr-render ic" 0 "" -- "$bin/mr-render" "$tmp/cap/scene.json" --out "$tmp/ric" --method ic --spp 1 -q --report "$tmp/ric.json"

@@ -74,6 +74,16 @@ mr_require(embree_FOUND libembree-dev "Embree 3")
 find_package(TinyGLTF QUIET CONFIG)
 mr_require(TinyGLTF_FOUND libtinygltf-dev "tinygltf (glTF 2.0 assets)")
 
+# Plates in camera log encodings and ACES (core/color_management.cpp).
+# Debian 12's CMake config for it resolves its prefix to "/" (it lies in
+# /usr/share/cmake): its pkg-config file is used instead.
+find_package(PkgConfig QUIET)
+if(PkgConfig_FOUND)
+  pkg_check_modules(OCIO QUIET IMPORTED_TARGET OpenColorIO>=2.1)
+endif()
+mr_require(OCIO_FOUND libopencolorio-dev "OpenColorIO 2.1 (plates through colour-managed configs)")
+add_library(OpenColorIO::OpenColorIO ALIAS PkgConfig::OCIO)
+
 # mrcal ships neither a CMake config nor a pkg-config file in Debian 12.
 find_path(MRCAL_INCLUDE_DIR mrcal/mrcal.h)
 find_library(MRCAL_LIBRARY mrcal)

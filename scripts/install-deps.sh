@@ -17,6 +17,7 @@ packages=(
   # geometry and ray tracing
   libopenmesh-dev libembree-dev
   libtinygltf-dev                     # glTF 2.0 assets
+  libopencolorio-dev                  # plates in log encodings and ACES
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   blender python3-opencv              # the Cycles cross-check and bench/cycles_compare.py

@@ -38,7 +38,10 @@ CompositeResult Composite(const Image& photo, const Image& mixed, const Image& r
         const float under = one_minus * b;
         float v = o + under;
         r.objects.at(x, y, c) = o;
-        if (v < 0) {
+        // Negative where the removed light exceeds the plate: clamped.  A
+        // plate's own negative value (a colour outside the working space's
+        // gamut, from a wider one) is kept, so that it encodes back.
+        if (v < 0 && v != photo.at(x, y, c)) {
           v = 0;
           ++r.clamped_negative;
         }

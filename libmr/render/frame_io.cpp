@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/check.h"
 #include "core/contact_sheet.h"
 #include "core/error.h"
 #include "core/image_metrics.h"
@@ -21,7 +22,17 @@ FrameDecoding FrameDecoding::FromScene(const Scene& scene, Report* report) {
     d.response = ReadResponse(*scene.camera.response);
     report->AddInput(scene.camera.response->string());
   }
-  d.raw_codes = d.display_space || d.response.has_value();
+  if (d.photograph && !scene.camera.frames_colorspace.empty()) {
+    // Both ways before any work: a space the config lacks, or one whose
+    // inverse it cannot build, is refused here.
+    const std::string config = scene.camera.ocio_config ? scene.camera.ocio_config->string() : "";
+    d.ocio_decode = std::make_shared<const ColorTransform>(config, scene.camera.frames_colorspace,
+                                                           scene.camera.ocio_working, "camera.frames_colorspace");
+    d.ocio_encode = std::make_shared<const ColorTransform>(config, scene.camera.ocio_working,
+                                                           scene.camera.frames_colorspace, "camera.frames_colorspace");
+    if (scene.camera.ocio_config) report->AddInput(config);
+  }
+  d.raw_codes = d.display_space || d.response.has_value() || d.ocio_decode != nullptr;
   d.gains_scale_room = scene.camera.gains_scale == "room";
   if (d.photograph && scene.camera.gains) {
     d.gains_file = scene.camera.gains->string();
@@ -32,9 +43,13 @@ FrameDecoding FrameDecoding::FromScene(const Scene& scene, Report* report) {
                                                         : "render (everything rendered into the plate's units)");
   }
   if (d.photograph)
-    report->SetMetric("compositing", d.display_space ? "display space (camera response unknown)"
-                                     : d.response    ? "linear radiance (frames through the camera's response)"
-                                                     : "linear radiance");
+    report->SetMetric("compositing",
+                      d.display_space ? "display space (camera response unknown)"
+                      : d.response    ? "linear radiance (frames through the camera's response)"
+                      : d.ocio_decode
+                          ? fmt::format("linear radiance (frames from \"{}\" to \"{}\" through {})",
+                                        d.ocio_decode->from(), d.ocio_decode->to(), d.ocio_decode->config_name())
+                          : "linear radiance");
   return d;
 }
 
@@ -113,7 +128,10 @@ CompositeResult FrameDecoding::Compose(const FrameMethod& frame, const Image* ph
 Image FrameDecoding::ToCodes(const Image& radiance, const PhotoEncoding& enc) const {
   Image codes = radiance;
   const float e = static_cast<float>(exposure);
-  if (display_space) {
+  if (ocio_encode) {
+    ocio_encode->Apply(&codes);
+    for (float& v : codes.values()) v = Clamp(v, 0.0f, 1.0f);
+  } else if (display_space) {
     for (float& v : codes.values()) v = LinearToSrgb(Clamp(v * e, 0.0f, 1.0f));
   } else if (response) {
     for (float& v : codes.values()) v *= e;
@@ -131,7 +149,9 @@ Image FrameDecoding::ToCodes(const Image& radiance, const PhotoEncoding& enc) co
 Image FrameDecoding::FromCodes(const Image& codes, const PhotoEncoding& enc) const {
   Image out = codes;
   for (float& v : out.values()) v = Clamp(v, 0.0f, 1.0f);
-  if (response) {
+  if (ocio_decode) {
+    ocio_decode->Apply(&out);
+  } else if (response) {
     out = Linearise(out, *response);
     for (float& v : out.values()) v /= static_cast<float>(exposure);
   } else if (display_space) {
@@ -143,6 +163,7 @@ Image FrameDecoding::FromCodes(const Image& codes, const PhotoEncoding& enc) con
 }
 
 std::string FrameDecoding::CodesColorSpace(const PhotoEncoding& enc) const {
+  if (ocio_encode) return ocio_encode->to();
   return !display_space && !response && enc.has_codes && enc.transfer == Transfer::kLinear ? "Linear" : "sRGB";
 }
 
@@ -174,7 +195,23 @@ FrameReader::~FrameReader() = default;
 
 double FrameReader::fps() const { return video_ && video_->fps() > 0 ? video_->fps() : 30.0; }
 
-std::optional<Image> FrameReader::Photo(int f, PhotoEncoding* enc) {
+int64_t KeepPlateCodes(const Image& photo, const Image& composite, const Image& plate_codes, Image* codes) {
+  MR_CHECK(photo.width() == composite.width() && photo.height() == composite.height() &&
+           plate_codes.width() == photo.width() && plate_codes.height() == photo.height() &&
+           codes->width() == photo.width() && codes->height() == photo.height());
+  int64_t kept = 0;
+  for (int y = 0; y < photo.height(); ++y)
+    for (int x = 0; x < photo.width(); ++x) {
+      bool same = true;
+      for (int c = 0; c < 3; ++c) same = same && photo.at(x, y, c) == composite.at(x, y, c);
+      if (!same) continue;
+      for (int c = 0; c < 3; ++c) codes->at(x, y, c) = plate_codes.at(x, y, c);
+      ++kept;
+    }
+  return kept;
+}
+
+std::optional<Image> FrameReader::Photo(int f, PhotoEncoding* enc, Image* codes) {
   std::optional<Image> photo;
   PhotoEncoding e;
   if (video_) {
@@ -191,6 +228,8 @@ std::optional<Image> FrameReader::Photo(int f, PhotoEncoding* enc) {
     e.type = info.pixel_type == "uint16" ? PixelType::kUint16 : PixelType::kUint8;
   }
   if (enc) *enc = e;
+  if (photo && codes) *codes = *photo;
+  if (photo && decoding_.ocio_decode) decoding_.ocio_decode->Apply(&*photo);
   if (photo && decoding_.response) {
     *photo = Linearise(*photo, *decoding_.response);
     for (float& v : photo->values()) v /= static_cast<float>(decoding_.exposure);

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "camera/camera_model.h"
+#include "core/color_management.h"
 #include "core/image.h"
 #include "core/report.h"
 #include "core/video.h"
@@ -40,9 +41,12 @@ struct PhotoEncoding {
 struct FrameDecoding {
   bool photograph = false;     // the scene names camera frames
   bool display_space = false;  // "display"
-  bool raw_codes = false;      // "display" or "response": files read as code values
+  bool raw_codes = false;      // "display", "response" or a colour space: files read as code values
   Transfer file_transfer = Transfer::kSrgb;
   std::optional<CameraResponse> response;
+  // camera.frames_colorspace: the codes to the working space and back
+  // (OpenColorIO), both built before any frame is read.
+  std::shared_ptr<const ColorTransform> ocio_decode, ocio_encode;
   double exposure = 1;
   // The render-to-plate gain of the frame (ForFrame), per channel: the plate's
   // linear values P (display: the sRGB-decoded codes; response: through the
@@ -93,6 +97,13 @@ struct FrameDecoding {
   std::string CodesColorSpace(const PhotoEncoding& enc) const;
 };
 
+// Where `composite` is the decoded plate `photo` itself (every channel, bit
+// for bit), `codes` takes the plate's own code values `plate_codes`: an
+// untouched pixel keeps its code whatever the precision of the decoding's
+// inverse (OpenColorIO's float32 log curves are within 2e-5 of it: exact at
+// 8 and 10 bits, not always at 16).  Returns the pixels kept.
+int64_t KeepPlateCodes(const Image& photo, const Image& composite, const Image& plate_codes, Image* codes);
+
 // Frame `f`'s shutter interval and lens (scene camera.shutter, camera.lens):
 // the camera's poses at shutter open and close, between its neighbours'
 // poses (the first and last frames blur over the half they have); `moves`
@@ -109,7 +120,9 @@ class FrameReader {
   // Frame `f` in the compositing space (radiance, or display code values),
   // checked against the camera's size; nullopt when the scene names none.
   // `enc`, when given, receives how the frame was stored.
-  std::optional<Image> Photo(int f, PhotoEncoding* enc = nullptr);
+  // `codes`, when given, receives the file's code values before decoding
+  // (as read with raw codes).
+  std::optional<Image> Photo(int f, PhotoEncoding* enc = nullptr, Image* codes = nullptr);
 
  private:
   const Scene& scene_;

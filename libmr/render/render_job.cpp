@@ -190,6 +190,9 @@ class RenderJob {
     bool copy = false;  // copied through: nothing rendered
     PhotoEncoding encoding;
     std::optional<Image> photo, ref, region;
+    // The plate's code values as read, where a colour space decodes them:
+    // an unchanged pixel writes them back (PhotoEncoding, KeepPlateCodes).
+    std::optional<Image> codes;
     std::optional<DecodedPlate> plate;  // prt's background; pt's and ic's reflections
     PlateViews plates;
     double seconds = 0;       // the method's own time on the frame
@@ -614,7 +617,9 @@ Json RenderJob::AdvanceWorld(Frame* fr) {
 // reflections take the room from.
 void RenderJob::LoadPlates(Frame* fr) {
   const int f = fr->f;
-  fr->photo = frames_->Photo(f, &fr->encoding);
+  Image codes;
+  fr->photo = frames_->Photo(f, &fr->encoding, decoding_.ocio_decode ? &codes : nullptr);
+  if (decoding_.ocio_decode && fr->photo) fr->codes = std::move(codes);
   if (reference_) fr->ref = ReadReferenceFrame(FramePath(*reference_, f), in_.camera.width(), in_.camera.height());
   if (fr->photo && !fr->copy) fr->plate = DecodePlate(decoding_.ForFrame(f), *fr->photo, fr->encoding);
   if (fr->plate && method_->TakesPlateReflections())
@@ -758,6 +763,7 @@ RenderJob::FrameImages RenderJob::Compose(const Frame& fr, FrameMethod* fm, cons
   if (!fm) {
     im.cr.composite = decoding_.ToRadiance(*fr.photo);
     im.cr.difference = Image::Rgb(in_.camera.width(), in_.camera.height());
+    im.cr.objects = Image::Rgba(in_.camera.width(), in_.camera.height());
     im.mixed = im.real = *fr.photo;
     im.mask = im.variance = im.samples = Image::Gray(in_.camera.width(), in_.camera.height());
     return im;
@@ -799,7 +805,8 @@ RenderJob::FrameImages RenderJob::Compose(const Frame& fr, FrameMethod* fm, cons
 // object does not change keeps the plate's code value.
 void RenderJob::WriteFrame(const Frame& fr, FrameImages* im) {
   ScopedTimer t(report_, "write");
-  const Image codes = decoding_.ToCodes(im->cr.composite, fr.encoding);
+  Image codes = decoding_.ToCodes(im->cr.composite, fr.encoding);
+  if (fr.codes) KeepPlateCodes(*fr.photo, im->cr.composite, *fr.codes, &codes);
   const Image* photo_ptr = fr.photo ? &*fr.photo : nullptr;
   FrameLayers layers{&im->cr.composite,  &codes,        &im->mixed,   &im->real, &im->mask,
                      &im->cr.difference, &im->variance, &im->samples, photo_ptr, &im->cr.objects};

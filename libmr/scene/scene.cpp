@@ -192,7 +192,11 @@ void ParseCamera(const Node& node, const fs::path& base, bool check, SceneCamera
   JsonSettings cam(node);
   const JsonNode model = cam.Require("model");
   const auto frames = cam.Take("frames");
+  const bool transfer_given = node.json().contains("frames_transfer");
   cam.OneOf("frames_transfer", &c.frames_transfer, {"srgb", "linear", "display", "response"});
+  const auto colorspace = cam.Take("frames_colorspace");
+  const auto ocio_config = cam.Take("ocio_config");
+  const auto ocio_working = cam.Take("ocio_working");
   const auto exposure = cam.Take("exposure");
   const auto response = cam.Take("response");
   const auto gains = cam.Take("gains");
@@ -210,6 +214,16 @@ void ParseCamera(const Node& node, const fs::path& base, bool check, SceneCamera
       c.frames_are_video = true;
     }
   }
+  if (colorspace) {
+    c.frames_colorspace = colorspace->String();
+    if (c.frames_colorspace.empty()) colorspace->Fail("names no colour space");
+    if (transfer_given) colorspace->Fail("replaces frames_transfer: give one of the two");
+    if (!frames) colorspace->Fail("decodes the plate: camera.frames is not given");
+  }
+  if (ocio_config) c.ocio_config = ResolveFile(*ocio_config, base, check, "OpenColorIO config");
+  if (ocio_working) c.ocio_working = ocio_working->String();
+  if ((ocio_config || ocio_working) && !colorspace)
+    (ocio_config ? *ocio_config : *ocio_working).Fail("is used with camera.frames_colorspace, which is not given");
   if (response) c.response = ResolveFile(*response, base, check, "camera response");
   if ((c.frames_transfer == "response") != c.response.has_value())
     (response ? *response : cam.Node("frames_transfer"))

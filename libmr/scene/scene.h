@@ -52,6 +52,14 @@ struct SceneCamera {
   // "response" (decoded through `response`, mr-hdr's response.json, and
   // divided by `exposure`, the frames' exposure time: composited linearly).
   std::string frames_transfer = "srgb";
+  // Plates in a colour space of an OpenColorIO config (docs/formats.md,
+  // "Plates through OpenColorIO"), replacing frames_transfer: the frames'
+  // codes decoded from `frames_colorspace` to `ocio_working` (the space mr
+  // composites in, linear Rec.709) and the 8- and 16-bit outputs encoded
+  // back.  `ocio_config`: the config (none: mr's own, ocio/mr.ocio).
+  std::string frames_colorspace;  // empty: none
+  std::optional<fs::path> ocio_config;
+  std::string ocio_working = "Linear Rec.709 (sRGB)";
   double exposure = 1.0;  // "display": display value = sRGB(clamp(exposure x radiance)); "response": seconds
   std::optional<fs::path> response;
   // The plate's radiometric gains per frame (mr-eval plate's gains.json): the

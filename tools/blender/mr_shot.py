@@ -12,10 +12,11 @@
 # Run headless:
 #   blender -b --python SHOT-blender.py -- SHOT.glb [--blend OUT.blend]
 #          [--project POINTS.json OUT.json] [--describe OUT.json]
-#          [--seed N] [--render FRAME SAMPLES OUT.exr]
+#          [--seed N] [--render FRAME SAMPLES OUT.exr] [--composite FRAME SAMPLES OUT.png]
 # --render: frame FRAME of the room rendered whole by Cycles (no shadow
 # catcher, no plate; mr's path-tracing settings), for comparing with
-# mr-render's real layer.
+# mr-render's real layer.  --composite: frame FRAME as the artist gets it,
+# the render over the plate through the compositor.
 # --project: for each camera key, the pixel (mrcal's convention: (0, 0) the
 # centre of the top-left pixel) at which Blender's camera sees each point
 # of POINTS.json ({"points": [[x, y, z], ...]} in glTF coordinates); the
@@ -303,13 +304,29 @@ def render_frame(scene, frame, samples, out_path):
     c.blur_glossy = 0.0
     c.pixel_filter_type = "BOX"
     c.filter_width = 1.0
+    write_render(scene, frame, out_path, "OPEN_EXR", "32", "RGBA")
+
+
+def write_render(scene, frame, out_path, file_format, depth, mode):
+    # Renders frame `frame` through the Standard view and writes it.
     scene.view_settings.view_transform = "Standard"
-    scene.render.image_settings.file_format = "OPEN_EXR"
-    scene.render.image_settings.color_depth = "32"
-    scene.render.image_settings.color_mode = "RGBA"
+    scene.render.image_settings.file_format = file_format
+    scene.render.image_settings.color_depth = depth
+    scene.render.image_settings.color_mode = mode
     scene.frame_set(frame)
     scene.render.filepath = os.path.abspath(out_path)
     bpy.ops.render.render(write_still=True)
+
+
+def composite_frame(scene, frame, samples, out_path):
+    # The shot as the artist gets it: the objects and the room's shadow
+    # catcher rendered by Cycles over the plate in the compositor (8-bit,
+    # the Standard view: the plate's linear values through sRGB).
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = samples
+    c.use_denoising = False
+    write_render(scene, frame, out_path, "PNG", "8", "RGB")
 
 
 def setup_plate(scene, cam_obj, extras, base):
@@ -367,7 +384,8 @@ def setup_plate(scene, cam_obj, extras, base):
 def main(argv):
     if not argv:
         raise SystemExit("usage: blender -b --python SHOT-blender.py -- SHOT.glb [--blend OUT.blend] "
-                         "[--project POINTS.json OUT.json] [--describe OUT.json] [--seed N] [--render FRAME SAMPLES OUT.exr]")
+                         "[--project POINTS.json OUT.json] [--describe OUT.json] [--seed N] [--render FRAME SAMPLES OUT.exr] "
+                         "[--composite FRAME SAMPLES OUT.png]")
     path = os.path.abspath(argv[0])
     base = os.path.dirname(path)
     doc = read_gltf_json(path)
@@ -421,6 +439,9 @@ def main(argv):
         elif argv[i] == "--seed":
             scene.cycles.seed = int(argv[i + 1])
             i += 2
+        elif argv[i] == "--composite":
+            composite_frame(scene, int(argv[i + 1]), int(argv[i + 2]), argv[i + 3])
+            i += 4
         elif argv[i] == "--render":
             render_frame(scene, int(argv[i + 1]), int(argv[i + 2]), argv[i + 3])
             i += 4

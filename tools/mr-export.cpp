@@ -14,8 +14,8 @@ int main(int argc, char** argv) {
       app, "mr-export",
       "Writes a shot (scene.json: the room, the virtual objects, the camera path and lens, the light)\n"
       "as a glTF 2.0 scene (.glb or .gltf) that Blender and other glTF readers import: the room\n"
-      "marked as a shadow catcher, the objects with their materials (glTF assets referenced from\n"
-      "their own files), the camera as a perspective camera of the lens's pinhole core animated\n"
+      "marked as a shadow catcher, the objects with their materials (glTF assets merged in with\n"
+      "their textures), the camera as a perspective camera of the lens's pinhole core animated\n"
       "per frame, the lights (KHR_lights_punctual; area lights in extras), and in extras the\n"
       "environment map, the plate and mr's exact values. Beside it, OUT-blender.py sets up in\n"
       "Blender what glTF cannot carry (lens shift and pixel aspect, the world, the shadow catcher,\n"

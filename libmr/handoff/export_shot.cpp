@@ -290,8 +290,13 @@ ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
   for (const SceneVirtual& v : scene.virtuals) {
     Json node = {{"name", v.name}};
     Json mr = {{"role", "object"}, {"source", Relative(v.mesh, o.out)}};
-    if (v.file_materials) {
-      mr["asset"] = Relative(v.mesh, o.out);  // imported by the Blender script, parented to this node
+    const std::string ext = LowerExtension(v.mesh);
+    const bool gltf_asset = v.file_materials && (ext == ".glb" || ext == ".gltf");
+    if (v.file_materials && !gltf_asset) {
+      mr["asset"] = Relative(v.mesh, o.out);  // an OBJ's MTL: imported by the Blender script onto this node
+      ++r.assets;
+    } else if (gltf_asset) {
+      mr["asset_embedded"] = true;  // merged below, its own materials and textures with it
       ++r.assets;
     } else {
       const Mesh m = ReadMesh(v.mesh);
@@ -313,6 +318,10 @@ ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
     node["extras"]["mr"] = mr;
     const int id = b.Push("nodes", node);
     roots.push_back(id);
+    if (gltf_asset) {
+      const std::string note = b.MergeAsset(v.mesh, id);
+      if (!note.empty()) report->Warn(fmt::format("{}: {}", v.mesh.string(), note));
+    }
     if (!v.keyframes.empty()) {
       std::vector<float> tr, ro, sc;
       for (int f = begin; f < end; ++f) {

@@ -29,6 +29,17 @@ class GltfBuilder {
   int AddFloats(const std::vector<float>& values, int components, bool bounds, int target = 34962);
   // An unsigned 32-bit index accessor (element array buffer).
   int AddIndices(const std::vector<uint32_t>& indices);
+  // Appends raw bytes to the binary buffer, 16-byte aligned (so views keep
+  // any alignment they had within their own buffer); returns their offset.
+  size_t AppendBytes(const std::string& bytes);
+  // A buffer view over `bytes` (an image's file), no target.
+  int AddBytesView(const std::string& bytes) { return AddView(bytes.data(), bytes.size(), 0); }
+  // Merges a glTF document read from `path` (.glb or .gltf; its buffers and
+  // images, files or data URIs, copied into this one): meshes, materials,
+  // textures, images, samplers and its default scene's nodes, which become
+  // children of node `parent`.  Skins, animations and cameras are left out
+  // (counted in the returned note).  Throws mr::Error naming the file.
+  std::string MergeAsset(const fs::path& path, int parent);
   Json& json() { return doc_; }
   const Json& json() const { return doc_; }
   // The document as .glb bytes or as .gltf text.
@@ -46,5 +57,7 @@ class GltfBuilder {
 };
 
 std::string Base64Encode(const std::string& bytes);
+// Throws mr::Error on a character outside the alphabet.
+std::string Base64Decode(const std::string& text);
 
 }  // namespace mr

@@ -18,6 +18,7 @@
 #include "core/error.h"
 #include "core/file.h"
 #include "core/math.h"
+#include "geometry/asset.h"
 #include "geometry/mesh.h"
 #include "geometry/primitives.h"
 #include "test_util.h"
@@ -305,7 +306,33 @@ TEST(StMaps, AFishEyePast180DegreesMapsThePartWithinTheWidestAngle) {
   EXPECT_EQ(cam["extras"]["mr"]["stmaps"]["unmapped_lens_pixels"], m.unmapped);
 }
 
+// A glTF asset placed in the shot is merged into it, its meshes, materials
+// and textures with it (images from files and from the .glb's buffer
+// embedded), under the object's node: mr's own asset reader, which checks
+// every accessor against its buffer, reads the exported shot's parts and
+// finds the assets' triangles and images in it.
+TEST(Export, GltfAssetsAreMergedIntoTheShot) {
+  const fs::path assets = fs::path(MR_SOURCE_DIR) / "tests" / "data" / "assets";
+  for (const char* name : {"khronos/BoxTextured.gltf", "blender/blender.glb"}) {
+    Shot s(1, CameraModel("LENSMODEL_PINHOLE", {150, 150, 79.5, 49.5}, 160, 100), false);
+    fs::copy(assets / name, s.dir / fs::path(name).filename());
+    if (fs::path(name).extension() == ".gltf")
+      for (const char* extra : {"BoxTextured0.bin", "CesiumLogoFlat.png"})
+        if (fs::exists(assets / "khronos" / extra)) fs::copy(assets / "khronos" / extra, s.dir / extra);
+    s.scene["virtual"][0]["mesh"] = fs::path(name).filename().string();
+    const ShotExportResult r = s.Export("shot.glb");
+    EXPECT_EQ(r.assets, 1) << name;
+    const Asset original = ReadAsset(s.dir / fs::path(name).filename());
+    const Asset exported = ReadAsset(s.dir / "shot.glb");
+    EXPECT_EQ(exported.triangle_count(), original.triangle_count()) << name;
+    EXPECT_EQ(exported.images.size(), original.images.size()) << name;
+    EXPECT_EQ(exported.materials.size(), original.materials.size()) << name;
+  }
+}
+
 TEST(Export, Base64MatchesTheRfcVectors) {
+  EXPECT_EQ(Base64Decode("Zm9vYmFy"), "foobar");
+  EXPECT_EQ(Base64Decode("Zm8="), "fo");
   EXPECT_EQ(Base64Encode(""), "");
   EXPECT_EQ(Base64Encode("f"), "Zg==");
   EXPECT_EQ(Base64Encode("fo"), "Zm8=");

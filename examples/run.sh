@@ -125,6 +125,21 @@ p = r.get('plate_reflections') or {}
 print('%.1f s a frame; of the real points seen through the glass or in the steel, %.0f %% from the plate' % (r['seconds'], 100 * p.get('share', 0)))
 " "$w/reports/render-showcase.json" 2>/dev/null || echo "see $w/reports/render-showcase.json"))"
 
+# The shot handed to Blender: the showcase scene (room, the glTF asset merged
+# in, the camera path, the light, the plate) as a glTF scene, the lens as
+# ST-maps, and Blender's script beside it; where Blender is installed, it is
+# imported headless and saved as a .blend (docs/tutorial.md, step 9).
+mkdir -p "$w/shot"
+"$bin/mr-export" "$w/scene-showcase.json" --out "$w/shot/shot.glb" --stmaps --report "$w/reports/export.json" -q
+if command -v blender > /dev/null; then
+  blender -b --factory-startup -noaudio --python "$w/shot/shot-blender.py" -- "$w/shot/shot.glb" \
+    --blend "$w/shot/shot.blend" --describe "$w/shot/blender.json" > "$w/logs/blender.log" 2>&1 \
+    && echo "shot in Blender:  $w/shot/shot.blend (from $w/shot/shot.glb; ST-maps $w/shot/shot-*distort.exr)" \
+    || echo "shot in Blender:  failed, see $w/logs/blender.log"
+else
+  echo "shot for Blender: $w/shot/shot.glb (blender -b --python $w/shot/shot-blender.py -- $w/shot/shot.glb --blend shot.blend)"
+fi
+
 # A world that changes during the video: the sun moving, a lamp switched on
 # halfway, the object sliding across the table and turning (mr-synth
 # --dynamic, truth per frame).  The chain from a pipeline file: the light

@@ -318,15 +318,30 @@ def write_render(scene, frame, out_path, file_format, depth, mode):
     bpy.ops.render.render(write_still=True)
 
 
-def composite_frame(scene, frame, samples, out_path):
+def composite_frame(scene, frame, samples, out_path, stmaps):
     # The shot as the artist gets it: the objects and the room's shadow
     # catcher rendered by Cycles over the plate in the compositor (8-bit,
-    # the Standard view: the plate's linear values through sRGB).
+    # the Standard view: the plate's linear values through sRGB).  With
+    # ST-maps the compositor's output is the render's (overscanned) size,
+    # the lens's image at the overscan's offset: cropped to it.
     c = scene.cycles
     c.device = "CPU"
     c.samples = samples
     c.use_denoising = False
     write_render(scene, frame, out_path, "PNG", "8", "RGB")
+    if not stmaps:
+        return
+    img = bpy.data.images.load(os.path.abspath(out_path))
+    W, H = img.size
+    w, h = stmaps["lens_width"], stmaps["lens_height"]
+    left, top = stmaps["overscan_left"], stmaps["overscan_top"]
+    px = numpy.array(img.pixels[:], dtype=numpy.float32).reshape(H, W, 4)
+    crop = px[H - top - h:H - top, left:left + w]  # Blender's rows run bottom-up
+    out = bpy.data.images.new("composite", w, h, alpha=False)
+    out.pixels.foreach_set(numpy.ascontiguousarray(crop).ravel())
+    out.filepath_raw = os.path.abspath(out_path)
+    out.file_format = "PNG"
+    out.save()
 
 
 def setup_plate(scene, cam_obj, extras, base):
@@ -440,7 +455,10 @@ def main(argv):
             scene.cycles.seed = int(argv[i + 1])
             i += 2
         elif argv[i] == "--composite":
-            composite_frame(scene, int(argv[i + 1]), int(argv[i + 2]), argv[i + 3])
+            st = extras.get("camera", {}).get("stmaps")
+            if st:
+                st = dict(st, lens_width=extras["camera"]["lens_width"], lens_height=extras["camera"]["lens_height"])
+            composite_frame(scene, int(argv[i + 1]), int(argv[i + 2]), argv[i + 3], st)
             i += 4
         elif argv[i] == "--render":
             render_frame(scene, int(argv[i + 1]), int(argv[i + 2]), argv[i + 3])

@@ -245,6 +245,9 @@ Json CameraExtras(const CameraModel& lens, const CameraModel& pinhole, ShotExpor
 
 ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
   if (!(o.fps > 0) || !std::isfinite(o.fps)) throw UsageError(fmt::format("--fps must be positive, not {}", o.fps));
+  // Refused before anything is written (the ST-maps come first).
+  if (const std::string ext = LowerExtension(o.out); ext != ".glb" && ext != ".gltf")
+    throw Error(fmt::format("{}: a glTF scene is written as .glb or .gltf, not '{}'", o.out.string(), ext));
   const Scene scene = ReadScene(o.scene);
   const CameraModel cam = CameraModel::Read(scene.camera.model);
   const std::vector<Rigid3> poses = LoadScenePoses(scene);
@@ -416,7 +419,13 @@ ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
     if (file) lights = ReadLights(*file);
     if (scene.lighting.lights_per_frame) report->Warn(fmt::format("lights change per frame: frame {}'s written", from));
   }
-  for (const Light& l : lights) roots.push_back(AddLight(b, l, R, l.is_virtual)), ++r.lights;
+  // Distant lights are directions of the map they came from (mr-lights): they
+  // turn with it, as mr-render's LoadLights turns them; the rest stand in the world.
+  for (Light l : lights) {
+    if (l.type == LightType::kDistant) l.direction = scene.lighting.world_from_env * l.direction;
+    roots.push_back(AddLight(b, l, R, l.is_virtual));
+    ++r.lights;
+  }
   for (const SceneVirtualLight& vl : scene.virtual_lights)
     roots.push_back(AddLight(b, vl.At(begin), R, true)), ++r.lights;
   if (b.json().contains("extensions")) b.json()["extensionsUsed"] = {"KHR_lights_punctual"};

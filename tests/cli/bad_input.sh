@@ -217,6 +217,22 @@ bad "PNG write fails" 1 "d.png: write failed: File too large" -- bash -c "ulimit
 bad "EXR write fails" 1 "write failed: File too large" -- bash -c "ulimit -f 1; exec '$bin/mr-render' '$cap/scene.json' --out '$out' --spp 1 --frames 0:1"
 bad ".ffc write fails" 1 "o.ffc: write failed: File too large" -- bash -c "ulimit -f 1; exec '$bin/mr-formfactor' '$cap/meshes/object.ply' --resolution 2 --out '$out/o.ffc'"
 check "synth write fails" 1 "write failed: File too large" -- bash -c "ulimit -f 1; exec '$bin/mr-synth' --preset small --truth-spp 1 --out '$out/c'"
+# --- mr-export: a shot that cannot be written leaves nothing ----------------
+/usr/bin/python3 - "$cap" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1] + "/scene.json"))
+s["virtual"][0]["mesh"] = "meshes/gone.ply"
+json.dump(s, open(sys.argv[1] + "/scene-gone.json", "w"))
+s = json.load(open(sys.argv[1] + "/scene.json"))
+s["camera"].pop("frames_transfer", None)
+s["camera"]["frames_colorspace"] = "S-Log3 S-Gamut3"
+s["camera"]["frames_transfer"] = "linear"
+json.dump(s, open(sys.argv[1] + "/scene-two-decodings.json", "w"))
+PY
+bad "mr-export: a missing mesh" 1 "gone.ply" -- "$bin/mr-export" "$cap/scene-gone.json" --out "$out/shot.glb"
+bad "mr-export: not a glTF name" 1 "shot.fbx" -- "$bin/mr-export" "$cap/scene.json" --out "$out/shot.fbx" --stmaps
+bad "mr-export: frames past the poses" 1 "outside the" -- "$bin/mr-export" "$cap/scene.json" --out "$out/shot.glb" --frames 5:90
+bad "a colour space beside frames_transfer" 1 "replaces frames_transfer" -- "$bin/mr-render" "$cap/scene-two-decodings.json" --out "$out/r"
 check "no temporaries anywhere" 0 "" -- test -z "$(find "$tmp" -name '.mr-tmp-*')"
 
 echo "$pass passed, $fail failed"

@@ -165,6 +165,11 @@ TEST(Export, TheWorldsUpBecomesGltfsY) {
       doc["accessors"]
          [doc["meshes"][(*room)["mesh"].get<size_t>()]["primitives"][0]["attributes"]["POSITION"].get<size_t>()];
   EXPECT_NEAR(pos["max"][1].get<double>(), 2.0, 1e-6);  // the floor's z extent is glTF's y now
+  // The sun of lights.json is a direction of the map (its zenith, +y there):
+  // it turns with the map to the world's up, glTF's +y, and shines down.
+  const Json& sq = (*NodeNamed(doc, "sun"))["rotation"];
+  const Eigen::Quaterniond q(sq[3].get<double>(), sq[0].get<double>(), sq[1].get<double>(), sq[2].get<double>());
+  EXPECT_NEAR((q * -Eigen::Vector3d::UnitZ()).y(), -1.0, 1e-9);
 }
 
 // Issue 42's stiff cases.

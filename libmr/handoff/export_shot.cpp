@@ -439,10 +439,26 @@ ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
                              {"gltf_from_map", m},
                              {"map", "lat-long, OpenEXR's envmap: +y up, the image centre along +z"}};
   }
-  if (scene.camera.frames)
+  if (scene.camera.frames) {
     extras["plate"] = {{"frames", Relative(*scene.camera.frames, o.out)},
                        {"transfer", scene.camera.frames_transfer},
                        {"first_frame", begin}};
+    // The render-to-plate gains (mr-eval plate's gains.json), per channel
+    // and frame of the range: the Blender script scales the render by them
+    // before it goes over the plate, as mr-render does.
+    if (scene.camera.gains && fs::exists(*scene.camera.gains)) {
+      const Json g = Json::parse(ReadTextFile(*scene.camera.gains));
+      Json frames = Json::array(), gains = Json::array();
+      for (const Json& e : g.value("frames", Json::array())) {
+        const int f = e.value("frame", -1);
+        if (f < begin || f >= end || !e.contains("gain")) continue;
+        frames.push_back(f - begin);
+        gains.push_back(e["gain"]);
+      }
+      extras["plate"]["gains"] = {{"frame", frames}, {"gain", gains}, {"scale", scene.camera.gains_scale}};
+      report->AddInput(scene.camera.gains->string());
+    }
+  }
   extras["render"] = {{"width", cam.width()}, {"height", cam.height()}, {"frame_begin", begin},
                       {"frame_end", end},     {"fps", o.fps},           {"frames_without_pose", r.frames_without_pose}};
   if (!animation["channels"].empty()) b.Push("animations", animation);

@@ -17,6 +17,7 @@
 #include "camera/trajectory.h"
 #include "core/error.h"
 #include "core/file.h"
+#include "core/image.h"
 #include "core/math.h"
 #include "geometry/asset.h"
 #include "geometry/mesh.h"
@@ -333,6 +334,24 @@ TEST(Export, GltfAssetsAreMergedIntoTheShot) {
     EXPECT_EQ(exported.images.size(), original.images.size()) << name;
     EXPECT_EQ(exported.materials.size(), original.materials.size()) << name;
   }
+}
+
+// A plate with radiometric gains (mr-eval plate's gains.json): the export
+// carries the plate's frames and the gains of the frames in its range, keyed
+// from the range's start, for the Blender script's compositor.
+TEST(Export, ThePlateAndItsGainsAreCarried) {
+  Shot s(4);
+  for (int f = 0; f < 4; ++f) WriteImage(s.dir / fmt::format("plate{:05d}.png", f), Image::Rgb(160, 100, 0.5f));
+  WriteTextFile(s.dir / "gains.json", R"({"frames": [{"frame": 0, "gain": [0.7, 0.9, 1.1]},
+    {"frame": 1, "gain": [0.8, 0.9, 1.0]}, {"frame": 2, "gain": [0.9, 0.9, 0.9]}, {"frame": 3, "gain": [1, 1, 1]}]})");
+  s.scene["camera"]["frames"] = "plate%05d.png";
+  s.scene["camera"]["gains"] = "gains.json";
+  s.Export("shot.gltf", 1, 3);
+  const Json plate = s.Read()["scenes"][0]["extras"]["mr"]["plate"];
+  EXPECT_EQ(plate["frames"], "plate%05d.png");
+  EXPECT_EQ(plate["first_frame"], 1);
+  EXPECT_EQ(plate["gains"]["frame"], Json::array({0, 1}));
+  EXPECT_EQ(plate["gains"]["gain"][0][0], 0.8);
 }
 
 TEST(Export, Base64MatchesTheRfcVectors) {

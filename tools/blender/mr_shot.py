@@ -381,6 +381,19 @@ def setup_plate(scene, cam_obj, extras, base):
     comp = nt.nodes.new("CompositorNodeComposite")
     nt.links.new(im.outputs["Image"], over.inputs[1])
     render_out = rl.outputs["Image"]
+    gains = plate.get("gains")
+    if gains and gains["frame"]:
+        # The render in the plate's units: times the frame's gain per channel
+        # (mr-eval plate), keyed on each frame, as mr-render scales it.
+        mul = nt.nodes.new("CompositorNodeMixRGB")
+        mul.blend_type = "MULTIPLY"
+        mul.use_alpha = False
+        mul.inputs["Fac"].default_value = 1.0
+        for f, g in zip(gains["frame"], gains["gain"]):
+            mul.inputs[2].default_value = (g[0], g[1], g[2], 1.0)
+            mul.inputs[2].keyframe_insert("default_value", frame=f)
+        nt.links.new(render_out, mul.inputs[1])
+        render_out = mul.outputs["Image"]
     st = extras.get("camera", {}).get("stmaps")
     if st:
         # The render is through the undistorted pinhole: redistorted to the

@@ -2,6 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <tuple>
+#include <utility>
 
 #include "camera/camera_model.h"
 #include "camera/pose.h"
@@ -185,13 +188,21 @@ void Animate(GltfBuilder& b, Json* animation, int node, const std::vector<float>
   if (scales) channel(*scales, 3, "scale");
 }
 
+// Blender's lens shift (sensor fit horizontal) for a pinhole's principal
+// point: in units of the image's width, +y up, a pixel's height being
+// fx / fy of its width.
+Json BlenderShift(const CameraModel& pinhole) {
+  const Eigen::Vector4d k = pinhole.Core();
+  const double w = pinhole.width(), h = pinhole.height();
+  return {-(k[2] - (w - 1) / 2) / w, (k[3] - (h - 1) / 2) * (k[0] / k[1]) / w};
+}
+
 // The camera: a perspective camera of `pinhole` (the lens's core, or the
 // ST-maps' grown pinhole) where the lens cannot see 90 degrees or more from
 // its axis; the principal point's offset is Blender's lens shift in extras.
 Json CameraExtras(const CameraModel& lens, const CameraModel& pinhole, ShotExportResult* r) {
   const auto& in = pinhole.intrinsics();
   const double fx = in[0], fy = in[1], cx = in[2], cy = in[3];
-  const double w = pinhole.width(), h = pinhole.height();
   Json j = {{"lensmodel", lens.lensmodel()},
             {"intrinsics", lens.intrinsics()},
             {"lens_width", lens.width()},
@@ -232,9 +243,7 @@ Json CameraExtras(const CameraModel& lens, const CameraModel& pinhole, ShotExpor
                                   lens.lensmodel());
   } else {
     r->perspective = true;
-    // Blender's lens shift (sensor fit horizontal): in units of the
-    // image's width, +y up, a pixel's height being fx / fy of its width.
-    j["blender_shift"] = {-(cx - (w - 1) / 2) / w, (cy - (h - 1) / 2) * (fx / fy) / w};
+    j["blender_shift"] = BlenderShift(pinhole);
   }
   j["perspective"] = r->perspective;
   if (!r->perspective) j["no_perspective"] = r->no_perspective;
@@ -243,245 +252,304 @@ Json CameraExtras(const CameraModel& lens, const CameraModel& pinhole, ShotExpor
 
 }  // namespace
 
-ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
-  if (!(o.fps > 0) || !std::isfinite(o.fps)) throw UsageError(fmt::format("--fps must be positive, not {}", o.fps));
-  // Refused before anything is written (the ST-maps come first).
-  if (const std::string ext = LowerExtension(o.out); ext != ".glb" && ext != ".gltf")
-    throw Error(fmt::format("{}: a glTF scene is written as .glb or .gltf, not '{}'", o.out.string(), ext));
-  const Scene scene = ReadScene(o.scene);
-  const CameraModel cam = CameraModel::Read(scene.camera.model);
-  const std::vector<Rigid3> poses = LoadScenePoses(scene);
-  const int n = static_cast<int>(poses.size());
-  const int begin = o.frame_begin, end = o.frame_end < 0 ? n : o.frame_end;
-  if (begin < 0 || begin >= end || end > n)
-    throw Error(fmt::format("{}: frames [{}, {}) are outside the {} poses of {}", o.scene.string(), begin, end, n,
-                            ScenePoseSource(scene)));
-  ShotExportResult r;
-  GltfBuilder b;
-  // glTF is +y up: the world turned so that its up (the environment's
-  // zenith) is +y; identity for a world that is +y up already.
-  const Eigen::Vector3d up = (scene.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
-  const Eigen::Matrix3d R = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitY()).toRotationMatrix();
-  const Eigen::Quaterniond Rq(R);
-  Json roots = Json::array();
-  Json extras = {{"units", "metres; light in the scene's radiometric units (extras), not glTF's photometric ones"}};
-  Json gw = Json::array();
-  for (int i = 0; i < 3; ++i) gw.push_back({R(i, 0), R(i, 1), R(i, 2)});
-  extras["gltf_from_world"] = gw;
+namespace {
 
-  // The room: each real mesh, marked so that a user makes it a shadow catcher.
-  for (size_t i = 0; i < scene.reals.size(); ++i) {
-    const SceneReal& real = scene.reals[i];
+// The ST-maps beside `out` (its stem + "-undistort.exr", "-redistort.exr").
+std::pair<fs::path, fs::path> WriteStMaps(const StMaps& maps, const fs::path& out, Report* report) {
+  const fs::path undistort = out.parent_path() / (out.stem().string() + "-undistort.exr");
+  const fs::path redistort = out.parent_path() / (out.stem().string() + "-redistort.exr");
+  WriteImage(undistort, maps.undistort);
+  WriteImage(redistort, maps.redistort);
+  report->AddOutput(undistort.string());
+  report->AddOutput(redistort.string());
+  if (maps.unmapped > 0)
+    report->Warn(fmt::format("{} of the lens's pixels see beyond {} degrees from its axis: not in the ST-maps",
+                             maps.unmapped, maps.max_angle_deg));
+  return {undistort, redistort};
+}
+
+// ExportShot's steps over one document: each adds its part of the shot;
+// Write puts every file down at the end, after everything that can fail on
+// the inputs.
+class ShotWriter {
+ public:
+  ShotWriter(const ShotExportOptions& o, Report* report)
+      : o_(o),
+        report_(report),
+        scene_(ReadScene(o.scene)),
+        cam_(CameraModel::Read(scene_.camera.model)),
+        poses_(LoadScenePoses(scene_)) {
+    const int n = static_cast<int>(poses_.size());
+    begin_ = o.frame_begin;
+    end_ = o.frame_end < 0 ? n : o.frame_end;
+    if (begin_ < 0 || begin_ >= end_ || end_ > n)
+      throw Error(fmt::format("{}: frames [{}, {}) are outside the {} poses of {}", o.scene.string(), begin_, end_, n,
+                              ScenePoseSource(scene_)));
+    // glTF is +y up: the world turned so that its up (the environment's
+    // zenith) is +y; identity for a world that is +y up already.
+    const Eigen::Vector3d up = (scene_.lighting.world_from_env * Eigen::Vector3d::UnitY()).normalized();
+    R_ = Eigen::Quaterniond::FromTwoVectors(up, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    extras_ = {{"units", "metres; light in the scene's radiometric units (extras), not glTF's photometric ones"},
+               {"gltf_from_world", Rows(R_)}};
+    for (int f = begin_; f < end_; ++f) times_.push_back(static_cast<float>((f - begin_) / o.fps));
+  }
+  void AddRoom();
+  void AddObjects();
+  void AddCamera();
+  void AddLights();
+  void AddPlate();
+  ShotExportResult Write();
+
+ private:
+  static Json Rows(const Eigen::Matrix3d& m) {
+    Json j = Json::array();
+    for (int i = 0; i < 3; ++i) j.push_back({m(i, 0), m(i, 1), m(i, 2)});
+    return j;
+  }
+  const ShotExportOptions& o_;
+  Report* report_;
+  const Scene scene_;
+  const CameraModel cam_;
+  const std::vector<Rigid3> poses_;
+  int begin_ = 0, end_ = 0;
+  Eigen::Matrix3d R_;
+  GltfBuilder b_;
+  Json roots_ = Json::array(), extras_;
+  Json animation_ = {{"name", "shot"}, {"samplers", Json::array()}, {"channels", Json::array()}};
+  std::vector<float> times_;
+  std::optional<StMaps> maps_;
+  CameraModel pinhole_;
+  int camera_node_ = 0;
+  ShotExportResult r_;
+};
+
+// The room: each real mesh, marked so that a user makes it a shadow catcher.
+void ShotWriter::AddRoom() {
+  for (size_t i = 0; i < scene_.reals.size(); ++i) {
+    const SceneReal& real = scene_.reals[i];
     const Mesh m = ReadMesh(real.mesh);
     const bool colors = real.material.albedo_from_vertex_colors && !m.colors.empty();
-    const std::string name = scene.reals.size() == 1 ? "room" : fmt::format("room.{}", i);
-    const int mat = b.Push("materials", PbrMaterial(name, real.material, colors));
-    const int mesh = AddMesh(b, name, m, R.cast<float>(), mat, colors);
-    roots.push_back(b.Push(
+    const std::string name = scene_.reals.size() == 1 ? "room" : fmt::format("room.{}", i);
+    const int mat = b_.Push("materials", PbrMaterial(name, real.material, colors));
+    const int mesh = AddMesh(b_, name, m, R_.cast<float>(), mat, colors);
+    roots_.push_back(b_.Push(
         "nodes",
         {{"name", name},
          {"mesh", mesh},
-         {"extras", {{"mr", {{"role", "room"}, {"shadow_catcher", true}, {"source", Relative(real.mesh, o.out)}}}}}}));
-    ++r.room_meshes;
+         {"extras", {{"mr", {{"role", "room"}, {"shadow_catcher", true}, {"source", Relative(real.mesh, o_.out)}}}}}}));
+    ++r_.room_meshes;
   }
+}
 
-  // The virtual objects: a mesh with mr's material, or an asset's own file
-  // (glTF, OBJ with MTL) referenced for the Blender script to import.
-  Json animation = {{"name", "shot"}, {"samplers", Json::array()}, {"channels", Json::array()}};
-  std::vector<float> times;
-  for (int f = begin; f < end; ++f) times.push_back(static_cast<float>((f - begin) / o.fps));
-  for (const SceneVirtual& v : scene.virtuals) {
+// The virtual objects: a mesh with mr's material; a glTF asset merged in
+// with its own materials and textures; an OBJ with its MTL referenced for
+// the Blender script to import.  Trajectories become per-frame keys.
+void ShotWriter::AddObjects() {
+  for (const SceneVirtual& v : scene_.virtuals) {
     Json node = {{"name", v.name}};
-    Json mr = {{"role", "object"}, {"source", Relative(v.mesh, o.out)}};
+    Json mr = {{"role", "object"}, {"source", Relative(v.mesh, o_.out)}};
     const std::string ext = LowerExtension(v.mesh);
     const bool gltf_asset = v.file_materials && (ext == ".glb" || ext == ".gltf");
     if (v.file_materials && !gltf_asset) {
-      mr["asset"] = Relative(v.mesh, o.out);  // an OBJ's MTL: imported by the Blender script onto this node
-      ++r.assets;
+      mr["asset"] = Relative(v.mesh, o_.out);  // an OBJ's MTL: imported by the Blender script onto this node
+      ++r_.assets;
     } else if (gltf_asset) {
       mr["asset_embedded"] = true;  // merged below, its own materials and textures with it
-      ++r.assets;
+      ++r_.assets;
     } else {
       const Mesh m = ReadMesh(v.mesh);
-      const int mat = b.Push("materials", PbrMaterial(v.name, v.material, false));
-      node["mesh"] = AddMesh(b, v.name, m, Eigen::Matrix3f::Identity(), mat, false);
+      const int mat = b_.Push("materials", PbrMaterial(v.name, v.material, false));
+      node["mesh"] = AddMesh(b_, v.name, m, Eigen::Matrix3f::Identity(), mat, false);
     }
     auto trs = [&](double frame, Eigen::Vector3d* t, Eigen::Quaterniond* q, Eigen::Vector3d* s) {
       Eigen::Affine3d a = v.WorldFromObjectAt(frame);
-      a.linear() = R * a.linear();
-      a.translation() = R * a.translation();
+      a.linear() = R_ * a.linear();
+      a.translation() = R_ * a.translation();
       Decompose(a, t, q, s);
     };
     Eigen::Vector3d t, s;
     Eigen::Quaterniond q;
-    trs(begin, &t, &q, &s);
+    trs(begin_, &t, &q, &s);
     node["translation"] = Vec(t);
     node["rotation"] = Quat(q);
     node["scale"] = Vec(s);
     node["extras"]["mr"] = mr;
-    const int id = b.Push("nodes", node);
-    roots.push_back(id);
+    const int id = b_.Push("nodes", node);
+    roots_.push_back(id);
     if (gltf_asset) {
-      const std::string note = b.MergeAsset(v.mesh, id);
-      if (!note.empty()) report->Warn(fmt::format("{}: {}", v.mesh.string(), note));
+      const std::string note = b_.MergeAsset(v.mesh, id);
+      if (!note.empty()) report_->Warn(fmt::format("{}: {}", v.mesh.string(), note));
     }
     if (!v.keyframes.empty()) {
       std::vector<float> tr, ro, sc;
-      for (int f = begin; f < end; ++f) {
+      for (int f = begin_; f < end_; ++f) {
         trs(f, &t, &q, &s);
         for (int k = 0; k < 3; ++k) tr.push_back(static_cast<float>(t[k])), sc.push_back(static_cast<float>(s[k]));
         for (double c : {q.x(), q.y(), q.z(), q.w()}) ro.push_back(static_cast<float>(c));
       }
-      Animate(b, &animation, id, times, tr, ro, &sc);
+      Animate(b_, &animation_, id, times_, tr, ro, &sc);
     }
-    ++r.objects;
+    ++r_.objects;
   }
+}
 
-  // The lens as ST-maps, and the pinhole they render through.
-  CameraModel pinhole("LENSMODEL_PINHOLE", {cam.Core()[0], cam.Core()[1], cam.Core()[2], cam.Core()[3]}, cam.width(),
-                      cam.height());
-  Json stmaps;
-  if (o.stmaps) {
-    const StMaps maps = MakeStMaps(cam, o.stmap_max_angle_deg);
-    pinhole = maps.pinhole;
-    r.undistort = o.out.parent_path() / (o.out.stem().string() + "-undistort.exr");
-    r.redistort = o.out.parent_path() / (o.out.stem().string() + "-redistort.exr");
-    WriteImage(r.undistort, maps.undistort);
-    WriteImage(r.redistort, maps.redistort);
-    report->AddOutput(r.undistort.string());
-    report->AddOutput(r.redistort.string());
-    r.stmap_unmapped = maps.unmapped;
-    stmaps = {{"undistort", Relative(r.undistort, o.out)}, {"redistort", Relative(r.redistort, o.out)},
-              {"overscan_left", maps.overscan_left},       {"overscan_top", maps.overscan_top},
-              {"max_angle_deg", maps.max_angle_deg},       {"unmapped_lens_pixels", maps.unmapped}};
-    if (maps.unmapped > 0)
-      report->Warn(fmt::format("{} of the lens's pixels see beyond {} degrees from its axis: not in the ST-maps",
-                               maps.unmapped, maps.max_angle_deg));
+// The camera, a key per frame with a pose, through the lens's pinhole core
+// or the ST-maps' grown pinhole.  glTF's camera looks along its -z with +y
+// up; mr's along +z with +y down: a half turn about x.
+void ShotWriter::AddCamera() {
+  const Eigen::Vector4d core = cam_.Core();
+  pinhole_ = CameraModel("LENSMODEL_PINHOLE", {core[0], core[1], core[2], core[3]}, cam_.width(), cam_.height());
+  if (o_.stmaps) {
+    maps_ = MakeStMaps(cam_, o_.stmap_max_angle_deg);
+    pinhole_ = maps_->pinhole;
   }
-
-  // The camera, a key per frame with a pose.  glTF's camera looks along
-  // its -z with +y up; mr's along +z with +y down: a half turn about x.
-  Json cam_extras = CameraExtras(cam, pinhole, &r);
-  if (!stmaps.is_null()) {
-    cam_extras["stmaps"] = stmaps;
-    if (!r.perspective) {  // the maps' pinhole holds the part within the widest angle
-      r.perspective = true;
-      cam_extras["perspective"] = true;
-      const double fx = pinhole.Core()[0], fy = pinhole.Core()[1];
-      const double w = pinhole.width(), h = pinhole.height();
-      cam_extras["blender_shift"] = {-(pinhole.Core()[2] - (w - 1) / 2) / w,
-                                     (pinhole.Core()[3] - (h - 1) / 2) * (fx / fy) / w};
-      cam_extras["no_perspective"] =
-          r.no_perspective +
-          fmt::format("; with the ST-maps, the part within {} degrees of its axis is rendered", o.stmap_max_angle_deg);
-    }
+  Json cam_extras = CameraExtras(cam_, pinhole_, &r_);
+  if (maps_ && !r_.perspective) {  // the maps' pinhole holds the part within the widest angle
+    r_.perspective = true;
+    cam_extras["perspective"] = true;
+    cam_extras["blender_shift"] = BlenderShift(pinhole_);
+    cam_extras["no_perspective"] =
+        r_.no_perspective +
+        fmt::format("; with the ST-maps, the part within {} degrees of its axis is rendered", o_.stmap_max_angle_deg);
   }
-  Json cam_node = {{"name", "camera"}};
-  if (r.perspective) {
-    const double fx = pinhole.Core()[0], fy = pinhole.Core()[1];
-    const double w = pinhole.width(), h = pinhole.height();
-    cam_node["camera"] = b.Push(
-        "cameras", {{"name", "camera"},
-                    {"type", "perspective"},
-                    {"perspective",
-                     {{"yfov", 2 * std::atan(h / (2 * fy))}, {"aspectRatio", (w * fy) / (h * fx)}, {"znear", 0.01}}}});
+  Json node = {{"name", "camera"}};
+  if (r_.perspective) {
+    const Eigen::Vector4d k = pinhole_.Core();
+    const double w = pinhole_.width(), h = pinhole_.height();
+    node["camera"] = b_.Push(
+        "cameras",
+        {{"name", "camera"},
+         {"type", "perspective"},
+         {"perspective",
+          {{"yfov", 2 * std::atan(h / (2 * k[1]))}, {"aspectRatio", (w * k[1]) / (h * k[0])}, {"znear", 0.01}}}});
   }
-  const Eigen::Quaterniond flip(0, 1, 0, 0);  // w, x, y, z: a half turn about x
-  std::vector<float> ctimes, ctr, cro;
-  for (int f = begin; f < end; ++f) {
-    const Rigid3& p = poses[static_cast<size_t>(f)];
+  const Eigen::Quaterniond Rq(R_), flip(0, 1, 0, 0);  // flip (w, x, y, z): a half turn about x
+  std::vector<float> times, tr, ro;
+  for (int f = begin_; f < end_; ++f) {
+    const Rigid3& p = poses_[static_cast<size_t>(f)];
     if (!p.translation.allFinite() || !p.rotation.coeffs().allFinite()) {
-      ++r.frames_without_pose;
+      ++r_.frames_without_pose;
       continue;
     }
-    const Eigen::Vector3d t = R * p.translation;
+    const Eigen::Vector3d t = R_ * p.translation;
     const Eigen::Quaterniond q = (Rq * p.rotation * flip).normalized();
-    if (ctimes.empty()) cam_node["translation"] = Vec(t), cam_node["rotation"] = Quat(q);
-    ctimes.push_back(static_cast<float>((f - begin) / o.fps));
-    for (int k = 0; k < 3; ++k) ctr.push_back(static_cast<float>(t[k]));
-    for (double c : {q.x(), q.y(), q.z(), q.w()}) cro.push_back(static_cast<float>(c));
+    if (times.empty()) node["translation"] = Vec(t), node["rotation"] = Quat(q);
+    times.push_back(static_cast<float>((f - begin_) / o_.fps));
+    for (int k = 0; k < 3; ++k) tr.push_back(static_cast<float>(t[k]));
+    for (double c : {q.x(), q.y(), q.z(), q.w()}) ro.push_back(static_cast<float>(c));
   }
-  if (ctimes.empty())
-    throw Error(fmt::format("{}: no frame in [{}, {}) has a finite pose", ScenePoseSource(scene), begin, end));
-  r.frames = static_cast<int>(ctimes.size());
-  cam_node["extras"]["mr"] = cam_extras;
-  const int cam_id = b.Push("nodes", cam_node);
-  roots.push_back(cam_id);
-  if (ctimes.size() > 1) Animate(b, &animation, cam_id, ctimes, ctr, cro, nullptr);
+  if (times.empty())
+    throw Error(fmt::format("{}: no frame in [{}, {}) has a finite pose", ScenePoseSource(scene_), begin_, end_));
+  r_.frames = static_cast<int>(times.size());
+  node["extras"]["mr"] = cam_extras;
+  const int id = camera_node_ = b_.Push("nodes", node);
+  roots_.push_back(id);
+  if (times.size() > 1) Animate(b_, &animation_, id, times, tr, ro, nullptr);
+}
 
-  // The light: lights.json's (frame `begin`'s where they change per frame),
-  // the virtual lights, and the environment map for the Blender script.
+// lights.json's lights (frame `begin`'s where they change per frame), the
+// virtual lights, and the environment map for the Blender script.
+void ShotWriter::AddLights() {
+  const SceneLighting& lighting = scene_.lighting;
   std::vector<Light> lights;
-  if (scene.lighting.lights) {
+  if (lighting.lights) {
     int from = 0;
-    const auto file = scene.lighting.lights_per_frame ? PerFrameFile(*scene.lighting.lights, begin, &from)
-                                                      : std::optional<fs::path>(*scene.lighting.lights);
+    const auto file = lighting.lights_per_frame ? PerFrameFile(*lighting.lights, begin_, &from)
+                                                : std::optional<fs::path>(*lighting.lights);
     if (file) lights = ReadLights(*file);
-    if (scene.lighting.lights_per_frame) report->Warn(fmt::format("lights change per frame: frame {}'s written", from));
+    if (lighting.lights_per_frame) report_->Warn(fmt::format("lights change per frame: frame {}'s written", from));
   }
   // Distant lights are directions of the map they came from (mr-lights): they
   // turn with it, as mr-render's LoadLights turns them; the rest stand in the world.
   for (Light l : lights) {
-    if (l.type == LightType::kDistant) l.direction = scene.lighting.world_from_env * l.direction;
-    roots.push_back(AddLight(b, l, R, l.is_virtual));
-    ++r.lights;
+    if (l.type == LightType::kDistant) l.direction = lighting.world_from_env * l.direction;
+    roots_.push_back(AddLight(b_, l, R_, l.is_virtual));
+    ++r_.lights;
   }
-  for (const SceneVirtualLight& vl : scene.virtual_lights)
-    roots.push_back(AddLight(b, vl.At(begin), R, true)), ++r.lights;
-  if (b.json().contains("extensions")) b.json()["extensionsUsed"] = {"KHR_lights_punctual"};
-  if (scene.lighting.environment) {
-    const Eigen::Matrix3d gm = R * scene.lighting.world_from_env;
-    Json m = Json::array();
-    for (int i = 0; i < 3; ++i) m.push_back({gm(i, 0), gm(i, 1), gm(i, 2)});
-    extras["environment"] = {{"file", Relative(*scene.lighting.environment, o.out)},
-                             {"per_frame", scene.lighting.environment_per_frame},
-                             {"scale", scene.lighting.environment_scale},
-                             {"gltf_from_map", m},
-                             {"map", "lat-long, OpenEXR's envmap: +y up, the image centre along +z"}};
+  for (const SceneVirtualLight& vl : scene_.virtual_lights)
+    roots_.push_back(AddLight(b_, vl.At(begin_), R_, true)), ++r_.lights;
+  if (b_.json().contains("extensions")) b_.json()["extensionsUsed"] = {"KHR_lights_punctual"};
+  if (lighting.environment)
+    extras_["environment"] = {{"file", Relative(*lighting.environment, o_.out)},
+                              {"per_frame", lighting.environment_per_frame},
+                              {"scale", lighting.environment_scale},
+                              {"gltf_from_map", Rows(R_ * lighting.world_from_env)},
+                              {"map", "lat-long, OpenEXR's envmap: +y up, the image centre along +z"}};
+}
+
+// The plate, and its render-to-plate gains (mr-eval plate's gains.json) per
+// channel and frame of the range: the Blender script scales the render by
+// them before it goes over the plate, as mr-render does.
+void ShotWriter::AddPlate() {
+  const SceneCamera& c = scene_.camera;
+  if (!c.frames) return;
+  extras_["plate"] = {
+      {"frames", Relative(*c.frames, o_.out)}, {"transfer", c.frames_transfer}, {"first_frame", begin_}};
+  if (!c.gains || !fs::exists(*c.gains)) return;
+  const Json g = Json::parse(ReadTextFile(*c.gains));
+  Json frames = Json::array(), gains = Json::array();
+  for (const Json& e : g.value("frames", Json::array())) {
+    const int f = e.value("frame", -1);
+    if (f < begin_ || f >= end_ || !e.contains("gain")) continue;
+    frames.push_back(f - begin_);
+    gains.push_back(e["gain"]);
   }
-  if (scene.camera.frames) {
-    extras["plate"] = {{"frames", Relative(*scene.camera.frames, o.out)},
-                       {"transfer", scene.camera.frames_transfer},
-                       {"first_frame", begin}};
-    // The render-to-plate gains (mr-eval plate's gains.json), per channel
-    // and frame of the range: the Blender script scales the render by them
-    // before it goes over the plate, as mr-render does.
-    if (scene.camera.gains && fs::exists(*scene.camera.gains)) {
-      const Json g = Json::parse(ReadTextFile(*scene.camera.gains));
-      Json frames = Json::array(), gains = Json::array();
-      for (const Json& e : g.value("frames", Json::array())) {
-        const int f = e.value("frame", -1);
-        if (f < begin || f >= end || !e.contains("gain")) continue;
-        frames.push_back(f - begin);
-        gains.push_back(e["gain"]);
-      }
-      extras["plate"]["gains"] = {{"frame", frames}, {"gain", gains}, {"scale", scene.camera.gains_scale}};
-      report->AddInput(scene.camera.gains->string());
-    }
+  extras_["plate"]["gains"] = {{"frame", frames}, {"gain", gains}, {"scale", c.gains_scale}};
+  report_->AddInput(c.gains->string());
+}
+
+ShotExportResult ShotWriter::Write() {
+  if (maps_) {
+    std::tie(r_.undistort, r_.redistort) = WriteStMaps(*maps_, o_.out, report_);
+    r_.stmap_unmapped = maps_->unmapped;
+    b_.json()["nodes"][static_cast<size_t>(camera_node_)]["extras"]["mr"]["stmaps"] = {
+        {"undistort", Relative(r_.undistort, o_.out)}, {"redistort", Relative(r_.redistort, o_.out)},
+        {"overscan_left", maps_->overscan_left},       {"overscan_top", maps_->overscan_top},
+        {"max_angle_deg", maps_->max_angle_deg},       {"unmapped_lens_pixels", maps_->unmapped}};
   }
-  extras["render"] = {{"width", cam.width()}, {"height", cam.height()}, {"frame_begin", begin},
-                      {"frame_end", end},     {"fps", o.fps},           {"frames_without_pose", r.frames_without_pose}};
-  if (!animation["channels"].empty()) b.Push("animations", animation);
-  b.Push("scenes", {{"name", scene.file.stem().string()}, {"nodes", roots}, {"extras", {{"mr", extras}}}});
-  b.json()["scene"] = 0;
-  b.Write(o.out);
-  report->AddOutput(o.out.string());
-  if (o.blender_script) {
-    r.blender_script = o.out.parent_path() / (o.out.stem().string() + "-blender.py");
-    WriteTextFile(r.blender_script, BlenderShotScript());
-    report->AddOutput(r.blender_script.string());
+  extras_["render"] = {{"width", pinhole_.width()},
+                       {"height", pinhole_.height()},
+                       {"frame_begin", begin_},
+                       {"frame_end", end_},
+                       {"fps", o_.fps},
+                       {"frames_without_pose", r_.frames_without_pose}};
+  if (!animation_["channels"].empty()) b_.Push("animations", animation_);
+  b_.Push("scenes", {{"name", scene_.file.stem().string()}, {"nodes", roots_}, {"extras", {{"mr", extras_}}}});
+  b_.json()["scene"] = 0;
+  b_.Write(o_.out);
+  report_->AddOutput(o_.out.string());
+  if (o_.blender_script) {
+    r_.blender_script = o_.out.parent_path() / (o_.out.stem().string() + "-blender.py");
+    WriteTextFile(r_.blender_script, BlenderShotScript());
+    report_->AddOutput(r_.blender_script.string());
   }
-  if (!r.perspective) report->Warn(r.no_perspective);
-  if (r.frames_without_pose > 0)
-    report->Warn(fmt::format("{} frames have no finite pose: no camera key there", r.frames_without_pose));
-  report->SetMetric("export.frames", r.frames);
-  report->SetMetric("export.frames_without_pose", r.frames_without_pose);
-  report->SetMetric("export.perspective", r.perspective);
-  report->SetMetric("export.room_meshes", r.room_meshes);
-  report->SetMetric("export.objects", r.objects);
-  report->SetMetric("export.assets", r.assets);
-  report->SetMetric("export.lights", r.lights);
-  return r;
+  if (!r_.perspective) report_->Warn(r_.no_perspective);
+  if (r_.frames_without_pose > 0)
+    report_->Warn(fmt::format("{} frames have no finite pose: no camera key there", r_.frames_without_pose));
+  for (const auto& [key, value] : {std::pair<const char*, int64_t>{"frames", r_.frames},
+                                   {"frames_without_pose", r_.frames_without_pose},
+                                   {"room_meshes", r_.room_meshes},
+                                   {"objects", r_.objects},
+                                   {"assets", r_.assets},
+                                   {"lights", r_.lights}})
+    report_->SetMetric(std::string("export.") + key, value);
+  report_->SetMetric("export.perspective", r_.perspective);
+  return r_;
+}
+
+}  // namespace
+
+ShotExportResult ExportShot(const ShotExportOptions& o, Report* report) {
+  if (!(o.fps > 0) || !std::isfinite(o.fps)) throw UsageError(fmt::format("--fps must be positive, not {}", o.fps));
+  if (const std::string ext = LowerExtension(o.out); ext != ".glb" && ext != ".gltf")
+    throw Error(fmt::format("{}: a glTF scene is written as .glb or .gltf, not '{}'", o.out.string(), ext));
+  ShotWriter w(o, report);
+  w.AddRoom();
+  w.AddObjects();
+  w.AddCamera();
+  w.AddLights();
+  w.AddPlate();
+  return w.Write();
 }
 
 int64_t ExportLens(const fs::path& model, const fs::path& out, double max_angle_deg, Report* report) {
@@ -489,24 +557,18 @@ int64_t ExportLens(const fs::path& model, const fs::path& out, double max_angle_
     throw Error(fmt::format("{}: a lens's pinhole is written as a .cameramodel", out.string()));
   const CameraModel lens = CameraModel::Read(model);
   const StMaps maps = MakeStMaps(lens, max_angle_deg);
-  const fs::path undistort = out.parent_path() / (out.stem().string() + "-undistort.exr");
-  const fs::path redistort = out.parent_path() / (out.stem().string() + "-redistort.exr");
-  WriteImage(undistort, maps.undistort);
-  WriteImage(redistort, maps.redistort);
+  const fs::path redistort = WriteStMaps(maps, out, report).second;
   maps.pinhole.Write(out, fmt::format("the distortion-free pinhole of {} (mr-export): render through it, redistort "
                                       "with {}; overscan {} px left, {} px top",
                                       model.filename().string(), redistort.filename().string(), maps.overscan_left,
                                       maps.overscan_top));
-  for (const auto& f : {out, undistort, redistort}) report->AddOutput(f.string());
+  report->AddOutput(out.string());
   report->SetMetric("stmaps.lens", lens.Describe());
   report->SetMetric("stmaps.pinhole", maps.pinhole.Describe());
   report->SetMetric("stmaps.overscan", Json::array({maps.overscan_left, maps.overscan_top,
                                                     maps.pinhole.width() - lens.width() - maps.overscan_left,
                                                     maps.pinhole.height() - lens.height() - maps.overscan_top}));
   report->SetMetric("stmaps.unmapped_lens_pixels", maps.unmapped);
-  if (maps.unmapped > 0)
-    report->Warn(fmt::format("{} of the lens's pixels see beyond {} degrees from its axis: not in the ST-maps",
-                             maps.unmapped, max_angle_deg));
   return maps.unmapped;
 }
 

@@ -84,6 +84,13 @@ def setup_camera(scene, cam_obj, extras, render):
     cam.clip_end = 1e4
 
 
+def emptied(node_tree):
+    # The node tree with every node removed, for a set-up from scratch.
+    for n in list(node_tree.nodes):
+        node_tree.nodes.remove(n)
+    return node_tree
+
+
 def blender_convention_map(img):
     # mr's lat-long map (OpenEXR's: pixel centres on both edges, each pixel
     # the radiance of the directions nearest it) resampled k times finer into
@@ -118,9 +125,7 @@ def setup_world(scene, extras, base):
     world = scene.world or bpy.data.worlds.new("mr")
     scene.world = world
     world.use_nodes = True
-    nt = world.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
+    nt = emptied(world.node_tree)
     coord = nt.nodes.new("ShaderNodeTexCoord")
     mapping = nt.nodes.new("ShaderNodeMapping")
     tex = nt.nodes.new("ShaderNodeTexEnvironment")
@@ -369,9 +374,7 @@ def setup_plate(scene, cam_obj, extras, base):
     # shadows and the objects) over the plate.
     scene.render.film_transparent = True
     scene.use_nodes = True
-    nt = scene.node_tree
-    for n in list(nt.nodes):
-        nt.nodes.remove(n)
+    nt = emptied(scene.node_tree)
     rl = nt.nodes.new("CompositorNodeRLayers")
     im = nt.nodes.new("CompositorNodeImage")
     im.image = img

@@ -524,6 +524,13 @@ ShotExportResult ShotWriter::Write() {
     report_->AddOutput(r_.blender_script.string());
   }
   if (!r_.perspective) report_->Warn(r_.no_perspective);
+  // What the shot leaves out, and why.
+  if (!maps_ && cam_.lensmodel() != "LENSMODEL_PINHOLE")
+    report_->Skip("ST-maps", fmt::format("not asked (--stmaps): the camera is {}'s pinhole core, its distortion "
+                                         "left to the plate",
+                                         cam_.lensmodel()));
+  if (!scene_.camera.frames) report_->Skip("plate", "the scene names no camera frames");
+  if (!scene_.lighting.environment) report_->Skip("world", "the scene names no environment map");
   if (r_.frames_without_pose > 0)
     report_->Warn(fmt::format("{} frames have no finite pose: no camera key there", r_.frames_without_pose));
   for (const auto& [key, value] : {std::pair<const char*, int64_t>{"frames", r_.frames},

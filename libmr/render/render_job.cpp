@@ -305,7 +305,8 @@ RenderJob::RenderJob(const Scene& scene, const RenderOptions& o, Report* report)
   report->SetMetric("shard", Json{{"begin", in_.begin}, {"end", in_.end}, {"scene_frames", n_frames_}});
   frame_provenance_ = fmt::format("scene {} method {} spp {} time_budget {} seed {}", scene.file.filename().string(),
                                   method_name_, spp_, budget_, scene.render.seed);
-  if (const int stale = RemoveStaleTemporaries(out_dir_); stale > 0)
+  // Both folders a run writes: the frames, and the inputs keys under .mr-render/.
+  if (const int stale = RemoveStaleTemporaries(out_dir_) + RemoveStaleTemporaries(out_dir_ / ".mr-render"); stale > 0)
     report->Warn(fmt::format("removed {} temporary files that killed runs left in {}", stale, out_dir_.string()));
   global_key_ = SceneInputsKey(scene);
   resumed_end_ = in_.begin;

@@ -331,6 +331,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
                 p.wi_local = v.frame.ToLocal(v.wo_world);
                 p.flux = phi;
                 p.bsdf = v.bsdf;
+                p.diffuse = DiffuseLobe(scene, v);
                 p.sets = path_sets;
                 p.on_virtual = hit.is_virtual;
                 p.depth = depth;
@@ -357,6 +358,12 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
   }
   if (st.cut_error > 0 && out->vpls_.size() >= static_cast<size_t>(st.cut_min_vpls))
     BuildTrees(out->vpls_, st, diag, &out->trees_);
+  if (st.caustic_photons > 0 && disc.object_radius > 0) {
+    CausticSettings cs;
+    cs.photons = st.caustic_photons;
+    cs.seed = HashCombine(st.seed, 0x63617573);
+    out->caustics_ = CausticMap::Build(scene, cs, disc.object_centre, disc.object_radius);
+  }
   out->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }
@@ -378,6 +385,7 @@ void VplSet::Describe(Report* report) const {
   report->SetMetric("vpl.directional", static_cast<int64_t>(directional_.size()));
   report->SetMetric("vpl.clamp_distance_m", clamp_);
   report->SetMetric("vpl.compensate", settings_.compensate);
+  caustics_.Describe(report);
   report->SetMetric("vpl.final_gather", settings_.final_gather);
   report->SetMetric("vpl.fixed_directions", settings_.fixed_directions);
   if (!settings_.fixed_directions)
@@ -499,14 +507,14 @@ class VplShader {
     const bool gather = st_.final_gather && x_virtual && depth == 0;
     if (!split) {
       Gather(v, v.bsdf, v.material->IsGlossy(), x_virtual, want_m, want_r, beta, rng, acc, depth == 0, !gather);
-      if (gather) FinalGather(v, v.bsdf, beta, rng, acc);
+      if (gather) FinalGathers(v, v.bsdf, beta, rng, acc);
     } else {
       // Diffuse lobe by VPLs; glossy lobe by next-event estimation and one
       // BSDF-sampled ray, gathered where it lands.
       const Bsdf diffuse = DiffuseLobe(scene_, v);
       const Bsdf& glossy = GlossyLobe(scene_, v);
       Gather(v, diffuse, false, x_virtual, want_m, want_r, beta, rng, acc, depth == 0, !gather);
-      if (gather) FinalGather(v, diffuse, beta, rng, acc);
+      if (gather) FinalGathers(v, diffuse, beta, rng, acc);
       PathVertex g = v;
       g.bsdf = glossy;
       NextEvent(scene_, g, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
@@ -523,6 +531,13 @@ class VplShader {
       }
     }
     if (st_.compensate && depth == 0 && !gather) Compensate(v, x_virtual, want_m, want_r, beta, rng, acc);
+  }
+
+  // VplSettings::gather_rays final gathers, each weighted 1/n.
+  void FinalGathers(const PathVertex& v, const Bsdf& bsdf, const Eigen::Vector3d& beta, Sampler& rng,
+                    Accum* acc) const {
+    const int n = std::max(1, st_.gather_rays);
+    for (int i = 0; i < n; ++i) FinalGather(v, bsdf, beta / n, rng, acc);
   }
 
   // The indirect light at virtual point v (I_m only) through `bsdf` along
@@ -642,6 +657,8 @@ class VplShader {
       acc->real += beta.cwiseProduct(r);
       direct = std::max(Luminance(m), Luminance(r));
     }
+    if (x_virtual && want_m && !set_.caustics().empty())
+      acc->mixed += beta.cwiseProduct(set_.caustics().Radiance(v.p, v.frame, bsdf, v.frame.ToLocal(v.wo_world)));
     thread_local std::vector<Contribution> list;
     list.clear();
     const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
@@ -674,12 +691,12 @@ class VplShader {
     }
     const bool cuts = !set_.trees().empty();
     if (point_vpls && cuts)
-      Lightcut(v, bsdf, wo_l, origin, want_m, want_r && !x_virtual, direct, beta, measure_bias, rng, acc);
+      Lightcut(v, bsdf, wo_l, origin, want_m, want_r && !x_virtual, direct, beta, measure_bias, x_virtual, rng, acc);
     for (const Vpl& p : set_.vpls()) {
       if (!point_vpls || cuts) break;
       if (!(p.sets & wanted)) continue;
       Unshadowed u;
-      if (!Unshadow(p, origin, v.frame, bsdf, wo_l, &u)) continue;
+      if (!Unshadow(p, origin, v.frame, bsdf, Caustic(x_virtual, p), wo_l, &u)) continue;
       const double g = 1 / std::max(u.d2, clamp2_);
       push(u.e * g, measure_bias ? Eigen::Vector3d(u.e * (1 / u.d2 - g)) : Eigen::Vector3d::Zero(), u.dir,
            u.dist * (1 - 1e-5), p.sets);
@@ -747,8 +764,15 @@ class VplShader {
     Eigen::Vector3d e, dir;  // dir: unit, from the point to the VPL
     double d2 = 0, dist = 0;
   };
+  // Whether VPL p, seen from a point (x_virtual: of a virtual object), is
+  // taken through its diffuse lobe alone: light that reached a real
+  // surface straight from an emitter and reaches a virtual point by that
+  // surface's glossy lobe is the caustic the photons carry (CausticMap).
+  bool Caustic(bool x_virtual, const Vpl& p) const {
+    return x_virtual && !set_.caustics().empty() && p.depth == 0 && !p.on_virtual;
+  }
   static bool Unshadow(const Vpl& p, const Eigen::Vector3d& origin, const ShadingFrame& frame, const Bsdf& bsdf,
-                       const Eigen::Vector3d& wo_l, Unshadowed* u) {
+                       bool diffuse_only, const Eigen::Vector3d& wo_l, Unshadowed* u) {
     Eigen::Vector3d d = p.p - origin;
     const double d2 = d.squaredNorm();
     if (!(d2 > 0)) return false;
@@ -758,7 +782,8 @@ class VplShader {
     if (cos_x <= 0 || cos_y <= 0) return false;
     const Eigen::Vector3d fx = bsdf.Eval(wo_l, frame.ToLocal(d));
     if (fx.maxCoeff() <= 0) return false;
-    u->e = p.flux.cwiseProduct(p.bsdf.Eval(p.wi_local, p.frame.ToLocal(-d))).cwiseProduct(fx) * (cos_x * cos_y);
+    const Bsdf& fy = diffuse_only ? p.diffuse : p.bsdf;
+    u->e = p.flux.cwiseProduct(fy.Eval(p.wi_local, p.frame.ToLocal(-d))).cwiseProduct(fx) * (cos_x * cos_y);
     u->dir = d;
     u->d2 = d2;
     u->dist = dist;
@@ -772,13 +797,13 @@ class VplShader {
     Eigen::Vector3d bias_m = Eigen::Vector3d::Zero(), bias_r = Eigen::Vector3d::Zero();
   };
   VplLight OneVpl(const Vpl& p, const Eigen::Vector3d& origin, const ShadingFrame& frame, const Bsdf& bsdf,
-                  const Eigen::Vector3d& wo_l, bool m, bool r, bool measure_bias, Accum* acc) const {
+                  bool at_virtual, const Eigen::Vector3d& wo_l, bool m, bool r, bool measure_bias, Accum* acc) const {
     VplLight out;
     m = m && (p.sets & kLightsMixed);
     r = r && (p.sets & kLightsReal);
     if (!m && !r) return out;
     Unshadowed u;
-    if (!Unshadow(p, origin, frame, bsdf, wo_l, &u) || !(u.e.maxCoeff() > 0)) return out;
+    if (!Unshadow(p, origin, frame, bsdf, Caustic(at_virtual, p), wo_l, &u) || !(u.e.maxCoeff() > 0)) return out;
     const Eigen::Vector3d& e = u.e;
     const double d2 = u.d2, g = 1 / std::max(d2, clamp2_);
     const auto [seen_m, seen_r] = Visible(origin, u.dir, u.dist * (1 - 1e-5), m, r, acc);
@@ -804,8 +829,8 @@ class VplShader {
   // max_cut clusters.  A child keeps its parent's representative's value
   // when it has the same one (one shadow test fewer).
   void Lightcut(const PathVertex& v, const Bsdf& bsdf, const Eigen::Vector3d& wo_l, const Eigen::Vector3d& origin,
-                bool m, bool r, double direct, const Eigen::Vector3d& beta, bool measure_bias, Sampler& rng,
-                Accum* acc) const {
+                bool m, bool r, double direct, const Eigen::Vector3d& beta, bool measure_bias, bool at_virtual,
+                Sampler& rng, Accum* acc) const {
     struct Cluster {
       int tree, node;
       double scale;
@@ -833,9 +858,9 @@ class VplShader {
         err = Luminance(bound);
       }
       Cluster k{ti, node, c.weight / t.weight(c.rep), {}};
-      k.rep =
-          same ? *same
-               : OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, wo_l, m, r, measure_bias, acc);
+      k.rep = same ? *same
+                   : OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, at_virtual, wo_l, m, r,
+                            measure_bias, acc);
       total_m += k.rep.m * k.scale;
       total_r += k.rep.r * k.scale;
       clusters.push_back(k);
@@ -871,7 +896,8 @@ class VplShader {
         const VplTree& t = set_.trees()[static_cast<size_t>(ti)];
         const VplCluster& c = t.node(node);
         const double scale = c.weight / t.weight(c.rep) / q;
-        credit(OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, wo_l, m, r, measure_bias, acc),
+        credit(OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, at_virtual, wo_l, m, r,
+                      measure_bias, acc),
                scale);
       }
       return;
@@ -1037,6 +1063,8 @@ VplSettings ParseVplSettings(JsonSettings& s, const Scene& scene) {
   s.Bool("compensate", &o.compensate);
   s.Bool("plate_reflections", &o.plate_reflections);
   s.Bool("final_gather", &o.final_gather);
+  s.Integer("gather_rays", &o.gather_rays, 1, 1024);
+  s.Integer("caustic_photons", &o.caustic_photons, 0, 1 << 26);
   s.Number("cut_error", &o.cut_error, 0, 1);
   s.Integer("max_cut", &o.max_cut, 1, 1 << 24);
   s.Integer("cut_min_vpls", &o.cut_min_vpls, 0, 1 << 30);

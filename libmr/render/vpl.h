@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/report.h"
+#include "render/caustics.h"
 #include "render/method.h"
 #include "render/path_common.h"
 #include "render/path_tracer.h"
@@ -53,6 +54,15 @@ struct VplSettings {
   // a 6 m floor), so without it the object misses most of its near bounce
   // light (docs/methods.md, "vpl").
   bool final_gather = true;
+  // Rays of that final gather per camera sample (splitting): the object's
+  // pixels are few, so each costs little, and one ray a sample left the
+  // object's noise most of the region's error (docs/benchmarks.md).
+  int gather_rays = 4;
+  // Photons for the light that reaches the virtual objects by one glossy
+  // reflection in a real surface (render/caustics.h); the VPLs' glossy
+  // lobes then leave that light out at virtual points.  0: none, the VPLs'
+  // glossy lobes carry it (in splotches) and the final gather misses it.
+  int caustic_photons = 1 << 18;
   // Lightcuts (Walter et al. 2005): the VPLs are gathered through a light
   // tree, each cluster by one representative and one shadow test, refined
   // until no cluster's bound on its error exceeds cut_error of the point's
@@ -82,6 +92,7 @@ struct Vpl {
   Eigen::Vector3d wi_local;    // towards where the light came from, in frame
   Eigen::Vector3d flux;        // arriving flux (W)
   Bsdf bsdf;                   // the surface's, with its albedo there
+  Bsdf diffuse;                // its diffuse lobe alone
   uint8_t sets = kLightsBoth;  // which solutions it lights
   bool on_virtual = false;
   int depth = 0;  // surfaces met along its path before (0: lit by the emitter)
@@ -110,6 +121,8 @@ class VplSet {
   // Light trees over the VPLs, one per set (shared, mixed-only, real-only);
   // empty unless settings().cut_error > 0 and there are cut_min_vpls VPLs.
   const std::vector<VplTree>& trees() const { return trees_; }
+  // Photons of the caustics on the virtual objects (empty: none).
+  const CausticMap& caustics() const { return caustics_; }
   const VplSettings& settings() const { return settings_; }
   double clamp_distance() const { return clamp_; }
   double build_seconds() const { return build_seconds_; }
@@ -120,6 +133,7 @@ class VplSet {
   std::vector<Vpl> vpls_;
   std::vector<DirectionalVpl> directional_;
   std::vector<VplTree> trees_;
+  CausticMap caustics_;
   VplSettings settings_;
   double clamp_ = 0, build_seconds_ = 0;
   int64_t paths_ended_below_ = 0;  // VPLs not stored: flux below the drop threshold

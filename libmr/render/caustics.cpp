@@ -96,7 +96,7 @@ int64_t CausticMap::Key(int64_t x, int64_t y, int64_t z) const {
 CausticMap CausticMap::Build(const RenderScene& scene, const CausticSettings& st, const Eigen::Vector3d& centre,
                              double radius) {
   CausticMap map;
-  if (!(radius > 0) || st.photons <= 0) return map;
+  if (!(radius > 0) || st.photons <= 0 || !scene.has_glossy_real()) return map;
   const double reach = radius * std::max(1.0, st.reach);
   const std::vector<Source> sources = Sources(scene, st.photons, centre, reach);
   if (sources.empty()) return map;

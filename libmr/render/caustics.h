@@ -38,7 +38,8 @@ class CausticMap {
  public:
   // Photons from the environment and every light of the scene towards the
   // virtual objects' bounding sphere (centre, radius); none when radius is
-  // 0 (a photon whose first surface is not glossy is not followed).
+  // 0 or no real surface is glossy (a photon whose first surface is not
+  // glossy is not followed).
   static CausticMap Build(const RenderScene& scene, const CausticSettings& settings, const Eigen::Vector3d& centre,
                           double radius);
   bool empty() const { return photons_.empty(); }

@@ -25,6 +25,7 @@ uint32_t RenderScene::AddReal(const Mesh& mesh, const Material& material) {
   closed_.Add(mesh);
   geometry_bounds_.push_back(mesh.Bounds().cast<double>());
   SetSurface(id, material, Eigen::Matrix3d::Identity(), mesh);
+  has_glossy_real_ = has_glossy_real_ || material.IsGlossy();
   return id;
 }
 

@@ -133,6 +133,9 @@ class RenderScene {
   Bsdf DiffuseBsdfWith(uint32_t geometry_id, const Eigen::Vector3d& albedo) const;
   // Whether any surface has a glossy lobe.
   bool has_glossy() const { return has_glossy_; }
+  // Whether any real surface has a glossy lobe (real surfaces take
+  // lights.json-style materials, never an asset's).
+  bool has_glossy_real() const { return has_glossy_real_; }
   // Unit world-space geometric normal of a hit (Embree reports instance
   // normals in object space).
   Eigen::Vector3d WorldNormal(const Hit& hit) const;
@@ -188,7 +191,7 @@ class RenderScene {
   Eigen::Vector3d NormalMapped(const Surface& s, const Hit& hit, const Eigen::Vector3d& n_obj) const;
   double WorldScale(uint32_t id) const;  // a placement's linear scale (cube root of |det|)
   void SetSurface(uint32_t id, const Material& material, const Eigen::Matrix3d& normal_to_world, const Mesh& mesh);
-  bool has_glossy_ = false;
+  bool has_glossy_ = false, has_glossy_real_ = false;
   std::unique_ptr<EmbreeScene> embree_;
   std::vector<Surface> surfaces_;  // by geometry id
   EnvironmentMap env_;

@@ -24,7 +24,7 @@
 namespace mr {
 
 struct IcSettings {
-  int rays = 256;
+  int rays = 128;
   double accuracy = 0.3;
   double min_spacing_px = 2, max_spacing_px = 32;  // influence radius (accuracy x R_i) clamp, pixels
   int t_max = 8;

@@ -96,7 +96,18 @@ int64_t CausticMap::Key(int64_t x, int64_t y, int64_t z) const {
 CausticMap CausticMap::Build(const RenderScene& scene, const CausticSettings& st, const Eigen::Vector3d& centre,
                              double radius) {
   CausticMap map;
-  if (!(radius > 0) || st.photons <= 0 || !scene.has_glossy_real()) return map;
+  if (st.photons <= 0) {
+    map.skipped_ = "vpl.caustic_photons is 0";
+    return map;
+  }
+  if (!(radius > 0)) {
+    map.skipped_ = "the scene has no virtual object to receive them";
+    return map;
+  }
+  if (!scene.has_glossy_real()) {
+    map.skipped_ = "no real surface is glossy: none can reflect light into the objects";
+    return map;
+  }
   const double reach = radius * std::max(1.0, st.reach);
   const std::vector<Source> sources = Sources(scene, st.photons, centre, reach);
   if (sources.empty()) return map;
@@ -242,6 +253,7 @@ void CausticMap::Describe(Report* report) const {
   report->SetMetric("vpl.caustics.photons_reflected", reflected_);
   report->SetMetric("vpl.caustics.photons_stored", static_cast<int64_t>(photons_.size()));
   report->SetMetric("vpl.caustics.radius_m", radius_);
+  if (!skipped_.empty()) report->Skip("caustic photons", skipped_);
 }
 
 }  // namespace mr

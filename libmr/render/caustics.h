@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -60,6 +61,7 @@ class CausticMap {
   std::vector<uint32_t> cell_begin_;  // photons_[cell_begin_[i], cell_begin_[i + 1]) lie in cell_keys_[i]
   double radius_ = 0, cell_ = 1;
   int64_t sent_ = 0, reflected_ = 0;
+  std::string skipped_;  // why none were sent ("": sent)
   int64_t Key(int64_t x, int64_t y, int64_t z) const;
 };
 

@@ -358,12 +358,10 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
   }
   if (st.cut_error > 0 && out->vpls_.size() >= static_cast<size_t>(st.cut_min_vpls))
     BuildTrees(out->vpls_, st, diag, &out->trees_);
-  if (st.caustic_photons > 0 && disc.object_radius > 0) {
-    CausticSettings cs;
-    cs.photons = st.caustic_photons;
-    cs.seed = HashCombine(st.seed, 0x63617573);
-    out->caustics_ = CausticMap::Build(scene, cs, disc.object_centre, disc.object_radius);
-  }
+  CausticSettings cs;
+  cs.photons = st.caustic_photons;
+  cs.seed = HashCombine(st.seed, 0x63617573);
+  out->caustics_ = CausticMap::Build(scene, cs, disc.object_centre, disc.object_radius);
   out->build_seconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return out;
 }

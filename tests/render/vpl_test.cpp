@@ -342,7 +342,9 @@ TEST(Vpl, NoGlossyRealSurfaceSendsNoPhotonsAndChangesNothing) {
   EXPECT_TRUE(set->caustics().empty());
   Report report;
   set->caustics().Describe(&report);
-  EXPECT_EQ(report.ToJson()["metrics"]["vpl"]["caustics"]["photons_sent"].get<int64_t>(), 0);
+  const Json j = report.ToJson();
+  EXPECT_EQ(j["metrics"]["vpl"]["caustics"]["photons_sent"].get<int64_t>(), 0);
+  EXPECT_NE(j["skipped"].dump().find("no real surface is glossy"), std::string::npos) << j["skipped"].dump();
   const auto with = RenderVpl(s, vs, cam, kCornerCamera, 2);
   vs.caustic_photons = 0;
   const auto without = RenderVpl(s, vs, cam, kCornerCamera, 2);

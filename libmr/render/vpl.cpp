@@ -561,14 +561,15 @@ class VplShader {
       acc->c.shadow_rays += rays;
       if (taken) return;
     }
-    // The point's diffuse lobe takes the direct light (sampled) and both
-    // lobes the VPLs' light; the direct light through its glossy lobe is
-    // left out (a bias, measured in docs/methods.md, "vpl"): that path (a
-    // diffuse object point, a glossy point met by a diffuse ray, the sun) is
-    // a caustic that one ray a sample finds only by chance, and it made the
-    // main job's fireflies.
+    // The point reflects the direct light (sampled) and the VPLs' light
+    // through its diffuse lobe only.  Through a glossy lobe both are
+    // caustics that one ray a sample finds only by chance: the sun's
+    // (which the caustic photons carry instead) and a bright VPL's, such as
+    // one on the object mirrored back at it by a glossy table (a sample of
+    // 190 x the pixel on the main job's dynamic capture).  docs/methods.md,
+    // "vpl", measures the bias.
     if (y.bsdf.IsBlack()) return;
-    Gather(y, y.bsdf, false, hit.is_virtual, true, false, b, rng, acc, false);
+    Gather(y, DiffuseLobe(scene_, y), false, hit.is_virtual, true, false, b, rng, acc, false);
   }
 
   // Kollig & Keller's correction: the light that reaches v from surfaces
@@ -830,7 +831,7 @@ class VplShader {
                 bool m, bool r, double direct, const Eigen::Vector3d& beta, bool measure_bias, bool at_virtual,
                 Sampler& rng, Accum* acc) const {
     struct Cluster {
-      int tree, node;
+      int tree, node, leaf;  // leaf: the node of its representative
       double scale;
       VplLight rep;
     };
@@ -846,7 +847,14 @@ class VplShader {
     const Eigen::Vector3d dx = bsdf.DiffuseBound(), gx = bsdf.GlossyBound(wo_l);
     const uint8_t wanted = static_cast<uint8_t>((m ? kLightsMixed : 0) | (r ? kLightsReal : 0));
     Eigen::Vector3d total_m = Eigen::Vector3d::Zero(), total_r = Eigen::Vector3d::Zero();
-    auto add = [&](int ti, int node, const VplLight* same) {
+    // Each cluster's representative is drawn afresh here, in proportion to
+    // the VPLs' weights (VplTree::SampleLeaf), from a stream of its own that
+    // takes one number of the path's: a coarse cut's error is then noise
+    // that falls with the samples, not one draw shared by every point of
+    // the frame (Walter et al. fix one representative per node).  A child
+    // that holds its parent's representative keeps it, and its value.
+    Sampler pick = Sampler::Random(std::bit_cast<uint64_t>(rng.NextDouble()), 0x6c63);
+    auto add = [&](int ti, int node, const Cluster* parent) {
       const VplTree& t = set_.trees()[static_cast<size_t>(ti)];
       const VplCluster& c = t.node(node);
       double err = 0;
@@ -855,10 +863,12 @@ class VplShader {
         if (!(bound.maxCoeff() > 0)) return;  // no light of the cluster reaches v
         err = Luminance(bound);
       }
-      Cluster k{ti, node, c.weight / t.weight(c.rep), {}};
-      k.rep = same ? *same
-                   : OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, at_virtual, wo_l, m, r,
-                            measure_bias, acc);
+      const int leaf = parent ? parent->leaf : t.SampleLeaf(node, pick.NextDouble());
+      const int vpl = t.node(leaf).rep;
+      Cluster k{ti, node, leaf, c.weight / t.weight(vpl), {}};
+      k.rep = parent ? parent->rep
+                     : OneVpl(set_.vpls()[static_cast<size_t>(vpl)], origin, v.frame, bsdf, at_virtual, wo_l, m, r,
+                              measure_bias, acc);
       total_m += k.rep.m * k.scale;
       total_r += k.rep.r * k.scale;
       clusters.push_back(k);
@@ -892,9 +902,9 @@ class VplShader {
         const double q = std::clamp(reuse->share[j] / kRouletteShare, kRouletteFloor, 1.0);
         if (q < 1 && rng.NextDouble() >= q) continue;
         const VplTree& t = set_.trees()[static_cast<size_t>(ti)];
-        const VplCluster& c = t.node(node);
-        const double scale = c.weight / t.weight(c.rep) / q;
-        credit(OneVpl(set_.vpls()[static_cast<size_t>(c.rep)], origin, v.frame, bsdf, at_virtual, wo_l, m, r,
+        const int vpl = t.node(t.SampleLeaf(node, pick.NextDouble())).rep;
+        const double scale = t.node(node).weight / t.weight(vpl) / q;
+        credit(OneVpl(set_.vpls()[static_cast<size_t>(vpl)], origin, v.frame, bsdf, at_virtual, wo_l, m, r,
                       measure_bias, acc),
                scale);
       }
@@ -921,7 +931,9 @@ class VplShader {
       const VplTree& t = set_.trees()[static_cast<size_t>(k.tree)];
       const VplCluster& c = t.node(k.node);
       const size_t before = clusters.size();
-      for (const int child : c.child) add(k.tree, child, t.node(child).rep == c.rep ? &k.rep : nullptr);
+      const bool first = k.leaf < c.child[1];  // preorder: the representative is under child[0]
+      add(k.tree, c.child[0], first ? &k : nullptr);
+      add(k.tree, c.child[1], first ? nullptr : &k);
       cut_size += clusters.size() - before;
       --cut_size;
     }

@@ -124,6 +124,23 @@ int VplTree::BuildNode(const std::vector<Vpl>& vpls, std::vector<int>& idx, size
   return at;
 }
 
+int VplTree::SampleLeaf(int node, double u) const {
+  for (;;) {
+    const VplCluster& c = nodes_[static_cast<size_t>(node)];
+    if (c.leaf()) return node;
+    const double w0 = nodes_[static_cast<size_t>(c.child[0])].weight, w = c.weight;
+    const double p0 = w > 0 ? w0 / w : 0.5;
+    if (u < p0) {
+      node = c.child[0];
+      u = p0 > 0 ? u / p0 : 0;
+    } else {
+      node = c.child[1];
+      u = p0 < 1 ? (u - p0) / (1 - p0) : 0;
+    }
+    u = std::clamp(u, 0.0, std::nextafter(1.0, 0.0));
+  }
+}
+
 Eigen::Vector3d VplTree::Bound(int node, const Eigen::Vector3d& x, const Eigen::Vector3d& t, const Eigen::Vector3d& b,
                                const Eigen::Vector3d& n, const Eigen::Vector3d& diffuse_x,
                                const Eigen::Vector3d& glossy_x, double clamp2) const {

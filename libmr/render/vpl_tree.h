@@ -48,6 +48,13 @@ class VplTree {
   // is scaled by node.weight / this.
   double weight(int vpl) const { return weights_[static_cast<size_t>(vpl)]; }
 
+  // A leaf of the node's subtree (a node index; node(leaf).rep is its VPL)
+  // drawn in proportion to the leaves' weights from u in [0, 1): each
+  // level picks a child by its share of the weight.  Nodes are stored in
+  // preorder, so the leaf lies under child[0] exactly when it is below
+  // child[1]'s index.
+  int SampleLeaf(int node, double u) const;
+
   // An upper bound, per channel, on the unshadowed light the node's VPLs
   // give a point at x with frame (t, b, n) whose BSDF's bounds are
   // (diffuse_x, glossy_x), with the clamp's 1 / max(d^2, clamp2).

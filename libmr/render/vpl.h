@@ -78,8 +78,9 @@ struct VplSettings {
   int cut_min_vpls = 64;
   // A pixel's later camera samples in a pass reuse the cut its first sample
   // made on the same surface facing the same way (normals within about 25
-  // degrees), testing the same clusters' representatives at their own
-  // points: the bounds and the refinement are paid once per pixel.  A
+  // degrees), testing the same clusters (each by a representative drawn
+  // afresh) at their own points: the bounds and the refinement are paid
+  // once per pixel.  A
   // cluster that carried less than 1% of the first sample's light is
   // tested with probability share/1% (at least 1/4), weighted by its
   // inverse (unbiased).

@@ -639,7 +639,7 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
   if (want_m) mixed += v.emission;
   if (want_r) real += v.emission;
   if (v.bsdf.IsBlack()) return done();
-  const bool glossy = v.material->IsGlossy();
+  const bool glossy = HasGlossyLobe(scene_, v);
   PathVertex vd = v;
   vd.bsdf = DiffuseLobe(scene_, v);
   rays += DirectDiffuse(scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {

@@ -168,9 +168,25 @@ inline Bsdf DiffuseLobe(const RenderScene& scene, const PathVertex& v) {
                   v);
 }
 
-// The glossy lobe alone at v.
+// Whether v is on a transmissive asset material (glTF's
+// KHR_materials_transmission): the scene's per-geometry lobes are the
+// asset's mean material's and know no transmission, so methods that treat
+// the lobes apart take its BSDF whole as the glossy lobe.  Its diffuse part
+// is (1 - transmission) of the base's: none at full transmission.
+inline bool TransmissiveAsset(const RenderScene& scene, const PathVertex& v) {
+  return v.bsdf.Transmits() && scene.has_asset_material(v.geometry_id);
+}
+
+// The glossy lobe alone at v (a transmissive asset's whole BSDF).
 inline Bsdf GlossyLobe(const RenderScene& scene, const PathVertex& v) {
+  if (TransmissiveAsset(scene, v)) return v.bsdf;
   return AtVertex(scene.glossy_bsdf(v.geometry_id), v);
+}
+
+// Whether v has a lobe that methods treating the lobes apart follow by
+// BSDF-sampled rays: glossy, or a transmissive asset's.
+inline bool HasGlossyLobe(const RenderScene& scene, const PathVertex& v) {
+  return v.material->IsGlossy() || TransmissiveAsset(scene, v);
 }
 
 // Which emitters a path sees: the environment and real lights exist in both

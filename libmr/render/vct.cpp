@@ -835,7 +835,7 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
       if (want_m) mixed += f.cwiseProduct(er + (st.split_relighting ? Eigen::Vector3d(em - er) : ed));
       if (!reaches && cones) ++c.relight_skipped;
     }
-    if (glossy && v.material->IsGlossy()) ShadeGlossyLobe(v, xv, origin, want_m, want_r, g, &c, &mixed, &real);
+    if (glossy && HasGlossyLobe(scene_, v)) ShadeGlossyLobe(v, xv, origin, want_m, want_r, g, &c, &mixed, &real);
   };
   Hit hit;
   ++c.rays;

@@ -501,10 +501,10 @@ class VplShader {
                Sampler& rng, Accum* acc, bool emission) const {
     if (emission) Add(acc, want_m, want_r, beta.cwiseProduct(v.emission));
     if (v.bsdf.IsBlack()) return;
-    const bool split = v.material->IsGlossy() && depth < st_.glossy_depth;
+    const bool split = HasGlossyLobe(scene_, v) && depth < st_.glossy_depth;
     const bool gather = st_.final_gather && x_virtual && depth == 0;
     if (!split) {
-      Gather(v, v.bsdf, v.material->IsGlossy(), x_virtual, want_m, want_r, beta, rng, acc, depth == 0, !gather);
+      Gather(v, v.bsdf, HasGlossyLobe(scene_, v), x_virtual, want_m, want_r, beta, rng, acc, depth == 0, !gather);
       if (gather) FinalGathers(v, v.bsdf, beta, rng, acc);
     } else {
       // Diffuse lobe by VPLs; glossy lobe by next-event estimation and one

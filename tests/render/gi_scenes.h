@@ -4,6 +4,7 @@
 #pragma once
 
 #include "core/math.h"
+#include "geometry/asset.h"
 #include "geometry/primitives.h"
 #include "light/lights_file.h"
 #include "render/path_tracer.h"
@@ -78,6 +79,27 @@ inline void SphereOnFloor(RenderScene* s, float half, float r, int segments, dou
   s->AddVirtual(UvSphere(r, segments), t, Diffuse(0.8));
   s->SetEnvironment(Sky(sun));
   s->Commit();
+}
+
+// A virtual object of `mesh` with one glTF transmissive material (smooth,
+// ior `ior`, `thickness` metres: 0 a thin wall), placed by
+// `world_from_object`; its geometry id.  The caller commits the scene.
+inline uint32_t AddGlassAsset(RenderScene* s, const Mesh& mesh, float ior, float thickness,
+                              const Eigen::Affine3d& world_from_object = Eigen::Affine3d::Identity()) {
+  Asset a;
+  a.parts.push_back({.name = "glass", .mesh = mesh, .material = 0});
+  AssetMaterial m;
+  m.metallic = 0;
+  m.roughness = 0;
+  m.transmission = 1;
+  m.ior = ior;
+  m.thickness = thickness;
+  a.materials.push_back(m);
+  std::vector<int> triangle_material;
+  const Mesh merged = MergeParts(a, &triangle_material);
+  const uint32_t id = s->AddVirtual(merged, world_from_object, Material());
+  s->SetAssetMaterials(id, a, triangle_material, merged, "glass.glb");
+  return id;
 }
 
 inline const Rigid3 kCornerCamera = LookAt({0.3, 1.2, -2.2}, {0, 0.3, 0.2});

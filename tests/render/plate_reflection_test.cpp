@@ -6,7 +6,6 @@
 #include <gtest/gtest.h>
 
 #include "core/image_metrics.h"
-#include "geometry/asset.h"
 #include "gi_scenes.h"
 #include "render/irradiance_cache.h"
 #include "render/vpl.h"
@@ -316,23 +315,11 @@ TEST(PlateReflections, PlateLightNearContactTakesTheObjectsDifference) {
 TEST(PlateReflections, GlassShowsThePlateBehindIt) {
   auto glass_room = [](RenderScene* s, bool grey) {
     TexturedRoom(s, grey);
-    Asset a;
     Mesh sphere = UvSphere(0.4f, 48);
     for (const Eigen::Vector3f& p : sphere.positions) sphere.normals.push_back(p.normalized());
-    a.parts.push_back({.name = "glass", .mesh = sphere, .material = 0});
-    AssetMaterial m;
-    m.metallic = 0;
-    m.roughness = 0;
-    m.transmission = 1;
-    m.ior = 1;
-    m.thickness = 0.8f;
-    a.materials.push_back(m);
-    std::vector<int> tm;
-    const Mesh mesh = MergeParts(a, &tm);
     Eigen::Affine3d t = Eigen::Affine3d::Identity();
     t.translate(Eigen::Vector3d(0, 0.6, 0.8));
-    const uint32_t id = s->AddVirtual(mesh, t, Material());
-    s->SetAssetMaterials(id, a, tm, mesh, "glass.glb");
+    gi_test::AddGlassAsset(s, sphere, 1, 0.8f, t);
     s->SetEnvironment(gi_test::Sky(20));
     s->Commit();
   };

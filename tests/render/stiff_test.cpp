@@ -14,7 +14,6 @@
 #include "core/math.h"
 #include "core/parallel.h"
 #include "core/spherical.h"
-#include "geometry/asset.h"
 #include "geometry/primitives.h"
 #include "render/gi_scenes.h"
 #include "render/method.h"
@@ -439,26 +438,13 @@ TEST(Stiff, OneAndTenThousandAreaLights) {
 // and the glass was opaque (ic 0.0, vpl 0.0).  vct still is: its glossy
 // lobe is a cone along the mirror direction (docs/methods.md, "Glass").
 TEST(Stiff, FastMethodsSeeThroughAGlassAsset) {
-  Asset asset;
-  asset.parts.push_back(
-      {.name = "glass", .mesh = Box(Eigen::Vector3f(-2, -2, -0.1f), Eigen::Vector3f(2, 2, 0.1f)), .material = 0});
-  AssetMaterial m;
-  m.metallic = 0;
-  m.roughness = 0;
-  m.transmission = 1;
-  m.ior = 1.5;
-  m.thickness = 0.2f;
-  asset.materials.push_back(m);
-  std::vector<int> triangle_material;
-  const Mesh mesh = MergeParts(asset, &triangle_material);
   Image sky = Image::Rgb(256, 128);
   for (int y = 0; y < 128; ++y)
     for (int x = 0; x < 256; ++x)
       for (int c = 0; c < 3; ++c)
         sky.at(x, y, c) = LatLongPixelToDirection(Eigen::Vector2d(x, y), 256, 128).z() > 0 ? 1.0f : 0.0f;
   RenderScene rs;
-  const uint32_t id = rs.AddVirtual(mesh, Eigen::Affine3d::Identity(), Material());
-  rs.SetAssetMaterials(id, asset, triangle_material, mesh, "glass.glb");
+  AddGlassAsset(&rs, Box(Eigen::Vector3f(-2, -2, -0.1f), Eigen::Vector3f(2, 2, 0.1f)), 1.5f, 0.2f);
   rs.SetEnvironment(EnvironmentMap(sky, "half sky"));
   rs.Commit();
   const CameraModel cam("LENSMODEL_PINHOLE", {400, 400, 7.5, 7.5}, 16, 16);

@@ -81,20 +81,25 @@ inline void SphereOnFloor(RenderScene* s, float half, float r, int segments, dou
   s->Commit();
 }
 
-// A virtual object of `mesh` with one glTF transmissive material (smooth,
-// ior `ior`, `thickness` metres: 0 a thin wall), placed by
-// `world_from_object`; its geometry id.  The caller commits the scene.
-inline uint32_t AddGlassAsset(RenderScene* s, const Mesh& mesh, float ior, float thickness,
-                              const Eigen::Affine3d& world_from_object = Eigen::Affine3d::Identity()) {
-  Asset a;
-  a.parts.push_back({.name = "glass", .mesh = mesh, .material = 0});
+// A glTF transmissive material: smooth, ior `ior`, `thickness` metres (0:
+// a thin wall).
+inline AssetMaterial GlassMaterial(float ior, float thickness) {
   AssetMaterial m;
   m.metallic = 0;
   m.roughness = 0;
   m.transmission = 1;
   m.ior = ior;
   m.thickness = thickness;
-  a.materials.push_back(m);
+  return m;
+}
+
+// A virtual object of `mesh` with GlassMaterial(ior, thickness), placed by
+// `world_from_object`; its geometry id.  The caller commits the scene.
+inline uint32_t AddGlassAsset(RenderScene* s, const Mesh& mesh, float ior, float thickness,
+                              const Eigen::Affine3d& world_from_object = Eigen::Affine3d::Identity()) {
+  Asset a;
+  a.parts.push_back({.name = "glass", .mesh = mesh, .material = 0});
+  a.materials.push_back(GlassMaterial(ior, thickness));
   std::vector<int> triangle_material;
   const Mesh merged = MergeParts(a, &triangle_material);
   const uint32_t id = s->AddVirtual(merged, world_from_object, Material());

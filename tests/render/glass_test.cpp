@@ -12,6 +12,7 @@
 #include "core/spherical.h"
 #include "geometry/asset.h"
 #include "geometry/primitives.h"
+#include "render/gi_scenes.h"
 #include "render/pbr_bsdf.h"
 #include "render/pt.h"
 #include "render/render_scene.h"
@@ -120,12 +121,7 @@ GlassAsset MakeGlass(const Mesh& mesh, float ior, float thickness, float attenua
                      const Eigen::Vector3f& attenuation_color = Eigen::Vector3f::Ones()) {
   GlassAsset g;
   g.asset.parts.push_back({.name = "glass", .mesh = mesh, .material = 0});
-  AssetMaterial m;
-  m.metallic = 0;
-  m.roughness = 0;
-  m.transmission = 1;
-  m.ior = ior;
-  m.thickness = thickness;
+  AssetMaterial m = gi_test::GlassMaterial(ior, thickness);
   m.attenuation_distance = attenuation_distance;
   m.attenuation_color = attenuation_color;
   g.asset.materials.push_back(m);

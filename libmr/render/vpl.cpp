@@ -251,7 +251,7 @@ bool StartLightPath(const RenderScene& scene, const VplSettings& st, const Emitt
 }
 
 // Lightcuts' trees, one per light set, over the VPLs that light something.
-void BuildTrees(const std::vector<Vpl>& vpls, const VplSettings& st, double diag, std::vector<VplTree>* trees) {
+void BuildTrees(const std::vector<Vpl>& vpls, double diag, std::vector<VplTree>* trees) {
   for (const uint8_t sets : {kLightsBoth, kLightsMixed, kLightsReal}) {
     std::vector<int> idx;
     for (size_t i = 0; i < vpls.size(); ++i) {
@@ -260,7 +260,7 @@ void BuildTrees(const std::vector<Vpl>& vpls, const VplSettings& st, double diag
       if (v.sets == sets && Luminance(v.flux.cwiseProduct(v.bsdf.DiffuseBound() + v.bsdf.GlossyBound(v.wi_local))) > 0)
         idx.push_back(static_cast<int>(i));
     }
-    if (!idx.empty()) trees->emplace_back(vpls, std::move(idx), sets, diag, HashCombine(st.seed, sets));
+    if (!idx.empty()) trees->emplace_back(vpls, std::move(idx), sets, diag);
   }
 }
 
@@ -357,7 +357,7 @@ std::shared_ptr<const VplSet> VplSet::Build(const RenderScene& scene, const VplS
     out->paths_ended_below_ = below.load();
   }
   if (st.cut_error > 0 && out->vpls_.size() >= static_cast<size_t>(st.cut_min_vpls))
-    BuildTrees(out->vpls_, st, diag, &out->trees_);
+    BuildTrees(out->vpls_, diag, &out->trees_);
   CausticSettings cs;
   cs.photons = st.caustic_photons;
   cs.seed = HashCombine(st.seed, 0x63617573);

@@ -5,9 +5,7 @@
 #include <limits>
 
 #include "core/color.h"
-#include "core/hash.h"
 #include "core/math.h"
-#include "core/sampling.h"
 #include "core/spherical.h"
 #include "render/vpl.h"
 
@@ -44,16 +42,15 @@ double MaxCosine(const Eigen::Vector3d& c, const Eigen::Vector3d& e, const Eigen
 
 }  // namespace
 
-VplTree::VplTree(const std::vector<Vpl>& vpls, std::vector<int> indices, uint8_t sets, double diagonal, uint64_t seed)
-    : sets_(sets) {
+VplTree::VplTree(const std::vector<Vpl>& vpls, std::vector<int> indices, uint8_t sets, double diagonal) : sets_(sets) {
   weights_.assign(vpls.size(), 0.0);
   if (indices.empty()) return;
   nodes_.reserve(2 * indices.size());
-  BuildNode(vpls, indices, 0, indices.size(), 0.5 * diagonal, seed);
+  BuildNode(vpls, indices, 0, indices.size(), 0.5 * diagonal);
 }
 
 int VplTree::BuildNode(const std::vector<Vpl>& vpls, std::vector<int>& idx, size_t begin, size_t end,
-                       double normal_scale, uint64_t seed) {
+                       double normal_scale) {
   const int at = static_cast<int>(nodes_.size());
   nodes_.emplace_back();
   if (end - begin == 1) {
@@ -93,8 +90,8 @@ int VplTree::BuildNode(const std::vector<Vpl>& vpls, std::vector<int>& idx, size
                      const double ka = key(a)[axis], kb = key(b)[axis];
                      return ka < kb || (ka == kb && a < b);  // a total order: the same tree on every run
                    });
-  const int c0 = BuildNode(vpls, idx, begin, mid, normal_scale, seed);
-  const int c1 = BuildNode(vpls, idx, mid, end, normal_scale, seed);
+  const int c0 = BuildNode(vpls, idx, begin, mid, normal_scale);
+  const int c1 = BuildNode(vpls, idx, mid, end, normal_scale);
   const VplCluster& a = nodes_[static_cast<size_t>(c0)];
   const VplCluster& b = nodes_[static_cast<size_t>(c1)];
   VplCluster c;
@@ -118,8 +115,6 @@ int VplTree::BuildNode(const std::vector<Vpl>& vpls, std::vector<int>& idx, size
   }
   c.sin_half = std::sqrt(std::max(0.0, 1 - c.cos_half * c.cos_half));
   CoordinateSystem(c.axis, &c.axis_t, &c.axis_b);
-  Sampler rng = Sampler::Random(HashCombine(seed, 0x6c63), static_cast<uint64_t>(at));
-  c.rep = rng.NextDouble() * c.weight < a.weight ? a.rep : b.rep;
   nodes_[static_cast<size_t>(at)] = c;
   return at;
 }

@@ -24,7 +24,7 @@ struct VplCluster {
   // of its glossy lobe (Bsdf::DiffuseBound, Bsdf::GlossyBound).
   Eigen::Vector3d diffuse = Eigen::Vector3d::Zero(), glossy = Eigen::Vector3d::Zero();
   double weight = 0;  // luminance of diffuse + glossy: the odds of each VPL being the representative
-  int rep = -1;       // the representative VPL (index into the set's VPLs)
+  int rep = -1;       // a leaf's VPL (index into the set's VPLs); -1 at inner nodes
   int child[2] = {-1, -1};
   bool leaf() const { return child[0] < 0; }
 };
@@ -32,13 +32,13 @@ struct VplCluster {
 // One tree over the VPLs of `indices` (those of one set: shared, mixed-only
 // or real-only).  Built top-down by median splits on the longest of six
 // extents (position, and normal times half the scene's diagonal, so that a
-// floor's VPLs and a wall's part early); the representative of a node is
-// one of its children's, drawn in proportion to their weights (seeded), so
-// that each VPL represents a node with probability its share of the weight.
+// floor's VPLs and a wall's part early).  A node's representative is drawn
+// at each point it is used (SampleLeaf), each VPL with probability its share
+// of the node's weight.
 class VplTree {
  public:
   VplTree() = default;
-  VplTree(const std::vector<Vpl>& vpls, std::vector<int> indices, uint8_t sets, double diagonal, uint64_t seed);
+  VplTree(const std::vector<Vpl>& vpls, std::vector<int> indices, uint8_t sets, double diagonal);
   bool empty() const { return nodes_.empty(); }
   int root() const { return 0; }
   const VplCluster& node(int i) const { return nodes_[static_cast<size_t>(i)]; }
@@ -63,8 +63,7 @@ class VplTree {
                         double clamp2) const;
 
  private:
-  int BuildNode(const std::vector<Vpl>& vpls, std::vector<int>& idx, size_t begin, size_t end, double normal_scale,
-                uint64_t seed);
+  int BuildNode(const std::vector<Vpl>& vpls, std::vector<int>& idx, size_t begin, size_t end, double normal_scale);
   std::vector<VplCluster> nodes_;
   std::vector<double> weights_;  // per VPL of the whole set (0 for those not in this tree)
   uint8_t sets_ = 0;

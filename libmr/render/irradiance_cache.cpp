@@ -642,7 +642,9 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
   const bool glossy = HasGlossyLobe(scene_, v);
   PathVertex vd = v;
   vd.bsdf = DiffuseLobe(scene_, v);
-  rays += DirectDiffuse(scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
+  // A camera point on an object takes IcSettings::object_direct_samples.
+  const int n_direct = depth == 0 && xv ? cache_->settings().object_direct_samples : 1;
+  rays += DirectDiffuseSamples(n_direct, scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
     const VirtualTest t = TestVirtualBlockers(scene_, sr);
     rays += t != VirtualTest::kSkipped;
     return t == VirtualTest::kBlocked ? 0.0 : 1.0;
@@ -915,6 +917,7 @@ IcSettings ParseIcSettings(JsonSettings& s, const Scene& scene) {
   s.Bool("glossy_cache", &o.glossy_cache);
   s.Integer("miss_rays", &o.miss_rays, 1, 1 << 16);
   s.Integer("glossy_rays", &o.glossy_rays, 1, 1024);
+  s.Integer("object_direct_samples", &o.object_direct_samples, 1, 256);
   s.Bool("plate_reflections", &o.plate_reflections);
   s.Bool("gradients", &o.gradients);
   s.Number("normal_deg", &o.normal_deg, 1, 90);

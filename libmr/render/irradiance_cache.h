@@ -55,6 +55,11 @@ struct IcSettings {
   // cost (docs/methods.md, "ic": 2 takes 12-26% off the glossy bunny's
   // error for 2-9% more time).
   int glossy_rays = 2;
+  // Samples of the direct light at camera points on the virtual objects,
+  // each weighted 1/n (at least direct_samples): the objects' pixels are
+  // few, and at low spp their direct light's noise is most of the region's
+  // error (docs/benchmarks.md, "The objects' own pixels").
+  int object_direct_samples = 16;
   // Glossy paths from virtual surfaces take the plate's radiance where it
   // sees the real point they meet (render/path_tracer.h, PlateView).
   bool plate_reflections = true;

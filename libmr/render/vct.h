@@ -32,6 +32,11 @@ struct VctSettings {
   // Samples of the direct light at each camera point per camera sample, each
   // weighted 1/n (DirectDiffuseSamples).
   int direct_samples = 1;
+  // Samples of the direct light at camera points on the virtual objects,
+  // each weighted 1/n (at least direct_samples): the objects' pixels are
+  // few, and at low spp their direct light's noise is most of the region's
+  // error (docs/benchmarks.md, "The objects' own pixels").
+  int object_direct_samples = 16;
   double injection_spacing = 0.5;        // injection ray spacing, voxels
   double shadow_aperture_deg = 2;        // shadow cone, full angle
   double min_specular_aperture_deg = 1;  // specular cone, full angle at roughness 0

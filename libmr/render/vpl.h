@@ -34,6 +34,11 @@ struct VplSettings {
   // seconds a frame as 1 on the main job's dynamic capture and the bunny
   // room, 8-23% less error, docs/benchmarks.md).
   int direct_samples = 4;
+  // Samples of the direct light at camera points on the virtual objects,
+  // each weighted 1/n (at least direct_samples): the objects' pixels are
+  // few, and at low spp their direct light's noise is most of the region's
+  // error (docs/benchmarks.md, "The objects' own pixels").
+  int object_direct_samples = 16;
   int max_depth = 5;          // surface bounces of a whole path, as pt's max_depth
   double clamp_distance = 0;  // metres; 0: 2% of the scene's diagonal
   bool compensate = false;    // add back the clamped energy (Kollig & Keller)

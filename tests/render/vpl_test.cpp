@@ -165,6 +165,7 @@ TEST(Vpl, DirectSamplesLowerTheDirectLightsNoise) {
   const Image truth = pt.Mixed();
   VplSettings vs;
   vs.paths = 256;
+  vs.object_direct_samples = 1;  // n samples on the object's pixels too
   auto rms = [&](const Image& img) {
     double sq = 0;
     for (size_t i = 0; i < img.values().size(); ++i) sq += std::pow(img.values()[i] - truth.values()[i], 2);
@@ -221,6 +222,7 @@ TEST(Vpl, LightcutsAgreeWithEveryVplAndTestFewer) {
   vs.drop_threshold = 0;
   vs.final_gather = false;  // the object's own points by the VPLs too
   vs.direct_samples = 1;    // the figures above: with 4 the cut is coarser where the direct light is bright
+  vs.object_direct_samples = 1;
   vs.cut_error = 0;
   const auto all = RenderVpl(s, vs, cam, kCornerCamera, 1);
   vs.cut_error = 1e-12;

@@ -862,18 +862,22 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
       // fireflies of 30 x the truth at 4 spp (the caustic on the object is
       // left out, as the cones left it out).  A ray that escapes adds
       // nothing: DirectDiffuse took the environment.
+      // VctSettings::gather_rays of them, each weighted 1/n.
       const PathVertex v = MakeVertex(scene_, ray, hit);
-      const auto u = rng.Next2D();
-      const auto d = SampleCosineHemisphere(u[0], u[1]);
-      const Ray gr = MakeRay(v.origin, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
-      Hit gh;
-      ++c.rays;
-      ++c.gather_rays;
-      if (!v.bsdf.IsBlack() && d[2] > 0 && embree.Intersect(gr, &gh)) {
-        const Eigen::Vector3d before = mixed;
-        mixed.setZero();
-        shade(gr, gh, true, false, rng, true, false);
-        mixed = before + v.albedo.cwiseProduct(mixed);
+      const int n = std::max(1, st.gather_rays);
+      for (int k = 0; k < n; ++k) {
+        const auto u = rng.Next2D();
+        const auto d = SampleCosineHemisphere(u[0], u[1]);
+        const Ray gr = MakeRay(v.origin, v.frame.ToWorld(Eigen::Vector3d(d[0], d[1], d[2])), kMaskAll);
+        Hit gh;
+        ++c.rays;
+        ++c.gather_rays;
+        if (!v.bsdf.IsBlack() && d[2] > 0 && embree.Intersect(gr, &gh)) {
+          const Eigen::Vector3d before = mixed;
+          mixed.setZero();
+          shade(gr, gh, true, false, rng, true, false);
+          mixed = before + v.albedo.cwiseProduct(mixed) / n;
+        }
       }
     }
   } else {
@@ -921,6 +925,7 @@ VctSettings ParseVctSettings(JsonSettings& s, const Scene& scene) {
   s.Integer("far_field_width", &o.far_field_width, 8, 1024);
   s.Integer("far_field_samples", &o.far_field_samples, 1, 1 << 16);
   s.Bool("final_gather", &o.final_gather);
+  s.Integer("gather_rays", &o.gather_rays, 1, 1024);
   return WithSceneRender(o, scene);
 }
 

@@ -51,6 +51,9 @@ struct VctSettings {
   // instead of six diffuse cones from the object's own surface (which
   // missed half a backlit object's bounce light: docs/methods.md, "vct").
   bool final_gather = true;
+  // Rays of that final gather per camera sample, each weighted 1/n (as
+  // vpl's): the objects' pixels are few, so each ray costs little.
+  int gather_rays = 4;
   uint64_t seed = 0;
 };
 

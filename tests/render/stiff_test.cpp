@@ -472,10 +472,9 @@ TEST(Stiff, FastMethodsSeeThroughAGlassAsset) {
 // the open corner under a sun 1e3 x the sky at 1 spp, against pt at 1024
 // spp over the pixels the sphere covers entirely (vpl with direct_samples
 // 1, which object_direct_samples cannot go below).  Bounds: the mean with
-// 16 samples within 3% of pt's (measured within 1.6%), with one within four
-// of its standard errors; the rms at 16 below 0.8 of that at one (measured
-// ic 0.24, vpl 0.39, vct 0.70: vct's object keeps its final gather's one
-// ray's noise).
+// 16 samples within 3% of pt's and two of its standard errors (measured
+// 0.2-2.6% off), with one within four of its standard errors; the rms at 16
+// below 0.7 of that at one (measured ic 0.24, vpl 0.39, vct 0.43).
 TEST(FastMethods, ObjectDirectSamplesLowerTheObjectsNoise) {
   RenderScene rs;
   OpenCorner(&rs, 1e3);
@@ -506,9 +505,10 @@ TEST(FastMethods, ObjectDirectSamplesLowerTheObjectsNoise) {
     std::printf("object direct samples: %s rms %.4f with 1, %.4f with 16; means %.4f %.4f, pt %.4f\n", name.c_str(),
                 err[0], err[1], mean[0], mean[1], MeanWhere(truth, mask, 1.0f));
     const double want = MeanWhere(truth, mask, 1.0f);
-    EXPECT_NEAR(mean[1], want, 0.03 * want) << name;
-    EXPECT_NEAR(mean[0], want, 4 * err[0] / std::sqrt(n / 3.0)) << name;
-    EXPECT_LT(err[1], 0.8 * err[0]) << name;
+    const double pixels = n / 3.0;
+    EXPECT_NEAR(mean[1], want, 0.03 * want + 2 * err[1] / std::sqrt(pixels)) << name;
+    EXPECT_NEAR(mean[0], want, 4 * err[0] / std::sqrt(pixels)) << name;
+    EXPECT_LT(err[1], 0.7 * err[0]) << name;
   }
 }
 

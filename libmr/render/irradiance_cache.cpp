@@ -642,13 +642,18 @@ int64_t IcFrameRenderer::ShadePoint(const PathVertex& v, bool xv, bool want_m, b
   const bool glossy = HasGlossyLobe(scene_, v);
   PathVertex vd = v;
   vd.bsdf = DiffuseLobe(scene_, v);
-  // A camera point on an object takes IcSettings::object_direct_samples.
+  // A camera point on an object takes IcSettings::object_direct_samples,
+  // one on the room shadow_samples of the objects' shadows.
   const int n_direct = depth == 0 && xv ? cache_->settings().object_direct_samples : 1;
-  rays += DirectDiffuseSamples(n_direct, scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
-    const VirtualTest t = TestVirtualBlockers(scene_, sr);
-    rays += t != VirtualTest::kSkipped;
-    return t == VirtualTest::kBlocked ? 0.0 : 1.0;
-  });
+  const int n_shadows = depth == 0 ? cache_->settings().shadow_samples : 1;
+  rays += DirectDiffuseSamples(
+      n_direct, scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real,
+      [&](Ray sr) {
+        const VirtualTest t = TestVirtualBlockers(scene_, sr);
+        rays += t != VirtualTest::kSkipped;
+        return t == VirtualTest::kBlocked ? 0.0 : 1.0;
+      },
+      n_shadows);
   const Eigen::Vector3d f = v.albedo * kInvPi;
   if (want_m) mixed += f.cwiseProduct(e_m);
   if (want_r) real += f.cwiseProduct(e_r);
@@ -918,6 +923,7 @@ IcSettings ParseIcSettings(JsonSettings& s, const Scene& scene) {
   s.Integer("miss_rays", &o.miss_rays, 1, 1 << 16);
   s.Integer("glossy_rays", &o.glossy_rays, 1, 1024);
   s.Integer("object_direct_samples", &o.object_direct_samples, 1, 256);
+  s.Integer("shadow_samples", &o.shadow_samples, 1, 256);
   s.Bool("plate_reflections", &o.plate_reflections);
   s.Bool("gradients", &o.gradients);
   s.Number("normal_deg", &o.normal_deg, 1, 90);

@@ -556,15 +556,21 @@ inline int64_t EnvironmentDifference(const RenderScene& scene, const PathVertex&
 // it is EnvironmentDifference's (the samples spent where the objects are);
 // the lights' and the discs' virtual shadows are `virtual_pass(ray)`'s: how
 // much of a real point's mixed light passes the virtual objects along `ray`
-// (1 or 0 by shadow ray; vct: a shadow cone).  Returns rays traced.
+// (1 or 0 by shadow ray; vct: a shadow cone).  `shadows`: at such a real
+// point the differences the objects make (the lights' virtual shadows and
+// EnvironmentDifference) take that many samples, each weighted 1/shadows,
+// while the light itself (the same in both solutions) keeps one: the
+// extra samples trace rays only where an object can block them.  Returns
+// rays traced.
 template <class VirtualPass>
 int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen::Vector3d& albedo, bool x_virtual,
                       bool want_m, bool want_r, Sampler& rng, Eigen::Vector3d* mixed, Eigen::Vector3d* real,
-                      VirtualPass&& virtual_pass) {
+                      VirtualPass&& virtual_pass, int shadows = 1) {
   const EmbreeScene& embree = scene.embree();
   int64_t rays = 0;
   // Environment differences apart: a real point, both solutions, objects and an environment.
   const bool apart = !x_virtual && want_m && want_r && scene.has_virtual_geometry() && !scene.environment().empty();
+  const int ns = apart ? std::max(1, shadows) : 1;
   auto light = [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
     if (virtual_light || x_virtual || !want_r || !want_m) {
       rays += AddNextEvent(scene, c, shadow, virtual_light, x_virtual, want_m, want_r, mixed, real);
@@ -574,7 +580,20 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
     ++rays;
     if (embree.Occluded(shadow)) return;
     *real += c;
-    *mixed += c * virtual_pass(shadow);
+    const double pass = virtual_pass(shadow);
+    *mixed += c * (ns == 1 ? pass : 1 - (1 - pass) / ns);
+  };
+  // The other shadows-1 samples of the lights' virtual shadows: the virtual
+  // test first, the real one only where an object blocks.  A virtual
+  // light's light is I_m's alone: its one sample above.
+  auto shadow_only = [&](const Eigen::Vector3d& c, Ray shadow, bool virtual_light) {
+    if (virtual_light) return;
+    const double pass = virtual_pass(shadow);
+    if (!(pass < 1)) return;
+    shadow.mask = kMaskReal;
+    ++rays;
+    if (embree.Occluded(shadow)) return;
+    *mixed -= c * ((1 - pass) / ns);
   };
   if (apart) {
     EnvironmentEvent(scene, v, rng, [&](const Eigen::Vector3d& c, Ray shadow, bool) {
@@ -585,6 +604,7 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
       *mixed += c;
     });
     LightEvents(scene, v, rng, light);
+    for (int k = 1; k < ns; ++k) LightEvents(scene, v, rng, shadow_only);
   } else {
     NextEvent(scene, v, rng, light);
   }
@@ -615,22 +635,30 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
       }
     }
   }
-  if (apart) rays += EnvironmentDifference(scene, v, rng, mixed);
+  if (apart && ns == 1) {
+    rays += EnvironmentDifference(scene, v, rng, mixed);
+  } else if (apart) {
+    Eigen::Vector3d diff = Eigen::Vector3d::Zero();
+    for (int k = 0; k < ns; ++k) rays += EnvironmentDifference(scene, v, rng, &diff);
+    *mixed += diff / ns;
+  }
   return rays;
 }
 
 // DirectDiffuse n times, each weighted 1/n (a method whose indirect light
 // costs more than its direct light takes several direct samples per camera
-// sample); n 1 is DirectDiffuse itself.  Returns rays traced.
+// sample); n 1 is DirectDiffuse itself.  `shadows`: DirectDiffuse's.
+// Returns rays traced.
 template <class VirtualPass>
 int64_t DirectDiffuseSamples(int n, const RenderScene& scene, const PathVertex& v, const Eigen::Vector3d& albedo,
                              bool x_virtual, bool want_m, bool want_r, Sampler& rng, Eigen::Vector3d* mixed,
-                             Eigen::Vector3d* real, VirtualPass&& virtual_pass) {
-  if (n <= 1) return DirectDiffuse(scene, v, albedo, x_virtual, want_m, want_r, rng, mixed, real, virtual_pass);
+                             Eigen::Vector3d* real, VirtualPass&& virtual_pass, int shadows = 1) {
+  if (n <= 1)
+    return DirectDiffuse(scene, v, albedo, x_virtual, want_m, want_r, rng, mixed, real, virtual_pass, shadows);
   int64_t rays = 0;
   for (int k = 0; k < n; ++k) {
     Eigen::Vector3d mk = Eigen::Vector3d::Zero(), rk = Eigen::Vector3d::Zero();
-    rays += DirectDiffuse(scene, v, albedo, x_virtual, want_m, want_r, rng, &mk, &rk, virtual_pass);
+    rays += DirectDiffuse(scene, v, albedo, x_virtual, want_m, want_r, rng, &mk, &rk, virtual_pass, shadows);
     *mixed += mk / n;
     *real += rk / n;
   }

@@ -793,20 +793,25 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
     PathVertex vd = v;
     vd.bsdf = DiffuseLobe(scene_, v);
     // Camera points (glossy) take VctSettings::direct_samples, those on an
-    // object object_direct_samples; the gather's point one.
+    // object object_direct_samples, and shadow_samples of the objects'
+    // shadows; the gather's point one.
     const int n_direct = !glossy ? 1 : xv ? std::max(st.direct_samples, st.object_direct_samples) : st.direct_samples;
-    c.rays += DirectDiffuseSamples(n_direct, scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real, [&](Ray sr) {
-      const Eigen::Vector3d o = sr.origin.cast<double>(), d = sr.direction.cast<double>().normalized();
-      const double tfar = sr.tfar;
-      if (!SegmentMeetsBoxes(o, d, tfar, vbounds)) {
-        ++c.shadow_cones_skipped;
-        return 1.0;
-      }
-      ++c.shadow_cones;
-      const ConeResult cr = vol.March(o, d, shadow_half, 0.5 * voxel, tfar, VctVolumes::Cone::kShadow);
-      c.steps += cr.steps;
-      return 1 - cr.occ_mixed;
-    });
+    const int n_shadows = glossy ? st.shadow_samples : 1;
+    c.rays += DirectDiffuseSamples(
+        n_direct, scene_, vd, v.albedo, xv, want_m, want_r, g, &mixed, &real,
+        [&](Ray sr) {
+          const Eigen::Vector3d o = sr.origin.cast<double>(), d = sr.direction.cast<double>().normalized();
+          const double tfar = sr.tfar;
+          if (!SegmentMeetsBoxes(o, d, tfar, vbounds)) {
+            ++c.shadow_cones_skipped;
+            return 1.0;
+          }
+          ++c.shadow_cones;
+          const ConeResult cr = vol.March(o, d, shadow_half, 0.5 * voxel, tfar, VctVolumes::Cone::kShadow);
+          c.steps += cr.steps;
+          return 1 - cr.occ_mixed;
+        },
+        n_shadows);
     // Indirect diffuse: six cones, turned about the normal per sample.
     const Eigen::Vector3d origin = v.p + v.frame.n * lift;
     const double phi0 = kTwoPi * g.NextDouble();
@@ -916,6 +921,7 @@ VctSettings ParseVctSettings(JsonSettings& s, const Scene& scene) {
   s.Integer("bounces", &o.bounces, 1, 2);
   s.Integer("direct_samples", &o.direct_samples, 1, 256);
   s.Integer("object_direct_samples", &o.object_direct_samples, 1, 256);
+  s.Integer("shadow_samples", &o.shadow_samples, 1, 256);
   s.Number("injection_spacing", &o.injection_spacing, 0.05, 8);
   s.Number("shadow_aperture_deg", &o.shadow_aperture_deg, 0, 90);
   s.Number("min_specular_aperture_deg", &o.min_specular_aperture_deg, 0, 90);

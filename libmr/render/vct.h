@@ -37,6 +37,13 @@ struct VctSettings {
   // few, and at low spp their direct light's noise is most of the region's
   // error (docs/benchmarks.md, "The objects' own pixels").
   int object_direct_samples = 16;
+  // Samples of the virtual objects' shadows at real camera points, each
+  // weighted 1/n (DirectDiffuse's `shadows`): the lights' virtual shadows
+  // and the environment's difference, traced only where an object can
+  // block; the light itself keeps one sample.  1: vct's lights' shadows
+  // are cones, each costing about a camera sample's cones (4: 4-55% less
+  // error for 35-90% more time).
+  int shadow_samples = 1;
   double injection_spacing = 0.5;        // injection ray spacing, voxels
   double shadow_aperture_deg = 2;        // shadow cone, full angle
   double min_specular_aperture_deg = 1;  // specular cone, full angle at roughness 0

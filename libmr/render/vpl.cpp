@@ -632,12 +632,14 @@ class VplShader {
       vd.bsdf = DiffuseLobe(scene_, v);
       // At a camera point several samples of the direct light: they cost a
       // fraction of the VPLs' gather (VplSettings::direct_samples; on an
-      // object object_direct_samples).
+      // object object_direct_samples; shadow_samples of the objects' shadows).
       const int n_direct = !measure_bias ? 1
                            : x_virtual   ? std::max(st_.direct_samples, st_.object_direct_samples)
                                          : st_.direct_samples;
-      acc->c.shadow_rays +=
-          DirectDiffuseSamples(n_direct, scene_, vd, v.albedo, x_virtual, want_m, want_r, rng, &m, &r, [&](Ray sr) {
+      const int n_shadows = measure_bias ? st_.shadow_samples : 1;
+      acc->c.shadow_rays += DirectDiffuseSamples(
+          n_direct, scene_, vd, v.albedo, x_virtual, want_m, want_r, rng, &m, &r,
+          [&](Ray sr) {
             const VirtualTest t = TestVirtualBlockers(scene_, sr);
             if (t == VirtualTest::kSkipped) {
               ++acc->c.virtual_tests_skipped;
@@ -645,7 +647,8 @@ class VplShader {
             }
             ++acc->c.shadow_rays;
             return t == VirtualTest::kBlocked ? 0.0 : 1.0;
-          });
+          },
+          n_shadows);
       if (glossy) {  // light sampling alone: no BSDF-sampled ray of this lobe counts the emitters
         PathVertex vg = v;
         vg.bsdf = GlossyLobe(scene_, v);
@@ -1085,6 +1088,7 @@ VplSettings ParseVplSettings(JsonSettings& s, const Scene& scene) {
   s.Bool("reuse_cuts", &o.reuse_cuts);
   s.Integer("direct_samples", &o.direct_samples, 1, 256);
   s.Integer("object_direct_samples", &o.object_direct_samples, 1, 256);
+  s.Integer("shadow_samples", &o.shadow_samples, 1, 256);
   return WithSceneRender(o, scene);
 }
 

@@ -860,14 +860,14 @@ void VctFrameRenderer::Shade(const Ray& ray, Sampler& rng, int64_t row, size_t, 
       real += Escaped(scene_, rr, 0, kRealLights);
     shade(ray, hit, true, false, rng, !st.final_gather);
     if (st.final_gather) {
-      // The object's indirect light along one cosine-sampled ray: the light
-      // the point it meets sends back, as vct shades that point (direct
-      // light sampled, indirect by its cones), its diffuse lobe only: a
-      // glossy table's specular cone towards a sun 1e6 x the sky made
-      // fireflies of 30 x the truth at 4 spp (the caustic on the object is
-      // left out, as the cones left it out).  A ray that escapes adds
-      // nothing: DirectDiffuse took the environment.
-      // VctSettings::gather_rays of them, each weighted 1/n.
+      // The object's indirect light along VctSettings::gather_rays
+      // cosine-sampled rays, each weighted 1/n: the light the point a ray
+      // meets sends back, as vct shades that point (direct light sampled,
+      // indirect by its cones), its diffuse lobe only: a glossy table's
+      // specular cone towards a sun 1e6 x the sky made fireflies of 30 x
+      // the truth at 4 spp (the caustic on the object is left out, as the
+      // cones left it out).  A ray that escapes adds nothing: DirectDiffuse
+      // took the environment.
       const PathVertex v = MakeVertex(scene_, ray, hit);
       const int n = std::max(1, st.gather_rays);
       for (int k = 0; k < n; ++k) {

@@ -53,8 +53,8 @@ struct VctSettings {
   int far_field_samples = 16;    // paths per far-field texel
   double cone_offset = 1.0;      // cone origins lifted off the surface, voxels
   int max_depth = 5;             // far-field paths
-  // At the virtual points the camera sees, indirect light along one
-  // cosine-sampled ray per sample, from the point it meets as vct shades it,
+  // At the virtual points the camera sees, indirect light along
+  // cosine-sampled rays (gather_rays), from the point each meets as vct shades it,
   // instead of six diffuse cones from the object's own surface (which
   // missed half a backlit object's bounce light: docs/methods.md, "vct").
   bool final_gather = true;

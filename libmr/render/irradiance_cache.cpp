@@ -339,13 +339,17 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
   }
   const double inv_a = 1 / cache_->settings_.accuracy;
   const double inv_n = 1 / std::sqrt(1 - std::cos(cache_->settings_.normal_deg * kDegToRad));
+  // Points farther than the record's reach (accuracy x R_i, widened by a
+  // relative 1e-6 so that rounding cannot drop a point Weight would take)
+  // get no weight: rejected without Weight's square roots.
+  const double reach = cache_->settings_.accuracy * r.r * (1 + 1e-6), reach2 = reach * reach;
   for (int y = ya; y <= yb; ++y)
     for (int x = x0; x <= x1; ++x)
       for (int s = 0; s < samples_; ++s) {
         const size_t k = (static_cast<size_t>(y) * width() + x) * samples_ + s;
         // The mixed entry: virtual records on virtual points, real ones on real.
         Entry& m = mixed_[k];
-        if (m.valid && m.is_virtual == r.on_virtual) {
+        if (m.valid && m.is_virtual == r.on_virtual && (m.p - r.p).squaredNorm() <= reach2) {
           const Eigen::Vector3d mn = m.n.cast<double>();
           const double w = Weight(r, m.p, mn, inv_a, inv_n);
           if (w > 0) {
@@ -358,7 +362,7 @@ void IcFrameRenderer::Splat(size_t index, int64_t y0, int64_t y1) {
         }
         if (r.on_virtual || !m.is_virtual || real_index_[k] == kNoEntry) continue;
         Entry& e = real_[real_index_[k]];
-        if (e.valid) {  // the real point behind a virtual one
+        if (e.valid && (e.p - r.p).squaredNorm() <= reach2) {  // the real point behind a virtual one
           const Eigen::Vector3d en = e.n.cast<double>();
           const double w = Weight(r, e.p, en, inv_a, inv_n);
           if (w > 0) {

@@ -580,6 +580,8 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
     ++rays;
     if (embree.Occluded(shadow)) return;
     *real += c;
+    // The light, and this sample's share 1/ns of the objects' shadow (ns 1:
+    // c x pass, written as before so that its bytes stay the same).
     const double pass = virtual_pass(shadow);
     *mixed += c * (ns == 1 ? pass : 1 - (1 - pass) / ns);
   };

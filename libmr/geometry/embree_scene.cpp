@@ -72,12 +72,40 @@ void FilterHits(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+// A twin of triangle geometry `g` over the same vertex and index buffers
+// (Embree 3 attaches a geometry to one scene only).
+RTCGeometry TwinTriangles(RTCDevice device, RTCGeometry g, const Mesh& mesh) {
+  RTCGeometry t = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetSharedGeometryBuffer(t, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                             rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_VERTEX, 0), 0, 3 * sizeof(float),
+                             mesh.positions.size());
+  rtcSetSharedGeometryBuffer(t, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                             rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_INDEX, 0), 0, 3 * sizeof(uint32_t),
+                             mesh.triangles.size());
+  return t;
+}
+
 }  // namespace
 
+// Besides the scene of everything, each kind of geometry has a scene of its
+// own, holding twins of the same geometries under the same ids: a ray that
+// sees one kind only (kMaskReal, kMaskVirtual) traverses that kind's tree,
+// not the other's (a mask is tested at the primitives, after the
+// traversal: a virtual blocker test in a fused room of 700 000 triangles
+// would walk the room's tree).  The results are the same; the real part is
+// built only once there is virtual geometry, and rebuilt only when a real
+// instance moves.
 struct EmbreeScene::Impl {
   std::string error;
   RTCDevice device = nullptr;
   RTCScene scene = nullptr;
+  struct Part {
+    RTCScene scene = nullptr;
+    size_t count = 0;    // geometries in it
+    bool dirty = false;  // changed since its last commit
+  };
+  Part parts[2];                   // [0] real, [1] virtual
+  std::vector<RTCGeometry> twins;  // by geometry id: its twin in its part
   std::vector<RTCScene> prototypes;
   std::vector<std::unique_ptr<HitFilter>> filters;  // user data of the prototypes' filters
   std::vector<char> is_virtual;                     // by geometry id
@@ -94,15 +122,57 @@ struct EmbreeScene::Impl {
     if (is_virtual.size() <= id) is_virtual.resize(id + 1, 0);
     is_virtual[id] = v;
   }
-  // Masks, commits and attaches `g` to the top-level scene; its id.
-  uint32_t Attach(RTCGeometry g, bool virt, const char* what) {
+  // Masks, commits and attaches `g` to the top-level scene and its twin to
+  // its kind's part under the same id; its id.
+  uint32_t Attach(RTCGeometry g, RTCGeometry twin, bool virt, const char* what) {
     rtcSetGeometryMask(g, virt ? kMaskVirtual : kMaskReal);
     rtcCommitGeometry(g);
     const uint32_t id = rtcAttachGeometry(scene, g);
     rtcReleaseGeometry(g);
+    rtcSetGeometryMask(twin, virt ? kMaskVirtual : kMaskReal);
+    rtcCommitGeometry(twin);
+    Part& part = parts[virt ? 1 : 0];
+    rtcAttachGeometryByID(part.scene, twin, id);
+    rtcReleaseGeometry(twin);
+    ++part.count;
+    part.dirty = true;
     Check(what);
     Record(id, virt);
+    if (twins.size() <= id) twins.resize(id + 1, nullptr);
+    twins[id] = twin;
     return id;
+  }
+  // The scene a ray with `mask` traverses; null: it can meet nothing.
+  RTCScene For(uint32_t mask) const {
+    if (mask == kMaskVirtual) return parts[1].count ? parts[1].scene : nullptr;
+    if (mask == kMaskReal && parts[1].count) return parts[0].count ? parts[0].scene : nullptr;
+    return scene;
+  }
+  // Runs the stream `records` (one per ray of `rays`, `stride` bytes
+  // apart) through `whole(scene, ctx, first, n)` where every ray is bound
+  // for the same scene (For), else through `by_pointer(scene, ctx,
+  // pointers, n)` once per scene, each ray in its scene's pointer array; a
+  // ray that can meet nothing keeps its miss.
+  template <class Whole, class ByPointer>
+  void Stream(std::span<const Ray> rays, char* records, size_t stride, Whole&& whole, ByPointer&& by_pointer) const {
+    if (rays.empty()) return;
+    RTCIntersectContext ctx;
+    rtcInitIntersectContext(&ctx);
+    ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    const RTCScene first = For(rays[0].mask);
+    bool one = true;
+    for (const Ray& r : rays) one = one && For(r.mask) == first;
+    if (one) {
+      if (first) whole(first, &ctx, records, static_cast<unsigned>(rays.size()));
+      return;
+    }
+    std::vector<void*> pointers;
+    for (RTCScene s : {scene, parts[0].scene, parts[1].scene}) {
+      pointers.clear();
+      for (size_t i = 0; i < rays.size(); ++i)
+        if (For(rays[i].mask) == s) pointers.push_back(records + i * stride);
+      if (!pointers.empty()) by_pointer(s, &ctx, pointers.data(), static_cast<unsigned>(pointers.size()));
+    }
   }
   void Fill(const RTCRayHit& rh, Hit* hit) const {
     *hit = Hit();
@@ -124,13 +194,17 @@ EmbreeScene::EmbreeScene() : impl_(std::make_unique<Impl>()) {
   rtcSetDeviceErrorFunction(impl_->device, ErrorCallback, &impl_->error);
   if (!rtcGetDeviceProperty(impl_->device, RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED))
     ThrowError("this Embree build lacks ray masks, which mr needs for real/virtual rays");
-  impl_->scene = rtcNewScene(impl_->device);
-  rtcSetSceneFlags(impl_->scene, RTC_SCENE_FLAG_ROBUST);
-  rtcSetSceneBuildQuality(impl_->scene, RTC_BUILD_QUALITY_HIGH);
+  for (RTCScene* s : {&impl_->scene, &impl_->parts[0].scene, &impl_->parts[1].scene}) {
+    *s = rtcNewScene(impl_->device);
+    rtcSetSceneFlags(*s, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(*s, RTC_BUILD_QUALITY_HIGH);
+  }
   impl_->Check("creating the scene");
 }
 
 EmbreeScene::~EmbreeScene() {
+  for (auto& part : impl_->parts)  // before the scene that owns the buffers they share
+    if (part.scene) rtcReleaseScene(part.scene);
   for (RTCScene s : impl_->prototypes) rtcReleaseScene(s);
   if (impl_->scene) rtcReleaseScene(impl_->scene);
   if (impl_->device) rtcReleaseDevice(impl_->device);
@@ -138,7 +212,8 @@ EmbreeScene::~EmbreeScene() {
 
 uint32_t EmbreeScene::AddMesh(const Mesh& mesh, bool is_virtual) {
   MR_CHECK(!impl_->committed);
-  return impl_->Attach(MakeTriangleGeometry(impl_->device, mesh), is_virtual, "adding a mesh");
+  RTCGeometry g = MakeTriangleGeometry(impl_->device, mesh);
+  return impl_->Attach(g, TwinTriangles(impl_->device, g, mesh), is_virtual, "adding a mesh");
 }
 
 uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
@@ -172,32 +247,43 @@ uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& wor
   MR_CHECK_LT(prototype, impl_->prototypes.size());
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
   if (std::abs(world_from_object.linear().determinant()) < 1e-20f) ThrowError("instance transform is singular");
-  RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
-  rtcSetGeometryInstancedScene(g, impl_->prototypes[prototype]);
+  RTCGeometry g[2];
   Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
-  // Column-major 3x4.
-  rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
-  return impl_->Attach(g, is_virtual, "adding an instance");
+  for (RTCGeometry& gi : g) {
+    gi = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(gi, impl_->prototypes[prototype]);
+    rtcSetGeometryTransform(gi, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());  // column-major 3x4
+  }
+  return impl_->Attach(g[0], g[1], is_virtual, "adding an instance");
 }
 
 void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object) {
   MR_CHECK_LT(id, impl_->is_virtual.size());
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
-  RTCGeometry g = rtcGetGeometry(impl_->scene, id);
-  if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
-    rtcDisableGeometry(g);
-  } else {
-    rtcEnableGeometry(g);
-    Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
-    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
+  for (RTCGeometry g : {rtcGetGeometry(impl_->scene, id), impl_->twins[id]}) {
+    if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
+      rtcDisableGeometry(g);
+    } else {
+      rtcEnableGeometry(g);
+      Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
+      rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
+    }
+    rtcCommitGeometry(g);
   }
-  rtcCommitGeometry(g);
+  impl_->parts[impl_->is_virtual[id] ? 1 : 0].dirty = true;
   impl_->Check("moving an instance");
   impl_->committed = false;
 }
 
 void EmbreeScene::Commit() {
   rtcCommitScene(impl_->scene);
+  // The parts serve single-kind rays only once both kinds exist (For).
+  if (impl_->parts[1].count)
+    for (auto& part : impl_->parts)
+      if (part.dirty) {
+        rtcCommitScene(part.scene);
+        part.dirty = false;
+      }
   impl_->Check("building the scene");
   impl_->committed = true;
 }
@@ -212,7 +298,7 @@ bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {
   ToRTC(ray, &rh.ray);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  rtcIntersect1(impl_->scene, &ctx, &rh);
+  if (RTCScene s = impl_->For(ray.mask)) rtcIntersect1(s, &ctx, &rh);
   impl_->Fill(rh, hit);
   return hit->valid();
 }
@@ -223,7 +309,9 @@ bool EmbreeScene::Occluded(const Ray& ray) const {
   rtcInitIntersectContext(&ctx);
   RTCRay r;
   ToRTC(ray, &r);
-  rtcOccluded1(impl_->scene, &ctx, &r);
+  RTCScene s = impl_->For(ray.mask);
+  if (!s) return false;
+  rtcOccluded1(s, &ctx, &r);
   return r.tfar < 0;  // Embree sets tfar = -inf on a hit
 }
 
@@ -236,10 +324,14 @@ void EmbreeScene::Intersect(std::span<const Ray> rays, std::span<Hit> hits) cons
     rh[i].hit.geomID = RTC_INVALID_GEOMETRY_ID;
     rh[i].hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
   }
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  rtcIntersect1M(impl_->scene, &ctx, rh.data(), static_cast<unsigned>(rh.size()), sizeof(RTCRayHit));
+  impl_->Stream(
+      rays, reinterpret_cast<char*>(rh.data()), sizeof(RTCRayHit),
+      [](RTCScene s, RTCIntersectContext* ctx, char* p, unsigned n) {
+        rtcIntersect1M(s, ctx, reinterpret_cast<RTCRayHit*>(p), n, sizeof(RTCRayHit));
+      },
+      [](RTCScene s, RTCIntersectContext* ctx, void** p, unsigned n) {
+        rtcIntersect1Mp(s, ctx, reinterpret_cast<RTCRayHit**>(p), n);
+      });
   for (size_t i = 0; i < rays.size(); ++i) impl_->Fill(rh[i], &hits[i]);
 }
 
@@ -248,10 +340,14 @@ void EmbreeScene::Occluded(std::span<const Ray> rays, std::span<char> occluded) 
   MR_CHECK_EQ(rays.size(), occluded.size());
   std::vector<RTCRay> r(rays.size());
   for (size_t i = 0; i < rays.size(); ++i) ToRTC(rays[i], &r[i]);
-  RTCIntersectContext ctx;
-  rtcInitIntersectContext(&ctx);
-  ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-  rtcOccluded1M(impl_->scene, &ctx, r.data(), static_cast<unsigned>(r.size()), sizeof(RTCRay));
+  impl_->Stream(
+      rays, reinterpret_cast<char*>(r.data()), sizeof(RTCRay),
+      [](RTCScene s, RTCIntersectContext* ctx, char* p, unsigned n) {
+        rtcOccluded1M(s, ctx, reinterpret_cast<RTCRay*>(p), n, sizeof(RTCRay));
+      },
+      [](RTCScene s, RTCIntersectContext* ctx, void** p, unsigned n) {
+        rtcOccluded1Mp(s, ctx, reinterpret_cast<RTCRay**>(p), n);
+      });
   for (size_t i = 0; i < rays.size(); ++i) occluded[i] = r[i].tfar < 0;
 }
 
@@ -281,7 +377,11 @@ void EmbreeScene::IntersectPacket8(std::span<const Ray> rays, std::span<Hit> hit
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  rtcIntersect8(valid, impl_->scene, &ctx, &rh);
+  // One scene for the packet: a kind's part where every ray sees that kind only.
+  bool one_mask = true;
+  for (const Ray& r : rays) one_mask = one_mask && r.mask == rays[0].mask;
+  RTCScene s = one_mask && !rays.empty() ? impl_->For(rays[0].mask) : impl_->scene;
+  if (s) rtcIntersect8(valid, s, &ctx, &rh);
   for (size_t i = 0; i < rays.size(); ++i) {
     RTCRayHit one;
     one.ray.tfar = rh.ray.tfar[i];

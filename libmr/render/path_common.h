@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "core/math.h"
 #include "core/sampling.h"
@@ -500,15 +501,20 @@ struct VirtualCones {
 // narrower than a form factor of 1e-3 are not sampled (the environment's
 // sample alone then covers the integral, with its full weight): the sky's
 // share there is below the noise, and the sun's is the other sample's.
-// Always draws five numbers.  Returns the rays traced.
+// Always draws five numbers.  Returns the rays traced.  `cones`: the
+// objects' cones seen from v (VirtualCones(scene.virtual_bounds(), v.p,
+// v.frame.n)), for a caller that takes several samples at one point; null:
+// made here.
 inline int64_t EnvironmentDifference(const RenderScene& scene, const PathVertex& v, Sampler& rng,
-                                     Eigen::Vector3d* mixed) {
+                                     Eigen::Vector3d* mixed, const VirtualCones* cones = nullptr) {
   const double u_pick = rng.NextDouble();
   const auto uc = rng.Next2D();
   const auto ue = rng.Next2D();
   const EnvironmentMap& env = scene.environment();
   if (env.empty() || !scene.has_virtual_geometry()) return 0;
-  const VirtualCones all(scene.virtual_bounds(), v.p, v.frame.n);
+  std::optional<VirtualCones> made;
+  if (!cones) cones = &made.emplace(scene.virtual_bounds(), v.p, v.frame.n);
+  const VirtualCones& all = *cones;
   if (all.cones.empty()) return 0;
   constexpr double kMinFormFactor = 1e-3;
   const bool cone_strategy = all.total >= kPi * kMinFormFactor;
@@ -641,7 +647,8 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
     rays += EnvironmentDifference(scene, v, rng, mixed);
   } else if (apart) {
     Eigen::Vector3d diff = Eigen::Vector3d::Zero();
-    for (int k = 0; k < ns; ++k) rays += EnvironmentDifference(scene, v, rng, &diff);
+    const VirtualCones cones(scene.virtual_bounds(), v.p, v.frame.n);  // the same for every sample
+    for (int k = 0; k < ns; ++k) rays += EnvironmentDifference(scene, v, rng, &diff, &cones);
     *mixed += diff / ns;
   }
   return rays;

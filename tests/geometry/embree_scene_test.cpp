@@ -83,7 +83,7 @@ TEST(EmbreeScene, StreamsAndPacketsMatchSingleRays) {
     Ray r;
     r.origin = {0, 0, 0};
     r.direction = Eigen::Vector3f(rng.NextFloat() - 0.5f, rng.NextFloat() - 0.5f, 1.0f);
-    r.mask = i % 2 ? kMaskAll : kMaskReal;
+    r.mask = i % 3 == 0 ? kMaskAll : i % 3 == 1 ? kMaskReal : kMaskVirtual;  // a stream of every kind
     rays.push_back(r);
   }
   std::vector<Hit> stream(rays.size());
@@ -112,6 +112,58 @@ TEST(EmbreeScene, StreamsAndPacketsMatchSingleRays) {
   }
   auto b = s.Bounds();
   EXPECT_NEAR(b.max().z(), 5, 1e-6);
+}
+
+// Each kind of ray is served by its kind's own tree (embree_scene.cpp); the
+// hits must be those of the scene of everything under the ray's mask: a
+// real ray passes a virtual instance wherever it is moved, a virtual ray
+// meets only the instance, a disabled instance nothing, and with no virtual
+// geometry a virtual ray meets nothing at all.
+TEST(EmbreeScene, EachKindOfRayMeetsItsKindOnlyAsTheObjectMoves) {
+  EmbreeScene s;
+  const uint32_t wall = s.AddMesh(Square(5), false);
+  const uint32_t proto = s.AddPrototype(Square(0, 0.5f));
+  Eigen::Affine3f at2 = Eigen::Affine3f::Identity();
+  at2.translate(Eigen::Vector3f(0, 0, 2));
+  const uint32_t object = s.AddInstance(proto, at2, true);
+  s.Commit();
+  for (int step = 0; step < 3; ++step) {
+    Hit h;
+    const float z = step == 0 ? 2.0f : 3.0f;
+    const bool present = step < 2;
+    ASSERT_TRUE(s.Intersect(RayAlongZ(0.1f, 0.1f, kMaskReal), &h)) << step;
+    EXPECT_EQ(h.geometry_id, wall) << step;
+    EXPECT_FLOAT_EQ(h.t, 5);
+    EXPECT_EQ(s.Intersect(RayAlongZ(0.1f, 0.1f, kMaskVirtual), &h), present) << step;
+    if (present) {
+      EXPECT_EQ(h.geometry_id, object);
+      EXPECT_NEAR(h.t, z, 1e-5);
+    }
+    ASSERT_TRUE(s.Intersect(RayAlongZ(0.1f, 0.1f, kMaskAll), &h)) << step;
+    EXPECT_EQ(h.geometry_id, present ? object : wall) << step;
+    Ray shadow = RayAlongZ(0.1f, 0.1f, kMaskVirtual);
+    shadow.tfar = 4;
+    EXPECT_EQ(s.Occluded(shadow), present) << step;
+    shadow.mask = kMaskReal;
+    EXPECT_FALSE(s.Occluded(shadow)) << step;
+    // The next step: the object moved to z = 3, then scaled to nothing.
+    Eigen::Affine3f next = Eigen::Affine3f::Identity();
+    next.translate(Eigen::Vector3f(0, 0, 3));
+    if (step == 1) next.scale(Eigen::Vector3f(1, 0, 1));
+    s.SetInstanceTransform(object, next);
+    s.Commit();
+  }
+  EmbreeScene room;
+  room.AddMesh(Square(5), false);
+  room.Commit();
+  Hit h;
+  EXPECT_FALSE(room.Intersect(RayAlongZ(0.1f, 0.1f, kMaskVirtual), &h));
+  EXPECT_TRUE(room.Intersect(RayAlongZ(0.1f, 0.1f, kMaskReal), &h));
+  std::vector<Ray> rays = {RayAlongZ(0.1f, 0.1f, kMaskVirtual), RayAlongZ(0.1f, 0.1f, kMaskReal)};
+  std::vector<char> occ(2);
+  room.Occluded(rays, occ);
+  EXPECT_FALSE(occ[0]);
+  EXPECT_TRUE(occ[1]);
 }
 
 TEST(EmbreeScene, RefusesBadMeshes) {

@@ -87,28 +87,34 @@ RTCGeometry TwinTriangles(RTCDevice device, RTCGeometry g, const Mesh& mesh) {
 
 }  // namespace
 
-// Besides the scene of everything, each kind of geometry has a scene of its
-// own, holding twins of the same geometries under the same ids: a ray that
-// sees one kind only (kMaskReal, kMaskVirtual) traverses that kind's tree,
-// not the other's (a mask is tested at the primitives, after the
-// traversal: a virtual blocker test in a fused room of 700 000 triangles
-// would walk the room's tree).  The results are the same; the real part is
-// built only once there is virtual geometry, and rebuilt only when a real
-// instance moves.
+// Two levels.  The real geometry is one scene (parts[0]), built once: the
+// room does not move.  The virtual geometry is another (parts[1]), and the
+// top scene holds an instance of the real part beside twins of the virtual
+// geometries (Embree 3 attaches a geometry to one scene only; a triangle
+// twin shares its buffers).  A ray that sees one kind only (kMaskReal,
+// kMaskVirtual) traverses that kind's tree, not the other's: a mask is
+// tested at the primitives, after the traversal, so a virtual blocker test
+// in a fused room of 700 000 triangles would otherwise walk the room's
+// tree.  A moved object rebuilds the top scene and the virtual part, not
+// the room's tree (0.15 s a frame for that room on 2 threads).  Ids are
+// assigned here and shared by a geometry and its twin.
 struct EmbreeScene::Impl {
   std::string error;
   RTCDevice device = nullptr;
-  RTCScene scene = nullptr;
+  RTCScene scene = nullptr;  // top: the real part's instance and the virtual geometry
   struct Part {
     RTCScene scene = nullptr;
     size_t count = 0;    // geometries in it
     bool dirty = false;  // changed since its last commit
   };
-  Part parts[2];                   // [0] real, [1] virtual
-  std::vector<RTCGeometry> twins;  // by geometry id: its twin in its part
+  Part parts[2];                                     // [0] real, [1] virtual
+  uint32_t real_instance = RTC_INVALID_GEOMETRY_ID;  // the real part's id in the top scene
+  uint32_t next_id = 0;
+  std::vector<RTCGeometry> twins;  // by geometry id: a virtual geometry's twin in parts[1]
   std::vector<RTCScene> prototypes;
   std::vector<std::unique_ptr<HitFilter>> filters;  // user data of the prototypes' filters
   std::vector<char> is_virtual;                     // by geometry id
+  size_t geometries = 0;
   bool committed = false;
 
   void Check(const char* what) {
@@ -122,30 +128,35 @@ struct EmbreeScene::Impl {
     if (is_virtual.size() <= id) is_virtual.resize(id + 1, 0);
     is_virtual[id] = v;
   }
-  // Masks, commits and attaches `g` to the top-level scene and its twin to
-  // its kind's part under the same id; its id.
+  // Masks, commits and attaches `g`: a real one to the real part, a virtual
+  // one to the top scene and its `twin` to the virtual part, under one id;
+  // its id.
   uint32_t Attach(RTCGeometry g, RTCGeometry twin, bool virt, const char* what) {
+    const uint32_t id = next_id++;
+    Part& part = parts[virt ? 1 : 0];
     rtcSetGeometryMask(g, virt ? kMaskVirtual : kMaskReal);
     rtcCommitGeometry(g);
-    const uint32_t id = rtcAttachGeometry(scene, g);
+    rtcAttachGeometryByID(virt ? scene : part.scene, g, id);
     rtcReleaseGeometry(g);
-    rtcSetGeometryMask(twin, virt ? kMaskVirtual : kMaskReal);
-    rtcCommitGeometry(twin);
-    Part& part = parts[virt ? 1 : 0];
-    rtcAttachGeometryByID(part.scene, twin, id);
-    rtcReleaseGeometry(twin);
+    if (virt) {
+      rtcSetGeometryMask(twin, kMaskVirtual);
+      rtcCommitGeometry(twin);
+      rtcAttachGeometryByID(part.scene, twin, id);
+      rtcReleaseGeometry(twin);
+      if (twins.size() <= id) twins.resize(id + 1, nullptr);
+      twins[id] = twin;
+    }
     ++part.count;
+    ++geometries;
     part.dirty = true;
     Check(what);
     Record(id, virt);
-    if (twins.size() <= id) twins.resize(id + 1, nullptr);
-    twins[id] = twin;
     return id;
   }
   // The scene a ray with `mask` traverses; null: it can meet nothing.
   RTCScene For(uint32_t mask) const {
-    if (mask == kMaskVirtual) return parts[1].count ? parts[1].scene : nullptr;
-    if (mask == kMaskReal && parts[1].count) return parts[0].count ? parts[0].scene : nullptr;
+    if (mask == kMaskVirtual || !parts[0].count) return parts[1].count ? parts[1].scene : nullptr;
+    if (mask == kMaskReal || !parts[1].count) return parts[0].scene;
     return scene;
   }
   // Runs the stream `records` (one per ray of `rays`, `stride` bytes
@@ -167,7 +178,7 @@ struct EmbreeScene::Impl {
       return;
     }
     std::vector<void*> pointers;
-    for (RTCScene s : {scene, parts[0].scene, parts[1].scene}) {
+    for (RTCScene s : {scene, parts[0].scene, parts[1].scene}) {  // every target For gives
       pointers.clear();
       for (size_t i = 0; i < rays.size(); ++i)
         if (For(rays[i].mask) == s) pointers.push_back(records + i * stride);
@@ -177,8 +188,10 @@ struct EmbreeScene::Impl {
   void Fill(const RTCRayHit& rh, Hit* hit) const {
     *hit = Hit();
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return;
-    // For an instance, instID[0] is the geometry id in the top-level scene.
-    const uint32_t id = rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID ? rh.hit.instID[0] : rh.hit.geomID;
+    // Through an instance, instID[0] is its id in the scene queried: the
+    // real part's (the mesh is geomID in it) or a virtual object's.
+    const uint32_t inst = rh.hit.instID[0];
+    const uint32_t id = inst == RTC_INVALID_GEOMETRY_ID || inst == real_instance ? rh.hit.geomID : inst;
     hit->t = rh.ray.tfar;
     hit->uv = Eigen::Vector2f(rh.hit.u, rh.hit.v);
     hit->geometric_normal = Eigen::Vector3f(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
@@ -213,7 +226,7 @@ EmbreeScene::~EmbreeScene() {
 uint32_t EmbreeScene::AddMesh(const Mesh& mesh, bool is_virtual) {
   MR_CHECK(!impl_->committed);
   RTCGeometry g = MakeTriangleGeometry(impl_->device, mesh);
-  return impl_->Attach(g, TwinTriangles(impl_->device, g, mesh), is_virtual, "adding a mesh");
+  return impl_->Attach(g, is_virtual ? TwinTriangles(impl_->device, g, mesh) : nullptr, is_virtual, "adding a mesh");
 }
 
 uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
@@ -242,7 +255,7 @@ void EmbreeScene::SetPrototypeFilter(uint32_t prototype, HitFilter accept) {
   impl_->Check("setting a prototype's hit filter");
 }
 
-uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object, bool is_virtual) {
+uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object) {
   MR_CHECK(!impl_->committed);
   MR_CHECK_LT(prototype, impl_->prototypes.size());
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
@@ -254,11 +267,11 @@ uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& wor
     rtcSetGeometryInstancedScene(gi, impl_->prototypes[prototype]);
     rtcSetGeometryTransform(gi, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());  // column-major 3x4
   }
-  return impl_->Attach(g[0], g[1], is_virtual, "adding an instance");
+  return impl_->Attach(g[0], g[1], /*virt=*/true, "adding an instance");
 }
 
 void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object) {
-  MR_CHECK_LT(id, impl_->is_virtual.size());
+  MR_CHECK(id < impl_->twins.size() && impl_->twins[id]);  // an instance's id
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
   for (RTCGeometry g : {rtcGetGeometry(impl_->scene, id), impl_->twins[id]}) {
     if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
@@ -270,25 +283,37 @@ void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world
     }
     rtcCommitGeometry(g);
   }
-  impl_->parts[impl_->is_virtual[id] ? 1 : 0].dirty = true;
+  impl_->parts[1].dirty = true;
   impl_->Check("moving an instance");
   impl_->committed = false;
 }
 
 void EmbreeScene::Commit() {
-  rtcCommitScene(impl_->scene);
-  // The parts serve single-kind rays only once both kinds exist (For).
-  if (impl_->parts[1].count)
-    for (auto& part : impl_->parts)
-      if (part.dirty) {
-        rtcCommitScene(part.scene);
-        part.dirty = false;
-      }
+  Impl& m = *impl_;
+  for (auto& part : m.parts)
+    if (part.dirty) {
+      rtcCommitScene(part.scene);
+      part.dirty = false;
+      if (&part == &m.parts[0] && m.real_instance != RTC_INVALID_GEOMETRY_ID)  // the room grew
+        rtcCommitGeometry(rtcGetGeometry(m.scene, m.real_instance));
+    }
+  if (m.parts[0].count && m.real_instance == RTC_INVALID_GEOMETRY_ID) {
+    RTCGeometry g = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(g, m.parts[0].scene);
+    const Eigen::Matrix<float, 3, 4> identity = Eigen::Matrix<float, 3, 4>::Identity();
+    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, identity.data());
+    rtcSetGeometryMask(g, kMaskReal);
+    rtcCommitGeometry(g);
+    m.real_instance = m.next_id++;
+    rtcAttachGeometryByID(m.scene, g, m.real_instance);
+    rtcReleaseGeometry(g);
+  }
+  rtcCommitScene(m.scene);
   impl_->Check("building the scene");
   impl_->committed = true;
 }
 
-size_t EmbreeScene::geometry_count() const { return impl_->is_virtual.size(); }
+size_t EmbreeScene::geometry_count() const { return impl_->geometries; }
 
 bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {
   MR_CHECK(impl_->committed);

@@ -4,7 +4,9 @@
 // A ray carries a visibility mask: RayMask::kReal sees real geometry only
 // (the "real" rays of differential rendering, for I_r), kAll sees both (the
 // "mixed" rays, for I_m).  Virtual objects can be instanced: one prototype
-// mesh placed by several transforms.  Embree types stay in the .cpp.
+// mesh placed by several transforms.  A ray that sees one kind only
+// traverses that kind's tree alone, and moving an object does not rebuild
+// the room's tree (embree_scene.cpp).  Embree types stay in the .cpp.
 #pragma once
 
 #include <cstdint>
@@ -58,8 +60,10 @@ class EmbreeScene {
   uint32_t AddMesh(const Mesh& mesh, bool is_virtual);
   // A mesh to instance; returns a prototype id for AddInstance.
   uint32_t AddPrototype(const Mesh& mesh);
-  // Places prototype `prototype` with world_from_object; returns the geometry id.
-  uint32_t AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object, bool is_virtual);
+  // Places prototype `prototype` with world_from_object as virtual geometry
+  // (instances are the inserted objects: the room is never instanced);
+  // returns the geometry id.
+  uint32_t AddInstance(uint32_t prototype, const Eigen::Affine3f& world_from_object);
   // Moves instance `id` (AddInstance's); a singular transform (an object
   // scaled to nothing) disables it: no ray meets it until it is moved back.
   // Commit() again before the next query.

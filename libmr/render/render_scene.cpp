@@ -37,7 +37,7 @@ bool Collapses(const Eigen::Affine3d& t) { return !(std::abs(t.linear().determin
 
 uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_from_object, const Material& material) {
   uint32_t proto = embree_->AddPrototype(mesh);
-  uint32_t id = embree_->AddInstance(proto, Eigen::Affine3f::Identity(), /*is_virtual=*/true);
+  uint32_t id = embree_->AddInstance(proto, Eigen::Affine3f::Identity());
   virtual_prototypes_.push_back(proto);
   geometry_bounds_.emplace_back();
   virtual_bounds_.emplace_back();

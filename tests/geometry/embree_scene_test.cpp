@@ -56,7 +56,7 @@ TEST(EmbreeScene, InstancesArePlacedByTheirTransform) {
   Eigen::Affine3f a = Eigen::Affine3f::Identity();
   a.translate(Eigen::Vector3f(0, 0, 4));
   a.scale(2.0f);
-  uint32_t inst = s.AddInstance(proto, a, true);
+  uint32_t inst = s.AddInstance(proto, a);
   s.Commit();
   Hit h;
   ASSERT_TRUE(s.Intersect(RayAlongZ(0.9f, 0, kMaskAll), &h));  // inside the scaled square
@@ -69,7 +69,7 @@ TEST(EmbreeScene, InstancesArePlacedByTheirTransform) {
   singular.scale(Eigen::Vector3f(1, 0, 1));
   EmbreeScene s2;
   uint32_t p2 = s2.AddPrototype(Square(0));
-  EXPECT_THROW(s2.AddInstance(p2, singular, true), Error);
+  EXPECT_THROW(s2.AddInstance(p2, singular), Error);
 }
 
 TEST(EmbreeScene, StreamsAndPacketsMatchSingleRays) {
@@ -125,7 +125,7 @@ TEST(EmbreeScene, EachKindOfRayMeetsItsKindOnlyAsTheObjectMoves) {
   const uint32_t proto = s.AddPrototype(Square(0, 0.5f));
   Eigen::Affine3f at2 = Eigen::Affine3f::Identity();
   at2.translate(Eigen::Vector3f(0, 0, 2));
-  const uint32_t object = s.AddInstance(proto, at2, true);
+  const uint32_t object = s.AddInstance(proto, at2);
   s.Commit();
   for (int step = 0; step < 3; ++step) {
     Hit h;

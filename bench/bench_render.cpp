@@ -13,6 +13,7 @@
 #include "core/report.h"
 #include "core/sampling.h"
 #include "core/spherical.h"
+#include "geometry/primitives.h"
 #include "render/camera_sampler.h"
 #include "render/path_tracer.h"
 #include "render/pt.h"
@@ -314,6 +315,98 @@ void BM_StreamReplay(benchmark::State& state, const std::string& preset) {
   state.counters["stream_over_single_speed"] = single_s / stream_s;
 }
 BENCHMARK_CAPTURE(BM_StreamReplay, room, std::string("room"))->Unit(benchmark::kMillisecond)->Iterations(3);
+
+// A fused room's geometry: a closed box of 4 m x 4 m x 3 m whose six walls
+// are grids of 2 x 240 x 240 triangles (691 200 in all), each vertex pushed
+// off its wall by up to a millimetre (as a TSDF mesh's facets), and a sphere
+// prototype of 2 112 triangles instanced in it as the virtual object.
+struct RoughRoom {
+  mr::EmbreeScene embree;
+  uint32_t object = 0;
+  RoughRoom() {
+    constexpr int n = 240;
+    mr::Mesh room;
+    mr::Pcg32 rng(3, 3);
+    const Eigen::Vector3f lo(-2, -2, 0), size(4, 4, 3);
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side = 0; side < 2; ++side) {
+        const int u = (axis + 1) % 3, v = (axis + 2) % 3, first = static_cast<int>(room.positions.size());
+        for (int y = 0; y <= n; ++y)
+          for (int x = 0; x <= n; ++x) {
+            Eigen::Vector3f p = lo;
+            p[axis] += side * size[axis] + 1e-3f * rng.NextFloat();
+            p[u] += size[u] * static_cast<float>(x) / n;
+            p[v] += size[v] * static_cast<float>(y) / n;
+            room.positions.push_back(p);
+          }
+        for (int y = 0; y < n; ++y)
+          for (int x = 0; x < n; ++x) {
+            const int i = first + y * (n + 1) + x;
+            room.triangles.push_back({i, i + 1, i + n + 2});
+            room.triangles.push_back({i, i + n + 2, i + n + 1});
+          }
+      }
+    embree.AddMesh(room, false);
+    object = embree.AddInstance(embree.AddPrototype(mr::UvSphere(0.3f, 32)), Placed(0));
+    embree.Commit();
+  }
+  static Eigen::Affine3f Placed(int step) {
+    Eigen::Affine3f a = Eigen::Affine3f::Identity();
+    a.translate(Eigen::Vector3f(0.01f * static_cast<float>(step % 2), 0, 1.5f));
+    return a;
+  }
+};
+
+RoughRoom& Room() {
+  static RoughRoom room;
+  return room;
+}
+
+// A frame's world update when the object moves: the transform and Commit().
+void BM_MovedObjectCommit(benchmark::State& state) {
+  RoughRoom& r = Room();
+  mr::SetThreadCount(static_cast<int>(state.range(0)));
+  int step = 0;
+  for (auto _ : state) {
+    r.embree.SetInstanceTransform(r.object, RoughRoom::Placed(++step));
+    r.embree.Commit();
+  }
+  mr::SetThreadCount(0);
+}
+BENCHMARK(BM_MovedObjectCommit)->Arg(2)->ArgName("threads")->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// Shadow rays from the floor towards the object's bounding sphere, one by
+// one on one thread (a virtual blocker test's directions: about half meet
+// the sphere, the rest go on to the walls): a virtual blocker test
+// (kMaskVirtual), the real one (kMaskReal) and both (kMaskAll).  Argument:
+// the mask.
+void BM_RoughRoomShadowRays(benchmark::State& state) {
+  RoughRoom& r = Room();
+  const auto mask = static_cast<uint32_t>(state.range(0));
+  std::vector<mr::Ray> rays(1 << 16);
+  mr::Pcg32 rng(5, 5);
+  for (mr::Ray& ray : rays) {
+    ray.origin = Eigen::Vector3f(3.6f * rng.NextFloat() - 1.8f, 3.6f * rng.NextFloat() - 1.8f, 0.01f);
+    const Eigen::Vector3f aim(0.8f * rng.NextFloat() - 0.4f, 0.8f * rng.NextFloat() - 0.4f,
+                              1.5f + 0.8f * rng.NextFloat() - 0.4f);
+    ray.direction = aim - ray.origin;
+    ray.mask = mask;
+  }
+  int64_t blocked = 0, traced = 0;
+  for (auto _ : state) {
+    for (const mr::Ray& ray : rays) blocked += r.embree.Occluded(ray);
+    traced += static_cast<int64_t>(rays.size());
+  }
+  benchmark::DoNotOptimize(blocked);
+  state.counters["rays_per_s"] = benchmark::Counter(static_cast<double>(traced), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_RoughRoomShadowRays)
+    ->Arg(mr::kMaskVirtual)
+    ->Arg(mr::kMaskReal)
+    ->Arg(mr::kMaskAll)
+    ->ArgName("mask")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace
 

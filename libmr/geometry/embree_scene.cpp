@@ -72,49 +72,31 @@ void FilterHits(const RTCFilterFunctionNArguments* args) {
   }
 }
 
-// A twin of triangle geometry `g` over the same vertex and index buffers
-// (Embree 3 attaches a geometry to one scene only).
-RTCGeometry TwinTriangles(RTCDevice device, RTCGeometry g, const Mesh& mesh) {
-  RTCGeometry t = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
-  rtcSetSharedGeometryBuffer(t, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                             rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_VERTEX, 0), 0, 3 * sizeof(float),
-                             mesh.positions.size());
-  rtcSetSharedGeometryBuffer(t, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                             rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_INDEX, 0), 0, 3 * sizeof(uint32_t),
-                             mesh.triangles.size());
-  return t;
-}
-
 }  // namespace
 
-// Two levels.  The real geometry is one scene (parts[0]), built once: the
-// room does not move.  The virtual geometry is another (parts[1]), and the
-// top scene holds an instance of the real part beside twins of the virtual
-// geometries (Embree 3 attaches a geometry to one scene only; a triangle
-// twin shares its buffers).  A ray that sees one kind only (kMaskReal,
-// kMaskVirtual) traverses that kind's tree, not the other's: a mask is
-// tested at the primitives, after the traversal, so a virtual blocker test
-// in a fused room of 700 000 triangles would otherwise walk the room's
-// tree.  A moved object rebuilds the top scene and the virtual part, not
-// the room's tree (0.15 s a frame for that room on 2 threads).  Ids are
-// assigned here and shared by a geometry and its twin.
+// Two scenes: the real geometry (parts[0]) and the virtual (parts[1]).  A
+// ray that sees one kind only (kMaskReal, kMaskVirtual) traverses that
+// kind's tree alone: a mask is tested at the primitives, after the
+// traversal, so in one tree of both a virtual blocker test in a fused room
+// of 700 000 triangles would walk the room's tree.  A ray that sees both
+// meets the virtual part first, then the real part up to what it met there
+// (the closest hit of the two; an occlusion test stops at the first).  A
+// moved object rebuilds the virtual part alone: the room's tree is built
+// once (0.13-0.15 s a frame for that room on 2 threads otherwise).  Ids are
+// assigned here, unique over both parts.
 struct EmbreeScene::Impl {
   std::string error;
   RTCDevice device = nullptr;
-  RTCScene scene = nullptr;  // top: the real part's instance and the virtual geometry
   struct Part {
     RTCScene scene = nullptr;
     size_t count = 0;    // geometries in it
     bool dirty = false;  // changed since its last commit
   };
-  Part parts[2];                                     // [0] real, [1] virtual
-  uint32_t real_instance = RTC_INVALID_GEOMETRY_ID;  // the real part's id in the top scene
-  uint32_t next_id = 0;
-  std::vector<RTCGeometry> twins;  // by geometry id: a virtual geometry's twin in parts[1]
+  Part parts[2];  // [0] real, [1] virtual
   std::vector<RTCScene> prototypes;
   std::vector<std::unique_ptr<HitFilter>> filters;  // user data of the prototypes' filters
   std::vector<char> is_virtual;                     // by geometry id
-  size_t geometries = 0;
+  std::vector<char> is_instance;                    // by geometry id
   bool committed = false;
 
   void Check(const char* what) {
@@ -124,74 +106,60 @@ struct EmbreeScene::Impl {
       ThrowError("Embree: {}: {}", what, e);
     }
   }
-  void Record(uint32_t id, bool v) {
-    if (is_virtual.size() <= id) is_virtual.resize(id + 1, 0);
-    is_virtual[id] = v;
-  }
-  // Masks, commits and attaches `g`: a real one to the real part, a virtual
-  // one to the top scene and its `twin` to the virtual part, under one id;
-  // its id.
-  uint32_t Attach(RTCGeometry g, RTCGeometry twin, bool virt, const char* what) {
-    const uint32_t id = next_id++;
+  // Masks, commits and attaches `g` to its kind's part; its id.
+  uint32_t Attach(RTCGeometry g, bool virt, bool instance, const char* what) {
+    const auto id = static_cast<uint32_t>(is_virtual.size());
     Part& part = parts[virt ? 1 : 0];
     rtcSetGeometryMask(g, virt ? kMaskVirtual : kMaskReal);
     rtcCommitGeometry(g);
-    rtcAttachGeometryByID(virt ? scene : part.scene, g, id);
+    rtcAttachGeometryByID(part.scene, g, id);
     rtcReleaseGeometry(g);
-    if (virt) {
-      rtcSetGeometryMask(twin, kMaskVirtual);
-      rtcCommitGeometry(twin);
-      rtcAttachGeometryByID(part.scene, twin, id);
-      rtcReleaseGeometry(twin);
-      if (twins.size() <= id) twins.resize(id + 1, nullptr);
-      twins[id] = twin;
-    }
     ++part.count;
-    ++geometries;
     part.dirty = true;
     Check(what);
-    Record(id, virt);
+    is_virtual.push_back(virt);
+    is_instance.push_back(instance);
     return id;
   }
-  // The scene a ray with `mask` traverses; null: it can meet nothing.
-  RTCScene For(uint32_t mask) const {
-    if (mask == kMaskVirtual || !parts[0].count) return parts[1].count ? parts[1].scene : nullptr;
-    if (mask == kMaskReal || !parts[1].count) return parts[0].scene;
-    return scene;
+  RTCGeometry Geometry(uint32_t id) const { return rtcGetGeometry(parts[is_virtual[id] ? 1 : 0].scene, id); }
+  // The parts a ray with `mask` meets, in order: bit 1 the virtual, bit 0
+  // the real (kMaskVirtual's and kMaskReal's bits); 0: nothing.
+  unsigned Route(uint32_t mask) const {
+    return (mask & kMaskVirtual && parts[1].count ? kMaskVirtual : 0u) |
+           (mask & kMaskReal && parts[0].count ? kMaskReal : 0u);
   }
-  // Runs the stream `records` (one per ray of `rays`, `stride` bytes
-  // apart) through `whole(scene, ctx, first, n)` where every ray is bound
-  // for the same scene (For), else through `by_pointer(scene, ctx,
-  // pointers, n)` once per scene, each ray in its scene's pointer array; a
-  // ray that can meet nothing keeps its miss.
+  // Runs the stream `records` (one per ray of `rays`, `stride` bytes apart)
+  // through each part its rays meet, the virtual part first: through
+  // `whole(scene, ctx, first, n)` where every ray meets that part, else
+  // through `by_pointer(scene, ctx, pointers, n)` over those that do.  A
+  // closest-hit query's second part sees the first part's hit as tfar, an
+  // occlusion query's sees a blocked ray as inactive (tfar -inf).
   template <class Whole, class ByPointer>
   void Stream(std::span<const Ray> rays, char* records, size_t stride, Whole&& whole, ByPointer&& by_pointer) const {
     if (rays.empty()) return;
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
-    const RTCScene first = For(rays[0].mask);
-    bool one = true;
-    for (const Ray& r : rays) one = one && For(r.mask) == first;
-    if (one) {
-      if (first) whole(first, &ctx, records, static_cast<unsigned>(rays.size()));
-      return;
-    }
     std::vector<void*> pointers;
-    for (RTCScene s : {scene, parts[0].scene, parts[1].scene}) {  // every target For gives
-      pointers.clear();
-      for (size_t i = 0; i < rays.size(); ++i)
-        if (For(rays[i].mask) == s) pointers.push_back(records + i * stride);
-      if (!pointers.empty()) by_pointer(s, &ctx, pointers.data(), static_cast<unsigned>(pointers.size()));
+    for (const unsigned bit : {unsigned{kMaskVirtual}, unsigned{kMaskReal}}) {
+      RTCScene s = parts[bit == kMaskVirtual ? 1 : 0].scene;
+      size_t meet = 0;
+      for (const Ray& r : rays) meet += (Route(r.mask) & bit) != 0;
+      if (meet == rays.size()) {
+        whole(s, &ctx, records, static_cast<unsigned>(rays.size()));
+      } else if (meet) {
+        pointers.clear();
+        for (size_t i = 0; i < rays.size(); ++i)
+          if (Route(rays[i].mask) & bit) pointers.push_back(records + i * stride);
+        by_pointer(s, &ctx, pointers.data(), static_cast<unsigned>(pointers.size()));
+      }
     }
   }
   void Fill(const RTCRayHit& rh, Hit* hit) const {
     *hit = Hit();
     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return;
-    // Through an instance, instID[0] is its id in the scene queried: the
-    // real part's (the mesh is geomID in it) or a virtual object's.
-    const uint32_t inst = rh.hit.instID[0];
-    const uint32_t id = inst == RTC_INVALID_GEOMETRY_ID || inst == real_instance ? rh.hit.geomID : inst;
+    // For an instance, instID[0] is its id in its part.
+    const uint32_t id = rh.hit.instID[0] != RTC_INVALID_GEOMETRY_ID ? rh.hit.instID[0] : rh.hit.geomID;
     hit->t = rh.ray.tfar;
     hit->uv = Eigen::Vector2f(rh.hit.u, rh.hit.v);
     hit->geometric_normal = Eigen::Vector3f(rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z);
@@ -207,26 +175,24 @@ EmbreeScene::EmbreeScene() : impl_(std::make_unique<Impl>()) {
   rtcSetDeviceErrorFunction(impl_->device, ErrorCallback, &impl_->error);
   if (!rtcGetDeviceProperty(impl_->device, RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED))
     ThrowError("this Embree build lacks ray masks, which mr needs for real/virtual rays");
-  for (RTCScene* s : {&impl_->scene, &impl_->parts[0].scene, &impl_->parts[1].scene}) {
-    *s = rtcNewScene(impl_->device);
-    rtcSetSceneFlags(*s, RTC_SCENE_FLAG_ROBUST);
-    rtcSetSceneBuildQuality(*s, RTC_BUILD_QUALITY_HIGH);
+  for (auto& part : impl_->parts) {
+    part.scene = rtcNewScene(impl_->device);
+    rtcSetSceneFlags(part.scene, RTC_SCENE_FLAG_ROBUST);
+    rtcSetSceneBuildQuality(part.scene, RTC_BUILD_QUALITY_HIGH);
   }
   impl_->Check("creating the scene");
 }
 
 EmbreeScene::~EmbreeScene() {
-  for (auto& part : impl_->parts)  // before the scene that owns the buffers they share
+  for (auto& part : impl_->parts)
     if (part.scene) rtcReleaseScene(part.scene);
   for (RTCScene s : impl_->prototypes) rtcReleaseScene(s);
-  if (impl_->scene) rtcReleaseScene(impl_->scene);
   if (impl_->device) rtcReleaseDevice(impl_->device);
 }
 
 uint32_t EmbreeScene::AddMesh(const Mesh& mesh, bool is_virtual) {
   MR_CHECK(!impl_->committed);
-  RTCGeometry g = MakeTriangleGeometry(impl_->device, mesh);
-  return impl_->Attach(g, is_virtual ? TwinTriangles(impl_->device, g, mesh) : nullptr, is_virtual, "adding a mesh");
+  return impl_->Attach(MakeTriangleGeometry(impl_->device, mesh), is_virtual, false, "adding a mesh");
 }
 
 uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
@@ -260,60 +226,41 @@ uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& wor
   MR_CHECK_LT(prototype, impl_->prototypes.size());
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
   if (std::abs(world_from_object.linear().determinant()) < 1e-20f) ThrowError("instance transform is singular");
-  RTCGeometry g[2];
+  RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+  rtcSetGeometryInstancedScene(g, impl_->prototypes[prototype]);
   Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
-  for (RTCGeometry& gi : g) {
-    gi = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
-    rtcSetGeometryInstancedScene(gi, impl_->prototypes[prototype]);
-    rtcSetGeometryTransform(gi, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());  // column-major 3x4
-  }
-  return impl_->Attach(g[0], g[1], /*virt=*/true, "adding an instance");
+  rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());  // column-major 3x4
+  return impl_->Attach(g, /*virt=*/true, /*instance=*/true, "adding an instance");
 }
 
 void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object) {
-  MR_CHECK(id < impl_->twins.size() && impl_->twins[id]);  // an instance's id
+  MR_CHECK(id < impl_->is_instance.size() && impl_->is_instance[id]);
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
-  for (RTCGeometry g : {rtcGetGeometry(impl_->scene, id), impl_->twins[id]}) {
-    if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
-      rtcDisableGeometry(g);
-    } else {
-      rtcEnableGeometry(g);
-      Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
-      rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
-    }
-    rtcCommitGeometry(g);
+  RTCGeometry g = impl_->Geometry(id);
+  if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
+    rtcDisableGeometry(g);
+  } else {
+    rtcEnableGeometry(g);
+    Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
+    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
   }
+  rtcCommitGeometry(g);
   impl_->parts[1].dirty = true;
   impl_->Check("moving an instance");
   impl_->committed = false;
 }
 
 void EmbreeScene::Commit() {
-  Impl& m = *impl_;
-  for (auto& part : m.parts)
+  for (auto& part : impl_->parts)
     if (part.dirty) {
       rtcCommitScene(part.scene);
       part.dirty = false;
-      if (&part == &m.parts[0] && m.real_instance != RTC_INVALID_GEOMETRY_ID)  // the room grew
-        rtcCommitGeometry(rtcGetGeometry(m.scene, m.real_instance));
     }
-  if (m.parts[0].count && m.real_instance == RTC_INVALID_GEOMETRY_ID) {
-    RTCGeometry g = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_INSTANCE);
-    rtcSetGeometryInstancedScene(g, m.parts[0].scene);
-    const Eigen::Matrix<float, 3, 4> identity = Eigen::Matrix<float, 3, 4>::Identity();
-    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, identity.data());
-    rtcSetGeometryMask(g, kMaskReal);
-    rtcCommitGeometry(g);
-    m.real_instance = m.next_id++;
-    rtcAttachGeometryByID(m.scene, g, m.real_instance);
-    rtcReleaseGeometry(g);
-  }
-  rtcCommitScene(m.scene);
   impl_->Check("building the scene");
   impl_->committed = true;
 }
 
-size_t EmbreeScene::geometry_count() const { return impl_->geometries; }
+size_t EmbreeScene::geometry_count() const { return impl_->is_virtual.size(); }
 
 bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {
   MR_CHECK(impl_->committed);
@@ -323,7 +270,9 @@ bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {
   ToRTC(ray, &rh.ray);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  if (RTCScene s = impl_->For(ray.mask)) rtcIntersect1(s, &ctx, &rh);
+  const unsigned route = impl_->Route(ray.mask);
+  if (route & kMaskVirtual) rtcIntersect1(impl_->parts[1].scene, &ctx, &rh);
+  if (route & kMaskReal) rtcIntersect1(impl_->parts[0].scene, &ctx, &rh);  // up to the virtual hit
   impl_->Fill(rh, hit);
   return hit->valid();
 }
@@ -334,9 +283,9 @@ bool EmbreeScene::Occluded(const Ray& ray) const {
   rtcInitIntersectContext(&ctx);
   RTCRay r;
   ToRTC(ray, &r);
-  RTCScene s = impl_->For(ray.mask);
-  if (!s) return false;
-  rtcOccluded1(s, &ctx, &r);
+  const unsigned route = impl_->Route(ray.mask);
+  if (route & kMaskVirtual) rtcOccluded1(impl_->parts[1].scene, &ctx, &r);
+  if (route & kMaskReal && !(r.tfar < 0)) rtcOccluded1(impl_->parts[0].scene, &ctx, &r);
   return r.tfar < 0;  // Embree sets tfar = -inf on a hit
 }
 
@@ -402,11 +351,16 @@ void EmbreeScene::IntersectPacket8(std::span<const Ray> rays, std::span<Hit> hit
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  // One scene for the packet: a kind's part where every ray sees that kind only.
-  bool one_mask = true;
-  for (const Ray& r : rays) one_mask = one_mask && r.mask == rays[0].mask;
-  RTCScene s = one_mask && !rays.empty() ? impl_->For(rays[0].mask) : impl_->scene;
-  if (s) rtcIntersect8(valid, s, &ctx, &rh);
+  // Each part over the rays that meet it, the virtual part first (Stream).
+  for (const unsigned bit : {unsigned{kMaskVirtual}, unsigned{kMaskReal}}) {
+    alignas(32) int meet[8];
+    bool any = false;
+    for (size_t i = 0; i < 8; ++i) {
+      meet[i] = valid[i] && i < rays.size() && impl_->Route(rays[i].mask) & bit ? -1 : 0;
+      any = any || meet[i];
+    }
+    if (any) rtcIntersect8(meet, impl_->parts[bit == kMaskVirtual ? 1 : 0].scene, &ctx, &rh);
+  }
   for (size_t i = 0; i < rays.size(); ++i) {
     RTCRayHit one;
     one.ray.tfar = rh.ray.tfar[i];
@@ -424,10 +378,15 @@ void EmbreeScene::IntersectPacket8(std::span<const Ray> rays, std::span<Hit> hit
 
 Eigen::AlignedBox3f EmbreeScene::Bounds() const {
   MR_CHECK(impl_->committed);
-  alignas(16) RTCBounds b;
-  rtcGetSceneBounds(impl_->scene, &b);
-  return Eigen::AlignedBox3f(Eigen::Vector3f(b.lower_x, b.lower_y, b.lower_z),
-                             Eigen::Vector3f(b.upper_x, b.upper_y, b.upper_z));
+  Eigen::AlignedBox3f box;
+  for (const auto& part : impl_->parts) {
+    if (!part.count) continue;
+    alignas(16) RTCBounds b;
+    rtcGetSceneBounds(part.scene, &b);
+    box.extend(Eigen::Vector3f(b.lower_x, b.lower_y, b.lower_z));
+    box.extend(Eigen::Vector3f(b.upper_x, b.upper_y, b.upper_z));
+  }
+  return box;
 }
 
 }  // namespace mr

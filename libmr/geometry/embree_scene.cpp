@@ -72,27 +72,66 @@ void FilterHits(const RTCFilterFunctionNArguments* args) {
   }
 }
 
+// A twin of triangle geometry `g` over the same vertex and index buffers
+// (Embree 3 attaches a geometry to one scene only).
+RTCGeometry TwinTriangles(RTCDevice device, RTCGeometry g, const Mesh& mesh) {
+  RTCGeometry t = rtcNewGeometry(device, RTC_GEOMETRY_TYPE_TRIANGLE);
+  rtcSetSharedGeometryBuffer(t, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
+                             rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_VERTEX, 0), 0, 3 * sizeof(float),
+                             mesh.positions.size());
+  rtcSetSharedGeometryBuffer(t, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
+                             rtcGetGeometryBufferData(g, RTC_BUFFER_TYPE_INDEX, 0), 0, 3 * sizeof(uint32_t),
+                             mesh.triangles.size());
+  return t;
+}
+
+// Whether the ray's segment [tnear, tfar] meets `box` (slab test; an axis
+// the ray is parallel to gives inf or NaN bounds, which std::max and
+// std::min pass over: conservative, never a false miss for a grown box).
+bool MeetsBox(const Ray& r, const Eigen::AlignedBox3f& box) {
+  float t0 = r.tnear, t1 = r.tfar;
+  for (int k = 0; k < 3; ++k) {
+    const float inv = 1.0f / r.direction[k];
+    float a = (box.min()[k] - r.origin[k]) * inv, b = (box.max()[k] - r.origin[k]) * inv;
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+  }
+  return t0 <= t1;
+}
+
 }  // namespace
 
-// Two scenes: the real geometry (parts[0]) and the virtual (parts[1]).  A
-// ray that sees one kind only (kMaskReal, kMaskVirtual) traverses that
-// kind's tree alone: a mask is tested at the primitives, after the
-// traversal, so in one tree of both a virtual blocker test in a fused room
-// of 700 000 triangles would walk the room's tree.  A ray that sees both
-// meets the virtual part first, then the real part up to what it met there
-// (the closest hit of the two; an occlusion test stops at the first).  A
-// moved object rebuilds the virtual part alone: the room's tree is built
-// once (0.13-0.15 s a frame for that room on 2 threads otherwise).  Ids are
-// assigned here, unique over both parts.
+// Three scenes: the real geometry (parts[0]), the virtual (parts[1]), and
+// both (parts[2]: twins of every geometry under the same ids; Embree 3
+// attaches a geometry to one scene only, and a triangle twin shares its
+// buffers).  A ray that sees one kind only (kMaskReal, kMaskVirtual)
+// traverses that kind's tree alone: a mask is tested at the primitives,
+// after the traversal, so in one tree of both a virtual blocker test in a
+// fused room of 700 000 triangles would walk the room's tree.  A ray that
+// sees both traverses parts[2], one tree.  A moved object would rebuild
+// that tree, room and all (0.13-0.15 s a frame for that room on 2
+// threads): past kRebuildBothUpTo real triangles the first move drops
+// parts[2] instead, and from then on a ray that sees both meets the
+// virtual part, then the real part up to what it met there (the closest
+// hit of the two; an occlusion test stops at the first), two calls into
+// Embree.  docs/benchmarks.md, "Each kind of ray in its own tree".  Ids are
+// assigned here, unique over the parts.
 struct EmbreeScene::Impl {
+  static constexpr size_t kRebuildBothUpTo = 100000;  // real triangles: some 20 ms a rebuild on 2 cores
+  static constexpr unsigned kBoth = 4;                // Route's bit for parts[2]
   std::string error;
   RTCDevice device = nullptr;
   struct Part {
     RTCScene scene = nullptr;
-    size_t count = 0;    // geometries in it
-    bool dirty = false;  // changed since its last commit
+    size_t count = 0;         // geometries in it
+    bool dirty = false;       // changed since its last commit
+    Eigen::AlignedBox3f box;  // its bounds, grown by 1e-4 of their diagonal
   };
-  Part parts[2];  // [0] real, [1] virtual
+  Part parts[3];                   // [0] real, [1] virtual, [2] both (null once dropped)
+  std::vector<RTCGeometry> twins;  // by geometry id: its twin in parts[2]
+  size_t real_triangles = 0;
+  bool moved = false;  // an object moved since the last commit
   std::vector<RTCScene> prototypes;
   std::vector<std::unique_ptr<HitFilter>> filters;  // user data of the prototypes' filters
   std::vector<char> is_virtual;                     // by geometry id
@@ -106,33 +145,43 @@ struct EmbreeScene::Impl {
       ThrowError("Embree: {}: {}", what, e);
     }
   }
-  // Masks, commits and attaches `g` to its kind's part; its id.
-  uint32_t Attach(RTCGeometry g, bool virt, bool instance, const char* what) {
+  // Masks, commits and attaches `g` to its kind's part and `twin` to
+  // parts[2] under one id; its id.
+  uint32_t Attach(RTCGeometry g, RTCGeometry twin, bool virt, bool instance, const char* what) {
     const auto id = static_cast<uint32_t>(is_virtual.size());
-    Part& part = parts[virt ? 1 : 0];
-    rtcSetGeometryMask(g, virt ? kMaskVirtual : kMaskReal);
-    rtcCommitGeometry(g);
-    rtcAttachGeometryByID(part.scene, g, id);
-    rtcReleaseGeometry(g);
-    ++part.count;
-    part.dirty = true;
+    for (const int k : {virt ? 1 : 0, 2}) {
+      RTCGeometry gk = k == 2 ? twin : g;
+      Part& part = parts[k];
+      rtcSetGeometryMask(gk, virt ? kMaskVirtual : kMaskReal);
+      rtcCommitGeometry(gk);
+      if (part.scene) {
+        rtcAttachGeometryByID(part.scene, gk, id);
+        ++part.count;
+        part.dirty = true;
+      }
+      rtcReleaseGeometry(gk);
+    }
     Check(what);
+    twins.push_back(parts[2].scene ? twin : nullptr);
     is_virtual.push_back(virt);
     is_instance.push_back(instance);
     return id;
   }
-  RTCGeometry Geometry(uint32_t id) const { return rtcGetGeometry(parts[is_virtual[id] ? 1 : 0].scene, id); }
-  // The parts a ray with `mask` meets, in order: bit 1 the virtual, bit 0
-  // the real (kMaskVirtual's and kMaskReal's bits); 0: nothing.
-  unsigned Route(uint32_t mask) const {
-    return (mask & kMaskVirtual && parts[1].count ? kMaskVirtual : 0u) |
-           (mask & kMaskReal && parts[0].count ? kMaskReal : 0u);
+  // The scenes a ray meets, in order: kBoth (parts[2]) alone, or the
+  // virtual part (kMaskVirtual's bit) and then the real one (kMaskReal's);
+  // 0: nothing.  A ray that misses the objects' bounds does not meet their
+  // part (a slab test costs less than a call into Embree).
+  unsigned Route(const Ray& r) const {
+    const bool real = r.mask & kMaskReal && parts[0].count, virt = r.mask & kMaskVirtual && parts[1].count;
+    if (real && virt && parts[2].scene) return kBoth;
+    return (virt && MeetsBox(r, parts[1].box) ? kMaskVirtual : 0u) | (real ? kMaskReal : 0u);
   }
+  RTCScene SceneOf(unsigned bit) const { return parts[bit == kBoth ? 2 : bit == kMaskVirtual ? 1 : 0].scene; }
   // Runs the stream `records` (one per ray of `rays`, `stride` bytes apart)
-  // through each part its rays meet, the virtual part first: through
-  // `whole(scene, ctx, first, n)` where every ray meets that part, else
+  // through each scene its rays meet, in Route's order: through
+  // `whole(scene, ctx, first, n)` where every ray meets that scene, else
   // through `by_pointer(scene, ctx, pointers, n)` over those that do.  A
-  // closest-hit query's second part sees the first part's hit as tfar, an
+  // closest-hit query's real part sees the virtual part's hit as tfar, an
   // occlusion query's sees a blocked ray as inactive (tfar -inf).
   template <class Whole, class ByPointer>
   void Stream(std::span<const Ray> rays, char* records, size_t stride, Whole&& whole, ByPointer&& by_pointer) const {
@@ -140,18 +189,19 @@ struct EmbreeScene::Impl {
     RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
     ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT;
+    std::vector<unsigned> route(rays.size());
+    for (size_t i = 0; i < rays.size(); ++i) route[i] = Route(rays[i]);
     std::vector<void*> pointers;
-    for (const unsigned bit : {unsigned{kMaskVirtual}, unsigned{kMaskReal}}) {
-      RTCScene s = parts[bit == kMaskVirtual ? 1 : 0].scene;
+    for (const unsigned bit : {kBoth, unsigned{kMaskVirtual}, unsigned{kMaskReal}}) {
       size_t meet = 0;
-      for (const Ray& r : rays) meet += (Route(r.mask) & bit) != 0;
+      for (unsigned r : route) meet += (r & bit) != 0;
       if (meet == rays.size()) {
-        whole(s, &ctx, records, static_cast<unsigned>(rays.size()));
+        whole(SceneOf(bit), &ctx, records, static_cast<unsigned>(rays.size()));
       } else if (meet) {
         pointers.clear();
         for (size_t i = 0; i < rays.size(); ++i)
-          if (Route(rays[i].mask) & bit) pointers.push_back(records + i * stride);
-        by_pointer(s, &ctx, pointers.data(), static_cast<unsigned>(pointers.size()));
+          if (route[i] & bit) pointers.push_back(records + i * stride);
+        by_pointer(SceneOf(bit), &ctx, pointers.data(), static_cast<unsigned>(pointers.size()));
       }
     }
   }
@@ -175,7 +225,7 @@ EmbreeScene::EmbreeScene() : impl_(std::make_unique<Impl>()) {
   rtcSetDeviceErrorFunction(impl_->device, ErrorCallback, &impl_->error);
   if (!rtcGetDeviceProperty(impl_->device, RTC_DEVICE_PROPERTY_RAY_MASK_SUPPORTED))
     ThrowError("this Embree build lacks ray masks, which mr needs for real/virtual rays");
-  for (auto& part : impl_->parts) {
+  for (auto& part : impl_->parts) {  // parts[2] holds twins of both kinds
     part.scene = rtcNewScene(impl_->device);
     rtcSetSceneFlags(part.scene, RTC_SCENE_FLAG_ROBUST);
     rtcSetSceneBuildQuality(part.scene, RTC_BUILD_QUALITY_HIGH);
@@ -184,15 +234,17 @@ EmbreeScene::EmbreeScene() : impl_(std::make_unique<Impl>()) {
 }
 
 EmbreeScene::~EmbreeScene() {
-  for (auto& part : impl_->parts)
-    if (part.scene) rtcReleaseScene(part.scene);
+  for (int k : {2, 1, 0})  // the twins before the geometry whose buffers they share
+    if (impl_->parts[k].scene) rtcReleaseScene(impl_->parts[k].scene);
   for (RTCScene s : impl_->prototypes) rtcReleaseScene(s);
   if (impl_->device) rtcReleaseDevice(impl_->device);
 }
 
 uint32_t EmbreeScene::AddMesh(const Mesh& mesh, bool is_virtual) {
   MR_CHECK(!impl_->committed);
-  return impl_->Attach(MakeTriangleGeometry(impl_->device, mesh), is_virtual, false, "adding a mesh");
+  RTCGeometry g = MakeTriangleGeometry(impl_->device, mesh);
+  if (!is_virtual) impl_->real_triangles += mesh.triangles.size();
+  return impl_->Attach(g, TwinTriangles(impl_->device, g, mesh), is_virtual, false, "adding a mesh");
 }
 
 uint32_t EmbreeScene::AddPrototype(const Mesh& mesh) {
@@ -226,35 +278,57 @@ uint32_t EmbreeScene::AddInstance(uint32_t prototype, const Eigen::Affine3f& wor
   MR_CHECK_LT(prototype, impl_->prototypes.size());
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
   if (std::abs(world_from_object.linear().determinant()) < 1e-20f) ThrowError("instance transform is singular");
-  RTCGeometry g = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
-  rtcSetGeometryInstancedScene(g, impl_->prototypes[prototype]);
-  Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
-  rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());  // column-major 3x4
-  return impl_->Attach(g, /*virt=*/true, /*instance=*/true, "adding an instance");
+  RTCGeometry g[2];
+  const Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
+  for (RTCGeometry& gi : g) {
+    gi = rtcNewGeometry(impl_->device, RTC_GEOMETRY_TYPE_INSTANCE);
+    rtcSetGeometryInstancedScene(gi, impl_->prototypes[prototype]);
+    rtcSetGeometryTransform(gi, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());  // column-major 3x4
+  }
+  return impl_->Attach(g[0], g[1], /*virt=*/true, /*instance=*/true, "adding an instance");
 }
 
 void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world_from_object) {
   MR_CHECK(id < impl_->is_instance.size() && impl_->is_instance[id]);
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
-  RTCGeometry g = impl_->Geometry(id);
-  if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
-    rtcDisableGeometry(g);
-  } else {
-    rtcEnableGeometry(g);
-    Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
-    rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
+  Impl& im = *impl_;
+  for (RTCGeometry g : {rtcGetGeometry(im.parts[1].scene, id), im.parts[2].scene ? im.twins[id] : nullptr}) {
+    if (!g) continue;
+    if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
+      rtcDisableGeometry(g);
+    } else {
+      rtcEnableGeometry(g);
+      Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
+      rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
+    }
+    rtcCommitGeometry(g);
   }
-  rtcCommitGeometry(g);
-  impl_->parts[1].dirty = true;
+  im.parts[1].dirty = im.parts[2].dirty = im.moved = true;
   impl_->Check("moving an instance");
   impl_->committed = false;
 }
 
 void EmbreeScene::Commit() {
-  for (auto& part : impl_->parts)
-    if (part.dirty) {
+  Impl& im = *impl_;
+  if (im.moved && im.parts[2].scene && im.real_triangles > Impl::kRebuildBothUpTo) {
+    rtcReleaseScene(im.parts[2].scene);  // and its twins with it
+    im.parts[2] = Impl::Part();
+    std::fill(im.twins.begin(), im.twins.end(), nullptr);
+  }
+  im.moved = false;
+  for (auto& part : im.parts)
+    if (part.scene && part.dirty) {
       rtcCommitScene(part.scene);
       part.dirty = false;
+      alignas(16) RTCBounds b;
+      rtcGetSceneBounds(part.scene, &b);
+      part.box = Eigen::AlignedBox3f(Eigen::Vector3f(b.lower_x, b.lower_y, b.lower_z),
+                                     Eigen::Vector3f(b.upper_x, b.upper_y, b.upper_z));
+      if (!part.box.isEmpty()) {
+        const float grow = 1e-4f * part.box.diagonal().norm() + 1e-6f;
+        part.box.extend(part.box.min() - Eigen::Vector3f::Constant(grow));
+        part.box.extend(part.box.max() + Eigen::Vector3f::Constant(grow));
+      }
     }
   impl_->Check("building the scene");
   impl_->committed = true;
@@ -270,9 +344,10 @@ bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {
   ToRTC(ray, &rh.ray);
   rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
   rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-  const unsigned route = impl_->Route(ray.mask);
-  if (route & kMaskVirtual) rtcIntersect1(impl_->parts[1].scene, &ctx, &rh);
-  if (route & kMaskReal) rtcIntersect1(impl_->parts[0].scene, &ctx, &rh);  // up to the virtual hit
+  const unsigned route = impl_->Route(ray);
+  for (const unsigned bit :
+       {Impl::kBoth, unsigned{kMaskVirtual}, unsigned{kMaskReal}})  // the real part up to the virtual hit
+    if (route & bit) rtcIntersect1(impl_->SceneOf(bit), &ctx, &rh);
   impl_->Fill(rh, hit);
   return hit->valid();
 }
@@ -283,9 +358,9 @@ bool EmbreeScene::Occluded(const Ray& ray) const {
   rtcInitIntersectContext(&ctx);
   RTCRay r;
   ToRTC(ray, &r);
-  const unsigned route = impl_->Route(ray.mask);
-  if (route & kMaskVirtual) rtcOccluded1(impl_->parts[1].scene, &ctx, &r);
-  if (route & kMaskReal && !(r.tfar < 0)) rtcOccluded1(impl_->parts[0].scene, &ctx, &r);
+  const unsigned route = impl_->Route(ray);
+  for (const unsigned bit : {Impl::kBoth, unsigned{kMaskVirtual}, unsigned{kMaskReal}})
+    if (route & bit && !(r.tfar < 0)) rtcOccluded1(impl_->SceneOf(bit), &ctx, &r);
   return r.tfar < 0;  // Embree sets tfar = -inf on a hit
 }
 
@@ -351,15 +426,15 @@ void EmbreeScene::IntersectPacket8(std::span<const Ray> rays, std::span<Hit> hit
   RTCIntersectContext ctx;
   rtcInitIntersectContext(&ctx);
   ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
-  // Each part over the rays that meet it, the virtual part first (Stream).
-  for (const unsigned bit : {unsigned{kMaskVirtual}, unsigned{kMaskReal}}) {
+  // Each scene over the rays that meet it, in Route's order (Stream).
+  for (const unsigned bit : {Impl::kBoth, unsigned{kMaskVirtual}, unsigned{kMaskReal}}) {
     alignas(32) int meet[8];
     bool any = false;
     for (size_t i = 0; i < 8; ++i) {
-      meet[i] = valid[i] && i < rays.size() && impl_->Route(rays[i].mask) & bit ? -1 : 0;
+      meet[i] = valid[i] && i < rays.size() && impl_->Route(rays[i]) & bit ? -1 : 0;
       any = any || meet[i];
     }
-    if (any) rtcIntersect8(meet, impl_->parts[bit == kMaskVirtual ? 1 : 0].scene, &ctx, &rh);
+    if (any) rtcIntersect8(meet, impl_->SceneOf(bit), &ctx, &rh);
   }
   for (size_t i = 0; i < rays.size(); ++i) {
     RTCRayHit one;

@@ -62,6 +62,7 @@ TEST(PlanPipeline, LeavesOutWhatTheInputsDoNotNeed) {
   EXPECT_EQ(Stage(p, "formfactor").tool, "mr-formfactor");  // prt needs form factors
   EXPECT_EQ(p.scene["virtual"][0]["formfactors"], "object0.ffc");
   EXPECT_EQ(p.scene["real"][0]["mesh"], "../room.ply");  // relative to work/
+  EXPECT_FALSE(p.scene["render"].contains("ic")) << "a given room keeps ic's own spacing";
 }
 
 // The main job's shape (examples/synthetic/pipeline.json): the light from a
@@ -87,6 +88,15 @@ TEST(PlanPipeline, TheRoomIsDelitByTheMapTheProbeStageMakes) {
   ASSERT_NE(env, fuse.args.end());
   EXPECT_EQ(fs::path(*(env + 1)).filename(), "env.exr");
   EXPECT_TRUE(Stage(p, "probe").skip.empty());
+  // ic's records on a fused room's rough facets: spaced by 8 px (docs/methods.md,
+  // "On a reconstructed room"), and the plan says so; a user's own value stands.
+  EXPECT_EQ(p.scene["render"]["ic"]["min_spacing_px"], 8);
+  EXPECT_NE(Stage(p, "render").does.find("spaced by 8 px"), std::string::npos) << Stage(p, "render").does;
+  std::string own = ReadTextFile(dir / "p.json");
+  own.replace(own.find(R"("render": {"method": "pt"})"), 26,
+              R"("render": {"method": "pt", "ic": {"min_spacing_px": 3}})");
+  WriteTextFile(dir / "p.json", own);
+  EXPECT_EQ(PlanPipeline(dir / "p.json").scene["render"]["ic"]["min_spacing_px"], 3);
 }
 
 // A world that changes: the light per frame (patterns) and an object's

@@ -203,7 +203,7 @@ struct Plan {
   fs::path poses;
   // The virtual objects and the render (formfactor, scene).
   std::string method;
-  std::string ic_spacing_note;  // ", ic's records spaced ..." where the plan set it
+  std::string ic_spacing_note;  // ", its records spaced ..." where the plan set ic's spacing and ic renders
   Json virtuals = Json::array();
   fs::path scene_file;
   // The per-frame light the scene names by pattern: its folders' content
@@ -963,7 +963,9 @@ void PlanFormfactor(Plan& st, PipelineStage& s) {
   Json& ic = st.scene["render"]["ic"];
   if (!st.fused_mesh.empty() && !ic.contains("min_spacing_px")) {
     ic["min_spacing_px"] = kFusedRoomIcSpacingPx;
-    st.ic_spacing_note = fmt::format(", ic's records spaced by {} px or more on the fused room", kFusedRoomIcSpacingPx);
+    if (st.method == "ic")
+      st.ic_spacing_note =
+          fmt::format(", its records spaced by {} px or more on the fused room", kFusedRoomIcSpacingPx);
   }
   if (ic.empty()) st.scene["render"].erase("ic");
   Json output = st.r.output ? st.r.output->json() : Json::object();

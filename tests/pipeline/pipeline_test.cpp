@@ -89,14 +89,22 @@ TEST(PlanPipeline, TheRoomIsDelitByTheMapTheProbeStageMakes) {
   EXPECT_EQ(fs::path(*(env + 1)).filename(), "env.exr");
   EXPECT_TRUE(Stage(p, "probe").skip.empty());
   // ic's records on a fused room's rough facets: spaced by 8 px (docs/methods.md,
-  // "On a reconstructed room"), and the plan says so; a user's own value stands.
+  // "On a reconstructed room"), the plan saying so where ic renders; a user's
+  // own value stands.
   EXPECT_EQ(p.scene["render"]["ic"]["min_spacing_px"], 8);
-  EXPECT_NE(Stage(p, "render").does.find("spaced by 8 px"), std::string::npos) << Stage(p, "render").does;
-  std::string own = ReadTextFile(dir / "p.json");
-  own.replace(own.find(R"("render": {"method": "pt"})"), 26,
-              R"("render": {"method": "pt", "ic": {"min_spacing_px": 3}})");
-  WriteTextFile(dir / "p.json", own);
-  EXPECT_EQ(PlanPipeline(dir / "p.json").scene["render"]["ic"]["min_spacing_px"], 3);
+  EXPECT_EQ(Stage(p, "render").does.find("spaced by"), std::string::npos) << "pt renders: " << Stage(p, "render").does;
+  const std::string file = ReadTextFile(dir / "p.json");
+  const size_t render = file.find(R"("render": {"method": "pt"})");
+  ASSERT_NE(render, std::string::npos);
+  for (const char* block :
+       {R"("render": {"method": "ic"})", R"("render": {"method": "ic", "ic": {"min_spacing_px": 3}})"}) {
+    std::string edited = file;
+    WriteTextFile(dir / "p.json", edited.replace(render, 26, block));
+    const Pipeline q = PlanPipeline(dir / "p.json");
+    const bool own = std::string(block).find("min_spacing_px") != std::string::npos;
+    EXPECT_EQ(q.scene["render"]["ic"]["min_spacing_px"], own ? 3 : 8) << block;
+    EXPECT_EQ(Stage(q, "render").does.find("spaced by 8 px") != std::string::npos, !own) << Stage(q, "render").does;
+  }
 }
 
 // A world that changes: the light per frame (patterns) and an object's

@@ -6,6 +6,9 @@
 #include <mutex>
 #include <string>
 
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
 #include "core/check.h"
 #include "core/error.h"
 
@@ -131,7 +134,8 @@ struct EmbreeScene::Impl {
   Part parts[3];                   // [0] real, [1] virtual, [2] both (null once dropped)
   std::vector<RTCGeometry> twins;  // by geometry id: its twin in parts[2]
   size_t real_triangles = 0;
-  bool moved = false;  // an object moved since the last commit
+  bool moved = false;       // an object moved since the last commit
+  std::string last_commit;  // EmbreeScene::last_commit()
   std::vector<RTCScene> prototypes;
   std::vector<std::unique_ptr<HitFilter>> filters;  // user data of the prototypes' filters
   std::vector<char> is_virtual;                     // by geometry id
@@ -310,12 +314,26 @@ void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world
 
 void EmbreeScene::Commit() {
   Impl& im = *impl_;
+  std::string dropped;
   if (im.moved && im.parts[2].scene && im.real_triangles > Impl::kRebuildBothUpTo) {
     rtcReleaseScene(im.parts[2].scene);  // and its twins with it
     im.parts[2] = Impl::Part();
     std::fill(im.twins.begin(), im.twins.end(), nullptr);
+    dropped = fmt::format(
+        "; the tree of both dropped: the room has {} triangles (past {} a rebuild costs more than a ray of both "
+        "kinds meeting the objects' tree and then the room's)",
+        im.real_triangles, Impl::kRebuildBothUpTo);
   }
   im.moved = false;
+  std::vector<std::string> built, kept;
+  const char* names[3] = {"the room's tree", "the objects' tree", "the tree of both"};
+  for (int k = 0; k < 3; ++k) {
+    const Impl::Part& part = im.parts[k];
+    if (part.scene && part.count) (part.dirty ? built : kept).push_back(names[k]);
+  }
+  im.last_commit = built.empty() ? "nothing rebuilt" : fmt::format("{} rebuilt", fmt::join(built, " and "));
+  if (!kept.empty()) im.last_commit += fmt::format("; {} kept", fmt::join(kept, " and "));
+  im.last_commit += dropped;
   for (auto& part : im.parts)
     if (part.scene && part.dirty) {
       rtcCommitScene(part.scene);
@@ -335,6 +353,8 @@ void EmbreeScene::Commit() {
 }
 
 size_t EmbreeScene::geometry_count() const { return impl_->is_virtual.size(); }
+
+const std::string& EmbreeScene::last_commit() const { return impl_->last_commit; }
 
 bool EmbreeScene::Intersect(const Ray& ray, Hit* hit) const {
   MR_CHECK(impl_->committed);

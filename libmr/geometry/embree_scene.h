@@ -14,6 +14,7 @@
 #include <limits>
 #include <memory>
 #include <span>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -79,6 +80,10 @@ class EmbreeScene {
   // Builds the acceleration structures; call after the last Add (or move)
   // and before any query.
   void Commit();
+  // What the last Commit() built and kept, for reports: "the objects' tree
+  // and the tree of both rebuilt; the room's kept", or, once the tree of
+  // both is dropped in a large room, why.  Empty before the first commit.
+  const std::string& last_commit() const;
 
   size_t geometry_count() const;
 

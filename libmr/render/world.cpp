@@ -20,6 +20,7 @@ Json WorldChange::ToJson() const {
   Json j = {{"environment", environment}, {"lights", lights}, {"moved", moved}};
   if (!moved_lights.empty()) j["moved_lights"] = moved_lights;
   if (!notes.empty()) j["notes"] = notes;
+  if (!trees.empty()) j["trees"] = trees;
   return j;
 }
 
@@ -93,6 +94,7 @@ WorldChange WorldTracker::Advance(int f, RenderScene* rs) {
     c.moved.push_back(v.name);
   }
   if (c.any()) rs->Commit();
+  if (!c.moved.empty()) c.trees = rs->embree().last_commit();
   return c;
 }
 

@@ -21,6 +21,7 @@ struct WorldChange {
   std::vector<std::string> moved;         // virtual objects whose world_from_object changed
   std::vector<std::string> moved_lights;  // virtual lights that moved (`lights` is set too)
   std::vector<std::string> notes;         // e.g. a frame without its own map reusing an earlier one's
+  std::string trees;  // where objects moved: the ray-tracing trees rebuilt and kept (EmbreeScene::last_commit)
   bool any() const { return environment || lights || !moved.empty(); }
   std::string Describe() const;  // "environment, lights, bunny moved"
   Json ToJson() const;

@@ -185,6 +185,16 @@ void CheckKindsAsTheObjectMoves(const Mesh& wall_mesh) {
     if (step == 1) next.scale(Eigen::Vector3f(1, 0, 1));
     s.SetInstanceTransform(object, next);
     s.Commit();
+    // The report's line: the room's tree kept; a large room's tree of both dropped.
+    const bool large = wall_mesh.triangles.size() > 100000;
+    EXPECT_EQ(s.last_commit().rfind(large && step == 0
+                                        ? "the objects' tree rebuilt; the room's tree kept; the tree of both dropped"
+                                    : large ? "the objects' tree rebuilt; the room's tree kept"
+                                            : "the objects' tree and the tree of both rebuilt; the room's tree kept",
+                                    0),
+              0u)
+        << s.last_commit();
+    if (large && step > 0) EXPECT_EQ(s.last_commit().find("dropped"), std::string::npos) << s.last_commit();
   }
 }
 

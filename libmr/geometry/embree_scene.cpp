@@ -134,8 +134,9 @@ struct EmbreeScene::Impl {
   Part parts[3];                   // [0] real, [1] virtual, [2] both (null once dropped)
   std::vector<RTCGeometry> twins;  // by geometry id: its twin in parts[2]
   size_t real_triangles = 0;
-  bool moved = false;       // an object moved since the last commit
-  std::string last_commit;  // EmbreeScene::last_commit()
+  bool moved = false;           // an object moved since the last commit
+  bool committed_once = false;  // Commit() ran
+  std::string last_commit;      // EmbreeScene::last_commit()
   std::vector<RTCScene> prototypes;
   std::vector<std::unique_ptr<HitFilter>> filters;  // user data of the prototypes' filters
   std::vector<char> is_virtual;                     // by geometry id
@@ -307,7 +308,8 @@ void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world
     }
     rtcCommitGeometry(g);
   }
-  im.parts[1].dirty = im.parts[2].dirty = im.moved = true;
+  im.parts[1].dirty = im.parts[2].dirty = true;
+  im.moved = im.moved || im.committed_once;  // placing an object before the first commit is no move
   impl_->Check("moving an instance");
   impl_->committed = false;
 }
@@ -349,7 +351,7 @@ void EmbreeScene::Commit() {
       }
     }
   impl_->Check("building the scene");
-  impl_->committed = true;
+  impl_->committed = im.committed_once = true;
 }
 
 size_t EmbreeScene::geometry_count() const { return impl_->is_virtual.size(); }

@@ -141,8 +141,10 @@ void CheckKindsAsTheObjectMoves(const Mesh& wall_mesh) {
   const uint32_t proto = s.AddPrototype(Square(0, 0.5f));
   Eigen::Affine3f at2 = Eigen::Affine3f::Identity();
   at2.translate(Eigen::Vector3f(0, 0, 2));
-  const uint32_t object = s.AddInstance(proto, at2);
+  const uint32_t object = s.AddInstance(proto, Eigen::Affine3f::Identity());
+  s.SetInstanceTransform(object, at2);  // placed before the first commit, as RenderScene does: no move
   s.Commit();
+  EXPECT_EQ(s.last_commit(), "the room's tree and the objects' tree and the tree of both rebuilt");
   for (int step = 0; step < 3; ++step) {
     Hit h;
     const float z = step == 0 ? 2.0f : 3.0f;

@@ -297,13 +297,14 @@ void EmbreeScene::SetInstanceTransform(uint32_t id, const Eigen::Affine3f& world
   MR_CHECK(id < impl_->is_instance.size() && impl_->is_instance[id]);
   if (!world_from_object.matrix().allFinite()) ThrowError("instance transform has NaN or Inf");
   Impl& im = *impl_;
+  const bool singular = std::abs(world_from_object.linear().determinant()) < 1e-20f;
+  const Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
   for (RTCGeometry g : {rtcGetGeometry(im.parts[1].scene, id), im.parts[2].scene ? im.twins[id] : nullptr}) {
     if (!g) continue;
-    if (std::abs(world_from_object.linear().determinant()) < 1e-20f) {
+    if (singular) {
       rtcDisableGeometry(g);
     } else {
       rtcEnableGeometry(g);
-      Eigen::Matrix<float, 3, 4> m = world_from_object.matrix().topRows<3>();
       rtcSetGeometryTransform(g, 0, RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, m.data());
     }
     rtcCommitGeometry(g);
@@ -449,11 +450,13 @@ void EmbreeScene::IntersectPacket8(std::span<const Ray> rays, std::span<Hit> hit
   rtcInitIntersectContext(&ctx);
   ctx.flags = RTC_INTERSECT_CONTEXT_FLAG_COHERENT;
   // Each scene over the rays that meet it, in Route's order (Stream).
+  unsigned route[8] = {};
+  for (size_t i = 0; i < rays.size(); ++i) route[i] = impl_->Route(rays[i]);
   for (const unsigned bit : {Impl::kBoth, unsigned{kMaskVirtual}, unsigned{kMaskReal}}) {
     alignas(32) int meet[8];
     bool any = false;
     for (size_t i = 0; i < 8; ++i) {
-      meet[i] = valid[i] && i < rays.size() && impl_->Route(rays[i]) & bit ? -1 : 0;
+      meet[i] = route[i] & bit ? -1 : 0;  // 0 past the packet's rays
       any = any || meet[i];
     }
     if (any) rtcIntersect8(meet, impl_->SceneOf(bit), &ctx, &rh);

@@ -15,6 +15,7 @@
 #include "core/spherical.h"
 #include "geometry/primitives.h"
 #include "render/camera_sampler.h"
+#include "render/path_common.h"
 #include "render/path_tracer.h"
 #include "render/pt.h"
 #include "render/render_scene.h"
@@ -413,6 +414,60 @@ BENCHMARK(BM_RoughRoomShadowRays)
     ->ArgNames({"mask", "moved"})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// The shared differential direct light at real points (DirectDiffuse with
+// shadow_samples 4, ic's default: the objects' sky shadow by
+// EnvironmentDifference, the lights' by shadow rays), one thread: a 10-m
+// floor, a 0.1-m virtual sphere 0.1 m above it, and a sky with a sun of
+// 1e4 x its radiance in a 128 x 64 map.  Points on a grid 0.05 to 5 m from
+// the sphere, as a frame's real pixels lie (most far from the object).
+void BM_SharedDirectLight(benchmark::State& state) {
+  static const auto scene = [] {
+    auto s = std::make_unique<mr::RenderScene>();
+    mr::Material floor, ball;
+    floor.albedo = Eigen::Vector3d::Constant(0.6);
+    ball.albedo = Eigen::Vector3d::Constant(0.8);
+    s->AddReal(mr::Quad({-5, 0, -5}, {5, 0, -5}, {5, 0, 5}, {-5, 0, 5}), floor);
+    Eigen::Affine3d t = Eigen::Affine3d::Identity();
+    t.translate(Eigen::Vector3d(0, 0.2, 0));
+    s->AddVirtual(mr::UvSphere(0.1f, 48), t, ball);
+    mr::Image sky = mr::Image::Rgb(128, 64, 1.0f);
+    for (int c = 0; c < 3; ++c) sky.at(40, 20, c) = 1e4f;
+    s->SetEnvironment(mr::EnvironmentMap(sky, "sky"));
+    s->Commit();
+    return s;
+  }();
+  std::vector<mr::PathVertex> points;
+  for (int i = 0; i < 64; ++i) {
+    const double r = 0.05 * std::pow(100.0, i / 63.0), phi = 2.4 * i;  // 0.05 to 5 m, spiralling
+    const Eigen::Vector3d at(r * std::cos(phi), 0, r * std::sin(phi)), eye = at + Eigen::Vector3d(0.3, 1, 0.2);
+    const mr::Ray ray = mr::MakeRay(eye, (at - eye).normalized(), mr::kMaskReal);
+    mr::Hit hit;
+    if (!scene->embree().Intersect(ray, &hit)) continue;
+    mr::PathVertex v = mr::MakeVertex(*scene, ray, hit);
+    v.bsdf = mr::DiffuseLobe(*scene, v);
+    points.push_back(v);
+  }
+  uint32_t index = 0;
+  int64_t rays = 0, calls = 0;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (auto _ : state) {
+    for (const mr::PathVertex& v : points) {
+      mr::Sampler g = mr::Sampler::Stratified(7, index++);
+      Eigen::Vector3d m = Eigen::Vector3d::Zero(), r = Eigen::Vector3d::Zero();
+      rays += mr::DirectDiffuse(
+          *scene, v, v.albedo, false, true, true, g, &m, &r,
+          [&](mr::Ray sr) { return mr::TestVirtualBlockers(*scene, sr) == mr::VirtualTest::kBlocked ? 0.0 : 1.0; }, 4);
+      sum += m - r;
+    }
+    calls += static_cast<int64_t>(points.size());
+  }
+  benchmark::DoNotOptimize(sum);
+  state.counters["seconds_per_point"] =
+      benchmark::Counter(static_cast<double>(calls), benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
+  state.counters["rays_per_point"] = static_cast<double>(rays) / static_cast<double>(std::max<int64_t>(1, calls));
+}
+BENCHMARK(BM_SharedDirectLight)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 

@@ -151,6 +151,15 @@ std::vector<FastestAtError> FastestAtPtErrors(const std::vector<SweepRow>& rows)
         f.seconds = r.seconds;
       }
     f.speedup = f.seconds > 0 ? p.seconds / f.seconds : 1;
+    if (f.method == "pt")
+      for (const SweepRow& r : rows)
+        if (r.method != "pt" && r.seconds < p.seconds && error(p) > 0 &&
+            (f.nearest_method.empty() || error(r) / error(p) < f.nearest_error_ratio)) {
+          f.nearest_method = r.method;
+          f.nearest_setting = r.setting;
+          f.nearest_error_ratio = error(r) / error(p);
+          f.nearest_time_ratio = r.seconds / p.seconds;
+        }
     out.push_back(f);
   }
   return out;
@@ -172,7 +181,18 @@ void ReportFastest(const std::vector<FastestAtError>& fastest, const fs::path& c
                      {"setting", f.setting},
                      {"seconds", f.seconds},
                      {"speedup", f.speedup}});
-    if (f.method == "pt")
+    if (!f.nearest_method.empty())
+      table.back()["nearest"] = {{"method", f.nearest_method},
+                                 {"setting", f.nearest_setting},
+                                 {"error_ratio", f.nearest_error_ratio},
+                                 {"time_ratio", f.nearest_time_ratio}};
+    if (f.method == "pt" && !f.nearest_method.empty())
+      spdlog::info(
+          "pt's error at {} ({:.3g} in {:.2f} s): pt is the fastest to it; the nearest quicker run, {} {}, "
+          "gives {:.2f} x its error in {:.2f} x its time",
+          f.pt_setting, f.error, f.pt_seconds, f.nearest_method, f.nearest_setting, f.nearest_error_ratio,
+          f.nearest_time_ratio);
+    else if (f.method == "pt")
       spdlog::info("pt's error at {} ({:.3g} in {:.2f} s): pt is the fastest to it", f.pt_setting, f.error,
                    f.pt_seconds);
     else

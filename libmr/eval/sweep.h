@@ -51,11 +51,16 @@ struct SweepRow {
 // whose time is least, and pt's time over that run's (the speed-up; 1 where
 // pt is itself the fastest).  The error is the region relMSE where the
 // rows have one (> 0), else the whole image's.  Empty without pt rows.
+// Where pt is the fastest, the nearest miss beside it: of the other
+// methods' runs quicker than pt's, the one with the least error (its error
+// and time over pt's); none where no other run is quicker.
 struct FastestAtError {
   std::string pt_setting;
   double pt_seconds = 0, error = 0;
   std::string method, setting;  // the fastest run at or below pt's error
   double seconds = 0, speedup = 1;
+  std::string nearest_method, nearest_setting;  // empty: none
+  double nearest_error_ratio = 0, nearest_time_ratio = 0;
 };
 std::vector<FastestAtError> FastestAtPtErrors(const std::vector<SweepRow>& rows);
 

@@ -30,6 +30,8 @@ EnvironmentMap::EnvironmentMap(const Image& img, const std::string& name, double
                                const Eigen::Matrix3d& world_from_env)
     : width_(img.width()), height_(img.height()), world_from_env_(world_from_env) {
   CheckEnvironmentImage(img, name);
+  rotation_ =
+      (world_from_env_.transpose() * world_from_env_ - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() < 1e-12;
   const int r = img.ChannelIndex("R"), g = img.ChannelIndex("G"), b = img.ChannelIndex("B");
   if (!(scale >= 0) || !std::isfinite(scale)) ThrowErrorAt(FileLoc{name}, "environment scale must be finite and >= 0");
   radiance_.resize(static_cast<size_t>(width_) * height_);
@@ -114,6 +116,26 @@ double EnvironmentMap::Pdf(const Eigen::Vector3d& dir) const {
   return pdf_[i];
 }
 
+size_t EnvironmentMap::SampleRow(double u0) const {
+  return Invert(row_cdf_.data(), static_cast<size_t>(height_), u0 * total_);
+}
+
+bool EnvironmentMap::SampleBand(double u0, Eigen::Vector3d* up, double* lo, double* hi) const {
+  if (empty() || total_ <= 0) return false;
+  *up = world_from_env_.col(1);
+  if (!rotation_) {  // no band known: every direction
+    *lo = -INFINITY;
+    *hi = INFINITY;
+    return true;
+  }
+  // Sample's sin(latitude) is clamped into its row's [row_sin_[py + 1],
+  // row_sin_[py]]; the rotation moves it by rounding only.
+  const size_t py = SampleRow(u0);
+  *lo = std::max(-1.0, row_sin_[py + 1]) - 1e-9;
+  *hi = std::min(1.0, row_sin_[py]) + 1e-9;
+  return true;
+}
+
 Eigen::Vector3d EnvironmentMap::Sample(double u0, double u1, Eigen::Vector3d* dir, double* pdf) const {
   *pdf = 0;
   if (empty() || total_ <= 0) return Eigen::Vector3d::Zero();
@@ -122,7 +144,7 @@ Eigen::Vector3d EnvironmentMap::Sample(double u0, double u1, Eigen::Vector3d* di
   // in solid angle: linear in sin(latitude) and longitude).  The map from
   // (u0, u1) to directions is continuous and monotone in each, so
   // stratified numbers give stratified directions (over the sun's cells too).
-  const size_t py = Invert(row_cdf_.data(), static_cast<size_t>(height_), u0 * total_);
+  const size_t py = SampleRow(u0);
   const double r0_lo = row_cdf_[py], r0_w = row_cdf_[py + 1] - r0_lo;
   const double f0 = Clamp((u0 * total_ - r0_lo) / r0_w, 0.0, 1.0);
   const double* row = cdf_.data() + py * static_cast<size_t>(width_);

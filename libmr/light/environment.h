@@ -45,6 +45,12 @@ class EnvironmentMap {
   // Samples a world direction from (u0, u1) in [0,1)^2 (u0: the row, u1: the
   // cell in it); returns the radiance and sets the solid-angle pdf.
   Eigen::Vector3d Sample(double u0, double u1, Eigen::Vector3d* dir, double* pdf) const;
+  // What Sample(u0, u1) can return for this u0, whatever u1: a direction
+  // whose dot product with `up` lies in [*lo, *hi] (its row's band of
+  // latitudes, widened by 1e-9); false where Sample returns no direction.
+  // `up` is the map's pole in the world.  Callers that keep only directions
+  // in a known set skip Sample where the band misses it (the same result).
+  bool SampleBand(double u0, Eigen::Vector3d* up, double* lo, double* hi) const;
   double Pdf(const Eigen::Vector3d& dir) const;
   // Eval and Pdf with one lookup (what an escaped path needs).
   Eigen::Vector3d EvalWithPdf(const Eigen::Vector3d& dir, double* pdf) const;
@@ -53,6 +59,7 @@ class EnvironmentMap {
 
  private:
   int Cell(const Eigen::Vector3d& env_dir, int* px, int* py) const;
+  size_t SampleRow(double u0) const;  // Sample's row for u0
   int width_ = 0, height_ = 0;
   std::vector<Eigen::Vector3f> radiance_;  // per pixel, scaled
   std::vector<double> cdf_;                // over cells, luminance x solid angle
@@ -62,6 +69,7 @@ class EnvironmentMap {
   std::vector<double> row_cdf_;  // cdf_ at the rows' starts (height + 1)
   double total_ = 0;
   Eigen::Matrix3d world_from_env_ = Eigen::Matrix3d::Identity();
+  bool rotation_ = true;  // world_from_env_ is a rotation (to 1e-12): SampleBand holds
 };
 
 }  // namespace mr

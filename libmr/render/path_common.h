@@ -469,6 +469,21 @@ struct VirtualCones {
       if (c.inside || wi.dot(c.axis) >= c.cos_max) return true;
     return false;
   }
+  // False only where no unit direction w with w.up in [lo, hi] is Covered:
+  // a cone about axis a of half-angle t holds w.up from cos(angle(a, up) + t)
+  // to cos(angle(a, up) - t), written without trigonometry and widened by
+  // 1e-6 (the sine of a near-polar axis is good to 1e-8).
+  bool MeetsBand(const Eigen::Vector3d& up, double lo, double hi) const {
+    for (const Cone& c : cones) {
+      if (c.inside) return true;
+      const double ca = c.axis.dot(up), sa = SafeSqrt(1 - ca * ca);
+      const double ct = c.cos_max, st = SafeSqrt(1 - ct * ct);
+      const double top = ca >= ct ? 1.0 : ca * ct + sa * st;       // the angle to up less t, below 0: the pole
+      const double bottom = ca <= -ct ? -1.0 : ca * ct - sa * st;  // the angle plus t, past pi: the other pole
+      if (bottom - 1e-6 <= hi && top + 1e-6 >= lo) return true;
+    }
+    return false;
+  }
   // A direction: a cone picked by its weight (u_pick), uniform within it.
   Eigen::Vector3d Sample(double u_pick, double u0, double u1, const ShadingFrame& frame) const {
     size_t k = 0;
@@ -544,8 +559,12 @@ inline int64_t EnvironmentDifference(const RenderScene& scene, const PathVertex&
     const Eigen::Vector3d wi = all.Sample(u_pick, uc[0], uc[1], v.frame);
     test(wi, all.Pdf(wi, v.frame.n), true);
   }
-  Eigen::Vector3d wi;
-  double pdf = 0;
+  // The environment's sample counts only inside a cone: where its row's
+  // band of latitudes meets none, Covers would say no (MeetsBand), and the
+  // row's inversion is all it costs.
+  Eigen::Vector3d wi, up;
+  double pdf = 0, lo = 0, hi = 0;
+  if (!env.SampleBand(ue[0], &up, &lo, &hi) || !all.MeetsBand(up, lo, hi)) return rays;
   env.Sample(ue[0], ue[1], &wi, &pdf);
   if (pdf > 0 && all.Covers(wi)) test(wi, pdf, false);
   return rays;

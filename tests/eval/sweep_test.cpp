@@ -30,9 +30,15 @@ TEST(Sweep, FastestAtEachOfPtsErrors) {
   // pt's 4-spp error (4e-3): ic reaches 3e-3 in 0.3 s, vct's 5e-3 does not count.
   EXPECT_EQ(f[1].method, "ic");
   EXPECT_DOUBLE_EQ(f[1].speedup, 0.4 / 0.3);
-  // 1e-3: only pt itself.
+  // 1e-3: only pt itself; of the quicker runs, ic comes nearest (3 x its
+  // error in 0.3 / 1.6 of its time).  At 1 spp no other run is quicker.
   EXPECT_EQ(f[2].method, "pt");
   EXPECT_EQ(f[2].setting, "spp=16");
+  EXPECT_EQ(f[2].nearest_method, "ic");
+  EXPECT_DOUBLE_EQ(f[2].nearest_error_ratio, 3e-3 / 1e-3);
+  EXPECT_DOUBLE_EQ(f[2].nearest_time_ratio, 0.3 / 1.6);
+  EXPECT_TRUE(f[0].nearest_method.empty());
+  EXPECT_TRUE(f[1].nearest_method.empty());  // ic is the fastest there
   // Rows without a region error (0): the whole image's decides; vct's 2e-4
   // in 0.2 s is then at or below pt's 4-spp 4e-4.
   for (SweepRow& r : rows) r.region_relmse = 0;

@@ -147,6 +147,41 @@ TEST(EnvironmentMap, RotationAndConstant) {
   EXPECT_EQ(c.Eval(Eigen::Vector3d(0, 1, 0)), Eigen::Vector3d(0.25, 0.5, 1));
 }
 
+// SampleBand bounds every direction Sample can give for its u0: the row's
+// band of latitudes about the map's pole in the world, here tilted; a map
+// placed by a matrix that is not a rotation gives no band, and a black one
+// no sample.
+TEST(EnvironmentMap, SampleBandHoldsEverySampleOfItsRow) {
+  const Image img = SkyWithSun(64, 33, 0.2f, 5e4f, 20, 9);
+  const Eigen::Matrix3d tilt =
+      (Eigen::AngleAxisd(0.7, Eigen::Vector3d::UnitY()) * Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 0, 1).normalized()))
+          .toRotationMatrix();
+  const EnvironmentMap env(img, "e.exr", 1.0, tilt);
+  Sampler rng = Sampler::Random(3, 0);
+  double widest = 0;
+  for (int i = 0; i < 20000; ++i) {
+    // Every 16th u0 at a row's edge of the marginal (where the inversion turns).
+    const double u0 = i % 16 == 0 ? (i / 16 % 34) / 33.0 * (1 - 1e-16) : rng.NextDouble(), u1 = rng.NextDouble();
+    Eigen::Vector3d up, dir;
+    double lo = 0, hi = 0, pdf = 0;
+    ASSERT_TRUE(env.SampleBand(u0, &up, &lo, &hi));
+    EXPECT_LT((up - tilt.col(1)).norm(), 1e-15);
+    env.Sample(u0, u1, &dir, &pdf);
+    ASSERT_GT(pdf, 0);
+    const double s = dir.dot(up);
+    EXPECT_GE(s, lo) << u0 << " " << u1;
+    EXPECT_LE(s, hi) << u0 << " " << u1;
+    widest = std::max(widest, hi - lo);
+  }
+  EXPECT_LT(widest, 0.1);  // a row's band, not the sphere's
+  Eigen::Vector3d up;
+  double lo = 0, hi = 0;
+  const EnvironmentMap sheared(img, "e.exr", 1.0, Eigen::Matrix3d::Identity() * 1.001);
+  ASSERT_TRUE(sheared.SampleBand(0.3, &up, &lo, &hi));
+  EXPECT_TRUE(std::isinf(lo) && std::isinf(hi));
+  EXPECT_FALSE(EnvironmentMap(Image::Rgb(8, 4, 0.0f), "black.exr").SampleBand(0.3, &up, &lo, &hi));
+}
+
 TEST(EnvironmentMap, NonFinitePixelsNameFileAndPixel) {
   Image img = Image::Rgb(8, 4, 1.0f);
   img.at(5, 2, 1) = std::numeric_limits<float>::quiet_NaN();

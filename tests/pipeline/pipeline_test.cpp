@@ -92,18 +92,24 @@ TEST(PlanPipeline, TheRoomIsDelitByTheMapTheProbeStageMakes) {
   // "On a reconstructed room"), the plan saying so where ic renders; a user's
   // own value stands.
   EXPECT_EQ(p.scene["render"]["ic"]["min_spacing_px"], 8);
+  EXPECT_EQ(p.scene["render"]["ic"]["normal_deg"], 90);
   EXPECT_EQ(Stage(p, "render").does.find("spaced by"), std::string::npos) << "pt renders: " << Stage(p, "render").does;
   const std::string file = ReadTextFile(dir / "p.json");
   const size_t render = file.find(R"("render": {"method": "pt"})");
   ASSERT_NE(render, std::string::npos);
   for (const char* block :
-       {R"("render": {"method": "ic"})", R"("render": {"method": "ic", "ic": {"min_spacing_px": 3}})"}) {
+       {R"("render": {"method": "ic"})", R"("render": {"method": "ic", "ic": {"min_spacing_px": 3}})",
+        R"("render": {"method": "ic", "ic": {"normal_deg": 20, "min_spacing_px": 3}})"}) {
     std::string edited = file;
     WriteTextFile(dir / "p.json", edited.replace(render, 26, block));
     const Pipeline q = PlanPipeline(dir / "p.json");
     const bool own = std::string(block).find("min_spacing_px") != std::string::npos;
+    const bool own_normal = std::string(block).find("normal_deg") != std::string::npos;
     EXPECT_EQ(q.scene["render"]["ic"]["min_spacing_px"], own ? 3 : 8) << block;
-    EXPECT_EQ(Stage(q, "render").does.find("spaced by 8 px") != std::string::npos, !own) << Stage(q, "render").does;
+    EXPECT_EQ(q.scene["render"]["ic"]["normal_deg"], own_normal ? 20 : 90) << block;
+    const std::string& does = Stage(q, "render").does;
+    EXPECT_EQ(does.find("spaced by 8 px") != std::string::npos, !own) << does;
+    EXPECT_EQ(does.find("90-degree normal term") != std::string::npos, !own_normal) << does;
   }
 }
 

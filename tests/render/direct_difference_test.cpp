@@ -16,6 +16,12 @@ namespace {
 
 constexpr double kAlbedo = 0.6;
 
+Eigen::Vector3d SampleUniformSphereVector(Sampler& rng) {
+  const auto [u0, u1] = rng.Next2D();
+  const auto d = SampleUniformSphere(u0, u1);
+  return {d[0], d[1], d[2]};
+}
+
 Material Diffuse(double a) {
   Material m;
   m.albedo = Eigen::Vector3d::Constant(a);
@@ -93,6 +99,49 @@ Estimate Difference(const RenderScene& s, const PathVertex& v, int n, int shadow
   e.mean = sum / n;
   e.stderr_ = std::sqrt(std::max(0.0, sum2 / n - e.mean * e.mean) / n);
   return e;
+}
+
+// The environment's sample in EnvironmentDifference is skipped where its
+// row's band meets no cone (VirtualCones::MeetsBand): that must never drop a
+// direction Covers takes.  Random objects seen from random points, the
+// pole's own axis among them, and directions in and around their cones;
+// and a band far from a small cone is met by none (the skip happens).
+TEST(DirectDifference, TheBandSkipsOnlyWhatNoConeCovers) {
+  Sampler rng = Sampler::Random(11, 0);
+  const Eigen::Vector3d up = Eigen::Vector3d(0.2, 1, -0.1).normalized();
+  int covered = 0;
+  for (int k = 0; k < 400; ++k) {
+    const Eigen::Vector3d p(rng.NextDouble(), rng.NextDouble(), rng.NextDouble());
+    const Eigen::Vector3d n = Eigen::Vector3d(rng.NextDouble() - 0.5, 1, rng.NextDouble() - 0.5).normalized();
+    std::vector<Eigen::AlignedBox3d> boxes;
+    for (int b = 0; b < 1 + k % 3; ++b) {
+      // Every 8th object straight along the pole from p (its axis is +-up).
+      const double dist = 0.3 + 3 * rng.NextDouble(), half = 0.01 + 0.2 * rng.NextDouble();
+      const Eigen::Vector3d c = k % 8 == 0 ? Eigen::Vector3d(p + (b % 2 ? -dist : dist) * up)
+                                           : Eigen::Vector3d(p + dist * SampleUniformSphereVector(rng));
+      boxes.emplace_back(c - Eigen::Vector3d::Constant(half), c + Eigen::Vector3d::Constant(half));
+    }
+    const VirtualCones cones(boxes, p, n);
+    for (int i = 0; i < 200; ++i) {
+      Eigen::Vector3d w = SampleUniformSphereVector(rng);
+      if (!cones.cones.empty() && i % 2 == 0) {  // near a cone's rim
+        const auto& c = cones.cones[static_cast<size_t>(i) % cones.cones.size()];
+        const double t = std::acos(c.cos_max) * (0.98 + 0.04 * rng.NextDouble());
+        const Eigen::Vector3d perp = (w - w.dot(c.axis) * c.axis).normalized();
+        w = (std::cos(t) * c.axis + std::sin(t) * perp).normalized();
+      }
+      if (!cones.Covers(w)) continue;
+      ++covered;
+      const double s = w.dot(up);
+      ASSERT_TRUE(cones.MeetsBand(up, s, s)) << k << " " << i;
+    }
+  }
+  EXPECT_GT(covered, 5000);
+  // A sphere 0.1 across 2 m away on the horizon: nothing within 10 degrees of the pole.
+  std::vector<Eigen::AlignedBox3d> one = {{Eigen::Vector3d(2, -0.05, -0.05), Eigen::Vector3d(2.1, 0.05, 0.05)}};
+  const VirtualCones cone(one, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY());
+  EXPECT_FALSE(cone.MeetsBand(Eigen::Vector3d::UnitY(), std::cos(0.17), 1.0));
+  EXPECT_TRUE(cone.MeetsBand(Eigen::Vector3d::UnitY(), -0.01, 0.01));
 }
 
 // Under a constant sky the difference is the sphere's form factor,

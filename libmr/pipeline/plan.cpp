@@ -204,7 +204,7 @@ struct Plan {
   fs::path poses;
   // The virtual objects and the render (formfactor, scene).
   std::string method;
-  std::string ic_spacing_note;  // ", its records ..." where the plan set ic's tolerances and ic renders
+  std::string ic_records_note;  // ", its records ..." where the plan set ic's tolerances and ic renders
   Json virtuals = Json::array();
   fs::path scene_file;
   // The per-frame light the scene names by pattern: its folders' content
@@ -973,7 +973,7 @@ void PlanFormfactor(Plan& st, PipelineStage& s) {
     set.push_back(fmt::format("with a {}-degree normal term", kFusedRoomIcNormalDeg));
   }
   if (st.method == "ic" && !set.empty())
-    st.ic_spacing_note =
+    st.ic_records_note =
         fmt::format(", its records {} on the fused room", set.size() == 2 ? set[0] + " and " + set[1] : set[0]);
   if (ic.empty()) st.scene["render"].erase("ic");
   Json output = st.r.output ? st.r.output->json() : Json::object();
@@ -1051,7 +1051,7 @@ void PlanRender(Plan& st, PipelineStage& s) {
   if (!st.refined_poses.empty()) s.inputs.push_back(st.refined_poses);
   s.outputs = {st.w / "render"};
   s.does =
-      fmt::format("the virtual objects rendered into every frame ({}) and composited{}", st.method, st.ic_spacing_note);
+      fmt::format("the virtual objects rendered into every frame ({}) and composited{}", st.method, st.ic_records_note);
 }
 
 void PlanSweep(Plan& st, PipelineStage& s) {

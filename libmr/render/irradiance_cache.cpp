@@ -201,7 +201,7 @@ void IrradianceCache::Evaluate(IcRecord* r, int frame, const DifferentialPathTra
   // (N ~ pi M, as Ward & Heckbert advise), the rest random; the record's
   // own stream.
   Sampler rng = Sampler::Random(HashCombine(settings_.seed, 0x6963), r->index);
-  const int n = std::max(1, settings_.rays);
+  const int n = RaysFor(*r);
   const int M = std::max(1, static_cast<int>(std::lround(std::sqrt(n / kPi))));
   const int N = std::max(1, n / M);
   const int strata = M * N;
@@ -285,6 +285,7 @@ void IrradianceCache::Describe(Report* report) const {
   report->SetMetric("ic.record_rays", record_rays_);
   report->SetMetric("ic.miss_passes", passes_);
   report->SetMetric("ic.rays_per_record", settings_.rays);
+  report->SetMetric("ic.rays_per_object_record", std::max(settings_.rays, settings_.object_rays));
   report->SetMetric("ic.accuracy", settings_.accuracy);
   report->SetMetric("ic.t_max", settings_.t_max);
   report->SetMetric("ic.records_evicted", evicted_);
@@ -459,6 +460,7 @@ void IcFrameRenderer::RefreshRecords() {
     });
     reevaluated_ = static_cast<int64_t>(due.size());
     cache_->reevaluated_ += reevaluated_;
+    for (size_t i : due) pass_record_rays_ += cache_->RaysFor(cache_->records_[i]);
     std::vector<size_t> all(cache_->records_.size());
     for (size_t i = 0; i < all.size(); ++i) all[i] = i;
     SplatAll(all);
@@ -600,6 +602,7 @@ void IcFrameRenderer::AddRecordsWhereMissing() {
       fine_grid[fine_key(r.p)].push_back(near(i));
     }
     new_records_ += static_cast<int64_t>(added.size());
+    for (size_t i : added) pass_record_rays_ += cache_->RaysFor(cache_->records_[i]);
     SplatAll(added);
   }
 }
@@ -612,11 +615,12 @@ void IcFrameRenderer::RenderPass(int spp) {
   BuildGBuffer(spp);
   gbuffer_s_ += gbuffer_timer.Seconds();
   const ScopedTimer records_timer(nullptr, "");
+  pass_record_rays_ = 0;
   RefreshRecords();
   AddRecordsWhereMissing();
   cache_->created_ += new_records_;
   cache_->passes_ += miss_passes_;
-  cache_->record_rays_ += (new_records_ + reevaluated_) * st.rays;
+  cache_->record_rays_ += pass_record_rays_;
 
   records_s_ += records_timer.Seconds();
   const ScopedTimer shade_timer(nullptr, "");
@@ -870,6 +874,8 @@ void IcFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "records_splatted", splatted_);
   report->SetMetric(k + "records_evicted", evicted_);
   report->SetMetric(k + "records", static_cast<int64_t>(cache_->records_.size()));
+  report->SetMetric(k + "records_on_objects", std::count_if(cache_->records_.begin(), cache_->records_.end(),
+                                                            [](const IcRecord& r) { return r.on_virtual; }));
   report->SetMetric(k + "miss_passes", miss_passes_);
   report->SetMetric(k + "pixel_rays", rays_traced());
   report->SetMetric(k + "glossy_lookups", lookups_.load());
@@ -915,6 +921,7 @@ namespace {
 IcSettings ParseIcSettings(JsonSettings& s, const Scene& scene) {
   IcSettings o;
   s.Integer("rays", &o.rays, 1, 1 << 24);
+  s.Integer("object_rays", &o.object_rays, 1, 1 << 24);
   s.Number("accuracy", &o.accuracy, 1e-3, 10);
   s.Number("min_spacing_px", &o.min_spacing_px, 0.1, 1e4);
   s.Number("max_spacing_px", &o.max_spacing_px, 0.1, 1e5);

@@ -25,6 +25,12 @@ namespace mr {
 
 struct IcSettings {
   int rays = 128;
+  // Rays of a record on a virtual object (at least `rays`): the objects'
+  // records are few (28 of 4447 on the main job's static capture) and
+  // their noise shows as blotches on the objects themselves, where viewers
+  // look (128 at 32 rays: 6% less error on the objects' pixels there, for
+  // no measurable time; docs/benchmarks.md, "Records on the objects").
+  int object_rays = 128;
   double accuracy = 0.3;
   double min_spacing_px = 2, max_spacing_px = 32;  // influence radius (accuracy x R_i) clamp, pixels
   int t_max = 8;
@@ -124,6 +130,10 @@ class IrradianceCache {
   // light through it, the plate or a probe's radiance where a gather ray
   // meets the real room (as pt: docs/methods.md, "The room's own light").
   void Evaluate(IcRecord* record, int frame, const DifferentialPathTracer* from_virtual = nullptr) const;
+  // The rays Evaluate traces for `record`: rays, or object_rays on an object.
+  int RaysFor(const IcRecord& record) const {
+    return std::max(1, record.on_virtual ? std::max(settings_.rays, settings_.object_rays) : settings_.rays);
+  }
   // Limits the gradients to what the record's reach (R_i after the clamps)
   // allows: within it no channel changes by more than its value.
   void ClampGradients(IcRecord* record) const;
@@ -220,6 +230,7 @@ class IcFrameRenderer : public PixelLoopMethod {
   std::unique_ptr<DifferentialPathTracer> virtual_tracer_;
   int frame_;
   int64_t new_records_ = 0, reevaluated_ = 0, splatted_ = 0, miss_passes_ = 0, outside_influence_ = 0, evicted_ = 0;
+  int64_t pass_record_rays_ = 0;  // the rays of the records this pass evaluated
   // Seconds of the frame's parts: G-buffer, records (re-evaluation, splats, miss
   // passes), shading.
   double gbuffer_s_ = 0, records_s_ = 0, shade_s_ = 0;

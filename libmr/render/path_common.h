@@ -415,8 +415,8 @@ inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray 
 }
 
 // The cones of directions in which the virtual objects can be met from p:
-// each object's bounding sphere (its box's centre, half its diagonal) seen
-// from p.  A cone's weight is its solid angle; one that p lies inside is
+// each object's bounding sphere (RenderScene::virtual_spheres: centre,
+// radius; a negative radius is no object) seen from p.  A cone's weight is its solid angle; one that p lies inside is
 // the whole hemisphere above the shading normal (sampled by cosine), and
 // one wholly below p's horizon is left out.  Internal to
 // EnvironmentDifference.
@@ -429,11 +429,11 @@ struct VirtualCones {
   std::vector<Cone> cones;
   double total = 0;  // the weights' sum
 
-  VirtualCones(const std::vector<Eigen::AlignedBox3d>& boxes, const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
-    for (const auto& b : boxes) {
-      if (b.isEmpty()) continue;
-      const Eigen::Vector3d to = b.center() - p;
-      const double r = 0.5 * b.diagonal().norm() * (1 + 1e-6) + 1e-9, d = to.norm();
+  VirtualCones(const std::vector<Eigen::Vector4d>& spheres, const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+    for (const auto& s : spheres) {
+      if (!(s[3] >= 0)) continue;
+      const Eigen::Vector3d to = s.head<3>() - p;
+      const double r = s[3], d = to.norm();
       Cone c;
       if (!(d > r)) {
         c.axis = n;
@@ -517,7 +517,7 @@ struct VirtualCones {
 // sample alone then covers the integral, with its full weight): the sky's
 // share there is below the noise, and the sun's is the other sample's.
 // Always draws five numbers.  Returns the rays traced.  `cones`: the
-// objects' cones seen from v (VirtualCones(scene.virtual_bounds(), v.p,
+// objects' cones seen from v (VirtualCones(scene.virtual_spheres(), v.p,
 // v.frame.n)), for a caller that takes several samples at one point; null:
 // made here.
 inline int64_t EnvironmentDifference(const RenderScene& scene, const PathVertex& v, Sampler& rng,
@@ -528,7 +528,7 @@ inline int64_t EnvironmentDifference(const RenderScene& scene, const PathVertex&
   const EnvironmentMap& env = scene.environment();
   if (env.empty() || !scene.has_virtual_geometry()) return 0;
   std::optional<VirtualCones> made;
-  if (!cones) cones = &made.emplace(scene.virtual_bounds(), v.p, v.frame.n);
+  if (!cones) cones = &made.emplace(scene.virtual_spheres(), v.p, v.frame.n);
   const VirtualCones& all = *cones;
   if (all.cones.empty()) return 0;
   constexpr double kMinFormFactor = 1e-3;
@@ -666,7 +666,7 @@ int64_t DirectDiffuse(const RenderScene& scene, const PathVertex& v, const Eigen
     rays += EnvironmentDifference(scene, v, rng, mixed);
   } else if (apart) {
     Eigen::Vector3d diff = Eigen::Vector3d::Zero();
-    const VirtualCones cones(scene.virtual_bounds(), v.p, v.frame.n);  // the same for every sample
+    const VirtualCones cones(scene.virtual_spheres(), v.p, v.frame.n);  // the same for every sample
     for (int k = 0; k < ns; ++k) rays += EnvironmentDifference(scene, v, rng, &diff, &cones);
     *mixed += diff / ns;
   }

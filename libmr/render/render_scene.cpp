@@ -7,6 +7,8 @@
 #include <mutex>
 #include <type_traits>
 
+#include <Eigen/SVD>
+
 #include "core/error.h"
 #include "core/file.h"
 #include "core/hash.h"
@@ -43,6 +45,11 @@ uint32_t RenderScene::AddVirtual(const Mesh& mesh, const Eigen::Affine3d& world_
   virtual_bounds_.emplace_back();
   virtual_ids_.push_back(id);
   virtual_object_bounds_.push_back(mesh.Bounds().cast<double>());
+  double far2 = 0;
+  const Eigen::Vector3d centre = virtual_object_bounds_.back().center();
+  for (const Eigen::Vector3f& q : mesh.positions) far2 = std::max(far2, (q.cast<double>() - centre).squaredNorm());
+  virtual_object_radii_.push_back(std::sqrt(far2));
+  virtual_spheres_.emplace_back(0, 0, 0, -1);
   virtual_hidden_.push_back(0);
   virtual_poses_.push_back(world_from_object);
   virtual_positions_.push_back(mesh.positions);
@@ -74,6 +81,13 @@ void RenderScene::SetVirtualTransform(size_t i, const Eigen::Affine3d& world_fro
   }
   geometry_bounds_[id] = wb;
   virtual_bounds_[i] = wb;
+  virtual_spheres_[i] = Eigen::Vector4d(0, 0, 0, -1);
+  if (!hidden) {
+    // |L x| <= sigma_max |x|; the world box's centre is the object box's, placed.
+    const double stretch = Eigen::JacobiSVD<Eigen::Matrix3d>(world_from_object.linear()).singularValues()[0];
+    const double r = std::min(virtual_object_radii_[i] * stretch, 0.5 * wb.diagonal().norm());
+    virtual_spheres_[i] << wb.center(), r * (1 + 1e-6) + 1e-9;
+  }
   has_virtual_geometry_ = std::count(virtual_hidden_.begin(), virtual_hidden_.end(), 0) > 0;
   has_virtual_ = has_virtual_geometry_ ||
                  std::any_of(lights_.begin(), lights_.end(), [](const LightSource& l) { return l.is_virtual(); });

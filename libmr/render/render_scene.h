@@ -166,6 +166,12 @@ class RenderScene {
   // World bounds of each piece of geometry, real and virtual (after Commit).
   const std::vector<Eigen::AlignedBox3d>& geometry_bounds() const { return geometry_bounds_; }
   const std::vector<Eigen::AlignedBox3d>& virtual_bounds() const { return virtual_bounds_; }
+  // Each virtual object's bounding sphere (centre, radius), by the order of
+  // virtual_ids: centred on its box, its radius the farthest vertex's
+  // distance from there (at most half the box's diagonal; a third of it for
+  // a sphere's mesh) times the placement's largest stretch, grown 1e-6.
+  // Radius -1 while the object is hidden.
+  const std::vector<Eigen::Vector4d>& virtual_spheres() const { return virtual_spheres_; }
   // Whether a closed real surface provably keeps every virtual object and
   // light away from a camera at `eye` (geometry/enclosure.h); `why` says which.
   bool VirtualEnclosedAwayFrom(const Eigen::Vector3d& eye, std::string* why) const;
@@ -206,6 +212,8 @@ class RenderScene {
   std::vector<uint32_t> virtual_ids_;
   std::vector<uint32_t> virtual_prototypes_;                     // EmbreeScene prototype of each
   std::vector<Eigen::AlignedBox3d> virtual_object_bounds_;       // in object coordinates
+  std::vector<double> virtual_object_radii_;                     // the farthest vertex from the box's centre
+  std::vector<Eigen::Vector4d> virtual_spheres_;                 // world, as virtual_spheres()
   std::vector<Eigen::Affine3d> virtual_poses_;                   // world_from_object now
   std::vector<std::vector<Eigen::Vector3f>> virtual_positions_;  // object coordinates
   std::vector<std::vector<std::pair<int, int>>> virtual_edges_;  // each once

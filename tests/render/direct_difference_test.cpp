@@ -101,6 +101,36 @@ Estimate Difference(const RenderScene& s, const PathVertex& v, int n, int shadow
   return e;
 }
 
+// The objects' bounding spheres, which the cones are made from: a sphere's
+// mesh gets its own radius (its box's half diagonal is sqrt 3 times it,
+// three times the cone's solid angle); a box turned and stretched keeps
+// every placed corner inside its sphere, which is no larger than half its
+// world box's diagonal; a hidden object has none.
+TEST(DirectDifference, BoundingSpheresHoldTheirObjectsTightly) {
+  RenderScene s;
+  Eigen::Affine3d t = Eigen::Affine3d::Identity();
+  t.translate(Eigen::Vector3d(0, 1, 0));
+  s.AddVirtual(UvSphere(0.3f, 48), t, Diffuse(0.8));
+  Eigen::Affine3d b = Eigen::Affine3d::Identity();
+  b.translate(Eigen::Vector3d(2, 0.5, -1));
+  b.rotate(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()));
+  b.scale(Eigen::Vector3d(3, 0.5, 1));
+  const Mesh box = Box({-0.1f, -0.2f, -0.3f}, {0.1f, 0.2f, 0.3f});
+  s.AddVirtual(box, b, Diffuse(0.5));
+  s.Commit();
+  const std::vector<Eigen::Vector4d>& sp = s.virtual_spheres();
+  ASSERT_EQ(sp.size(), 2u);
+  EXPECT_NEAR(sp[0][3], 0.3, 1e-6);
+  EXPECT_LT((sp[0].head<3>() - Eigen::Vector3d(0, 1, 0)).norm(), 1e-9);
+  for (const Eigen::Vector3f& q : box.positions) EXPECT_LT((b * q.cast<double>() - sp[1].head<3>()).norm(), sp[1][3]);
+  EXPECT_LE(sp[1][3], 0.5 * s.virtual_bounds()[1].diagonal().norm() * (1 + 1e-6) + 1e-9);
+  Eigen::Affine3d gone = Eigen::Affine3d::Identity();
+  gone.linear().setZero();
+  s.SetVirtualTransform(1, gone);
+  EXPECT_LT(s.virtual_spheres()[1][3], 0);
+  EXPECT_GE(s.virtual_spheres()[0][3], 0);
+}
+
 // The environment's sample in EnvironmentDifference is skipped where its
 // row's band meets no cone (VirtualCones::MeetsBand): that must never drop a
 // direction Covers takes.  Random objects seen from random points, the
@@ -113,15 +143,15 @@ TEST(DirectDifference, TheBandSkipsOnlyWhatNoConeCovers) {
   for (int k = 0; k < 400; ++k) {
     const Eigen::Vector3d p(rng.NextDouble(), rng.NextDouble(), rng.NextDouble());
     const Eigen::Vector3d n = Eigen::Vector3d(rng.NextDouble() - 0.5, 1, rng.NextDouble() - 0.5).normalized();
-    std::vector<Eigen::AlignedBox3d> boxes;
+    std::vector<Eigen::Vector4d> spheres;
     for (int b = 0; b < 1 + k % 3; ++b) {
       // Every 8th object straight along the pole from p (its axis is +-up).
       const double dist = 0.3 + 3 * rng.NextDouble(), half = 0.01 + 0.2 * rng.NextDouble();
       const Eigen::Vector3d c = k % 8 == 0 ? Eigen::Vector3d(p + (b % 2 ? -dist : dist) * up)
                                            : Eigen::Vector3d(p + dist * SampleUniformSphereVector(rng));
-      boxes.emplace_back(c - Eigen::Vector3d::Constant(half), c + Eigen::Vector3d::Constant(half));
+      spheres.emplace_back(c.x(), c.y(), c.z(), half);
     }
-    const VirtualCones cones(boxes, p, n);
+    const VirtualCones cones(spheres, p, n);
     for (int i = 0; i < 200; ++i) {
       Eigen::Vector3d w = SampleUniformSphereVector(rng);
       if (!cones.cones.empty() && i % 2 == 0) {  // near a cone's rim
@@ -138,7 +168,7 @@ TEST(DirectDifference, TheBandSkipsOnlyWhatNoConeCovers) {
   }
   EXPECT_GT(covered, 5000);
   // A sphere 0.1 across 2 m away on the horizon: nothing within 10 degrees of the pole.
-  std::vector<Eigen::AlignedBox3d> one = {{Eigen::Vector3d(2, -0.05, -0.05), Eigen::Vector3d(2.1, 0.05, 0.05)}};
+  const std::vector<Eigen::Vector4d> one = {{2.05, 0, 0, 0.05}};
   const VirtualCones cone(one, Eigen::Vector3d::Zero(), Eigen::Vector3d::UnitY());
   EXPECT_FALSE(cone.MeetsBand(Eigen::Vector3d::UnitY(), std::cos(0.17), 1.0));
   EXPECT_TRUE(cone.MeetsBand(Eigen::Vector3d::UnitY(), -0.01, 0.01));

@@ -58,11 +58,8 @@ IrradianceCache::IrradianceCache(const RenderScene& scene, const IcSettings& set
 
 void IrradianceCache::UpdateSpheres() {
   spheres_.clear();
-  for (const auto& b : scene_.virtual_bounds()) {
-    if (b.isEmpty()) continue;  // an object scaled to nothing
-    const Eigen::Vector3d c = b.center();
-    spheres_.emplace_back(c.x(), c.y(), c.z(), 0.5 * b.diagonal().norm());
-  }
+  for (const Eigen::Vector4d& s : scene_.virtual_spheres())
+    if (s[3] >= 0) spheres_.push_back(s);  // not an object scaled to nothing
   virtual_light_ = false;
   for (const LightSource& l : scene_.lights()) virtual_light_ = virtual_light_ || l.is_virtual();
 }

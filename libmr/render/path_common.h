@@ -416,10 +416,10 @@ inline int AddNextEvent(const RenderScene& scene, const Eigen::Vector3d& c, Ray 
 
 // The cones of directions in which the virtual objects can be met from p:
 // each object's bounding sphere (RenderScene::virtual_spheres: centre,
-// radius; a negative radius is no object) seen from p.  A cone's weight is its solid angle; one that p lies inside is
-// the whole hemisphere above the shading normal (sampled by cosine), and
-// one wholly below p's horizon is left out.  Internal to
-// EnvironmentDifference.
+// radius; a negative radius is no object) seen from p.  A cone's weight is
+// its solid angle; one that p lies inside is the whole hemisphere above the
+// shading normal (sampled by cosine), and one wholly below p's horizon is
+// left out.  Internal to EnvironmentDifference.
 struct VirtualCones {
   struct Cone {
     Eigen::Vector3d axis;

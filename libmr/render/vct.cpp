@@ -699,10 +699,27 @@ void VctVolumes::Describe(Report* report) const {
   report->SetMetric("vct.injected_bounces", settings_.bounces);
 }
 
+namespace {
+
+// The path tracer behind a transmissive asset (the camera's own bounce was
+// vct's: depth 1 on).
+PathTracerSettings GlassTracerSettings(const VctSettings& s, const PlateViews& plates) {
+  PathTracerSettings p;
+  p.max_depth = s.max_depth;
+  p.seed = s.seed;
+  p.plates = plates;
+  return p;
+}
+
+}  // namespace
+
 VctFrameRenderer::VctFrameRenderer(const RenderScene& scene, std::shared_ptr<const VctVolumes> volumes,
                                    const CameraModel& camera, const Rigid3& world_from_cam, uint64_t seed, int frame,
-                                   const CameraExposure& exposure)
-    : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure), scene_(scene), vol_(std::move(volumes)) {}
+                                   const CameraExposure& exposure, const PlateViews& plates)
+    : PixelLoopMethod(camera, world_from_cam, seed, frame, exposure),
+      scene_(scene),
+      vol_(std::move(volumes)),
+      glass_tracer_(scene, GlassTracerSettings(vol_->settings(), plates)) {}
 
 void VctFrameRenderer::RenderPass(int spp) {
   rows_.assign(static_cast<size_t>(height()), Counters());
@@ -752,6 +769,25 @@ void VctFrameRenderer::ShadeGlossyLobe(const PathVertex& v, bool xv, const Eigen
   const auto [u0, u1] = g.Next2D();
   if (!vg.bsdf.Sample(wo_l, ul, u0, u1, &bs) || !(bs.pdf > 0)) return;
   const Eigen::Vector3d beta = bs.f * (std::abs(bs.wi.z()) / bs.pdf);
+  if (TransmissiveAsset(scene_, v)) {
+    // Glass: a cone along the mirror direction would show it opaque, and
+    // the volumes hold no refracted light.  The sampled ray (reflected or
+    // refracted) is path-traced, as pt and ic trace it.
+    const Eigen::Vector3d wi = v.frame.ToWorld(bs.wi);
+    const Ray next = MakeRay(v.OriginFor(wi), wi, kMaskAll);
+    ++c.glass_paths;
+    int rays = 0;
+    if (xv) {
+      if (want_m) mixed += glass_tracer_.MixedRadianceFromVirtual(next, beta, bs.pdf, 1, g, &rays);
+    } else {
+      const PathSample ps = glass_tracer_.TraceFrom(next, beta, bs.pdf, 1, g);
+      rays += ps.rays;
+      if (want_m) mixed += ps.mixed;
+      if (want_r) real += ps.real;
+    }
+    c.rays += rays;
+    return;
+  }
   const Eigen::Vector3d refl = (2 * v.frame.n.dot(v.wo_world) * v.frame.n - v.wo_world).normalized();
   const double alpha = v.material->roughness;
   const double half = std::clamp(std::atan(alpha), 0.5 * st.min_specular_aperture_deg * kDegToRad, 45 * kDegToRad);
@@ -902,6 +938,7 @@ void VctFrameRenderer::Describe(Report* report, int frame) const {
   report->SetMetric(k + "cone_steps", counters_.steps);
   report->SetMetric(k + "rays", counters_.rays);
   report->SetMetric(k + "gather_rays", counters_.gather_rays);
+  report->SetMetric(k + "glass_paths", counters_.glass_paths);
   if (counters_.shadow_cones_skipped > 0)
     report->Skip(fmt::format("frame {}: {} shadow cones", frame, counters_.shadow_cones_skipped),
                  "the shadow ray misses every virtual object's bounding box: nothing virtual can block it");
@@ -955,7 +992,8 @@ class VctMethod : public SettingsMethod<VctSettings> {
     return {fmt::format("voxel volumes: light injected, voxelisation {}", volumes_->voxelised())};
   }
   std::unique_ptr<FrameMethod> NewFrame(const FrameContext& f) override {
-    return std::make_unique<VctFrameRenderer>(f.rs, volumes_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure);
+    return std::make_unique<VctFrameRenderer>(f.rs, volumes_, f.camera, f.world_from_cam, f.seed, f.frame, f.exposure,
+                                              f.plates);
   }
   void FrameDone(const FrameMethod& fm, const FrameContext& f, Report* report, Json*) override {
     static_cast<const VctFrameRenderer&>(fm).Describe(report, f.frame);

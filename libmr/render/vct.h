@@ -145,13 +145,14 @@ class VctVolumes {
 class VctFrameRenderer : public PixelLoopMethod {
  public:
   VctFrameRenderer(const RenderScene& scene, std::shared_ptr<const VctVolumes> volumes, const CameraModel& camera,
-                   const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {});
+                   const Rigid3& world_from_cam, uint64_t seed, int frame, const CameraExposure& exposure = {},
+                   const PlateViews& plates = {});
   void RenderPass(int spp) override;
   void Describe(Report* report, int frame) const;
 
   struct Counters {
     int64_t diffuse_cones = 0, specular_cones = 0, shadow_cones = 0, shadow_cones_skipped = 0, steps = 0, rays = 0,
-            relight_skipped = 0, gather_rays = 0;
+            relight_skipped = 0, gather_rays = 0, glass_paths = 0;
     Counters& operator+=(const Counters& o) {
       diffuse_cones += o.diffuse_cones;
       specular_cones += o.specular_cones;
@@ -161,6 +162,7 @@ class VctFrameRenderer : public PixelLoopMethod {
       rays += o.rays;
       relight_skipped += o.relight_skipped;
       gather_rays += o.gather_rays;
+      glass_paths += o.glass_paths;
       return *this;
     }
   };
@@ -172,6 +174,9 @@ class VctFrameRenderer : public PixelLoopMethod {
                        Sampler& g, Counters* counters, Eigen::Vector3d* mixed, Eigen::Vector3d* real) const;
   const RenderScene& scene_;
   std::shared_ptr<const VctVolumes> vol_;
+  // A transmissive asset's BSDF-sampled rays, path-traced (the plate where
+  // a refracted ray meets the room it shows, as pt).
+  DifferentialPathTracer glass_tracer_;
   std::vector<Counters> rows_;  // this pass's, per image row
   Counters counters_;
 };

@@ -1,5 +1,7 @@
 #include "core/sampling.h"
 
+#include <bit>
+
 namespace mr {
 
 uint32_t Pcg32::NextBounded(uint32_t bound) {
@@ -120,7 +122,105 @@ inline double ToUnit(uint32_t bits, uint64_t low) {
   return static_cast<double>((static_cast<uint64_t>(bits) << 21) | (low & 0x1fffff)) * 0x1p-53;
 }
 
+// ToUnit in lanes: the same value, bits * 2^-32 + low * 2^-53, each term
+// and the sum exact, with an unsigned 32-bit to double conversion that
+// vectorises (the integer's bits under 2^52's exponent, less 2^52).
+inline double U32ToDouble(uint64_t x) { return std::bit_cast<double>(0x4330000000000000ULL | x) - 0x1p52; }
+inline double ToUnitLanes(uint32_t bits, uint64_t low) {
+  return U32ToDouble(bits) * 0x1p-32 + U32ToDouble(low & 0x1fffff) * 0x1p-53;
+}
+
+constexpr int kLaneChunk = 64;
+
+// Stratified1D and Stratified2D of n samplers at dimensions dim[k] + off.
+MR_LANES void Draw1DLanes(int n, const uint64_t* __restrict seed, const uint32_t* __restrict rev,
+                          const uint32_t* __restrict dim, uint32_t off, double* __restrict u) {
+  for (int k = 0; k < n; ++k) {
+    const uint64_t h = MixBits(seed[k] + static_cast<uint64_t>(dim[k] + off + 1) * kGoldenGamma);
+    const uint32_t shuffled = ReverseBits32(LaineKarrasPermutation(rev[k], static_cast<uint32_t>(h)));
+    u[k] = ToUnitLanes(ReverseBits32(LaineKarrasPermutation(shuffled, static_cast<uint32_t>(h >> 32))), MixBits(h));
+  }
+}
+
+MR_LANES void Draw2DLanes(int n, const uint64_t* __restrict seed, const uint32_t* __restrict rev,
+                          const uint32_t* __restrict dim, uint32_t off, double* __restrict u0, double* __restrict u1) {
+  uint32_t shuffled[kLaneChunk], sobol[kLaneChunk];
+  uint64_t h2s[kLaneChunk];
+  for (int k = 0; k < n; ++k) {
+    const uint64_t h = MixBits(seed[k] + static_cast<uint64_t>(dim[k] + off + 1) * kGoldenGamma);
+    const uint64_t h2 = MixBits(h), low = MixBits(h2);
+    const uint32_t sh = ReverseBits32(LaineKarrasPermutation(rev[k], static_cast<uint32_t>(h)));
+    shuffled[k] = sh;
+    h2s[k] = h2;
+    u0[k] = ToUnitLanes(ReverseBits32(LaineKarrasPermutation(sh, static_cast<uint32_t>(h >> 32))), low);
+  }
+  for (int k = 0; k < n; ++k) sobol[k] = ReversedSobol1(shuffled[k]);  // a table: scalar loads
+  for (int k = 0; k < n; ++k) {
+    const uint64_t h2 = h2s[k];
+    u1[k] = ToUnitLanes(ReverseBits32(LaineKarrasPermutation(sobol[k], static_cast<uint32_t>(h2))), MixBits(h2) >> 21);
+  }
+}
+
 }  // namespace
+
+void Sampler::DrawAhead(std::span<Sampler* const> samplers, std::span<const uint8_t> pattern,
+                        std::vector<double>* values) {
+  int per = 0;
+  for (uint8_t p : pattern) {
+    MR_CHECK(p == 1 || p == 2);
+    per += p;
+  }
+  MR_CHECK(per <= 32);
+  values->resize(samplers.size() * static_cast<size_t>(per));
+  uint64_t seed[kLaneChunk];
+  uint32_t rev[kLaneChunk], dim[kLaneChunk];
+  double u0[kLaneChunk], u1[kLaneChunk];
+  Sampler* lane[kLaneChunk];
+  size_t used = 0;  // samplers given values so far
+  for (size_t start = 0; start < samplers.size();) {
+    int n = 0;
+    for (; start < samplers.size() && n < kLaneChunk; ++start) {
+      Sampler* s = samplers[start];
+      if (!s->stratified_ || s->ahead_at_ < s->ahead_n_) continue;
+      lane[n] = s;
+      seed[n] = s->seed_;
+      rev[n] = s->reversed_index_;
+      dim[n] = s->dimension_;
+      ++n;
+    }
+    double* base = values->data() + used * static_cast<size_t>(per);
+    uint32_t off = 0, pairs = 0;
+    for (uint8_t p : pattern) {
+      if (p == 1) {
+        Draw1DLanes(n, seed, rev, dim, off, u0);
+        for (int k = 0; k < n; ++k) base[k * per + static_cast<int>(off)] = u0[k];
+      } else {
+        Draw2DLanes(n, seed, rev, dim, off, u0, u1);
+        for (int k = 0; k < n; ++k) {
+          base[k * per + static_cast<int>(off)] = u0[k];
+          base[k * per + static_cast<int>(off) + 1] = u1[k];
+        }
+        pairs |= 1u << off;
+      }
+      off += p;
+    }
+    for (int k = 0; k < n; ++k) {
+      lane[k]->ahead_ = base + k * per;
+      lane[k]->dimension_ += off;
+      lane[k]->ahead_n_ = static_cast<uint8_t>(off);
+      lane[k]->ahead_at_ = 0;
+      lane[k]->ahead_pairs_ = pairs;
+    }
+    used += static_cast<size_t>(n);
+  }
+}
+
+void Sampler::DropAhead() {
+  dimension_ -= static_cast<uint32_t>(ahead_n_ - ahead_at_);
+  ahead_ = nullptr;
+  ahead_n_ = ahead_at_ = 0;
+  ahead_pairs_ = 0;
+}
 
 // With R the bit reversal and S_k the Laine-Karras permutation under seed k
 // (an Owen scramble of a reversed value), a draw's shuffled index is
@@ -161,24 +261,35 @@ std::array<double, 3> SampleUniformSphere(double u0, double u1) {
   return {r * std::cos(phi), r * std::sin(phi), z};
 }
 
+namespace {
+
+// Concentric (Shirley-Chiu) disk mapping, then lift to the hemisphere; no
+// branch, so that lanes of it vectorise (core/lanes.h).
+inline void CosineHemisphere(double u0, double u1, double* x, double* y, double* z) {
+  const double ox = 2.0 * u0 - 1.0, oy = 2.0 * u1 - 1.0;
+  const bool wide = std::abs(ox) > std::abs(oy);
+  const double r = wide ? ox : oy, other = wide ? oy : ox;
+  const double ratio = other / (r == 0 ? 1.0 : r);
+  const double theta = wide ? (kPi / 4) * ratio : kPi / 2 - (kPi / 4) * ratio;
+  double s, c;
+  SinCos(theta, &s, &c);
+  const double dx = r * c, dy = r * s;  // r = 0 at the centre: (0, 0)
+  *x = dx;
+  *y = dy;
+  *z = std::sqrt(std::max(0.0, 1.0 - dx * dx - dy * dy));
+}
+
+}  // namespace
+
 std::array<double, 3> SampleCosineHemisphere(double u0, double u1) {
-  // Concentric (Shirley-Chiu) disk mapping, then lift to the hemisphere.
-  double ox = 2.0 * u0 - 1.0, oy = 2.0 * u1 - 1.0;
-  double dx = 0, dy = 0;
-  if (ox != 0 || oy != 0) {
-    double r, theta;
-    if (std::abs(ox) > std::abs(oy)) {
-      r = ox;
-      theta = (kPi / 4) * (oy / ox);
-    } else {
-      r = oy;
-      theta = kPi / 2 - (kPi / 4) * (ox / oy);
-    }
-    dx = r * std::cos(theta);
-    dy = r * std::sin(theta);
-  }
-  double z = SafeSqrt(1.0 - dx * dx - dy * dy);
-  return {dx, dy, z};
+  std::array<double, 3> d;
+  CosineHemisphere(u0, u1, &d[0], &d[1], &d[2]);
+  return d;
+}
+
+MR_LANES void SampleCosineHemisphere(size_t n, const double* __restrict u0, const double* __restrict u1,
+                                     double* __restrict x, double* __restrict y, double* __restrict z) {
+  for (size_t k = 0; k < n; ++k) CosineHemisphere(u0[k], u1[k], &x[k], &y[k], &z[k]);
 }
 
 }  // namespace mr

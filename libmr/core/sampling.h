@@ -9,8 +9,11 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <span>
+#include <vector>
 
 #include "core/hash.h"
+#include "core/lanes.h"
 #include "core/math.h"
 
 namespace mr {
@@ -98,10 +101,17 @@ class Sampler {
     return s;
   }
   static Sampler Stratified(uint64_t seed, uint32_t index);
-  double NextDouble() { return stratified_ ? Stratified1D() : pcg_.NextDouble(); }
+  double NextDouble() {
+    if (ahead_at_ < ahead_n_) return TakeAhead(false);
+    return stratified_ ? Stratified1D() : pcg_.NextDouble();
+  }
   // Two values meant to be used together (a point on the pixel, the lens, a
   // light, a BSDF lobe): a 2D-stratified pair.
   std::array<double, 2> Next2D() {
+    if (ahead_at_ < ahead_n_) {
+      const double u0 = TakeAhead(true);
+      return {u0, ahead_[ahead_at_++]};
+    }
     if (stratified_) return Stratified2D();
     const double u0 = pcg_.NextDouble();
     return {u0, pcg_.NextDouble()};
@@ -109,19 +119,48 @@ class Sampler {
   bool stratified() const { return stratified_; }
   bool operator==(const Sampler&) const = default;
 
+  // Draws in lanes.  `pattern` lists the draws each of `samplers` makes
+  // next, in order (1: NextDouble, 2: Next2D); they are computed for all
+  // the samplers at once (SIMD over samplers, core/lanes.h) into *values
+  // (which must outlive them: the samplers point into it), so that each
+  // sampler's own NextDouble and Next2D return them: the same numbers in
+  // the same order as drawing one by one.  Only stratified samplers with
+  // nothing ahead take part (the others draw as they go).  The draws that
+  // follow must be the pattern's (checked in debug builds); at most 32
+  // values.
+  static void DrawAhead(std::span<Sampler* const> samplers, std::span<const uint8_t> pattern,
+                        std::vector<double>* values);
+  // The values ahead from `offset` on (the pattern's in order): what the
+  // coming draws will return, before they are drawn; null if none.
+  const double* Ahead(int offset) const {
+    return ahead_at_ + offset < ahead_n_ ? ahead_ + ahead_at_ + offset : nullptr;
+  }
+  // Forgets the values ahead not drawn, and steps back their dimensions,
+  // as if they had never been drawn.
+  void DropAhead();
+
  private:
   double Stratified1D();
   std::array<double, 2> Stratified2D();
+  double TakeAhead(bool pair) {
+    MR_DCHECK(((ahead_pairs_ >> ahead_at_) & 1) == static_cast<uint32_t>(pair));
+    return ahead_[ahead_at_++];
+  }
   Pcg32 pcg_;
   uint64_t seed_ = 0;
   uint32_t index_ = 0, reversed_index_ = 0, dimension_ = 0;
   bool stratified_ = false;
+  const double* ahead_ = nullptr;  // DrawAhead's values for this sampler
+  uint8_t ahead_n_ = 0, ahead_at_ = 0;
+  uint32_t ahead_pairs_ = 0;  // bit i: a pair starts at ahead_[i]
 };
 
 // Maps a point of [0,1)^2 to directions, with pdfs in solid angle.
 // The vectors are (x, y, z) with z the pole.
 std::array<double, 3> SampleUniformSphere(double u0, double u1);
 std::array<double, 3> SampleCosineHemisphere(double u0, double u1);  // pdf cos/pi
+// The same for n points in lanes (core/lanes.h), the same bits.
+void SampleCosineHemisphere(size_t n, const double* u0, const double* u1, double* x, double* y, double* z);
 inline constexpr double kUniformSpherePdf = 1.0 / kFourPi;
 
 }  // namespace mr

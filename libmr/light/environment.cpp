@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/lanes.h"
 #include "core/math.h"
 #include "core/spherical.h"
 
@@ -136,33 +137,114 @@ bool EnvironmentMap::SampleBand(double u0, Eigen::Vector3d* up, double* lo, doub
   return true;
 }
 
-Eigen::Vector3d EnvironmentMap::Sample(double u0, double u1, Eigen::Vector3d* dir, double* pdf) const {
-  *pdf = 0;
-  if (empty() || total_ <= 0) return Eigen::Vector3d::Zero();
+// Where Sample's numbers fall: the cell, its longitude and sin(latitude)
+// bounds, and what is left of each number inside it.
+struct EnvCellPick {
+  size_t i = 0;
+  double f0 = 0, f1 = 0, lon_hi = 0, lon_lo = 0, s_hi = 0, s_lo = 0;
+};
+
+namespace {
+
+// The direction at (f0, f1) of a pick's cell, uniform in solid angle:
+// linear in sin(latitude) and in longitude (LatLongToDirection with
+// sin(latitude) = s, without the round trip through asin), then rotated by
+// m (row-major world_from_env).  Plain arithmetic: lanes of it vectorise and
+// give the scalar call's bits (core/lanes.h).
+inline void PlaceInCell(double f0, double f1, double lon_hi, double lon_lo, double s_hi, double s_lo, const double* m,
+                        double* x, double* y, double* z) {
+  const double s = Clamp(s_hi - f0 * (s_hi - s_lo), -1.0, 1.0);
+  const double lon = lon_hi - f1 * (lon_hi - lon_lo), cl = std::sqrt(std::max(0.0, 1 - s * s));
+  double sl, cs;
+  SinCos(lon, &sl, &cs);
+  const double ex = sl * cl, ey = s, ez = cs * cl;
+  *x = (m[0] * ex + m[1] * ey) + m[2] * ez;
+  *y = (m[3] * ex + m[4] * ey) + m[5] * ez;
+  *z = (m[6] * ex + m[7] * ey) + m[8] * ez;
+}
+
+constexpr size_t kLaneChunk = 64;
+
+// PlaceInCell over picks' fields held apart (structure of arrays).
+struct CellPickLanes {
+  double f0[kLaneChunk], f1[kLaneChunk], lon_hi[kLaneChunk], lon_lo[kLaneChunk], s_hi[kLaneChunk], s_lo[kLaneChunk];
+};
+
+MR_LANES void PlaceInCells(size_t n, const CellPickLanes& p, const double* __restrict m, double* __restrict x,
+                           double* __restrict y, double* __restrict z) {
+  for (size_t k = 0; k < n; ++k)
+    PlaceInCell(p.f0[k], p.f1[k], p.lon_hi[k], p.lon_lo[k], p.s_hi[k], p.s_lo[k], m, &x[k], &y[k], &z[k]);
+}
+
+}  // namespace
+
+void EnvironmentMap::Pick(double u0, double u1, EnvCellPick* out) const {
   // Row by u0, cell in the row by u1, both by inverting the cumulative
-  // weights; what is left of each places the direction in the cell (uniform
-  // in solid angle: linear in sin(latitude) and longitude).  The map from
-  // (u0, u1) to directions is continuous and monotone in each, so
+  // weights; what is left of each places the direction in the cell.  The
+  // map from (u0, u1) to directions is continuous and monotone in each, so
   // stratified numbers give stratified directions (over the sun's cells too).
+  EnvCellPick& p = *out;
   const size_t py = SampleRow(u0);
   const double r0_lo = row_cdf_[py], r0_w = row_cdf_[py + 1] - r0_lo;
-  const double f0 = Clamp((u0 * total_ - r0_lo) / r0_w, 0.0, 1.0);
+  p.f0 = Clamp((u0 * total_ - r0_lo) / r0_w, 0.0, 1.0);
   const double* row = cdf_.data() + py * static_cast<size_t>(width_);
   const double t1 = r0_lo + u1 * r0_w;
   const size_t px = Invert(row, static_cast<size_t>(width_), t1);
   const double c_w = row[px + 1] - row[px];
-  const double f1 = Clamp((t1 - row[px]) / c_w, 0.0, 1.0);
-  const size_t i = py * static_cast<size_t>(width_) + px;
+  p.f1 = Clamp((t1 - row[px]) / c_w, 0.0, 1.0);
+  p.i = py * static_cast<size_t>(width_) + px;
   const double dlon = kTwoPi / (width_ - 1);
   const double lon_c = kPi - static_cast<double>(px) * dlon;
-  const double lon_hi = std::min(kPi, lon_c + dlon / 2), lon_lo = std::max(-kPi, lon_c - dlon / 2);
-  const double s_lo = row_sin_[py + 1], s_hi = row_sin_[py];
-  const double s = Clamp(s_hi - f0 * (s_hi - s_lo), -1.0, 1.0);
-  // LatLongToDirection with sin(latitude) = s, without the round trip through asin.
-  const double lon = lon_hi - f1 * (lon_hi - lon_lo), cl = SafeSqrt(1 - s * s);
-  *dir = world_from_env_ * Eigen::Vector3d(std::sin(lon) * cl, s, std::cos(lon) * cl);
-  *pdf = pdf_[i];
-  return radiance_[i].cast<double>();
+  p.lon_hi = std::min(kPi, lon_c + dlon / 2);
+  p.lon_lo = std::max(-kPi, lon_c - dlon / 2);
+  p.s_lo = row_sin_[py + 1];
+  p.s_hi = row_sin_[py];
+}
+
+Eigen::Vector3d EnvironmentMap::Sample(double u0, double u1, Eigen::Vector3d* dir, double* pdf) const {
+  *pdf = 0;
+  if (empty() || total_ <= 0) return Eigen::Vector3d::Zero();
+  EnvCellPick p;
+  Pick(u0, u1, &p);
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> m = world_from_env_;
+  PlaceInCell(p.f0, p.f1, p.lon_hi, p.lon_lo, p.s_hi, p.s_lo, m.data(), &dir->x(), &dir->y(), &dir->z());
+  *pdf = pdf_[p.i];
+  return radiance_[p.i].cast<double>();
+}
+
+void EnvironmentMap::Sample(size_t n, const double* u0, const double* u1, Eigen::Vector3d* dir,
+                            Eigen::Vector3d* radiance, double* pdf) const {
+  if (empty() || total_ <= 0) {
+    for (size_t k = 0; k < n; ++k) {
+      radiance[k].setZero();
+      pdf[k] = 0;
+    }
+    return;
+  }
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> m = world_from_env_;
+  CellPickLanes lanes;
+  size_t cell[kLaneChunk];
+  double x[kLaneChunk], y[kLaneChunk], z[kLaneChunk];
+  for (size_t start = 0; start < n; start += kLaneChunk) {
+    const size_t c = std::min(kLaneChunk, n - start);
+    for (size_t k = 0; k < c; ++k) {
+      EnvCellPick p;
+      Pick(u0[start + k], u1[start + k], &p);
+      cell[k] = p.i;
+      lanes.f0[k] = p.f0;
+      lanes.f1[k] = p.f1;
+      lanes.lon_hi[k] = p.lon_hi;
+      lanes.lon_lo[k] = p.lon_lo;
+      lanes.s_hi[k] = p.s_hi;
+      lanes.s_lo[k] = p.s_lo;
+    }
+    PlaceInCells(c, lanes, m.data(), x, y, z);
+    for (size_t k = 0; k < c; ++k) {
+      dir[start + k] = Eigen::Vector3d(x[k], y[k], z[k]);
+      pdf[start + k] = pdf_[cell[k]];
+      radiance[start + k] = radiance_[cell[k]].cast<double>();
+    }
+  }
 }
 
 }  // namespace mr

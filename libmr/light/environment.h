@@ -26,6 +26,8 @@ namespace mr {
 // and non-negative (the first bad pixel is named).
 void CheckEnvironmentImage(const Image& img, const std::string& name);
 
+struct EnvCellPick;
+
 class EnvironmentMap {
  public:
   EnvironmentMap() = default;
@@ -45,6 +47,10 @@ class EnvironmentMap {
   // Samples a world direction from (u0, u1) in [0,1)^2 (u0: the row, u1: the
   // cell in it); returns the radiance and sets the solid-angle pdf.
   Eigen::Vector3d Sample(double u0, double u1, Eigen::Vector3d* dir, double* pdf) const;
+  // Sample for n pairs (u0[k], u1[k]) at once, the direction's arithmetic in
+  // lanes (core/lanes.h): the same bits as n calls.
+  void Sample(size_t n, const double* u0, const double* u1, Eigen::Vector3d* dir, Eigen::Vector3d* radiance,
+              double* pdf) const;
   // What Sample(u0, u1) can return for this u0, whatever u1: a direction
   // whose dot product with `up` lies in [*lo, *hi] (its row's band of
   // latitudes, widened by 1e-9); false where Sample returns no direction.
@@ -59,7 +65,8 @@ class EnvironmentMap {
 
  private:
   int Cell(const Eigen::Vector3d& env_dir, int* px, int* py) const;
-  size_t SampleRow(double u0) const;  // Sample's row for u0
+  size_t SampleRow(double u0) const;                         // Sample's row for u0
+  void Pick(double u0, double u1, EnvCellPick* pick) const;  // Sample's cell
   int width_ = 0, height_ = 0;
   std::vector<Eigen::Vector3f> radiance_;  // per pixel, scaled
   std::vector<double> cdf_;                // over cells, luminance x solid angle

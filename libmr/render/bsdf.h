@@ -33,7 +33,10 @@ class Bsdf {
   Eigen::Vector3d Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   // Returns false when no direction was produced (e.g. below the horizon).
-  bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s) const;
+  // `cosine`, if given, is SampleCosineHemisphere(u0, u1), computed ahead
+  // (in lanes, for a batch of paths): the same result, not computed again.
+  bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s,
+              const Eigen::Vector3d* cosine = nullptr) const;
   bool IsBlack() const { return diffuse_weight_ + glossy_weight_ <= 0; }
   // Shading normals (docs/methods.md, "Shading normals"): `ng` is the unit
   // geometric normal in this BSDF's local frame (whose z is the shading

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <vector>
 
 #include "core/math.h"
 #include "core/sampling.h"
@@ -277,9 +278,34 @@ inline void AddEscapedCameraRay(const RenderScene& scene, const Ray& ray, Eigen:
 // emitters through BSDF-sampled rays at this vertex).  `mis_area`: weight
 // the area lights' samples too (the caller counts AreaLightsSeen with mis
 // on the BSDF-sampled ray that leaves this vertex: pt).
-// NextEvent's two halves: the environment's sample, each light's.
+// An environment sample taken before its vertex was known (in lanes, for a
+// batch of paths: DifferentialPathTracer::TraceBatch): what
+// EnvironmentMap::Sample gave for the two numbers that the vertex's
+// sampler's next Next2D returns.
+struct EnvDraw {
+  Eigen::Vector3d wi = Eigen::Vector3d::Zero(), le = Eigen::Vector3d::Zero();
+  double pdf = 0;
+  double u0 = 0, u1 = 0;  // the numbers it was taken for
+};
+
+// The draws NextEvent makes at a vertex, in order (Sampler::DrawAhead's
+// pattern: 1 a NextDouble, 2 a Next2D); *bsdf_at: how many numbers they
+// hold, where the BSDF sample's numbers that follow begin.
+inline void NextEventDraws(const RenderScene& scene, std::vector<uint8_t>* pattern, int* bsdf_at) {
+  pattern->assign(1, 2);  // the environment's
+  const bool pick = scene.picks_local_light();
+  for (const LightSource& l : scene.lights())
+    if (!pick || l.light().type == LightType::kDistant) pattern->push_back(2);
+  if (pick) pattern->insert(pattern->end(), {1, 2});
+  *bsdf_at = 0;
+  for (uint8_t p : *pattern) *bsdf_at += p;
+}
+
+// NextEvent's two halves: the environment's sample, each light's.  `pre`:
+// the environment's sample taken ahead for this vertex's numbers.
 template <class Emit>
-void EnvironmentEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true) {
+void EnvironmentEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
+                      const EnvDraw* pre = nullptr) {
   const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
   const Eigen::Vector3d& origin = v.origin;
   const EnvironmentMap& env = scene.environment();
@@ -288,7 +314,15 @@ void EnvironmentEvent(const RenderScene& scene, const PathVertex& v, Sampler& rn
     Eigen::Vector3d wi;
     double pdf_light = 0;
     if (!env.empty()) {
-      const Eigen::Vector3d le = env.Sample(u0, u1, &wi, &pdf_light);
+      MR_DCHECK(!pre || (pre->u0 == u0 && pre->u1 == u1));
+      Eigen::Vector3d le;
+      if (pre) {
+        wi = pre->wi;
+        pdf_light = pre->pdf;
+        le = pre->le;
+      } else {
+        le = env.Sample(u0, u1, &wi, &pdf_light);
+      }
       const Eigen::Vector3d wi_l = v.frame.ToLocal(wi);
       if (pdf_light > 0 && wi_l.z() > 0) {
         const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
@@ -339,8 +373,8 @@ void LightEvents(const RenderScene& scene, const PathVertex& v, Sampler& rng, Em
 
 template <class Emit>
 void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
-               bool mis_area = false) {
-  EnvironmentEvent(scene, v, rng, emit, mis);
+               bool mis_area = false, const EnvDraw* pre = nullptr) {
+  EnvironmentEvent(scene, v, rng, emit, mis, pre);
   LightEvents(scene, v, rng, emit, mis, mis_area);
 }
 

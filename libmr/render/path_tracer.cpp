@@ -204,25 +204,30 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
   return L;
 }
 
-template <class Shadow>
-bool DifferentialPathTracer::SharedBounce(Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, bool found, const Hit& hit,
-                                          int depth, int escape_from_depth, Sampler& rng, PathSample* out,
-                                          Shadow&& shadow) const {
+struct DifferentialPathTracer::Ahead {
+  EnvDraw env;
+  Eigen::Vector3d cosine = Eigen::Vector3d::Zero();
+  bool has_env = false, has_cosine = false;
+};
+
+bool DifferentialPathTracer::SharedHit(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, bool found,
+                                       const Hit& hit, int depth, int escape_from_depth, Sampler& rng,
+                                       PathSample* out) const {
   if (depth >= escape_from_depth && (!found || !hit.is_virtual)) {  // (a virtual hit parts the paths below)
-    const Eigen::Vector3d a = beta->cwiseProduct(
-        AreaLightsSeen(scene_, *ray, found ? hit.t : INFINITY, *prev_pdf, kRealLights, settings_.mis_area_lights));
+    const Eigen::Vector3d a = beta.cwiseProduct(
+        AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kRealLights, settings_.mis_area_lights));
     out->mixed += a;
     out->real += a;
     if (scene_.has_virtual())
-      out->mixed += beta->cwiseProduct(
-          AreaLightsSeen(scene_, *ray, found ? hit.t : INFINITY, *prev_pdf, kVirtualLights, settings_.mis_area_lights));
+      out->mixed += beta.cwiseProduct(
+          AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kVirtualLights, settings_.mis_area_lights));
   }
   if (!found) {
     if (depth < escape_from_depth) return false;
-    const Eigen::Vector3d c = beta->cwiseProduct(Escaped(scene_, *ray, *prev_pdf, kRealLights));
+    const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
     out->mixed += c;
     out->real += c;
-    if (scene_.has_virtual()) out->mixed += beta->cwiseProduct(Escaped(scene_, *ray, *prev_pdf, kVirtualLights));
+    if (scene_.has_virtual()) out->mixed += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kVirtualLights));
     return false;
   }
   if (hit.is_virtual) {
@@ -230,26 +235,36 @@ bool DifferentialPathTracer::SharedBounce(Ray* ray, Eigen::Vector3d* beta, doubl
     // of the random stream, the mixed one goes on from the object.
     if (depth == 0) out->primary_virtual = true;
     Sampler real_rng = rng;
-    out->real += TraceSingle(*ray, kMaskReal, *beta, *prev_pdf, depth, real_rng, &out->rays, escape_from_depth);
-    out->mixed += TraceSingle(*ray, kMaskAll, *beta, *prev_pdf, depth, rng, &out->rays, escape_from_depth);
+    out->real += TraceSingle(ray, kMaskReal, beta, prev_pdf, depth, real_rng, &out->rays, escape_from_depth);
+    out->mixed += TraceSingle(ray, kMaskAll, beta, prev_pdf, depth, rng, &out->rays, escape_from_depth);
     return false;
   }
-  // A real vertex shared by both paths.
-  PathVertex v = MakeVertex(scene_, *ray, hit);
-  const Eigen::Vector3d e = beta->cwiseProduct(v.emission);
+  return true;  // a real vertex shared by both paths
+}
+
+bool DifferentialPathTracer::SharedEmission(const PathVertex& v, const Eigen::Vector3d& beta, int depth,
+                                            PathSample* out) const {
+  const Eigen::Vector3d e = beta.cwiseProduct(v.emission);
   out->mixed += e;
   out->real += e;
-  if (depth >= settings_.max_depth || v.bsdf.IsBlack()) return false;
+  return depth < settings_.max_depth && !v.bsdf.IsBlack();
+}
+
+template <class Shadow>
+bool DifferentialPathTracer::SharedShade(const PathVertex& v, Ray* ray, Eigen::Vector3d* beta, double* prev_pdf,
+                                         int depth, Sampler& rng, Shadow&& shadow, const Ahead* ahead) const {
   NextEvent(
       scene_, v, rng,
       [&](const Eigen::Vector3d& c, const Ray& r, bool virtual_light) {
         shadow(Eigen::Vector3d(beta->cwiseProduct(c)), r, virtual_light);
       },
-      true, settings_.mis_area_lights);
+      true, settings_.mis_area_lights, ahead && ahead->has_env ? &ahead->env : nullptr);
   BsdfSample s;
   const double ul = rng.NextDouble();
   const auto [u0, u1] = rng.Next2D();
-  if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s)) return false;
+  if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s,
+                     ahead && ahead->has_cosine ? &ahead->cosine : nullptr))
+    return false;
   *beta = beta->cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
   *prev_pdf = s.pdf;
   if (depth + 1 >= settings_.rr_depth) {
@@ -260,6 +275,66 @@ bool DifferentialPathTracer::SharedBounce(Ray* ray, Eigen::Vector3d* beta, doubl
   *ray = MakeRay(v.OriginFor(v.frame.ToWorld(s.wi)), v.frame.ToWorld(s.wi), kMaskAll);
   v.SetCone(s, ray);
   return true;
+}
+
+template <class Shadow>
+bool DifferentialPathTracer::SharedBounce(Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, bool found, const Hit& hit,
+                                          int depth, int escape_from_depth, Sampler& rng, PathSample* out,
+                                          Shadow&& shadow) const {
+  if (!SharedHit(*ray, *beta, *prev_pdf, found, hit, depth, escape_from_depth, rng, out)) return false;
+  const PathVertex v = MakeVertex(scene_, *ray, hit);
+  return SharedEmission(v, *beta, depth, out) && SharedShade(v, ray, beta, prev_pdf, depth, rng, shadow);
+}
+
+struct DifferentialPathTracer::Lanes {
+  std::vector<Ahead> ahead;
+  std::vector<uint8_t> pattern;
+  std::vector<double> values, e0, e1, c0, c1, x, y, z, pdf;
+  std::vector<size_t> lane;
+  std::vector<Eigen::Vector3d> wi, le;
+};
+
+void DifferentialPathTracer::DrawAhead(std::span<Sampler* const> samplers, int depth, Lanes* lanes) const {
+  Lanes& l = *lanes;
+  const size_t n = samplers.size();
+  l.ahead.assign(n, Ahead());
+  // The numbers SharedShade draws, in its order: next-event estimation's,
+  // the BSDF sample's (lobe, then the pair), Russian roulette's.
+  int bsdf_at = 0;
+  NextEventDraws(scene_, &l.pattern, &bsdf_at);
+  l.pattern.insert(l.pattern.end(), {1, 2});
+  if (depth + 1 >= settings_.rr_depth) l.pattern.push_back(1);
+  if (bsdf_at + 4 > 32) return;  // many distant lights: drawn as they go
+  Sampler::DrawAhead(samplers, l.pattern, &l.values);
+  // The lanes' inputs: the environment's pair first, the BSDF's pair after its lobe number.
+  l.lane.clear();
+  l.e0.clear();
+  l.e1.clear();
+  l.c0.clear();
+  l.c1.clear();
+  for (size_t k = 0; k < n; ++k) {
+    const double* u = samplers[k]->Ahead(0);
+    if (!u) continue;  // an independent sampler: draws as it goes
+    l.lane.push_back(k);
+    l.e0.push_back(u[0]);
+    l.e1.push_back(u[1]);
+    l.c0.push_back(u[bsdf_at + 1]);
+    l.c1.push_back(u[bsdf_at + 2]);
+  }
+  const size_t m = l.lane.size();
+  for (auto* v : {&l.x, &l.y, &l.z, &l.pdf}) v->resize(m);
+  l.wi.resize(m);
+  l.le.resize(m);
+  const EnvironmentMap& env = scene_.environment();
+  if (!env.empty()) env.Sample(m, l.e0.data(), l.e1.data(), l.wi.data(), l.le.data(), l.pdf.data());
+  SampleCosineHemisphere(m, l.c0.data(), l.c1.data(), l.x.data(), l.y.data(), l.z.data());
+  for (size_t j = 0; j < m; ++j) {
+    Ahead& a = l.ahead[l.lane[j]];
+    a.has_env = !env.empty();
+    if (a.has_env) a.env = {l.wi[j], l.le[j], l.pdf[j], l.e0[j], l.e1[j]};
+    a.has_cosine = true;
+    a.cosine = Eigen::Vector3d(l.x[j], l.y[j], l.z[j]);
+  }
 }
 
 PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int start_depth,
@@ -373,6 +448,9 @@ void DifferentialPathTracer::TraceBatch(std::span<const Ray> primaries, std::spa
   std::vector<Ray> rays;
   std::vector<Hit> hits;
   std::vector<PendingShadow> shadows;
+  std::vector<size_t> shaded;
+  std::vector<Sampler*> samplers;
+  thread_local Lanes lanes;  // its buffers kept from batch to batch
   for (int depth = 0; !paths.empty(); ++depth) {
     rays.resize(paths.size());
     hits.assign(paths.size(), Hit());
@@ -382,16 +460,34 @@ void DifferentialPathTracer::TraceBatch(std::span<const Ray> primaries, std::spa
     scene_.embree().Intersect(rays, hits);
     going_on.clear();
     shadows.clear();
+    // What each hit adds before shading; the points to shade.
+    shaded.clear();
     for (size_t k = 0; k < paths.size(); ++k) {
       Path& p = paths[k];
       PathSample& o = out[p.index];
       ++o.rays;
       if (depth == 0) o.first_t = hits[k].t;
+      if (SharedHit(p.ray, p.beta, p.prev_pdf, hits[k].valid(), hits[k], depth, 0, rngs[p.index], &o))
+        shaded.push_back(k);
+    }
+    // Their draws, environment samples and cosine directions in lanes
+    // (for every real point: one the BSDF or the depth ends draws none).
+    samplers.clear();
+    for (size_t k : shaded)
+      if (depth < settings_.max_depth) samplers.push_back(&rngs[paths[k].index]);
+    DrawAhead(samplers, depth, &lanes);
+    for (size_t j = 0; j < shaded.size(); ++j) {
+      Path& p = paths[shaded[j]];
       auto queue = [&](const Eigen::Vector3d& c, const Ray& r, bool virtual_light) {
         shadows.push_back({r, c, p.index, virtual_light});
       };
-      if (SharedBounce(&p.ray, &p.beta, &p.prev_pdf, hits[k].valid(), hits[k], depth, 0, rngs[p.index], &o, queue))
+      Sampler& rng = rngs[p.index];
+      const PathVertex v = MakeVertex(scene_, p.ray, hits[shaded[j]]);
+      if (SharedEmission(v, p.beta, depth, &out[p.index]) &&
+          SharedShade(v, &p.ray, &p.beta, &p.prev_pdf, depth, rng, queue,
+                      j < lanes.ahead.size() ? &lanes.ahead[j] : nullptr))
         going_on.push_back(p);
+      rng.DropAhead();  // what a path that ended did not draw
     }
     ResolveShadows(shadows, out);
     paths.swap(going_on);

@@ -147,6 +147,26 @@ class DifferentialPathTracer {
   template <class Shadow>
   bool SharedBounce(Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, bool found, const Hit& hit, int depth,
                     int escape_from_depth, Sampler& rng, PathSample* out, Shadow&& shadow) const;
+  // SharedBounce's parts.  SharedHit: what the hit adds before a point is
+  // made of it (the lights the ray meets, the sky it escapes to, the paths'
+  // parting at a virtual object); true where it meets a real point.
+  // SharedEmission: that point's emission; true where it is to be shaded.
+  // SharedShade: its next-event estimates and BSDF sample; `ahead`, if
+  // given, holds the environment's sample and the cosine hemisphere's
+  // direction for the sampler's coming numbers, computed in lanes for a
+  // batch (TraceBatch).
+  struct Ahead;
+  bool SharedHit(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, bool found, const Hit& hit, int depth,
+                 int escape_from_depth, Sampler& rng, PathSample* out) const;
+  bool SharedEmission(const PathVertex& v, const Eigen::Vector3d& beta, int depth, PathSample* out) const;
+  template <class Shadow>
+  bool SharedShade(const PathVertex& v, Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, int depth, Sampler& rng,
+                   Shadow&& shadow, const Ahead* ahead = nullptr) const;
+  // The lanes of a batch's bounce: each shaded path's draws, environment
+  // sample and cosine direction computed at once (core/lanes.h) into
+  // lanes->ahead, one per sampler; `lanes` keeps its buffers between calls.
+  struct Lanes;
+  void DrawAhead(std::span<Sampler* const> samplers, int depth, Lanes* lanes) const;
   // A batch's shadow rays' two tests and their sums into out, in the order
   // TraceFrom makes them.
   struct PendingShadow;

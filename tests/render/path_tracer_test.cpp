@@ -234,8 +234,12 @@ TEST(PathTracer, CulledVirtualShadowTestsChangeNothing) {
 // has what the shared path handles: virtual geometry parting the paths, a
 // glossy virtual box, an emissive real panel, a real area light and a
 // virtual point light, a sky with a sun, culled virtual tests, Russian
-// roulette, and two passes (the second continuing each pixel's sequence).
-TEST(PathTracer, BatchesGiveTheSameBytes) {
+// roulette, and two passes (the second continuing each pixel's sequence);
+// then the same with 20 more lamps, one picked per estimate.  The batches'
+// draws, environment samples and cosine directions are computed in lanes
+// (core/lanes.h), the one-by-one paths' by the scalar calls.
+void CheckBatchesGiveTheSameBytes(bool many_lamps) {
+  SCOPED_TRACE(many_lamps ? "many lamps" : "two lights");
   RenderScene scene;
   Material wall;
   wall.albedo = Eigen::Vector3d(0.6, 0.5, 0.4);
@@ -268,7 +272,15 @@ TEST(PathTracer, BatchesGiveTheSameBytes) {
   lamp.intensity = Eigen::Vector3d::Constant(0.5);
   lamp.is_virtual = true;
   scene.AddLight(lamp);
+  for (int i = 0; many_lamps && i < 20; ++i) {
+    Light l = lamp;
+    l.is_virtual = i % 3 == 0;
+    l.position += Eigen::Vector3d(0.05 * i - 0.5, 0.02 * i, 0.3 - 0.03 * i);
+    l.intensity *= 0.1 + 0.05 * i;
+    scene.AddLight(l);
+  }
   scene.Commit();
+  ASSERT_EQ(scene.picks_local_light(), many_lamps);
   auto render = [&](int batch) {
     PathTracerSettings st;
     st.batch = batch;
@@ -287,6 +299,11 @@ TEST(PathTracer, BatchesGiveTheSameBytes) {
     EXPECT_EQ(b->rays_traced(), one_by_one->rays_traced()) << batch;
     EXPECT_EQ(b->virtual_tests_skipped(), one_by_one->virtual_tests_skipped()) << batch;
   }
+}
+
+TEST(PathTracer, BatchesGiveTheSameBytes) {
+  CheckBatchesGiveTheSameBytes(false);
+  CheckBatchesGiveTheSameBytes(true);
 }
 
 TEST(PathTracer, VirtualObjectOutOfViewChangesOnlyLighting) {

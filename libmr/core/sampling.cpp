@@ -2,6 +2,8 @@
 
 #include <bit>
 
+#include "core/lanes.h"
+
 namespace mr {
 
 uint32_t Pcg32::NextBounded(uint32_t bound) {

@@ -13,7 +13,6 @@
 #include <vector>
 
 #include "core/hash.h"
-#include "core/lanes.h"
 #include "core/math.h"
 
 namespace mr {

@@ -88,33 +88,79 @@ EnvironmentMap EnvironmentMap::Constant(const Eigen::Vector3d& radiance) {
   return EnvironmentMap(img, "constant environment");
 }
 
-int EnvironmentMap::Cell(const Eigen::Vector3d& env_dir, int* px, int* py) const {
-  Eigen::Vector2d p = DirectionToLatLongPixel(env_dir, width_, height_);
-  *px = Clamp(static_cast<int>(std::lround(p.x())), 0, width_ - 1);
-  *py = Clamp(static_cast<int>(std::lround(p.y())), 0, height_ - 1);
-  return *py * width_ + *px;
+namespace {
+
+// The cell of world direction (dx, dy, dz): the lat-long pixel nearest to
+// it (DirectionToLatLongPixel, rounded and clamped), with the latitude as
+// atan2(y, sqrt(z^2 + x^2)) and Atan2 for std::atan2 (core/lanes.h).  `m`:
+// env_from_world, row-major; w1, h1: the map's width and height less one.
+// A NaN direction gives cell 0.
+inline int32_t CellOf(double dx, double dy, double dz, const double* m, double w1, double h1) {
+  const double x = (m[0] * dx + m[1] * dy) + m[2] * dz;
+  const double y = (m[3] * dx + m[4] * dy) + m[5] * dz;
+  const double z = (m[6] * dx + m[7] * dy) + m[8] * dz;
+  const double lat = Atan2(y, std::sqrt(z * z + x * x)), lon = Atan2(x, z);
+  const double fx = std::floor((-lon / kTwoPi + 0.5) * w1 + 0.5), fy = std::floor((-lat / kPi + 0.5) * h1 + 0.5);
+  const double px = fx >= 0 ? (fx < w1 ? fx : w1) : 0.0, py = fy >= 0 ? (fy < h1 ? fy : h1) : 0.0;
+  return static_cast<int32_t>(py * (w1 + 1) + px);
+}
+
+MR_LANES void CellsOf(size_t n, const double* __restrict dx, const double* __restrict dy, const double* __restrict dz,
+                      const double* __restrict m, double w1, double h1, int32_t* __restrict cell) {
+  for (size_t k = 0; k < n; ++k) cell[k] = CellOf(dx[k], dy[k], dz[k], m, w1, h1);
+}
+
+}  // namespace
+
+size_t EnvironmentMap::Cell(const Eigen::Vector3d& dir) const {
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> m = world_from_env_.transpose();
+  return static_cast<size_t>(CellOf(dir.x(), dir.y(), dir.z(), m.data(), width_ - 1, height_ - 1));
+}
+
+void EnvironmentMap::EvalWithPdf(size_t n, const Eigen::Vector3d* dir, Eigen::Vector3d* radiance, double* pdf) const {
+  if (empty()) {
+    for (size_t k = 0; k < n; ++k) {
+      radiance[k].setZero();
+      pdf[k] = 0;
+    }
+    return;
+  }
+  const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> m = world_from_env_.transpose();
+  constexpr size_t kChunk = 64;
+  double x[kChunk], y[kChunk], z[kChunk];
+  int32_t cell[kChunk];
+  for (size_t start = 0; start < n; start += kChunk) {
+    const size_t c = std::min(kChunk, n - start);
+    for (size_t k = 0; k < c; ++k) {
+      x[k] = dir[start + k].x();
+      y[k] = dir[start + k].y();
+      z[k] = dir[start + k].z();
+    }
+    CellsOf(c, x, y, z, m.data(), width_ - 1, height_ - 1, cell);
+    for (size_t k = 0; k < c; ++k) {
+      const size_t i = static_cast<size_t>(cell[k]);
+      pdf[start + k] = pdf_[i];
+      radiance[start + k] = radiance_[i].cast<double>();
+    }
+  }
 }
 
 Eigen::Vector3d EnvironmentMap::Eval(const Eigen::Vector3d& dir) const {
   if (empty()) return Eigen::Vector3d::Zero();
-  int px, py;
-  return radiance_[static_cast<size_t>(Cell(world_from_env_.transpose() * dir, &px, &py))].cast<double>();
+  return radiance_[Cell(dir)].cast<double>();
 }
 
 Eigen::Vector3d EnvironmentMap::EvalWithPdf(const Eigen::Vector3d& dir, double* pdf) const {
   *pdf = 0;
   if (empty()) return Eigen::Vector3d::Zero();
-  int px, py;
-  const size_t i = static_cast<size_t>(Cell(world_from_env_.transpose() * dir, &px, &py));
+  const size_t i = Cell(dir);
   *pdf = pdf_[i];
   return radiance_[i].cast<double>();
 }
 
 double EnvironmentMap::Pdf(const Eigen::Vector3d& dir) const {
   if (empty() || total_ <= 0) return 0;
-  int px, py;
-  const size_t i = static_cast<size_t>(Cell(world_from_env_.transpose() * dir, &px, &py));
-  return pdf_[i];
+  return pdf_[Cell(dir)];
 }
 
 size_t EnvironmentMap::SampleRow(double u0) const {

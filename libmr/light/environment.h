@@ -60,11 +60,14 @@ class EnvironmentMap {
   double Pdf(const Eigen::Vector3d& dir) const;
   // Eval and Pdf with one lookup (what an escaped path needs).
   Eigen::Vector3d EvalWithPdf(const Eigen::Vector3d& dir, double* pdf) const;
+  // EvalWithPdf for n directions at once, the cells found in lanes
+  // (core/lanes.h): the same bits as n calls.
+  void EvalWithPdf(size_t n, const Eigen::Vector3d* dir, Eigen::Vector3d* radiance, double* pdf) const;
   // Total power proxy: integral of luminance over the sphere.
   double LuminanceIntegral() const { return total_; }
 
  private:
-  int Cell(const Eigen::Vector3d& env_dir, int* px, int* py) const;
+  size_t Cell(const Eigen::Vector3d& dir) const;             // the cell of world direction dir
   size_t SampleRow(double u0) const;                         // Sample's row for u0
   void Pick(double u0, double u1, EnvCellPick* pick) const;  // Sample's cell
   int width_ = 0, height_ = 0;

@@ -197,13 +197,22 @@ enum LightSet : unsigned { kRealLights = 1, kVirtualLights = 2, kAllLights = 3 }
 
 inline unsigned LightBit(const LightSource& l) { return l.is_virtual() ? kVirtualLights : kRealLights; }
 
+// The environment along an escaped ray, looked up ahead (in lanes, for a
+// batch of paths): what EnvironmentMap::EvalWithPdf gave for its direction.
+struct EnvLookup {
+  Eigen::Vector3d le = Eigen::Vector3d::Zero();
+  double pdf = 0;
+};
+
 // The environment's radiance along an escaped ray's unit direction d,
 // MIS-weighted against the BSDF pdf that chose it (prev_pdf 0: none).
-inline Eigen::Vector3d EscapedEnvironment(const RenderScene& scene, const Eigen::Vector3d& d, double prev_pdf) {
+// `pre`: the lookup for d, made ahead.
+inline Eigen::Vector3d EscapedEnvironment(const RenderScene& scene, const Eigen::Vector3d& d, double prev_pdf,
+                                          const EnvLookup* pre = nullptr) {
   const EnvironmentMap& env = scene.environment();
   if (env.empty()) return Eigen::Vector3d::Zero();
-  double pdf = 0;
-  const Eigen::Vector3d le = env.EvalWithPdf(d, &pdf);
+  double pdf = pre ? pre->pdf : 0.0;
+  const Eigen::Vector3d le = pre ? pre->le : env.EvalWithPdf(d, &pdf);
   return le * (prev_pdf > 0 ? PowerHeuristic(prev_pdf, pdf) : 1.0);
 }
 
@@ -224,10 +233,12 @@ inline Eigen::Vector3d EscapedDiscs(const RenderScene& scene, const Eigen::Vecto
 // Radiance arriving along an escaped ray from the environment and the
 // distant disc lights in `which`, each MIS-weighted against the BSDF pdf
 // that chose the direction (prev_pdf 0: seen directly by the camera).
-inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pdf, unsigned which) {
+// `pre`: the environment's lookup for the ray's direction, made ahead.
+inline Eigen::Vector3d Escaped(const RenderScene& scene, const Ray& ray, double prev_pdf, unsigned which,
+                               const EnvLookup* pre = nullptr) {
   const Eigen::Vector3d d = ray.direction.cast<double>().normalized();
   return EscapedDiscs(scene, d, prev_pdf, which,
-                      (which & kRealLights) ? EscapedEnvironment(scene, d, prev_pdf) : Eigen::Vector3d::Zero());
+                      (which & kRealLights) ? EscapedEnvironment(scene, d, prev_pdf, pre) : Eigen::Vector3d::Zero());
 }
 
 // Radiance of the area lights in `which` that the ray meets before t_max.

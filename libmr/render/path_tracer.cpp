@@ -211,8 +211,8 @@ struct DifferentialPathTracer::Ahead {
 };
 
 bool DifferentialPathTracer::SharedHit(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, bool found,
-                                       const Hit& hit, int depth, int escape_from_depth, Sampler& rng,
-                                       PathSample* out) const {
+                                       const Hit& hit, int depth, int escape_from_depth, Sampler& rng, PathSample* out,
+                                       const EnvLookup* escaped) const {
   if (depth >= escape_from_depth && (!found || !hit.is_virtual)) {  // (a virtual hit parts the paths below)
     const Eigen::Vector3d a = beta.cwiseProduct(
         AreaLightsSeen(scene_, ray, found ? hit.t : INFINITY, prev_pdf, kRealLights, settings_.mis_area_lights));
@@ -224,7 +224,7 @@ bool DifferentialPathTracer::SharedHit(const Ray& ray, const Eigen::Vector3d& be
   }
   if (!found) {
     if (depth < escape_from_depth) return false;
-    const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights));
+    const Eigen::Vector3d c = beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kRealLights, escaped));
     out->mixed += c;
     out->real += c;
     if (scene_.has_virtual()) out->mixed += beta.cwiseProduct(Escaped(scene_, ray, prev_pdf, kVirtualLights));
@@ -287,6 +287,9 @@ bool DifferentialPathTracer::SharedBounce(Ray* ray, Eigen::Vector3d* beta, doubl
 }
 
 struct DifferentialPathTracer::Lanes {
+  std::vector<EnvLookup> escapes;  // per escaped ray
+  std::vector<int> escape_of;      // per path: its index in escapes, or -1
+  std::vector<Eigen::Vector3d> escape_dirs;
   std::vector<Ahead> ahead;
   std::vector<uint8_t> pattern;
   std::vector<double> values, e0, e1, c0, c1, x, y, z, pdf;
@@ -335,6 +338,27 @@ void DifferentialPathTracer::DrawAhead(std::span<Sampler* const> samplers, int d
     a.has_cosine = true;
     a.cosine = Eigen::Vector3d(l.x[j], l.y[j], l.z[j]);
   }
+}
+
+template <class Path>
+void DifferentialPathTracer::LookUpEscapes(const std::vector<Path>& paths, const std::vector<Hit>& hits,
+                                           Lanes* lanes) const {
+  Lanes& l = *lanes;
+  l.escape_of.assign(paths.size(), -1);
+  l.escape_dirs.clear();
+  const EnvironmentMap& env = scene_.environment();
+  if (env.empty()) return;
+  for (size_t k = 0; k < paths.size(); ++k)
+    if (!hits[k].valid()) {
+      l.escape_of[k] = static_cast<int>(l.escape_dirs.size());
+      l.escape_dirs.push_back(paths[k].ray.direction.template cast<double>().normalized());  // as Escaped's
+    }
+  const size_t n = l.escape_dirs.size();
+  l.escapes.resize(n);
+  l.le.resize(n);
+  l.pdf.resize(n);
+  env.EvalWithPdf(n, l.escape_dirs.data(), l.le.data(), l.pdf.data());
+  for (size_t j = 0; j < n; ++j) l.escapes[j] = {l.le[j], l.pdf[j]};
 }
 
 PathSample DifferentialPathTracer::TraceFrom(const Ray& start, Eigen::Vector3d beta, double prev_pdf, int start_depth,
@@ -460,6 +484,8 @@ void DifferentialPathTracer::TraceBatch(std::span<const Ray> primaries, std::spa
     scene_.embree().Intersect(rays, hits);
     going_on.clear();
     shadows.clear();
+    // The environment where rays met nothing, looked up in lanes.
+    LookUpEscapes(paths, hits, &lanes);
     // What each hit adds before shading; the points to shade.
     shaded.clear();
     for (size_t k = 0; k < paths.size(); ++k) {
@@ -467,7 +493,8 @@ void DifferentialPathTracer::TraceBatch(std::span<const Ray> primaries, std::spa
       PathSample& o = out[p.index];
       ++o.rays;
       if (depth == 0) o.first_t = hits[k].t;
-      if (SharedHit(p.ray, p.beta, p.prev_pdf, hits[k].valid(), hits[k], depth, 0, rngs[p.index], &o))
+      const EnvLookup* escaped = lanes.escape_of[k] >= 0 ? &lanes.escapes[lanes.escape_of[k]] : nullptr;
+      if (SharedHit(p.ray, p.beta, p.prev_pdf, hits[k].valid(), hits[k], depth, 0, rngs[p.index], &o, escaped))
         shaded.push_back(k);
     }
     // Their draws, environment samples and cosine directions in lanes

@@ -26,6 +26,7 @@
 namespace mr {
 
 struct PathVertex;  // render/path_common.h
+struct EnvLookup;   // render/path_common.h
 
 // Every ray a render traces, for benchmarks that replay them through a bare
 // Embree loop (single-threaded renders only: the log is not synchronised).
@@ -156,8 +157,10 @@ class DifferentialPathTracer {
   // direction for the sampler's coming numbers, computed in lanes for a
   // batch (TraceBatch).
   struct Ahead;
+  // `escaped`: the environment's lookup for a ray that met nothing, made
+  // ahead (TraceBatch, in lanes).
   bool SharedHit(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, bool found, const Hit& hit, int depth,
-                 int escape_from_depth, Sampler& rng, PathSample* out) const;
+                 int escape_from_depth, Sampler& rng, PathSample* out, const EnvLookup* escaped = nullptr) const;
   bool SharedEmission(const PathVertex& v, const Eigen::Vector3d& beta, int depth, PathSample* out) const;
   template <class Shadow>
   bool SharedShade(const PathVertex& v, Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, int depth, Sampler& rng,
@@ -167,6 +170,10 @@ class DifferentialPathTracer {
   // lanes->ahead, one per sampler; `lanes` keeps its buffers between calls.
   struct Lanes;
   void DrawAhead(std::span<Sampler* const> samplers, int depth, Lanes* lanes) const;
+  // The environment along a batch's rays that met nothing (hits[k] not
+  // valid), looked up in lanes into lanes->escapes.
+  template <class Path>
+  void LookUpEscapes(const std::vector<Path>& paths, const std::vector<Hit>& hits, Lanes* lanes) const;
   // A batch's shadow rays' two tests and their sums into out, in the order
   // TraceFrom makes them.
   struct PendingShadow;

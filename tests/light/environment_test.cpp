@@ -231,5 +231,40 @@ TEST(EnvironmentMap, SamplingInLanesGivesTheScalarBits) {
   for (size_t k = 0; k < n; ++k) ASSERT_EQ(pdf[k], 0.0);
 }
 
+// EvalWithPdf in lanes gives the scalar calls' bits, on the turned map,
+// over the directions Sample gave, the poles, the seam behind the map (the
+// longitude +-pi) and the axes; each sampled direction finds its own cell
+// (the pdf Sample gave), up to one in a thousand on a cell's edge.
+TEST(EnvironmentMap, LookupsInLanesGiveTheScalarBits) {
+  const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+  const EnvironmentMap env(SkyWithSun(64, 33, 1e-6f, 1e6f, 40, 5), "sun.exr", 1.0, turn);
+  Pcg32 rng(4);
+  std::vector<Eigen::Vector3d> dirs;
+  std::vector<double> sampled_pdf;
+  for (int k = 0; k < 2000; ++k) {
+    Eigen::Vector3d d;
+    double p;
+    env.Sample(rng.NextDouble(), rng.NextDouble(), &d, &p);
+    dirs.push_back(d);
+    sampled_pdf.push_back(p);
+  }
+  const size_t sampled = dirs.size();
+  for (const Eigen::Vector3d& a : {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, -1, 0), Eigen::Vector3d(0, 0, -1),
+                                   Eigen::Vector3d(0, 0, 1), Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(-1e-12, 0, -1)})
+    dirs.push_back(turn * a.normalized());
+  std::vector<Eigen::Vector3d> le(dirs.size());
+  std::vector<double> pdf(dirs.size());
+  env.EvalWithPdf(dirs.size(), dirs.data(), le.data(), pdf.data());
+  int other_cell = 0;
+  for (size_t k = 0; k < dirs.size(); ++k) {
+    double p;
+    const Eigen::Vector3d l = env.EvalWithPdf(dirs[k], &p);
+    ASSERT_EQ(l, le[k]) << k;
+    ASSERT_EQ(p, pdf[k]) << k;
+    if (k < sampled) other_cell += p != sampled_pdf[k];
+  }
+  EXPECT_LE(other_cell, 2);
+}
+
 }  // namespace
 }  // namespace mr

@@ -13,6 +13,7 @@
 
 #include <bit>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 
 namespace mr {
@@ -22,6 +23,9 @@ namespace mr {
 #else
 #define MR_LANES
 #endif
+
+// How many lanes a function stages on its stack at a time.
+inline constexpr size_t kLaneChunk = 64;
 
 // sin x and cos x, |error| <= 2.3e-16 for |x| <= 2 pi, accurate to 1e-15
 // relative up to |x| = 1e5 (measured, tests/core/lanes_test.cpp); NaN for

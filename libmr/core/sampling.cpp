@@ -132,8 +132,6 @@ inline double ToUnitLanes(uint32_t bits, uint64_t low) {
   return U32ToDouble(bits) * 0x1p-32 + U32ToDouble(low & 0x1fffff) * 0x1p-53;
 }
 
-constexpr int kLaneChunk = 64;
-
 // Stratified1D and Stratified2D of n samplers at dimensions dim[k] + off.
 MR_LANES void Draw1DLanes(int n, const uint64_t* __restrict seed, const uint32_t* __restrict rev,
                           const uint32_t* __restrict dim, uint32_t off, double* __restrict u) {
@@ -181,7 +179,7 @@ void Sampler::DrawAhead(std::span<Sampler* const> samplers, std::span<const uint
   size_t used = 0;  // samplers given values so far
   for (size_t start = 0; start < samplers.size();) {
     int n = 0;
-    for (; start < samplers.size() && n < kLaneChunk; ++start) {
+    for (; start < samplers.size() && n < static_cast<int>(kLaneChunk); ++start) {
       Sampler* s = samplers[start];
       if (!s->stratified_ || s->ahead_at_ < s->ahead_n_) continue;
       lane[n] = s;

@@ -126,11 +126,10 @@ void EnvironmentMap::EvalWithPdf(size_t n, const Eigen::Vector3d* dir, Eigen::Ve
     return;
   }
   const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> m = world_from_env_.transpose();
-  constexpr size_t kChunk = 64;
-  double x[kChunk], y[kChunk], z[kChunk];
-  int32_t cell[kChunk];
-  for (size_t start = 0; start < n; start += kChunk) {
-    const size_t c = std::min(kChunk, n - start);
+  double x[kLaneChunk], y[kLaneChunk], z[kLaneChunk];
+  int32_t cell[kLaneChunk];
+  for (size_t start = 0; start < n; start += kLaneChunk) {
+    const size_t c = std::min(kLaneChunk, n - start);
     for (size_t k = 0; k < c; ++k) {
       x[k] = dir[start + k].x();
       y[k] = dir[start + k].y();
@@ -208,8 +207,6 @@ inline void PlaceInCell(double f0, double f1, double lon_hi, double lon_lo, doub
   *y = (m[3] * ex + m[4] * ey) + m[5] * ez;
   *z = (m[6] * ex + m[7] * ey) + m[8] * ez;
 }
-
-constexpr size_t kLaneChunk = 64;
 
 // PlaceInCell over picks' fields held apart (structure of arrays).
 struct CellPickLanes {

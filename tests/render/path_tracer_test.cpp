@@ -302,8 +302,8 @@ void CheckBatchesGiveTheSameBytes(bool many_lamps) {
 }
 
 TEST(PathTracer, BatchesGiveTheSameBytes) {
-  CheckBatchesGiveTheSameBytes(false);
-  CheckBatchesGiveTheSameBytes(true);
+  ASSERT_NO_FATAL_FAILURE(CheckBatchesGiveTheSameBytes(false));
+  ASSERT_NO_FATAL_FAILURE(CheckBatchesGiveTheSameBytes(true));
 }
 
 TEST(PathTracer, VirtualObjectOutOfViewChangesOnlyLighting) {

@@ -2,11 +2,58 @@
 
 #include <cmath>
 
+#include <Eigen/Geometry>
+
 #include "core/color.h"
+#include "core/lanes.h"
 #include "core/math.h"
 #include "core/spherical.h"
 
 namespace mr {
+
+namespace {
+
+// The parts of LightSource::Sample that do not depend on the shaded point,
+// written out without a branch or a libm call, so that lanes of them
+// vectorise and give the scalar call's bits (core/lanes.h).  `t`, `b`: the
+// light's frame, as three doubles each.
+
+// A distant disc light's direction: 1 - cos(theta) uniform in [0, omc_max]
+// (uniform in the cone around `d`), phi uniform.
+inline void DiscDirection(const double* d, const double* t, const double* b, double omc_max, double u0, double u1,
+                          double* x, double* y, double* z) {
+  const double omc = u0 * omc_max;
+  const double sin_t = std::sqrt(std::max(0.0, omc * (2 - omc))), cos_t = 1 - omc;
+  double s, c;
+  SinCos(kTwoPi * u1, &s, &c);
+  const double wx = cos_t * d[0] + sin_t * (c * t[0] + s * b[0]);
+  const double wy = cos_t * d[1] + sin_t * (c * t[1] + s * b[1]);
+  const double wz = cos_t * d[2] + sin_t * (c * t[2] + s * b[2]);
+  const double len = std::sqrt(wx * wx + wy * wy + wz * wz);
+  *x = wx / len;
+  *y = wy / len;
+  *z = wz / len;
+}
+
+// An area light's point: uniform over its w x h rectangle around `o`, or
+// over its disc of diameter w by Shirley and Chiu's concentric map (strata
+// stay compact on the disc).
+inline void AreaPoint(const double* o, const double* t, const double* b, double w, double h, bool disc, double u0,
+                      double u1, double* x, double* y, double* z) {
+  const double ox = 2 * u0 - 1, oy = 2 * u1 - 1;
+  const bool wide = std::abs(ox) > std::abs(oy);
+  const double r = wide ? ox : oy, other = wide ? oy : ox;
+  const double ratio = other / (r == 0 ? 1.0 : r);
+  double s, c;
+  SinCos(wide ? 0.25 * kPi * ratio : 0.5 * kPi - 0.25 * kPi * ratio, &s, &c);
+  // along t and b: the rectangle's offsets, or the disc's point (r = 0 at its centre)
+  const double ct = disc ? 0.5 * w * r * c : (u0 - 0.5) * w, cb = disc ? 0.5 * w * r * s : (u1 - 0.5) * h;
+  *x = o[0] + (ct * t[0] + cb * b[0]);
+  *y = o[1] + (ct * t[1] + cb * b[1]);
+  *z = o[2] + (ct * t[2] + cb * b[2]);
+}
+
+}  // namespace
 
 LightSource::LightSource(const Light& light) : light_(light) {
   CoordinateSystem(light_.direction, &t_, &b_);
@@ -28,7 +75,25 @@ LightSource::LightSource(const Light& light) : light_(light) {
   }
 }
 
-bool LightSource::Sample(const Eigen::Vector3d& p, double u0, double u1, LightSample* s) const {
+bool LightSource::TakesAhead() const {
+  return light_.type == LightType::kArea || (light_.type == LightType::kDistant && light_.angular_radius_deg > 0);
+}
+
+MR_LANES void LightSource::SampleAhead(size_t n, const double* __restrict u0, const double* __restrict u1,
+                                       double* __restrict x, double* __restrict y, double* __restrict z) const {
+  const double *d = light_.direction.data(), *o = light_.position.data(), *t = t_.data(), *b = b_.data();
+  if (light_.type == LightType::kDistant) {
+    const double omc_max = one_minus_cos_max_;
+    for (size_t k = 0; k < n; ++k) DiscDirection(d, t, b, omc_max, u0[k], u1[k], &x[k], &y[k], &z[k]);
+  } else if (light_.type == LightType::kArea) {
+    const double w = light_.width, h = light_.height;
+    const bool disc = light_.shape != AreaShape::kRect;
+    for (size_t k = 0; k < n; ++k) AreaPoint(o, t, b, w, h, disc, u0[k], u1[k], &x[k], &y[k], &z[k]);
+  }
+}
+
+bool LightSource::Sample(const Eigen::Vector3d& p, double u0, double u1, LightSample* s,
+                         const Eigen::Vector3d* ahead) const {
   switch (light_.type) {
     case LightType::kPoint:
     case LightType::kSpot: {
@@ -52,24 +117,12 @@ bool LightSource::Sample(const Eigen::Vector3d& p, double u0, double u1, LightSa
       return s->li.maxCoeff() > 0;
     }
     case LightType::kArea: {
-      Eigen::Vector3d q = light_.position;
-      if (light_.shape == AreaShape::kRect) {
-        q += (u0 - 0.5) * light_.width * t_ + (u1 - 0.5) * light_.height * b_;
-      } else {
-        // Shirley-Chiu's concentric map: strata stay compact on the disc.
-        const double a = 2 * u0 - 1, b = 2 * u1 - 1;
-        double r = 0, phi = 0;
-        if (a != 0 || b != 0) {
-          if (std::abs(a) > std::abs(b)) {
-            r = a;
-            phi = 0.25 * kPi * (b / a);
-          } else {
-            r = b;
-            phi = 0.5 * kPi - 0.25 * kPi * (a / b);
-          }
-        }
-        q += 0.5 * light_.width * r * (std::cos(phi) * t_ + std::sin(phi) * b_);
-      }
+      Eigen::Vector3d q;
+      if (ahead)
+        q = *ahead;
+      else
+        AreaPoint(light_.position.data(), t_.data(), b_.data(), light_.width, light_.height,
+                  light_.shape != AreaShape::kRect, u0, u1, &q.x(), &q.y(), &q.z());
       const Eigen::Vector3d v = q - p;
       const double d2 = v.squaredNorm();
       if (!(d2 > 0)) return false;
@@ -91,11 +144,11 @@ bool LightSource::Sample(const Eigen::Vector3d& p, double u0, double u1, LightSa
         s->delta = true;
         return s->li.maxCoeff() > 0;
       }
-      // Uniform in the cone: 1 - cos(theta) uniform in [0, 1 - cos_max].
-      const double omc = u0 * one_minus_cos_max_;
-      const double sin_t = SafeSqrt(omc * (2 - omc)), cos_t = 1 - omc;
-      const double phi = kTwoPi * u1;
-      s->wi = (cos_t * light_.direction + sin_t * (std::cos(phi) * t_ + std::sin(phi) * b_)).normalized();
+      if (ahead)
+        s->wi = *ahead;
+      else
+        DiscDirection(light_.direction.data(), t_.data(), b_.data(), one_minus_cos_max_, u0, u1, &s->wi.x(), &s->wi.y(),
+                      &s->wi.z());
       s->li = radiance_;
       s->pdf = 1 / (kTwoPi * one_minus_cos_max_);
       s->delta = false;

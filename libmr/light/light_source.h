@@ -2,6 +2,8 @@
 // (scene/lights.h has the definitions).
 #pragma once
 
+#include <cstddef>
+
 #include <Eigen/Core>
 
 #include "light/lights_file.h"
@@ -27,7 +29,16 @@ class LightSource {
   // true for it too, since area lights are not geometry: only the rays
   // next-event estimation never samples meet them (HitArea), so its
   // samples take no MIS weight.
-  bool Sample(const Eigen::Vector3d& p, double u0, double u1, LightSample* s) const;
+  // `ahead`, if given, is SampleAhead's value for (u0, u1): the same
+  // result, not computed again.
+  bool Sample(const Eigen::Vector3d& p, double u0, double u1, LightSample* s,
+              const Eigen::Vector3d* ahead = nullptr) const;
+  // Whether Sample has a part that does not depend on p (a distant disc
+  // light's direction, an area light's point), and that part for n lanes
+  // (core/lanes.h) of numbers (u0, u1)[k], into (x, y, z)[k], bit for bit
+  // as Sample computes it; nothing for the other lights.
+  bool TakesAhead() const;
+  void SampleAhead(size_t n, const double* u0, const double* u1, double* x, double* y, double* z) const;
   // Radiance of a distant disc light along world direction `dir` (zero
   // outside the disc and for delta lights), with the pdf Sample would have
   // given that direction.

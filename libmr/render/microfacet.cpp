@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/lanes.h"
 #include "core/math.h"
 
 namespace mr {
@@ -22,22 +23,55 @@ double GgxLambda(const Eigen::Vector3d& w, double alpha) {
   return (std::sqrt(1 + alpha * alpha * t2) - 1) / 2;
 }
 
+namespace {
+
 // The normals wo sees (Heitz 2018, "Sampling the GGX Distribution of
 // Visible Normals"): the weight f cos / pdf of a lobe sampled so is
 // G2(wo, wi) / G1(wo) <= 1, where sampling D(h) cos(theta_h) gives weights
 // up to ~2 / alpha at grazing wo (fireflies off glossy surfaces seen at a
-// grazing angle).
+// grazing angle).  Written out without a branch or a libm call, so that
+// lanes of it vectorise and give the scalar call's bits (core/lanes.h).
+inline void GgxVisibleNormal(double wx, double wy, double wz, double alpha, double u0, double u1, double* hx,
+                             double* hy, double* hz) {
+  // wo stretched to the unit-roughness configuration, and a frame around it
+  const double sx = alpha * wx, sy = alpha * wy;
+  const double sl = std::sqrt(sx * sx + sy * sy + wz * wz);
+  const double vx = sx / sl, vy = sy / sl, vz = wz / sl;
+  const double len2 = vx * vx + vy * vy;
+  const bool tilted = len2 > 0;
+  const double len = std::sqrt(tilted ? len2 : 1.0);
+  const double t1x = tilted ? -vy / len : 1.0, t1y = tilted ? vx / len : 0.0;  // t1.z = 0
+  const double t2x = -vz * t1y, t2y = vz * t1x, t2z = vx * t1y - vy * t1x;     // vh x t1
+  // a point of the projected half disc
+  const double r = std::sqrt(u0);
+  double sin_phi, cos_phi;
+  SinCos(kTwoPi * u1, &sin_phi, &cos_phi);
+  const double p1 = r * cos_phi, sh = 0.5 * (1 + vz);
+  const double p2 = (1 - sh) * std::sqrt(std::max(0.0, 1 - p1 * p1)) + sh * r * sin_phi;
+  const double p3 = std::sqrt(std::max(0.0, 1 - p1 * p1 - p2 * p2));
+  // lifted to the hemisphere, and unstretched
+  const double mx = alpha * (p1 * t1x + p2 * t2x + p3 * vx);
+  const double my = alpha * (p1 * t1y + p2 * t2y + p3 * vy);
+  const double mz = std::max(1e-12, p2 * t2z + p3 * vz);
+  const double ml = std::sqrt(mx * mx + my * my + mz * mz);
+  *hx = mx / ml;
+  *hy = my / ml;
+  *hz = mz / ml;
+}
+
+}  // namespace
+
 Eigen::Vector3d SampleGgxVisibleNormal(const Eigen::Vector3d& wo, double alpha, double u0, double u1) {
-  const Eigen::Vector3d vh = Eigen::Vector3d(alpha * wo.x(), alpha * wo.y(), wo.z()).normalized();
-  const double len2 = vh.x() * vh.x() + vh.y() * vh.y();
-  const Eigen::Vector3d t1 =
-      len2 > 0 ? Eigen::Vector3d(-vh.y(), vh.x(), 0) / std::sqrt(len2) : Eigen::Vector3d(1, 0, 0);
-  const Eigen::Vector3d t2 = vh.cross(t1);
-  const double r = std::sqrt(u0), phi = kTwoPi * u1;
-  const double p1 = r * std::cos(phi), sh = 0.5 * (1 + vh.z());
-  const double p2 = (1 - sh) * SafeSqrt(1 - p1 * p1) + sh * r * std::sin(phi);
-  const Eigen::Vector3d nh = p1 * t1 + p2 * t2 + SafeSqrt(1 - p1 * p1 - p2 * p2) * vh;
-  return Eigen::Vector3d(alpha * nh.x(), alpha * nh.y(), std::max(1e-12, nh.z())).normalized();
+  Eigen::Vector3d h;
+  GgxVisibleNormal(wo.x(), wo.y(), wo.z(), alpha, u0, u1, &h.x(), &h.y(), &h.z());
+  return h;
+}
+
+MR_LANES void SampleGgxVisibleNormal(size_t n, const double* __restrict wx, const double* __restrict wy,
+                                     const double* __restrict wz, const double* __restrict alpha,
+                                     const double* __restrict u0, const double* __restrict u1, double* __restrict hx,
+                                     double* __restrict hy, double* __restrict hz) {
+  for (size_t k = 0; k < n; ++k) GgxVisibleNormal(wx[k], wy[k], wz[k], alpha[k], u0[k], u1[k], &hx[k], &hy[k], &hz[k]);
 }
 
 }  // namespace mr

@@ -346,15 +346,18 @@ void EnvironmentEvent(const RenderScene& scene, const PathVertex& v, Sampler& rn
   }
 }
 
+// `pre`: for each light drawn for in turn (every light but the local ones
+// one is picked from), its LightSource::SampleAhead value for this vertex's
+// numbers (ignored for a light that takes none).
 template <class Emit>
 void LightEvents(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
-                 bool mis_area = false) {
+                 bool mis_area = false, const Eigen::Vector3d* pre = nullptr) {
   const Eigen::Vector3d wo_l = v.frame.ToLocal(v.wo_world);
   const Eigen::Vector3d& origin = v.origin;
   // One light's sample; `pick`: the probability it was chosen with.
-  auto sample = [&](const LightSource& l, double pick, double u0, double u1) {
+  auto sample = [&](const LightSource& l, double pick, double u0, double u1, const Eigen::Vector3d* ahead) {
     LightSample ls;
-    if (!l.Sample(v.p, u0, u1, &ls)) return;
+    if (!l.Sample(v.p, u0, u1, &ls, ahead)) return;
     const Eigen::Vector3d wi_l = v.frame.ToLocal(ls.wi);
     if (wi_l.z() <= 0) return;
     const Eigen::Vector3d f = v.bsdf.Eval(wo_l, wi_l);
@@ -368,25 +371,27 @@ void LightEvents(const RenderScene& scene, const PathVertex& v, Sampler& rng, Em
          l.is_virtual());
   };
   const bool pick = scene.picks_local_light();
+  int drawn = 0;
   for (const LightSource& l : scene.lights()) {
     if (pick && l.light().type != LightType::kDistant) continue;
     const auto [u0, u1] = rng.Next2D();
-    sample(l, 1.0, u0, u1);
+    sample(l, 1.0, u0, u1, pre && l.TakesAhead() ? &pre[drawn] : nullptr);
+    ++drawn;
   }
   if (pick) {  // many local lights: one, by power
     const double u = rng.NextDouble();
     const auto [u0, u1] = rng.Next2D();
     double prob = 1;
     const size_t i = scene.PickLocalLight(u, &prob);
-    sample(scene.lights()[i], prob, u0, u1);
+    sample(scene.lights()[i], prob, u0, u1, nullptr);
   }
 }
 
 template <class Emit>
 void NextEvent(const RenderScene& scene, const PathVertex& v, Sampler& rng, Emit&& emit, bool mis = true,
-               bool mis_area = false, const EnvDraw* pre = nullptr) {
+               bool mis_area = false, const EnvDraw* pre = nullptr, const Eigen::Vector3d* pre_lights = nullptr) {
   EnvironmentEvent(scene, v, rng, emit, mis, pre);
-  LightEvents(scene, v, rng, emit, mis, mis_area);
+  LightEvents(scene, v, rng, emit, mis, mis_area, pre_lights);
 }
 
 // Whether the segment o + t d, t in [0, tmax], meets any of `boxes`

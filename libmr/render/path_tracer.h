@@ -153,9 +153,10 @@ class DifferentialPathTracer {
   // parting at a virtual object); true where it meets a real point.
   // SharedEmission: that point's emission; true where it is to be shaded.
   // SharedShade: its next-event estimates and BSDF sample; `ahead`, if
-  // given, holds the environment's sample and the cosine hemisphere's
-  // direction for the sampler's coming numbers, computed in lanes for a
-  // batch (TraceBatch).
+  // given, holds what of them does not depend on the path's earlier
+  // choices, for the sampler's coming numbers, computed in lanes for a
+  // batch (TraceBatch): the environment's sample, the lights' directions or
+  // points, the BSDF's cosine direction and GGX half vector.
   struct Ahead;
   // `escaped`: the environment's lookup for a ray that met nothing, made
   // ahead (TraceBatch, in lanes).
@@ -165,11 +166,14 @@ class DifferentialPathTracer {
   template <class Shadow>
   bool SharedShade(const PathVertex& v, Ray* ray, Eigen::Vector3d* beta, double* prev_pdf, int depth, Sampler& rng,
                    Shadow&& shadow, const Ahead* ahead = nullptr) const;
-  // The lanes of a batch's bounce: each shaded path's draws, environment
-  // sample and cosine direction computed at once (core/lanes.h) into
-  // lanes->ahead, one per sampler; `lanes` keeps its buffers between calls.
+  // The lanes of a batch's bounce: each shaded path's draws and what
+  // SharedShade computes of them (Ahead) at once (core/lanes.h) into
+  // lanes->ahead, one per sampler; samplers[k] is at the vertex
+  // lanes->verts[k].  `lanes` keeps its buffers between calls.
   struct Lanes;
   void DrawAhead(std::span<Sampler* const> samplers, int depth, Lanes* lanes) const;
+  // DrawAhead's part for the lights: their Ahead::lights.
+  void LightsAhead(Lanes* lanes) const;
   // The environment along a batch's rays that met nothing (hits[k] not
   // valid), looked up in lanes into lanes->escapes.
   template <class Path>

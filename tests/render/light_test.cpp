@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "core/math.h"
+#include "core/sampling.h"
 #include "core/spherical.h"
 #include "geometry/primitives.h"
 #include "light/lights_file.h"
@@ -466,6 +467,68 @@ TEST(LightsFile, RoundTripsAndRejectsBadInput) {
   fails_with(R"({"version":1,"lights":[{"type":"point","position":[0,0,0],"intensity":[-1,1,1]}]})",
              "lights[0].intensity");
   fails_with(R"({"version":2,"lights":[]})", "version");
+}
+
+// A light's samples with their point-free part computed ahead in lanes
+// (LightSource::SampleAhead, as a batch of pt's paths takes them) give the
+// bits of Sample computing it, for a rectangle, a disc (its centre and the
+// diagonals of the concentric map among the numbers), a sun of 0.27
+// degrees and a wide disc light of 30; a point light takes none.
+TEST(Lights, SamplesAheadInLanesGiveTheScalarBits) {
+  Light rect;
+  rect.type = LightType::kArea;
+  rect.position = Eigen::Vector3d(0.3, 2, -0.1);
+  rect.direction = Eigen::Vector3d(0.1, -1, 0.2).normalized();
+  rect.axis = Eigen::Vector3d(1, 0, 0);
+  rect.width = 0.7;
+  rect.height = 0.2;
+  rect.radiance = Eigen::Vector3d(5, 4, 3);
+  Light disc = rect;
+  disc.shape = AreaShape::kDisc;
+  Light sun;
+  sun.type = LightType::kDistant;
+  sun.direction = Eigen::Vector3d(0.2, 0.9, -0.4).normalized();
+  sun.angular_radius_deg = 0.27;
+  sun.irradiance = Eigen::Vector3d::Constant(1e5);
+  Light wide = sun;
+  wide.angular_radius_deg = 30;
+  Light point;
+  point.type = LightType::kPoint;
+  point.position = Eigen::Vector3d(0, 1, 0);
+  EXPECT_FALSE(LightSource(point).TakesAhead());
+  Pcg32 rng(5);
+  const size_t n = 1000;
+  std::vector<double> u0(n), u1(n), x(n), y(n), z(n);
+  for (size_t k = 0; k < n; ++k) {
+    u0[k] = rng.NextDouble();
+    u1[k] = k % 9 == 0 ? u0[k] : k % 13 == 0 ? 1 - u0[k] : rng.NextDouble();  // the map's diagonals
+  }
+  u0[0] = u1[0] = 0.5;  // the disc's centre
+  u0[1] = u1[1] = 0;
+  u0[2] = u1[2] = 0x1.fffffffffffffp-1;
+  const Eigen::Vector3d p(0.1, 0, 0.2);
+  for (const Light& l : {rect, disc, sun, wide}) {
+    const LightSource s(l);
+    ASSERT_TRUE(s.TakesAhead());
+    s.SampleAhead(n, u0.data(), u1.data(), x.data(), y.data(), z.data());
+    int sampled = 0;
+    for (size_t k = 0; k < n; ++k) {
+      LightSample a, b;
+      const Eigen::Vector3d ahead(x[k], y[k], z[k]);
+      const bool got = s.Sample(p, u0[k], u1[k], &a);
+      ASSERT_EQ(s.Sample(p, u0[k], u1[k], &b, &ahead), got) << k;
+      if (!got) continue;
+      ++sampled;
+      ASSERT_EQ(a.wi, b.wi) << k;
+      ASSERT_EQ(a.distance, b.distance) << k;
+      ASSERT_EQ(a.pdf, b.pdf) << k;
+      ASSERT_EQ(a.li, b.li) << k;
+      ASSERT_NEAR(a.wi.norm(), 1.0, 1e-15) << k;
+      if (l.type == LightType::kDistant)  // inside the disc
+        ASSERT_GE(a.wi.dot(l.direction), std::cos(l.angular_radius_deg * kDegToRad) - 1e-15) << k;
+    }
+    EXPECT_EQ(sampled, static_cast<int>(n));  // every sample sends light to p
+  }
 }
 
 }  // namespace

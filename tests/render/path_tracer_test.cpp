@@ -236,13 +236,17 @@ TEST(PathTracer, CulledVirtualShadowTestsChangeNothing) {
 // virtual point light, a sky with a sun, culled virtual tests, Russian
 // roulette, and two passes (the second continuing each pixel's sequence);
 // then the same with 20 more lamps, one picked per estimate.  The batches'
-// draws, environment samples and cosine directions are computed in lanes
-// (core/lanes.h), the one-by-one paths' by the scalar calls.
+// draws, environment samples, lights' points and directions (a rectangle,
+// a disc, a sun of 2 degrees) and the BSDF's cosine directions and GGX
+// half vectors (a glossy real wall) are computed in lanes (core/lanes.h),
+// the one-by-one paths' by the scalar calls.
 void CheckBatchesGiveTheSameBytes(bool many_lamps) {
   SCOPED_TRACE(many_lamps ? "many lamps" : "two lights");
   RenderScene scene;
-  Material wall;
+  Material wall;  // glossy: its GGX half vectors in lanes
   wall.albedo = Eigen::Vector3d(0.6, 0.5, 0.4);
+  wall.specular = Eigen::Vector3d::Constant(0.2);
+  wall.roughness = 0.35;
   scene.AddReal(Quad(10, 0.0), wall);
   Material red;
   red.albedo = Eigen::Vector3d(0.8, 0.1, 0.1);
@@ -266,6 +270,16 @@ void CheckBatchesGiveTheSameBytes(bool many_lamps) {
   area.width = area.height = 0.4;
   area.radiance = Eigen::Vector3d::Constant(8.0);
   scene.AddLight(area);
+  Light disc = area;  // a disc lamp and a sun of 2 degrees: their points and directions in lanes
+  disc.shape = AreaShape::kDisc;
+  disc.position = Eigen::Vector3d(-0.6, 1.2, 0.2);
+  scene.AddLight(disc);
+  Light sun;
+  sun.type = LightType::kDistant;
+  sun.direction = Eigen::Vector3d(0.3, 1, 0.2).normalized();
+  sun.angular_radius_deg = 2;
+  sun.irradiance = Eigen::Vector3d::Constant(3.0);
+  scene.AddLight(sun);
   Light lamp;
   lamp.type = LightType::kPoint;
   lamp.position = Eigen::Vector3d(-0.4, 0.9, -0.3);

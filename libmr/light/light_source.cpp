@@ -75,10 +75,6 @@ LightSource::LightSource(const Light& light) : light_(light) {
   }
 }
 
-bool LightSource::TakesAhead() const {
-  return light_.type == LightType::kArea || (light_.type == LightType::kDistant && light_.angular_radius_deg > 0);
-}
-
 MR_LANES void LightSource::SampleAhead(size_t n, const double* __restrict u0, const double* __restrict u1,
                                        double* __restrict x, double* __restrict y, double* __restrict z) const {
   const double *d = light_.direction.data(), *o = light_.position.data(), *t = t_.data(), *b = b_.data();

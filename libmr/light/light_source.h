@@ -37,7 +37,9 @@ class LightSource {
   // light's direction, an area light's point), and that part for n lanes
   // (core/lanes.h) of numbers (u0, u1)[k], into (x, y, z)[k], bit for bit
   // as Sample computes it; nothing for the other lights.
-  bool TakesAhead() const;
+  bool TakesAhead() const {
+    return light_.type == LightType::kArea || (light_.type == LightType::kDistant && light_.angular_radius_deg > 0);
+  }
   void SampleAhead(size_t n, const double* u0, const double* u1, double* x, double* y, double* z) const;
   // Radiance of a distant disc light along world direction `dir` (zero
   // outside the disc and for delta lights), with the pdf Sample would have

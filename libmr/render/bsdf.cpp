@@ -102,11 +102,11 @@ double Bsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const {
 }
 
 bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s,
-                  const LobeDraws* pre) const {
+                  const Eigen::Vector3d* cosine) const {
   if (glass_) {  // one lobe chosen by u_lobe, then f and pdf of the mixture
     const bool glass = u_lobe < transmission_;
     const double u = glass ? u_lobe / transmission_ : (u_lobe - transmission_) / (1 - transmission_);
-    if (!(glass ? glass_->Sample(wo, u, u0, u1, s) : pbr_->Sample(wo, u, u0, u1, s, pre))) return false;
+    if (!(glass ? glass_->Sample(wo, u, u0, u1, s) : pbr_->Sample(wo, u, u0, u1, s, cosine))) return false;
     if (s->delta) {  // chosen with probability transmission_, weighted by it: the ratio stays
       s->f *= transmission_ * GeometricFactor(s->wi);
       s->pdf *= transmission_;
@@ -117,18 +117,18 @@ bool Bsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1
     return s->pdf > 0 && s->f.maxCoeff() > 0;
   }
   if (pbr_) {
-    if (!pbr_->Sample(wo, u_lobe, u0, u1, s, pre)) return false;
+    if (!pbr_->Sample(wo, u_lobe, u0, u1, s, cosine)) return false;
     if (has_ng_) s->f *= GeometricFactor(s->wi);
     return !has_ng_ || s->f.maxCoeff() > 0;
   }
   if (wo.z() <= 0 || IsBlack()) return false;
-  if (u_lobe < diffuse_weight_ && pre) {
-    s->wi = pre->cosine;
+  if (u_lobe < diffuse_weight_ && cosine) {
+    s->wi = *cosine;
   } else if (u_lobe < diffuse_weight_) {
     auto d = SampleCosineHemisphere(u0, u1);
     s->wi = Eigen::Vector3d(d[0], d[1], d[2]);
   } else {
-    const Eigen::Vector3d h = pre && pre->half_alpha == alpha_ ? pre->half : SampleGgxVisibleNormal(wo, alpha_, u0, u1);
+    const Eigen::Vector3d h = SampleGgxVisibleNormal(wo, alpha_, u0, u1);
     s->wi = 2 * wo.dot(h) * h - wo;
   }
   if (s->wi.z() <= 0) return false;

@@ -33,19 +33,10 @@ class Bsdf {
   Eigen::Vector3d Eval(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   // Returns false when no direction was produced (e.g. below the horizon).
-  // `pre`, if given, holds the directions for (u0, u1) computed ahead (in
-  // lanes, for a batch of paths; render/microfacet.h): the same results,
-  // not computed again.  Its half vector is taken only where it was
-  // computed for the alpha of GgxAlpha().
+  // `cosine`, if given, is SampleCosineHemisphere(u0, u1), computed ahead
+  // (in lanes, for a batch of paths): the same result, not computed again.
   bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s,
-              const LobeDraws* pre = nullptr) const;
-  // The roughness of the GGX lobe Sample would sample a half vector for
-  // (the material's, or the asset's), or -1 where it has none (a diffuse
-  // material, a black BSDF).  A glass interface's lobe samples its own.
-  double GgxAlpha() const {
-    if (pbr_) return pbr_->alpha();
-    return glossy_weight_ > 0 ? alpha_ : -1;
-  }
+              const Eigen::Vector3d* cosine = nullptr) const;
   bool IsBlack() const { return diffuse_weight_ + glossy_weight_ <= 0; }
   // Shading normals (docs/methods.md, "Shading normals"): `ng` is the unit
   // geometric normal in this BSDF's local frame (whose z is the shading

@@ -29,8 +29,8 @@ namespace {
 // Visible Normals"): the weight f cos / pdf of a lobe sampled so is
 // G2(wo, wi) / G1(wo) <= 1, where sampling D(h) cos(theta_h) gives weights
 // up to ~2 / alpha at grazing wo (fireflies off glossy surfaces seen at a
-// grazing angle).  Written out without a branch or a libm call, so that
-// lanes of it vectorise and give the scalar call's bits (core/lanes.h).
+// grazing angle).  Written out without a branch, and with core/lanes.h's
+// SinCos for libm's sin and cos (under half the time).
 inline void GgxVisibleNormal(double wx, double wy, double wz, double alpha, double u0, double u1, double* hx,
                              double* hy, double* hz) {
   // wo stretched to the unit-roughness configuration, and a frame around it
@@ -65,13 +65,6 @@ Eigen::Vector3d SampleGgxVisibleNormal(const Eigen::Vector3d& wo, double alpha, 
   Eigen::Vector3d h;
   GgxVisibleNormal(wo.x(), wo.y(), wo.z(), alpha, u0, u1, &h.x(), &h.y(), &h.z());
   return h;
-}
-
-MR_LANES void SampleGgxVisibleNormal(size_t n, const double* __restrict wx, const double* __restrict wy,
-                                     const double* __restrict wz, const double* __restrict alpha,
-                                     const double* __restrict u0, const double* __restrict u1, double* __restrict hx,
-                                     double* __restrict hy, double* __restrict hz) {
-  for (size_t k = 0; k < n; ++k) GgxVisibleNormal(wx[k], wy[k], wz[k], alpha[k], u0[k], u1[k], &hx[k], &hy[k], &hz[k]);
 }
 
 }  // namespace mr

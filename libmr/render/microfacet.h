@@ -2,8 +2,6 @@
 // distribution (Walter et al. 2007) with Smith's height-correlated masking.
 #pragma once
 
-#include <cstddef>
-
 #include <Eigen/Core>
 
 namespace mr {
@@ -16,19 +14,6 @@ double GgxLambda(const Eigen::Vector3d& w, double alpha);
 // wo need not be above the horizon for the call to return (Bsdf::Sample
 // rejects wo.z <= 0 before).
 Eigen::Vector3d SampleGgxVisibleNormal(const Eigen::Vector3d& wo, double alpha, double u0, double u1);
-// The same for n lanes (core/lanes.h): lane k is the call above for
-// (wx, wy, wz)[k], alpha[k], u0[k], u1[k], bit for bit; h in (hx, hy, hz).
-void SampleGgxVisibleNormal(size_t n, const double* wx, const double* wy, const double* wz, const double* alpha,
-                            const double* u0, const double* u1, double* hx, double* hy, double* hz);
-
-// A BSDF sample's directions computed ahead for its numbers (u0, u1), in
-// lanes for a batch of paths (render/path_tracer.cpp): the same results,
-// not computed again.  `cosine`: SampleCosineHemisphere(u0, u1); `half`:
-// SampleGgxVisibleNormal(wo, alpha, u0, u1) for the alpha of `half_alpha`.
-struct LobeDraws {
-  Eigen::Vector3d cosine = Eigen::Vector3d::Zero(), half = Eigen::Vector3d::Zero();
-  double half_alpha = -1;  // negative: no half vector computed
-};
 
 struct BsdfSample {
   Eigen::Vector3d wi;  // local frame

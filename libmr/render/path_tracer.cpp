@@ -206,9 +206,9 @@ Eigen::Vector3d DifferentialPathTracer::TraceSingle(Ray ray, uint32_t mask, Eige
 
 struct DifferentialPathTracer::Ahead {
   EnvDraw env;
-  LobeDraws lobe;
+  Eigen::Vector3d cosine = Eigen::Vector3d::Zero();
   const Eigen::Vector3d* lights = nullptr;  // LightEvents' `pre`
-  bool has_env = false, has_lobe = false;
+  bool has_env = false, has_cosine = false;
 };
 
 bool DifferentialPathTracer::SharedHit(const Ray& ray, const Eigen::Vector3d& beta, double prev_pdf, bool found,
@@ -264,7 +264,8 @@ bool DifferentialPathTracer::SharedShade(const PathVertex& v, Ray* ray, Eigen::V
   BsdfSample s;
   const double ul = rng.NextDouble();
   const auto [u0, u1] = rng.Next2D();
-  if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s, ahead && ahead->has_lobe ? &ahead->lobe : nullptr))
+  if (!v.bsdf.Sample(v.frame.ToLocal(v.wo_world), ul, u0, u1, &s,
+                     ahead && ahead->has_cosine ? &ahead->cosine : nullptr))
     return false;
   *beta = beta->cwiseProduct(s.f) * (std::abs(s.wi.z()) / s.pdf);
   *prev_pdf = s.pdf;
@@ -291,10 +292,9 @@ struct DifferentialPathTracer::Lanes {
   std::vector<EnvLookup> escapes;  // per escaped ray
   std::vector<int> escape_of;      // per path: its index in escapes, or -1
   std::vector<Eigen::Vector3d> escape_dirs;
-  std::vector<PathVertex> verts;  // per shaded path
   std::vector<Ahead> ahead;
   std::vector<uint8_t> pattern;
-  std::vector<double> values, e0, e1, c0, c1, x, y, z, pdf, wx, wy, wz, alpha, hx, hy, hz;
+  std::vector<double> values, e0, e1, c0, c1, x, y, z, pdf;
   std::vector<size_t> lane;
   std::vector<const double*> u;                       // per lane: its sampler's values ahead
   std::vector<const LightSource*> drawn;              // the lights drawn for in turn
@@ -314,11 +314,10 @@ void DifferentialPathTracer::DrawAhead(std::span<Sampler* const> samplers, int d
   if (depth + 1 >= settings_.rr_depth) l.pattern.push_back(1);
   if (bsdf_at + 4 > 32) return;  // many distant lights: drawn as they go
   Sampler::DrawAhead(samplers, l.pattern, &l.values);
-  // The lanes' inputs: the environment's pair first, the BSDF's pair after
-  // its lobe number; wo and the GGX lobe's roughness at each vertex.
+  // The lanes' inputs: the environment's pair first, the BSDF's pair after its lobe number.
   l.lane.clear();
   l.u.clear();
-  for (auto* v : {&l.e0, &l.e1, &l.c0, &l.c1, &l.wx, &l.wy, &l.wz, &l.alpha}) v->clear();
+  for (auto* v : {&l.e0, &l.e1, &l.c0, &l.c1}) v->clear();
   for (size_t k = 0; k < n; ++k) {
     const double* u = samplers[k]->Ahead(0);
     if (!u) continue;  // an independent sampler: draws as it goes
@@ -328,31 +327,20 @@ void DifferentialPathTracer::DrawAhead(std::span<Sampler* const> samplers, int d
     l.e1.push_back(u[1]);
     l.c0.push_back(u[bsdf_at + 1]);
     l.c1.push_back(u[bsdf_at + 2]);
-    const PathVertex& v = l.verts[k];
-    const double alpha = v.bsdf.GgxAlpha();
-    const Eigen::Vector3d wo = alpha > 0 ? v.frame.ToLocal(v.wo_world) : Eigen::Vector3d::UnitZ();  // as Sample's
-    l.wx.push_back(wo.x());
-    l.wy.push_back(wo.y());
-    l.wz.push_back(wo.z());
-    l.alpha.push_back(alpha);
   }
   const size_t m = l.lane.size();
-  for (auto* v : {&l.x, &l.y, &l.z, &l.pdf, &l.hx, &l.hy, &l.hz}) v->resize(m);
+  for (auto* v : {&l.x, &l.y, &l.z, &l.pdf}) v->resize(m);
   l.wi.resize(m);
   l.le.resize(m);
   const EnvironmentMap& env = scene_.environment();
   if (!env.empty()) env.Sample(m, l.e0.data(), l.e1.data(), l.wi.data(), l.le.data(), l.pdf.data());
   SampleCosineHemisphere(m, l.c0.data(), l.c1.data(), l.x.data(), l.y.data(), l.z.data());
-  SampleGgxVisibleNormal(m, l.wx.data(), l.wy.data(), l.wz.data(), l.alpha.data(), l.c0.data(), l.c1.data(),
-                         l.hx.data(), l.hy.data(), l.hz.data());
   for (size_t j = 0; j < m; ++j) {
     Ahead& a = l.ahead[l.lane[j]];
     a.has_env = !env.empty();
     if (a.has_env) a.env = {l.wi[j], l.le[j], l.pdf[j], l.e0[j], l.e1[j]};
-    a.has_lobe = true;
-    a.lobe.cosine = Eigen::Vector3d(l.x[j], l.y[j], l.z[j]);
-    a.lobe.half = Eigen::Vector3d(l.hx[j], l.hy[j], l.hz[j]);
-    a.lobe.half_alpha = l.alpha[j];
+    a.has_cosine = true;
+    a.cosine = Eigen::Vector3d(l.x[j], l.y[j], l.z[j]);
   }
   LightsAhead(lanes);
 }
@@ -538,8 +526,6 @@ void DifferentialPathTracer::TraceBatch(std::span<const Ray> primaries, std::spa
       if (SharedHit(p.ray, p.beta, p.prev_pdf, hits[k].valid(), hits[k], depth, 0, rngs[p.index], &o, escaped))
         shaded.push_back(k);
     }
-    lanes.verts.clear();
-    for (size_t k : shaded) lanes.verts.push_back(MakeVertex(scene_, paths[k].ray, hits[k]));
     // Their draws and what is computed of them in lanes (for every real
     // point: one the BSDF or the depth ends draws none).
     samplers.clear();
@@ -552,7 +538,7 @@ void DifferentialPathTracer::TraceBatch(std::span<const Ray> primaries, std::spa
         shadows.push_back({r, c, p.index, virtual_light});
       };
       Sampler& rng = rngs[p.index];
-      const PathVertex& v = lanes.verts[j];
+      const PathVertex v = MakeVertex(scene_, p.ray, hits[shaded[j]]);
       if (SharedEmission(v, p.beta, depth, &out[p.index]) &&
           SharedShade(v, &p.ray, &p.beta, &p.prev_pdf, depth, rng, queue,
                       j < lanes.ahead.size() ? &lanes.ahead[j] : nullptr))

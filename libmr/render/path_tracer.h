@@ -156,7 +156,7 @@ class DifferentialPathTracer {
   // given, holds what of them does not depend on the path's earlier
   // choices, for the sampler's coming numbers, computed in lanes for a
   // batch (TraceBatch): the environment's sample, the lights' directions or
-  // points, the BSDF's cosine direction and GGX half vector.
+  // points, the BSDF's cosine direction.
   struct Ahead;
   // `escaped`: the environment's lookup for a ray that met nothing, made
   // ahead (TraceBatch, in lanes).
@@ -168,11 +168,10 @@ class DifferentialPathTracer {
                    Shadow&& shadow, const Ahead* ahead = nullptr) const;
   // The lanes of a batch's bounce: each shaded path's draws and what
   // SharedShade computes of them (Ahead) at once (core/lanes.h) into
-  // lanes->ahead, one per sampler; samplers[k] is at the vertex
-  // lanes->verts[k].  `lanes` keeps its buffers between calls.
+  // lanes->ahead, one per sampler; `lanes` keeps its buffers between calls.
   struct Lanes;
   void DrawAhead(std::span<Sampler* const> samplers, int depth, Lanes* lanes) const;
-  // DrawAhead's part for the lights: their Ahead::lights.
+  // DrawAhead's part for the lights: Ahead::lights.
   void LightsAhead(Lanes* lanes) const;
   // The environment along a batch's rays that met nothing (hits[k] not
   // valid), looked up in lanes into lanes->escapes.

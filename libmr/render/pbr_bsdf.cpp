@@ -287,13 +287,13 @@ double PbrBsdf::Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const 
 }
 
 bool PbrBsdf::Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s,
-                     const LobeDraws* pre) const {
+                     const Eigen::Vector3d* cosine) const {
   if (wo.z() <= 0) return false;
   if (u_lobe < SpecularWeight(std::min(wo.z(), 1.0))) {
-    const Eigen::Vector3d h = pre && pre->half_alpha == alpha_ ? pre->half : SampleGgxVisibleNormal(wo, alpha_, u0, u1);
+    const Eigen::Vector3d h = SampleGgxVisibleNormal(wo, alpha_, u0, u1);
     s->wi = 2 * wo.dot(h) * h - wo;
-  } else if (pre) {
-    s->wi = pre->cosine;
+  } else if (cosine) {
+    s->wi = *cosine;
   } else {
     const auto d = SampleCosineHemisphere(u0, u1);
     s->wi = Eigen::Vector3d(d[0], d[1], d[2]);

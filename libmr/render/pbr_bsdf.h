@@ -43,9 +43,9 @@ class PbrBsdf {
   double Pdf(const Eigen::Vector3d& wo, const Eigen::Vector3d& wi) const;
   // Chooses the specular lobe (visible normals) or the cosine-distributed
   // ones (the base and the multiple-scattering lobe) by their albedos at wo.
-  // `pre`: as Bsdf::Sample's.
+  // `cosine`: as Bsdf::Sample's.
   bool Sample(const Eigen::Vector3d& wo, double u_lobe, double u0, double u1, BsdfSample* s,
-              const LobeDraws* pre = nullptr) const;
+              const Eigen::Vector3d* cosine = nullptr) const;
   double alpha() const { return alpha_; }
   // Bounds on f(wo, wi) wi.z over wi (Bsdf::DiffuseBound, GlossyBound): the
   // base's cosine-free part, and the microfacet and multiple-scattering

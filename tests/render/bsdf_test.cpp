@@ -142,37 +142,5 @@ TEST(Bsdf, ProjectedBoundsHoldAndStayFiniteAtGrazingAngles) {
   }
 }
 
-// The visible-normal sample in lanes gives the scalar call's bits (a batch
-// of pt's paths takes its half vectors from the lanes, the one-by-one
-// paths from the scalar call: tests/render/path_tracer_test.cpp compares
-// their images), over random wo from straight above to 1e-9 above the
-// horizon, roughness from 1e-4 (near a mirror) to 1, and the numbers' ends
-// 0 and 1 - 2^-53; every half vector a unit vector above the horizon.
-TEST(Bsdf, VisibleNormalsInLanesGiveTheScalarBits) {
-  Pcg32 rng(21);
-  const size_t n = 2000;
-  std::vector<double> wx(n), wy(n), wz(n), alpha(n), u0(n), u1(n), hx(n), hy(n), hz(n);
-  for (size_t k = 0; k < n; ++k) {
-    const double z = k % 7 == 0 ? 1e-9 : k % 11 == 0 ? 1.0 : rng.NextDouble();
-    const double phi = kTwoPi * rng.NextDouble(), r = std::sqrt(std::max(0.0, 1 - z * z));
-    wx[k] = r * std::cos(phi);
-    wy[k] = r * std::sin(phi);
-    wz[k] = z;
-    alpha[k] = k % 5 == 0 ? 1e-4 : std::max(1e-4, rng.NextDouble());
-    u0[k] = rng.NextDouble();
-    u1[k] = rng.NextDouble();
-  }
-  u0[0] = u1[0] = 0;
-  u0[1] = u1[1] = 0x1.fffffffffffffp-1;
-  SampleGgxVisibleNormal(n, wx.data(), wy.data(), wz.data(), alpha.data(), u0.data(), u1.data(), hx.data(), hy.data(),
-                         hz.data());
-  for (size_t k = 0; k < n; ++k) {
-    const Eigen::Vector3d h = SampleGgxVisibleNormal(Eigen::Vector3d(wx[k], wy[k], wz[k]), alpha[k], u0[k], u1[k]);
-    ASSERT_EQ(h, Eigen::Vector3d(hx[k], hy[k], hz[k])) << k;
-    ASSERT_NEAR(h.norm(), 1.0, 1e-15) << k;
-    ASSERT_GT(h.z(), 0.0) << k;
-  }
-}
-
 }  // namespace
 }  // namespace mr

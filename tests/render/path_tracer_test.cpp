@@ -237,13 +237,13 @@ TEST(PathTracer, CulledVirtualShadowTestsChangeNothing) {
 // roulette, and two passes (the second continuing each pixel's sequence);
 // then the same with 20 more lamps, one picked per estimate.  The batches'
 // draws, environment samples, lights' points and directions (a rectangle,
-// a disc, a sun of 2 degrees) and the BSDF's cosine directions and GGX
-// half vectors (a glossy real wall) are computed in lanes (core/lanes.h),
-// the one-by-one paths' by the scalar calls.
+// a disc, a sun of 2 degrees) and the BSDF's cosine directions are
+// computed in lanes (core/lanes.h), the one-by-one paths' by the scalar
+// calls; the real wall is glossy, so that both lobes are sampled.
 void CheckBatchesGiveTheSameBytes(bool many_lamps) {
   SCOPED_TRACE(many_lamps ? "many lamps" : "two lights");
   RenderScene scene;
-  Material wall;  // glossy: its GGX half vectors in lanes
+  Material wall;
   wall.albedo = Eigen::Vector3d(0.6, 0.5, 0.4);
   wall.specular = Eigen::Vector3d::Constant(0.2);
   wall.roughness = 0.35;

@@ -299,6 +299,12 @@ struct EnvDraw {
   double u0 = 0, u1 = 0;  // the numbers it was taken for
 };
 
+// Whether next-event estimation draws for light l in turn (every light,
+// or where one of many local lights is picked, the distant ones).
+inline bool DrawnInTurn(const RenderScene& scene, const LightSource& l) {
+  return !scene.picks_local_light() || l.light().type == LightType::kDistant;
+}
+
 // The draws NextEvent makes at a vertex, in order (Sampler::DrawAhead's
 // pattern: 1 a NextDouble, 2 a Next2D); *bsdf_at: how many numbers they
 // hold, where the BSDF sample's numbers that follow begin.
@@ -306,7 +312,7 @@ inline void NextEventDraws(const RenderScene& scene, std::vector<uint8_t>* patte
   pattern->assign(1, 2);  // the environment's
   const bool pick = scene.picks_local_light();
   for (const LightSource& l : scene.lights())
-    if (!pick || l.light().type == LightType::kDistant) pattern->push_back(2);
+    if (DrawnInTurn(scene, l)) pattern->push_back(2);
   if (pick) pattern->insert(pattern->end(), {1, 2});
   *bsdf_at = 0;
   for (uint8_t p : *pattern) *bsdf_at += p;
@@ -373,7 +379,7 @@ void LightEvents(const RenderScene& scene, const PathVertex& v, Sampler& rng, Em
   const bool pick = scene.picks_local_light();
   int drawn = 0;
   for (const LightSource& l : scene.lights()) {
-    if (pick && l.light().type != LightType::kDistant) continue;
+    if (!DrawnInTurn(scene, l)) continue;
     const auto [u0, u1] = rng.Next2D();
     sample(l, 1.0, u0, u1, pre && l.TakesAhead() ? &pre[drawn] : nullptr);
     ++drawn;

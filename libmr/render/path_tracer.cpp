@@ -349,11 +349,10 @@ void DifferentialPathTracer::LightsAhead(Lanes* lanes) const {
   Lanes& l = *lanes;
   const size_t m = l.lane.size();
   // The lights drawn for in turn, each with its pair after the environment's (NextEventDraws).
-  const bool pick = scene_.picks_local_light();
   std::vector<const LightSource*>& drawn = l.drawn;
   drawn.clear();
   for (const LightSource& s : scene_.lights())
-    if (!pick || s.light().type == LightType::kDistant) drawn.push_back(&s);
+    if (DrawnInTurn(scene_, s)) drawn.push_back(&s);
   const size_t nl = drawn.size();
   if (nl == 0 || m == 0) return;
   l.light_values.resize(m * nl);
